@@ -1,0 +1,26 @@
+//! # raisov
+//!
+//! Interactive soft-tissue simulation: total-Lagrangian nonlinear hyperelastic finite elements
+//! (3-node membranes in 3-D, 4-node tetrahedra) with lumped mass and mass-proportional damping,
+//! advanced by explicit integrators, on one mesh or on a hierarchy of independent meshes with
+//! the multigrid integrator RaISoV of Wu & Tendick (2004) and a convergent full-approximation
+//! multigrid built from the same ingredients.
+//!
+//! The equation of motion everywhere (paper, eq. 5):
+//!
+//! ```text
+//! M ü + D u̇ + R(u) = V(t),   D = α M,
+//! ```
+//!
+//! `u` nodal displacements (m), `M` lumped mass (kg), `R(u)` internal (elastic) forces (N),
+//! `V` external forces (N). Integrators see only [`fem::ForceModel`].
+//!
+//! Layout: [`mesh`] (meshes and generators), [`material`] (strain-energy functions, one per
+//! file), [`fem`] (elements, the force model, nodal stress), [`integrate`] (explicit
+//! integrators), [`hierarchy`] (levels, host elements, weights), [`multigrid`] (RaISoV and the
+//! FAS multigrid), [`scenario`] (TOML scenes), [`metrics`], [`io`] (readers and writers).
+
+pub mod error;
+pub mod mesh;
+
+pub use error::{Error, Result};

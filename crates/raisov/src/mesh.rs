@@ -1,0 +1,541 @@
+//! Meshes: nodes, linear simplices, named node groups.
+//!
+//! A [`Mesh`] is either 3-node triangles embedded in 3-D (membranes) or 4-node tetrahedra.
+//! Connectivity is one flat `u32` array with a stride of [`ElementKind::nodes_per_element`]:
+//! the layout the force loop reads. Coordinates are in metres (the readers can scale).
+//!
+//! Orientation: a tetrahedron `(a, b, c, d)` is positive when
+//! `det[b - a, c - a, d - a] > 0`. Triangles in 3-D have no intrinsic sign; a planar membrane
+//! in the z = const plane is oriented with normal +z by [`Mesh::orient`].
+//!
+//! Groups: physical groups from Gmsh (or any named node set) map a name to the sorted,
+//! deduplicated node ids of every element of that group, including lower-dimensional
+//! boundary elements such as Gmsh surface triangles of a tet mesh.
+
+use std::collections::BTreeMap;
+
+/// Element type of a mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ElementKind {
+    /// 3-node triangle membrane embedded in 3-D (plane stress through a thickness).
+    Tri3,
+    /// 4-node linear tetrahedron.
+    Tet4,
+}
+
+impl ElementKind {
+    /// Nodes per element: 3 or 4.
+    pub const fn nodes_per_element(self) -> usize {
+        match self {
+            ElementKind::Tri3 => 3,
+            ElementKind::Tet4 => 4,
+        }
+    }
+    /// Human-readable name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ElementKind::Tri3 => "triangle membrane",
+            ElementKind::Tet4 => "tetrahedron",
+        }
+    }
+}
+
+/// A mesh of one element kind.
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    /// Triangles or tetrahedra.
+    pub kind: ElementKind,
+    /// Reference node positions, metres.
+    pub nodes: Vec<[f64; 3]>,
+    /// Flat connectivity, `nodes_per_element` node ids per element.
+    pub cells: Vec<u32>,
+    /// Named node sets (physical groups), each sorted and deduplicated.
+    pub groups: BTreeMap<String, Vec<u32>>,
+}
+
+/// What [`Mesh::orient`] and [`Mesh::check`] find.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct OrientationReport {
+    /// Elements whose node order was flipped to make them positive.
+    pub reoriented: Vec<usize>,
+}
+
+/// Summary statistics of a mesh, as printed by `raisov mesh info`.
+#[derive(Clone, Debug)]
+pub struct MeshStats {
+    pub kind: ElementKind,
+    pub nodes: usize,
+    pub elements: usize,
+    /// Total area (membranes, m^2) or volume (tets, m^3).
+    pub measure: f64,
+    pub bbox_min: [f64; 3],
+    pub bbox_max: [f64; 3],
+    pub min_edge: f64,
+    pub max_edge: f64,
+    /// Element quality in [0, 1], 1 for the equilateral triangle or regular tetrahedron:
+    /// triangles `4 sqrt(3) A / sum(l^2)`, tetrahedra the radius ratio `3 r_in / R_circ`.
+    pub quality_min: f64,
+    pub quality_mean: f64,
+    /// Elements with negative signed measure (tets only).
+    pub inverted: Vec<usize>,
+    /// Elements with (near) zero measure.
+    pub degenerate: Vec<usize>,
+    pub boundary_nodes: usize,
+    pub groups: Vec<(String, usize)>,
+}
+
+/// Relative size under which an element counts as degenerate: measure below
+/// `DEGENERATE_REL * h^d` with h its longest edge.
+pub const DEGENERATE_REL: f64 = 1e-12;
+
+#[inline]
+pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+#[inline]
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+#[inline]
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+#[inline]
+pub fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// Signed volume of the tetrahedron (a, b, c, d).
+#[inline]
+pub fn tet_volume(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f64 {
+    dot(sub(b, a), cross(sub(c, a), sub(d, a))) / 6.0
+}
+
+/// Area of the triangle (a, b, c) in 3-D (always >= 0).
+#[inline]
+pub fn tri_area(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
+    0.5 * norm(cross(sub(b, a), sub(c, a)))
+}
+
+impl Mesh {
+    /// A mesh without groups.
+    pub fn new(kind: ElementKind, nodes: Vec<[f64; 3]>, cells: Vec<u32>) -> Self {
+        Mesh {
+            kind,
+            nodes,
+            cells,
+            groups: BTreeMap::new(),
+        }
+    }
+
+    pub fn npe(&self) -> usize {
+        self.kind.nodes_per_element()
+    }
+    pub fn num_nodes(&self) -> usize {
+        self.nodes.len()
+    }
+    pub fn num_elements(&self) -> usize {
+        self.cells.len() / self.npe()
+    }
+    /// Node ids of element `e`.
+    #[inline]
+    pub fn element(&self, e: usize) -> &[u32] {
+        let k = self.npe();
+        &self.cells[e * k..(e + 1) * k]
+    }
+    /// Iterator over elements' node ids.
+    pub fn elements(&self) -> impl Iterator<Item = &[u32]> {
+        self.cells.chunks_exact(self.npe())
+    }
+    /// Reference positions of the nodes of element `e`.
+    pub fn element_points(&self, e: usize) -> Vec<[f64; 3]> {
+        self.element(e)
+            .iter()
+            .map(|&n| self.nodes[n as usize])
+            .collect()
+    }
+
+    /// Signed measure of element `e`: volume for tets (negative if inverted), area for
+    /// triangles (never negative).
+    pub fn element_measure(&self, e: usize) -> f64 {
+        let c = self.element(e);
+        let p = |i: usize| self.nodes[c[i] as usize];
+        match self.kind {
+            ElementKind::Tri3 => tri_area(p(0), p(1), p(2)),
+            ElementKind::Tet4 => tet_volume(p(0), p(1), p(2), p(3)),
+        }
+    }
+
+    /// Longest edge of element `e`.
+    pub fn element_max_edge(&self, e: usize) -> f64 {
+        let c = self.element(e);
+        let mut h: f64 = 0.0;
+        for i in 0..c.len() {
+            for j in i + 1..c.len() {
+                h = h.max(norm(sub(
+                    self.nodes[c[i] as usize],
+                    self.nodes[c[j] as usize],
+                )));
+            }
+        }
+        h
+    }
+
+    /// Whether element `e` has (near) zero measure relative to its size.
+    pub fn element_is_degenerate(&self, e: usize) -> bool {
+        let h = self.element_max_edge(e);
+        let d = match self.kind {
+            ElementKind::Tri3 => 2,
+            ElementKind::Tet4 => 3,
+        };
+        !(h > 0.0) || self.element_measure(e).abs() <= DEGENERATE_REL * h.powi(d)
+    }
+
+    /// Element quality in [0, 1]; see [`MeshStats::quality_min`].
+    pub fn element_quality(&self, e: usize) -> f64 {
+        let p = self.element_points(e);
+        match self.kind {
+            ElementKind::Tri3 => {
+                let a = tri_area(p[0], p[1], p[2]);
+                let s: f64 = [(0, 1), (1, 2), (2, 0)]
+                    .iter()
+                    .map(|&(i, j)| dot(sub(p[i], p[j]), sub(p[i], p[j])))
+                    .sum();
+                if s > 0.0 {
+                    4.0 * 3f64.sqrt() * a / s
+                } else {
+                    0.0
+                }
+            }
+            ElementKind::Tet4 => tet_radius_ratio(p[0], p[1], p[2], p[3]),
+        }
+    }
+
+    /// Make every tetrahedron positive (swap its last two nodes when negative) and, for a
+    /// planar membrane, every triangle's normal agree with the first one's. Returns the
+    /// flipped elements. Degenerate elements are left alone (see [`Mesh::degenerate_elements`]).
+    pub fn orient(&mut self) -> OrientationReport {
+        let npe = self.npe();
+        let mut rep = OrientationReport::default();
+        match self.kind {
+            ElementKind::Tet4 => {
+                for e in 0..self.num_elements() {
+                    if self.element_measure(e) < 0.0 && !self.element_is_degenerate(e) {
+                        self.cells.swap(e * npe + 2, e * npe + 3);
+                        rep.reoriented.push(e);
+                    }
+                }
+            }
+            ElementKind::Tri3 => {
+                // Only a planar membrane has a well-defined common normal.
+                if let Some(n0) = self.plane_normal() {
+                    for e in 0..self.num_elements() {
+                        let p = self.element_points(e);
+                        let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+                        if dot(n, n0) < 0.0 {
+                            self.cells.swap(e * npe + 1, e * npe + 2);
+                            rep.reoriented.push(e);
+                        }
+                    }
+                }
+            }
+        }
+        rep
+    }
+
+    /// If all nodes lie in one plane, its unit normal (chosen with a non-negative largest
+    /// component, so a z = const membrane gets +z).
+    pub fn plane_normal(&self) -> Option<[f64; 3]> {
+        // Largest triangle normal as a candidate.
+        let mut best = [0.0; 3];
+        let mut best_len = 0.0;
+        for e in 0..self.num_elements().min(64) {
+            let p = self.element_points(e);
+            let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+            let l = norm(n);
+            if l > best_len {
+                best_len = l;
+                best = n;
+            }
+        }
+        if best_len == 0.0 || self.nodes.is_empty() {
+            return None;
+        }
+        let mut n = [best[0] / best_len, best[1] / best_len, best[2] / best_len];
+        let imax = (0..3)
+            .max_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+            .unwrap_or(2);
+        if n[imax] < 0.0 {
+            n = [-n[0], -n[1], -n[2]];
+        }
+        let (lo, hi) = self.bounding_box();
+        let diag = norm(sub(hi, lo)).max(f64::MIN_POSITIVE);
+        let o = self.nodes[0];
+        let planar = self
+            .nodes
+            .iter()
+            .all(|&x| dot(sub(x, o), n).abs() <= 1e-9 * diag);
+        planar.then_some(n)
+    }
+
+    /// Elements whose measure is (near) zero.
+    pub fn degenerate_elements(&self) -> Vec<usize> {
+        (0..self.num_elements())
+            .filter(|&e| self.element_is_degenerate(e))
+            .collect()
+    }
+
+    /// Axis-aligned bounding box of the reference nodes.
+    pub fn bounding_box(&self) -> ([f64; 3], [f64; 3]) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &self.nodes {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Boundary facets: edges (as `[a, b, u32::MAX]`) for membranes, triangles for tets,
+    /// i.e. the facets that belong to exactly one element. Sorted for determinism.
+    pub fn boundary_facets(&self) -> Vec<[u32; 3]> {
+        let mut facets: Vec<([u32; 3], [u32; 3])> = Vec::new();
+        for el in self.elements() {
+            match self.kind {
+                ElementKind::Tri3 => {
+                    for (i, j) in [(0, 1), (1, 2), (2, 0)] {
+                        let f = [el[i], el[j], u32::MAX];
+                        let mut k = f;
+                        k[..2].sort_unstable();
+                        facets.push((k, f));
+                    }
+                }
+                ElementKind::Tet4 => {
+                    // Faces with outward normals for a positive tet.
+                    for f in [
+                        [el[0], el[2], el[1]],
+                        [el[0], el[1], el[3]],
+                        [el[1], el[2], el[3]],
+                        [el[0], el[3], el[2]],
+                    ] {
+                        let mut k = f;
+                        k.sort_unstable();
+                        facets.push((k, f));
+                    }
+                }
+            }
+        }
+        facets.sort_unstable_by_key(|x| x.0);
+        let mut out = Vec::new();
+        let mut i = 0;
+        while i < facets.len() {
+            let mut j = i + 1;
+            while j < facets.len() && facets[j].0 == facets[i].0 {
+                j += 1;
+            }
+            if j - i == 1 {
+                out.push(facets[i].1);
+            }
+            i = j;
+        }
+        out
+    }
+
+    /// Sorted ids of the nodes on the boundary (of the surface for tets, of the outline for
+    /// membranes).
+    pub fn boundary_nodes(&self) -> Vec<u32> {
+        let mut v: Vec<u32> = self
+            .boundary_facets()
+            .iter()
+            .flat_map(|f| f.iter().copied())
+            .filter(|&n| n != u32::MAX)
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+
+    /// Which nodes are used by at least one element.
+    pub fn used_nodes(&self) -> Vec<bool> {
+        let mut used = vec![false; self.nodes.len()];
+        for &n in &self.cells {
+            used[n as usize] = true;
+        }
+        used
+    }
+
+    /// Total measure (area or volume).
+    pub fn total_measure(&self) -> f64 {
+        (0..self.num_elements())
+            .map(|e| self.element_measure(e))
+            .sum()
+    }
+
+    /// Shortest and longest element edge over the mesh.
+    pub fn edge_range(&self) -> (f64, f64) {
+        let mut lo = f64::INFINITY;
+        let mut hi: f64 = 0.0;
+        for el in self.elements() {
+            for i in 0..el.len() {
+                for j in i + 1..el.len() {
+                    let l = norm(sub(self.nodes[el[i] as usize], self.nodes[el[j] as usize]));
+                    lo = lo.min(l);
+                    hi = hi.max(l);
+                }
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Counts, measure, quality and problems.
+    pub fn stats(&self) -> MeshStats {
+        let ne = self.num_elements();
+        let mut qmin = f64::INFINITY;
+        let mut qsum = 0.0;
+        let mut inverted = Vec::new();
+        let mut degenerate = Vec::new();
+        for e in 0..ne {
+            let q = self.element_quality(e);
+            qmin = qmin.min(q);
+            qsum += q;
+            if self.element_is_degenerate(e) {
+                degenerate.push(e);
+            } else if self.kind == ElementKind::Tet4 && self.element_measure(e) < 0.0 {
+                inverted.push(e);
+            }
+        }
+        let (bbox_min, bbox_max) = self.bounding_box();
+        let (min_edge, max_edge) = self.edge_range();
+        MeshStats {
+            kind: self.kind,
+            nodes: self.num_nodes(),
+            elements: ne,
+            measure: (0..ne).map(|e| self.element_measure(e).abs()).sum(),
+            bbox_min,
+            bbox_max,
+            min_edge,
+            max_edge,
+            quality_min: if ne > 0 { qmin } else { 0.0 },
+            quality_mean: if ne > 0 { qsum / ne as f64 } else { 0.0 },
+            inverted,
+            degenerate,
+            boundary_nodes: self.boundary_nodes().len(),
+            groups: self
+                .groups
+                .iter()
+                .map(|(k, v)| (k.clone(), v.len()))
+                .collect(),
+        }
+    }
+
+    /// Scale all coordinates (e.g. 1e-3 for a mesh in millimetres).
+    pub fn scale(&mut self, s: f64) {
+        for p in &mut self.nodes {
+            for x in p.iter_mut() {
+                *x *= s;
+            }
+        }
+    }
+
+    /// Index of the node nearest to `p` (lowest id on ties).
+    pub fn nearest_node(&self, p: [f64; 3]) -> Option<usize> {
+        let mut best = None;
+        let mut bd = f64::INFINITY;
+        for (i, &x) in self.nodes.iter().enumerate() {
+            let d = dot(sub(x, p), sub(x, p));
+            if d < bd {
+                bd = d;
+                best = Some(i);
+            }
+        }
+        best
+    }
+}
+
+/// Radius ratio `3 r_in / R_circ` of a tetrahedron (1 for a regular one, 0 if degenerate).
+pub fn tet_radius_ratio(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f64 {
+    let v = tet_volume(a, b, c, d).abs();
+    let area = tri_area(a, b, c) + tri_area(a, b, d) + tri_area(a, c, d) + tri_area(b, c, d);
+    if v <= 0.0 || area <= 0.0 {
+        return 0.0;
+    }
+    let r_in = 3.0 * v / area;
+    // Circumradius: |a^2 (b x c) + b^2 (c x a) + c^2 (a x b)| / (12 V) with edges from d.
+    let u = sub(a, d);
+    let w = sub(b, d);
+    let x = sub(c, d);
+    let num = {
+        let t1 = cross(w, x);
+        let t2 = cross(x, u);
+        let t3 = cross(u, w);
+        let (du, dw, dx) = (dot(u, u), dot(w, w), dot(x, x));
+        [
+            du * t1[0] + dw * t2[0] + dx * t3[0],
+            du * t1[1] + dw * t2[1] + dx * t3[1],
+            du * t1[2] + dw * t2[2] + dx * t3[2],
+        ]
+    };
+    let r_circ = norm(num) / (12.0 * v);
+    (3.0 * r_in / r_circ).clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_tet() -> Mesh {
+        Mesh::new(
+            ElementKind::Tet4,
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ],
+            vec![0, 1, 2, 3],
+        )
+    }
+
+    #[test]
+    fn tet_volume_and_orientation() {
+        let mut m = unit_tet();
+        assert!((m.total_measure() - 1.0 / 6.0).abs() < 1e-15);
+        m.cells = vec![0, 2, 1, 3];
+        assert!(m.total_measure() < 0.0);
+        let rep = m.orient();
+        assert_eq!(rep.reoriented, vec![0]);
+        assert!((m.total_measure() - 1.0 / 6.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn regular_tet_has_quality_one() {
+        let s = 1.0 / 2f64.sqrt();
+        let q = tet_radius_ratio(
+            [1.0, 0.0, -s],
+            [-1.0, 0.0, -s],
+            [0.0, 1.0, s],
+            [0.0, -1.0, s],
+        );
+        assert!((q - 1.0).abs() < 1e-12, "{q}");
+    }
+
+    #[test]
+    fn boundary_of_single_tet_is_four_faces() {
+        let m = unit_tet();
+        assert_eq!(m.boundary_facets().len(), 4);
+        assert_eq!(m.boundary_nodes(), vec![0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn degenerate_tet_detected() {
+        let mut m = unit_tet();
+        m.nodes[3] = [0.5, 0.5, 0.0];
+        assert_eq!(m.degenerate_elements(), vec![0]);
+    }
+}

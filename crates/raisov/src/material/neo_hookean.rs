@@ -1,0 +1,62 @@
+//! Neo-Hookean.
+//!
+//! Solid, compressible (the form of the performance benchmark, issue 4):
+//! ```text
+//! W = μ/2 (I1 − 3) − μ ln J + λ/2 (ln J)²,      J = √det C, I1 = tr C
+//! S = μ (I − C⁻¹) + λ ln J C⁻¹
+//! ```
+//! Membrane, incompressible plane stress (λ3² = 1/det C):
+//! ```text
+//! W = μ/2 (tr C + 1/det C − 3),    S = μ (I − C⁻¹ / det C)
+//! ```
+
+use super::{lame, MembraneMaterial, SolidMaterial};
+use nalgebra::{Matrix2, Matrix3};
+
+/// Neo-Hookean with Lamé parameters λ (bulk-like, solid only) and shear modulus μ (Pa).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NeoHookean {
+    pub lambda: f64,
+    pub mu: f64,
+}
+
+impl NeoHookean {
+    pub fn from_young(young: f64, poisson: f64) -> Self {
+        let (lambda, mu) = lame(young, poisson);
+        NeoHookean { lambda, mu }
+    }
+}
+
+impl SolidMaterial for NeoHookean {
+    fn energy(&self, c: &Matrix3<f64>) -> f64 {
+        let lnj = 0.5 * c.determinant().ln();
+        0.5 * self.mu * (c.trace() - 3.0) - self.mu * lnj + 0.5 * self.lambda * lnj * lnj
+    }
+    fn pk2(&self, c: &Matrix3<f64>) -> Matrix3<f64> {
+        let det = c.determinant();
+        let lnj = 0.5 * det.ln();
+        let cinv = c.try_inverse().unwrap_or_else(Matrix3::zeros);
+        (Matrix3::identity() - cinv) * self.mu + cinv * (self.lambda * lnj)
+    }
+}
+
+impl MembraneMaterial for NeoHookean {
+    fn energy(&self, c: &Matrix2<f64>) -> f64 {
+        0.5 * self.mu * (c.trace() + 1.0 / c.determinant() - 3.0)
+    }
+    fn pk2(&self, c: &Matrix2<f64>) -> Matrix2<f64> {
+        let det = c.determinant();
+        let cinv = c.try_inverse().unwrap_or_else(Matrix2::zeros);
+        (Matrix2::identity() - cinv / det) * self.mu
+    }
+    fn thickness_stretch(&self, c: &Matrix2<f64>) -> f64 {
+        1.0 / c.determinant().sqrt()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    crate::material_tests!(solid, solid, NeoHookean::from_young(1e4, 0.4));
+    crate::material_tests!(membrane, membrane, NeoHookean::from_young(1e4, 0.4));
+}

@@ -1,0 +1,87 @@
+//! Veronda-Westmann: an exponential soft-tissue law (Fung-type stiffening; Veronda & Westmann
+//! 1970, skin).
+//!
+//! Membrane, incompressible plane stress (I1, I2 as in [`super::MooneyRivlin`]):
+//! ```text
+//! W = c1 (exp(γ (I1 − 3)) − 1) − c1 γ / 2 (I2 − 3)
+//! S = 2 [c1 γ exp(γ (I1 − 3)) ∂I1/∂C − c1 γ / 2 ∂I2/∂C]
+//! ```
+//! Solid, compressible: the same in the isochoric invariants Ī1, Ī2 plus κ/2 (J − 1)².
+//! Small-strain shear modulus μ = c1 γ.
+
+use super::{MembraneMaterial, SolidMaterial};
+use nalgebra::{Matrix2, Matrix3};
+
+/// Veronda-Westmann constants c1 (Pa), γ (dimensionless) and bulk modulus κ (Pa, solids).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VerondaWestmann {
+    pub c1: f64,
+    pub gamma: f64,
+    pub kappa: f64,
+}
+
+impl VerondaWestmann {
+    pub fn new(c1: f64, gamma: f64, kappa: f64) -> Self {
+        VerondaWestmann { c1, gamma, kappa }
+    }
+}
+
+impl SolidMaterial for VerondaWestmann {
+    fn energy(&self, c: &Matrix3<f64>) -> f64 {
+        let i1 = c.trace();
+        let i2 = 0.5 * (i1 * i1 - (c * c).trace());
+        let j = c.determinant().sqrt();
+        let b1 = i1 * j.powf(-2.0 / 3.0);
+        let b2 = i2 * j.powf(-4.0 / 3.0);
+        self.c1 * ((self.gamma * (b1 - 3.0)).exp() - 1.0)
+            - 0.5 * self.c1 * self.gamma * (b2 - 3.0)
+            + 0.5 * self.kappa * (j - 1.0) * (j - 1.0)
+    }
+    fn pk2(&self, c: &Matrix3<f64>) -> Matrix3<f64> {
+        let i1 = c.trace();
+        let i2 = 0.5 * (i1 * i1 - (c * c).trace());
+        let j = c.determinant().sqrt();
+        let cinv = c.try_inverse().unwrap_or_else(Matrix3::zeros);
+        let id = Matrix3::identity();
+        let j23 = j.powf(-2.0 / 3.0);
+        let j43 = j.powf(-4.0 / 3.0);
+        let b1 = i1 * j23;
+        let db1 = (id - cinv * (i1 / 3.0)) * j23;
+        let db2 = (id * i1 - c - cinv * (2.0 / 3.0 * i2)) * j43;
+        let w1 = self.c1 * self.gamma * (self.gamma * (b1 - 3.0)).exp();
+        let w2 = -0.5 * self.c1 * self.gamma;
+        (db1 * w1 + db2 * w2) * 2.0 + cinv * (self.kappa * (j - 1.0) * j)
+    }
+}
+
+impl MembraneMaterial for VerondaWestmann {
+    fn energy(&self, c: &Matrix2<f64>) -> f64 {
+        let det = c.determinant();
+        let tr = c.trace();
+        let i1 = tr + 1.0 / det;
+        let i2 = det + tr / det;
+        self.c1 * ((self.gamma * (i1 - 3.0)).exp() - 1.0) - 0.5 * self.c1 * self.gamma * (i2 - 3.0)
+    }
+    fn pk2(&self, c: &Matrix2<f64>) -> Matrix2<f64> {
+        let det = c.determinant();
+        let tr = c.trace();
+        let i1 = tr + 1.0 / det;
+        let cinv = c.try_inverse().unwrap_or_else(Matrix2::zeros);
+        let id = Matrix2::identity();
+        let di1 = id - cinv / det;
+        let di2 = cinv * det + (id - cinv * tr) / det;
+        let w1 = self.c1 * self.gamma * (self.gamma * (i1 - 3.0)).exp();
+        let w2 = -0.5 * self.c1 * self.gamma;
+        (di1 * w1 + di2 * w2) * 2.0
+    }
+    fn thickness_stretch(&self, c: &Matrix2<f64>) -> f64 {
+        1.0 / c.determinant().sqrt()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    crate::material_tests!(solid, solid, VerondaWestmann::new(300.0, 2.0, 5e4));
+    crate::material_tests!(membrane, membrane, VerondaWestmann::new(300.0, 2.0, 0.0));
+}

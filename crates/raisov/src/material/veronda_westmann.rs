@@ -33,8 +33,7 @@ impl SolidMaterial for VerondaWestmann {
         let j = c.determinant().sqrt();
         let b1 = i1 * j.powf(-2.0 / 3.0);
         let b2 = i2 * j.powf(-4.0 / 3.0);
-        self.c1 * ((self.gamma * (b1 - 3.0)).exp() - 1.0)
-            - 0.5 * self.c1 * self.gamma * (b2 - 3.0)
+        self.c1 * ((self.gamma * (b1 - 3.0)).exp() - 1.0) - 0.5 * self.c1 * self.gamma * (b2 - 3.0)
             + 0.5 * self.kappa * (j - 1.0) * (j - 1.0)
     }
     fn pk2(&self, c: &Matrix3<f64>) -> Matrix3<f64> {

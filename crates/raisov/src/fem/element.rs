@@ -1,0 +1,128 @@
+//! Element kernels: reference data and the internal forces of one element.
+//!
+//! Tetrahedron: `F = Ds Dm⁻¹`, `P = F S(C)`, `H = V0 P Dm⁻ᵀ`; the forces R on nodes 1..3 are
+//! the columns of H and node 0 gets `−Σ`. Membrane: the same with a 3x2 `F` and the measure
+//! `h A0`. These are `∂E/∂x` of `E = V0 W(C)`, checked against finite differences in tests.
+
+use crate::material::{MembraneMaterial, SolidMaterial};
+use crate::mesh::{cross, dot, norm, sub};
+use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector3};
+
+/// `Dm⁻¹` (3x3) and the volume of a positive tetrahedron; `None` if degenerate or negative.
+pub fn tet_dm_inverse(p: &[[f64; 3]]) -> Option<(Matrix3<f64>, f64)> {
+    let c = |k: usize| Vector3::from(sub(p[k], p[0]));
+    let dm = Matrix3::from_columns(&[c(1), c(2), c(3)]);
+    let det = dm.determinant();
+    let scale = [1, 2, 3]
+        .iter()
+        .map(|&k| norm(sub(p[k], p[0])))
+        .fold(0.0, f64::max);
+    if !(det > 1e-12 * scale.powi(3)) {
+        return None;
+    }
+    Some((dm.try_inverse()?, det / 6.0))
+}
+
+/// Membrane reference frame: `Dm⁻¹` (2x2) in the triangle's own orthonormal frame
+/// `(e1 along x1−x0, e2 = n × e1)`, its area and unit normal. `None` if degenerate.
+pub fn membrane_frame(p: &[[f64; 3]]) -> Option<(Matrix2<f64>, f64, [f64; 3])> {
+    let a = sub(p[1], p[0]);
+    let b = sub(p[2], p[0]);
+    let n = cross(a, b);
+    let twice_area = norm(n);
+    let la = norm(a);
+    if !(twice_area > 1e-12 * (la * la + dot(b, b))) {
+        return None;
+    }
+    let n = [n[0] / twice_area, n[1] / twice_area, n[2] / twice_area];
+    let e1 = [a[0] / la, a[1] / la, a[2] / la];
+    let e2 = cross(n, e1);
+    let dm = Matrix2::new(la, dot(b, e1), 0.0, dot(b, e2));
+    Some((dm.try_inverse()?, 0.5 * twice_area, n))
+}
+
+#[inline(always)]
+fn node(x0: &[f64], u: &[f64], a: u32) -> Vector3<f64> {
+    let a = a as usize * 3;
+    Vector3::new(x0[a] + u[a], x0[a + 1] + u[a + 1], x0[a + 2] + u[a + 2])
+}
+
+/// Internal forces of one tetrahedron (12 numbers). `Err(det F)` if inverted.
+#[inline(always)]
+pub fn tet_forces<M: SolidMaterial + ?Sized>(
+    m: &M,
+    el: &[u32],
+    x0: &[f64],
+    u: &[f64],
+    dminv: &[f64],
+    vol: f64,
+    out: &mut [f64],
+) -> Result<(), f64> {
+    let p0 = node(x0, u, el[0]);
+    let ds = Matrix3::from_columns(&[
+        node(x0, u, el[1]) - p0,
+        node(x0, u, el[2]) - p0,
+        node(x0, u, el[3]) - p0,
+    ]);
+    let dminv = Matrix3::from_column_slice(dminv);
+    let f = ds * dminv;
+    let det = f.determinant();
+    if !(det > 0.0) {
+        return Err(det);
+    }
+    let c = f.transpose() * f;
+    let s = m.pk2(&c);
+    let h = (f * s) * dminv.transpose() * vol;
+    let mut s0 = Vector3::zeros();
+    for j in 0..3 {
+        let col = h.column(j);
+        out[3 + 3 * j] = col[0];
+        out[4 + 3 * j] = col[1];
+        out[5 + 3 * j] = col[2];
+        s0 += col;
+    }
+    out[0] = -s0[0];
+    out[1] = -s0[1];
+    out[2] = -s0[2];
+    Ok(())
+}
+
+/// Internal forces of one membrane triangle (9 numbers). `Err(signed area ratio)` if the
+/// triangle collapsed or flipped against its reference normal.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn membrane_forces<M: MembraneMaterial + ?Sized>(
+    m: &M,
+    el: &[u32],
+    x0: &[f64],
+    u: &[f64],
+    dminv: &[f64],
+    measure: f64,
+    normal0: [f64; 3],
+    out: &mut [f64],
+) -> Result<(), f64> {
+    let p0 = node(x0, u, el[0]);
+    let ds = Matrix3x2::from_columns(&[node(x0, u, el[1]) - p0, node(x0, u, el[2]) - p0]);
+    let dminv = Matrix2::from_column_slice(dminv);
+    let f = ds * dminv;
+    let n = f.column(0).cross(&f.column(1));
+    let det = n.dot(&Vector3::from(normal0));
+    if !(det > 0.0) {
+        return Err(det);
+    }
+    let c = f.transpose() * f;
+    let s = m.pk2(&c);
+    let h = (f * s) * dminv.transpose() * measure;
+    let mut s0 = Vector3::zeros();
+    for j in 0..2 {
+        let col = h.column(j);
+        out[3 + 3 * j] = col[0];
+        out[4 + 3 * j] = col[1];
+        out[5 + 3 * j] = col[2];
+        s0 += col;
+    }
+    out[0] = -s0[0];
+    out[1] = -s0[1];
+    out[2] = -s0[2];
+    Ok(())
+}

@@ -1,0 +1,470 @@
+//! Total-Lagrangian finite elements and the force model every integrator sees.
+//!
+//! Equation of motion (paper, eq. 5), sign convention of the whole crate:
+//!
+//! ```text
+//! M ü + D u̇ + R(u) = V,     R(u) = ∂E/∂u,   E(u) = Σ_e V0_e W(C_e)
+//! ```
+//!
+//! `R` is the internal force *resisting* deformation (the energy gradient); the force a node
+//! feels from the material is `−R`.
+//!
+//! Elements (linear, constant strain), reference data precomputed once:
+//! - tetrahedron: `F = Ds Dm⁻¹` with `Ds = [x1−x0, x2−x0, x3−x0]` (current) and `Dm` the same
+//!   in the reference; `R_j = V0 P Dm⁻ᵀ e_j` for j = 1..3, `R_0 = −Σ R_j`, `P = F S`;
+//! - membrane triangle in 3-D: `Dm` is the 2x2 reference edge matrix in the triangle's own
+//!   orthonormal frame, `F = Ds Dm⁻¹` is 3x2, `C = FᵀF` 2x2, `P = F S` 3x2, measure `h A0`.
+//!
+//! Nodal stress T (paper section 3, from [11]): element Cauchy stress `σ = F S Fᵀ / J`
+//! (membranes: `J = λ3 √det C`, σ in-plane, 3x3), averaged onto nodes weighted by reference
+//! element measure.
+//!
+//! Data layout for speed: flat arrays, `Dm⁻¹` and measures precomputed, element forces
+//! written into per-element slots in parallel and then gathered per node in a fixed order,
+//! so the result has the same bits on any number of threads and no atomics are needed.
+
+mod element;
+
+use crate::material::{Material, MembraneMaterial, SolidMaterial};
+use crate::mesh::{ElementKind, Mesh};
+use crate::{Error, Result};
+pub use element::{membrane_frame, tet_dm_inverse};
+use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector3};
+use rayon::prelude::*;
+
+/// An element that cannot be evaluated: inverted (tets `det F <= 0`) or collapsed
+/// (membranes: area ratio `<= 0` or normal flipped against the reference).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElementFailure {
+    pub element: usize,
+    pub det_f: f64,
+}
+
+/// What integrators see of the physics (Vega FEM's `ForceModel`): internal forces R(u) and
+/// the strain energy whose gradient they are. Displacements and forces are flat, 3 per node.
+pub trait ForceModel: Send {
+    /// Number of nodes (the vectors have 3 entries per node).
+    fn num_nodes(&self) -> usize;
+    /// `r = R(u)`. Fails on the lowest-numbered element that cannot be evaluated.
+    fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure>;
+    /// Strain energy E(u) (J).
+    fn strain_energy(&self, u: &[f64]) -> f64;
+}
+
+/// Parameters of an FE model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FemParams {
+    /// Material law and constants.
+    pub material: Material,
+    /// Mass density ρ (kg/m³). Default 1000.
+    pub density: f64,
+    /// Membrane thickness h (m); ignored for tetrahedra. Default 1e-3.
+    pub thickness: f64,
+    /// Elements per parallel task; below 2 tasks' worth the force pass runs serially.
+    /// Default 2048.
+    pub chunk: usize,
+}
+
+impl FemParams {
+    pub fn new(material: Material) -> Self {
+        FemParams {
+            material,
+            density: 1000.0,
+            thickness: 1e-3,
+            chunk: 2048,
+        }
+    }
+}
+
+/// The finite-element force model of one mesh.
+pub struct FemModel {
+    pub kind: ElementKind,
+    pub params: FemParams,
+    n_nodes: usize,
+    cells: Vec<u32>,
+    /// Reference node positions, 3 per node.
+    x0: Vec<f64>,
+    /// Dm⁻¹ per element: 9 (tet, column-major) or 4 (membrane, column-major).
+    dminv: Vec<f64>,
+    /// Reference measure per element: volume, or h·A0 for membranes.
+    measure: Vec<f64>,
+    /// Reference unit normal per membrane element (empty for tets).
+    normal0: Vec<[f64; 3]>,
+    /// Node → element slots (CSR): slots `node_ptr[n]..node_ptr[n+1]` of `node_slots` index
+    /// into `elem_forces`.
+    node_ptr: Vec<u32>,
+    node_slots: Vec<u32>,
+    /// Per-element-corner force scratch (3 per slot).
+    elem_forces: Vec<f64>,
+}
+
+impl FemModel {
+    /// Precompute reference data. Errors on an element with zero or negative reference measure.
+    pub fn new(mesh: &Mesh, params: FemParams) -> Result<Self> {
+        let npe = mesh.npe();
+        let ne = mesh.num_elements();
+        if !(params.density > 0.0 && params.density.is_finite()) {
+            return Err(Error::param(
+                "density",
+                "must be a positive number (kg/m^3)",
+            ));
+        }
+        if mesh.kind == ElementKind::Tri3 && !(params.thickness > 0.0) {
+            return Err(Error::param("thickness", "must be a positive number (m)"));
+        }
+        let mut dminv = Vec::with_capacity(ne * if npe == 4 { 9 } else { 4 });
+        let mut measure = Vec::with_capacity(ne);
+        let mut normal0 = Vec::new();
+        for e in 0..ne {
+            let p = mesh.element_points(e);
+            match mesh.kind {
+                ElementKind::Tet4 => {
+                    let (inv, vol) = tet_dm_inverse(&p).ok_or_else(|| {
+                        Error::param(
+                            "mesh",
+                            format!("element {e} is degenerate or inverted in the reference"),
+                        )
+                    })?;
+                    dminv.extend_from_slice(inv.as_slice());
+                    measure.push(vol);
+                }
+                ElementKind::Tri3 => {
+                    let (inv, area, n) = membrane_frame(&p).ok_or_else(|| {
+                        Error::param("mesh", format!("triangle {e} is degenerate"))
+                    })?;
+                    dminv.extend_from_slice(inv.as_slice());
+                    measure.push(area * params.thickness);
+                    normal0.push(n);
+                }
+            }
+        }
+        // CSR node -> slots, slots in increasing order (element-major) for determinism.
+        let n = mesh.num_nodes();
+        let mut count = vec![0u32; n + 1];
+        for &c in &mesh.cells {
+            count[c as usize + 1] += 1;
+        }
+        for i in 0..n {
+            count[i + 1] += count[i];
+        }
+        let node_ptr = count.clone();
+        let mut fill = count;
+        let mut node_slots = vec![0u32; mesh.cells.len()];
+        for (slot, &c) in mesh.cells.iter().enumerate() {
+            let k = &mut fill[c as usize];
+            node_slots[*k as usize] = slot as u32;
+            *k += 1;
+        }
+        Ok(FemModel {
+            kind: mesh.kind,
+            n_nodes: n,
+            cells: mesh.cells.clone(),
+            x0: mesh.nodes.iter().flatten().copied().collect(),
+            dminv,
+            measure,
+            normal0,
+            node_ptr,
+            node_slots,
+            elem_forces: vec![0.0; mesh.cells.len() * 3],
+            params,
+        })
+    }
+
+    pub fn num_elements(&self) -> usize {
+        self.measure.len()
+    }
+    fn npe(&self) -> usize {
+        self.kind.nodes_per_element()
+    }
+
+    /// Lumped mass per node (kg): ρ × element measure shared equally by its nodes.
+    pub fn lumped_mass(&self) -> Vec<f64> {
+        let npe = self.npe();
+        let mut m = vec![0.0; self.n_nodes];
+        for (e, el) in self.cells.chunks_exact(npe).enumerate() {
+            let share = self.params.density * self.measure[e] / npe as f64;
+            for &a in el {
+                m[a as usize] += share;
+            }
+        }
+        m
+    }
+
+    /// Reference measure per element (volume, or h·A0 for membranes).
+    pub fn element_measures(&self) -> &[f64] {
+        &self.measure
+    }
+
+    /// Reference node positions, 3 per node.
+    pub fn reference_positions(&self) -> &[f64] {
+        &self.x0
+    }
+
+    /// Deformation gradient of element e (membranes: 3x2 in the first two columns, third
+    /// column zero) and its determinant-like measure (tets `det F`; membranes the signed area
+    /// ratio against the reference normal).
+    fn deformation(&self, e: usize, u: &[f64]) -> (Matrix3<f64>, f64) {
+        let npe = self.npe();
+        let el = &self.cells[e * npe..(e + 1) * npe];
+        let x = |k: usize| -> Vector3<f64> {
+            let a = el[k] as usize * 3;
+            Vector3::new(
+                self.x0[a] + u[a],
+                self.x0[a + 1] + u[a + 1],
+                self.x0[a + 2] + u[a + 2],
+            )
+        };
+        match self.kind {
+            ElementKind::Tet4 => {
+                let x0 = x(0);
+                let ds = Matrix3::from_columns(&[x(1) - x0, x(2) - x0, x(3) - x0]);
+                let dminv = Matrix3::from_column_slice(&self.dminv[e * 9..e * 9 + 9]);
+                let f = ds * dminv;
+                let det = f.determinant();
+                (f, det)
+            }
+            ElementKind::Tri3 => {
+                let x0 = x(0);
+                let ds = Matrix3x2::from_columns(&[x(1) - x0, x(2) - x0]);
+                let dminv = Matrix2::from_column_slice(&self.dminv[e * 4..e * 4 + 4]);
+                let f = ds * dminv;
+                let n = f.column(0).cross(&f.column(1));
+                let n0 = Vector3::from(self.normal0[e]);
+                let det = n.dot(&n0);
+                (
+                    Matrix3::from_columns(&[
+                        f.column(0).into(),
+                        f.column(1).into(),
+                        Vector3::zeros(),
+                    ]),
+                    det,
+                )
+            }
+        }
+    }
+
+    /// Cauchy stress of element e (3x3; in-plane for membranes).
+    pub fn element_cauchy(&self, e: usize, u: &[f64]) -> Matrix3<f64> {
+        let (f3, det) = self.deformation(e, u);
+        match self.kind {
+            ElementKind::Tet4 => {
+                let c = f3.transpose() * f3;
+                let s = with_solid(&self.params.material, |m| m.pk2(&c));
+                f3 * s * f3.transpose() / det
+            }
+            ElementKind::Tri3 => {
+                let f = f3.fixed_view::<3, 2>(0, 0).into_owned();
+                let c = f.transpose() * f;
+                let (s, l3) = with_membrane(&self.params.material, |m| {
+                    (m.pk2(&c), m.thickness_stretch(&c))
+                });
+                f * s * f.transpose() / (l3 * c.determinant().max(0.0).sqrt())
+            }
+        }
+    }
+
+    /// Nodal stress tensor T (9 per node, row-major): element Cauchy stresses averaged onto
+    /// nodes weighted by reference measure (paper section 3; design note "Measures").
+    pub fn nodal_stress(&self, u: &[f64], t: &mut [f64]) {
+        let npe = self.npe();
+        t.iter_mut().for_each(|x| *x = 0.0);
+        let mut w = vec![0.0; self.n_nodes];
+        for e in 0..self.num_elements() {
+            let s = self.element_cauchy(e, u);
+            let m = self.measure[e];
+            for &a in &self.cells[e * npe..(e + 1) * npe] {
+                let a = a as usize;
+                w[a] += m;
+                for i in 0..3 {
+                    for j in 0..3 {
+                        t[a * 9 + i * 3 + j] += m * s[(i, j)];
+                    }
+                }
+            }
+        }
+        for (a, &wa) in w.iter().enumerate() {
+            if wa > 0.0 {
+                for x in &mut t[a * 9..a * 9 + 9] {
+                    *x /= wa;
+                }
+            }
+        }
+    }
+
+    /// Smallest `det F` over elements (tets) or signed area ratio (membranes), and where.
+    pub fn min_det_f(&self, u: &[f64]) -> (usize, f64) {
+        (0..self.num_elements())
+            .map(|e| (e, self.deformation(e, u).1))
+            .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
+    }
+
+    /// Reference implementation of R(u): serial, element by element, scattered straight into
+    /// `r`. The fast path [`ForceModel::internal_forces`] is tested against it.
+    pub fn internal_forces_reference(
+        &self,
+        u: &[f64],
+        r: &mut [f64],
+    ) -> Result<(), ElementFailure> {
+        r.iter_mut().for_each(|x| *x = 0.0);
+        let npe = self.npe();
+        let mut buf = [0.0; 12];
+        for e in 0..self.num_elements() {
+            self.element_forces(e, u, &mut buf[..npe * 3])?;
+            for (k, &a) in self.cells[e * npe..(e + 1) * npe].iter().enumerate() {
+                for d in 0..3 {
+                    r[a as usize * 3 + d] += buf[k * 3 + d];
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Forces of element e on its nodes (3 per corner) into `out`.
+    #[inline]
+    fn element_forces(&self, e: usize, u: &[f64], out: &mut [f64]) -> Result<(), ElementFailure> {
+        match (&self.params.material, self.kind) {
+            (Material::StVenantKirchhoff(m), k) => self.element_forces_with(m, m, k, e, u, out),
+            (Material::NeoHookean(m), k) => self.element_forces_with(m, m, k, e, u, out),
+            (Material::MooneyRivlin(m), k) => self.element_forces_with(m, m, k, e, u, out),
+            (Material::VerondaWestmann(m), k) => self.element_forces_with(m, m, k, e, u, out),
+        }
+    }
+
+    #[inline(always)]
+    fn element_forces_with<S: SolidMaterial, M: MembraneMaterial>(
+        &self,
+        solid: &S,
+        membrane: &M,
+        kind: ElementKind,
+        e: usize,
+        u: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ElementFailure> {
+        match kind {
+            ElementKind::Tet4 => element::tet_forces(
+                solid,
+                &self.cells[e * 4..e * 4 + 4],
+                &self.x0,
+                u,
+                &self.dminv[e * 9..e * 9 + 9],
+                self.measure[e],
+                out,
+            )
+            .map_err(|det_f| ElementFailure { element: e, det_f }),
+            ElementKind::Tri3 => element::membrane_forces(
+                membrane,
+                &self.cells[e * 3..e * 3 + 3],
+                &self.x0,
+                u,
+                &self.dminv[e * 4..e * 4 + 4],
+                self.measure[e],
+                self.normal0[e],
+                out,
+            )
+            .map_err(|det_f| ElementFailure { element: e, det_f }),
+        }
+    }
+}
+
+fn with_solid<T>(m: &Material, f: impl FnOnce(&dyn SolidMaterial) -> T) -> T {
+    match m {
+        Material::StVenantKirchhoff(m) => f(m),
+        Material::NeoHookean(m) => f(m),
+        Material::MooneyRivlin(m) => f(m),
+        Material::VerondaWestmann(m) => f(m),
+    }
+}
+
+fn with_membrane<T>(m: &Material, f: impl FnOnce(&dyn MembraneMaterial) -> T) -> T {
+    match m {
+        Material::StVenantKirchhoff(m) => f(m),
+        Material::NeoHookean(m) => f(m),
+        Material::MooneyRivlin(m) => f(m),
+        Material::VerondaWestmann(m) => f(m),
+    }
+}
+
+impl ForceModel for FemModel {
+    fn num_nodes(&self) -> usize {
+        self.n_nodes
+    }
+
+    fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure> {
+        let npe = self.npe();
+        let chunk = self.params.chunk.max(1);
+        let mut ef = std::mem::take(&mut self.elem_forces);
+        let this = &*self;
+        // Pass 1: element forces into per-element slots (independent writes).
+        let result = if this.num_elements() >= 2 * chunk {
+            ef.par_chunks_mut(chunk * npe * 3)
+                .enumerate()
+                .map(|(ci, block)| {
+                    for (k, out) in block.chunks_exact_mut(npe * 3).enumerate() {
+                        this.element_forces(ci * chunk + k, u, out)?;
+                    }
+                    Ok(())
+                })
+                .reduce(
+                    || Ok(()),
+                    // Keep the lowest failing element, whatever the scheduling.
+                    |a: Result<(), ElementFailure>, b| match (a, b) {
+                        (Err(x), Err(y)) => Err(if x.element <= y.element { x } else { y }),
+                        (Err(x), _) | (_, Err(x)) => Err(x),
+                        _ => Ok(()),
+                    },
+                )
+        } else {
+            ef.chunks_exact_mut(npe * 3)
+                .enumerate()
+                .try_for_each(|(e, out)| this.element_forces(e, u, out))
+        };
+        // Pass 2: gather per node in fixed slot order.
+        let gather = |(n, rn): (usize, &mut [f64])| {
+            let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
+            for &s in &this.node_slots[this.node_ptr[n] as usize..this.node_ptr[n + 1] as usize] {
+                let s = s as usize * 3;
+                a += ef[s];
+                b += ef[s + 1];
+                c += ef[s + 2];
+            }
+            rn[0] = a;
+            rn[1] = b;
+            rn[2] = c;
+        };
+        if result.is_ok() {
+            if this.num_elements() >= 2 * chunk {
+                r.par_chunks_mut(3)
+                    .enumerate()
+                    .with_min_len(1024)
+                    .for_each(gather);
+            } else {
+                r.chunks_mut(3).enumerate().for_each(gather);
+            }
+        }
+        self.elem_forces = ef;
+        result
+    }
+
+    fn strain_energy(&self, u: &[f64]) -> f64 {
+        (0..self.num_elements())
+            .map(|e| {
+                let (f3, _) = self.deformation(e, u);
+                let w = match self.kind {
+                    ElementKind::Tet4 => {
+                        let c = f3.transpose() * f3;
+                        with_solid(&self.params.material, |m| m.energy(&c))
+                    }
+                    ElementKind::Tri3 => {
+                        let f = f3.fixed_view::<3, 2>(0, 0).into_owned();
+                        let c = f.transpose() * f;
+                        with_membrane(&self.params.material, |m| m.energy(&c))
+                    }
+                };
+                w * self.measure[e]
+            })
+            .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests;

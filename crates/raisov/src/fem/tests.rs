@@ -1,0 +1,338 @@
+//! Physics tests of the force model.
+
+use super::*;
+use crate::material::{MooneyRivlin, NeoHookean, StVenantKirchhoff, VerondaWestmann};
+use crate::mesh::{ElementKind, Mesh};
+
+/// Structured unit-ish box of 6 tets per cube, interior nodes jittered (irregular mesh).
+pub(crate) fn jittered_box(n: usize, jitter: f64) -> Mesh {
+    let idx = |i: usize, j: usize, k: usize| (i + (n + 1) * (j + (n + 1) * k)) as u32;
+    let mut nodes = Vec::new();
+    let h = 0.01 / n as f64;
+    let mut seed = 12345u64;
+    let mut rnd = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+    };
+    for k in 0..=n {
+        for j in 0..=n {
+            for i in 0..=n {
+                let interior = i > 0 && i < n && j > 0 && j < n && k > 0 && k < n;
+                let mut p = [i as f64 * h, j as f64 * h, k as f64 * h];
+                if interior {
+                    for x in &mut p {
+                        *x += jitter * h * rnd();
+                    }
+                }
+                nodes.push(p);
+            }
+        }
+    }
+    let mut cells = Vec::new();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let v = [
+                    idx(i, j, k),
+                    idx(i + 1, j, k),
+                    idx(i + 1, j + 1, k),
+                    idx(i, j + 1, k),
+                    idx(i, j, k + 1),
+                    idx(i + 1, j, k + 1),
+                    idx(i + 1, j + 1, k + 1),
+                    idx(i, j + 1, k + 1),
+                ];
+                // Kuhn subdivision along the diagonal v0-v6.
+                for t in [
+                    [0, 1, 2, 6],
+                    [0, 2, 3, 6],
+                    [0, 3, 7, 6],
+                    [0, 7, 4, 6],
+                    [0, 4, 5, 6],
+                    [0, 5, 1, 6],
+                ] {
+                    cells.extend(t.iter().map(|&q| v[q]));
+                }
+            }
+        }
+    }
+    let mut m = Mesh::new(ElementKind::Tet4, nodes, cells);
+    m.orient();
+    m
+}
+
+/// Structured square membrane in a tilted plane (so the 3-D embedding is exercised), jittered.
+pub(crate) fn jittered_membrane(n: usize, jitter: f64) -> Mesh {
+    let h = 0.1 / n as f64;
+    let mut seed = 999u64;
+    let mut rnd = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+    };
+    let (c, s) = (0.8f64, 0.6f64);
+    let mut nodes = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let interior = i > 0 && i < n && j > 0 && j < n;
+            let (mut x, mut y) = (i as f64 * h, j as f64 * h);
+            if interior {
+                x += jitter * h * rnd();
+                y += jitter * h * rnd();
+            }
+            nodes.push([x, c * y, s * y]);
+        }
+    }
+    let idx = |i: usize, j: usize| (i + (n + 1) * j) as u32;
+    let mut cells = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            cells.extend([idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)]);
+            cells.extend([idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)]);
+        }
+    }
+    Mesh::new(ElementKind::Tri3, nodes, cells)
+}
+
+fn materials() -> Vec<Material> {
+    vec![
+        Material::StVenantKirchhoff(StVenantKirchhoff::from_young(1e4, 0.3)),
+        Material::NeoHookean(NeoHookean::from_young(1e4, 0.4)),
+        Material::MooneyRivlin(MooneyRivlin::new(2e3, 1e3, 5e4)),
+        Material::VerondaWestmann(VerondaWestmann::new(500.0, 3.0, 5e4)),
+    ]
+}
+
+fn random_u(n: usize, amp: f64, seed: u64) -> Vec<f64> {
+    let mut s = seed;
+    (0..3 * n)
+        .map(|_| {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            amp * (((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5)
+        })
+        .collect()
+}
+
+fn meshes() -> Vec<(&'static str, Mesh)> {
+    vec![
+        ("tet", jittered_box(2, 0.3)),
+        ("membrane", jittered_membrane(3, 0.3)),
+    ]
+}
+
+#[test]
+fn force_is_energy_gradient_for_every_element_and_material() {
+    for (name, mesh) in meshes() {
+        for mat in materials() {
+            let mut model = FemModel::new(&mesh, FemParams::new(mat.clone())).unwrap();
+            let n = mesh.num_nodes();
+            let h0 = mesh.edge_range().0;
+            let u = random_u(n, 0.3 * h0, 7);
+            let mut r = vec![0.0; 3 * n];
+            model.internal_forces(&u, &mut r).unwrap();
+            let scale = r.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+            let eps = 1e-6 * h0;
+            let mut up = u.clone();
+            for i in 0..3 * n {
+                up[i] = u[i] + eps;
+                let ep = model.strain_energy(&up);
+                up[i] = u[i] - eps;
+                let em = model.strain_energy(&up);
+                up[i] = u[i];
+                let fd = (ep - em) / (2.0 * eps);
+                assert!(
+                    (fd - r[i]).abs() <= 1e-5 * scale,
+                    "{name}/{}: dof {i}: R = {} but dE/du = {fd}",
+                    mat.name(),
+                    r[i]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn rigid_motion_gives_zero_force_and_unchanged_stress() {
+    let rot = nalgebra::Rotation3::from_euler_angles(0.7, -0.4, 1.9);
+    for (name, mesh) in meshes() {
+        for mat in materials() {
+            let mut model = FemModel::new(&mesh, FemParams::new(mat.clone())).unwrap();
+            let n = mesh.num_nodes();
+            let h0 = mesh.edge_range().0;
+            // A deformed state, then the same state rotated and translated.
+            let u = random_u(n, 0.2 * h0, 3);
+            let mut u_rigid = vec![0.0; 3 * n];
+            let mut u_moved = vec![0.0; 3 * n];
+            let t = nalgebra::Vector3::new(0.3, -1.0, 2.0);
+            for a in 0..n {
+                let x = nalgebra::Vector3::from(mesh.nodes[a]);
+                let d = nalgebra::Vector3::new(u[3 * a], u[3 * a + 1], u[3 * a + 2]);
+                let xr = rot * x + t;
+                let xm = rot * (x + d) + t;
+                for k in 0..3 {
+                    u_rigid[3 * a + k] = xr[k] - x[k];
+                    u_moved[3 * a + k] = xm[k] - x[k];
+                }
+            }
+            let mut r = vec![0.0; 3 * n];
+            model.internal_forces(&u_rigid, &mut r).unwrap();
+            let rmax = r.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+            let mut r_def = vec![0.0; 3 * n];
+            model.internal_forces(&u, &mut r_def).unwrap();
+            let fscale = r_def.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+            assert!(
+                rmax <= 1e-9 * fscale,
+                "{name}/{}: rigid force {rmax}",
+                mat.name()
+            );
+            // Energy unchanged; Cauchy stress rotates: σ' = Q σ Qᵀ.
+            let e1 = model.strain_energy(&u);
+            let e2 = model.strain_energy(&u_moved);
+            assert!(
+                (e1 - e2).abs() <= 1e-9 * e1.abs(),
+                "{name}: energy {e1} vs {e2}"
+            );
+            let q = rot.into_inner();
+            for e in 0..model.num_elements() {
+                let s1 = model.element_cauchy(e, &u);
+                let s2 = model.element_cauchy(e, &u_moved);
+                let diff = (q * s1 * q.transpose() - s2).norm();
+                assert!(
+                    diff <= 1e-8 * s1.norm().max(1e-12),
+                    "{name}: stress not objective"
+                );
+            }
+        }
+    }
+}
+
+/// Patch test: an affine deformation of an irregular mesh gives uniform stress and zero net
+/// force on every interior node.
+#[test]
+fn patch_test_affine_deformation() {
+    let g = nalgebra::Matrix3::new(0.05, 0.02, -0.01, 0.0, -0.03, 0.015, 0.01, 0.0, 0.04);
+    for (name, mesh) in meshes() {
+        let boundary = mesh.boundary_nodes();
+        for mat in materials() {
+            let mut model = FemModel::new(&mesh, FemParams::new(mat.clone())).unwrap();
+            let n = mesh.num_nodes();
+            let mut u = vec![0.0; 3 * n];
+            for a in 0..n {
+                let d = g * nalgebra::Vector3::from(mesh.nodes[a]);
+                u[3 * a..3 * a + 3].copy_from_slice(d.as_slice());
+            }
+            let mut r = vec![0.0; 3 * n];
+            model.internal_forces(&u, &mut r).unwrap();
+            let fscale = r.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+            assert!(fscale > 0.0);
+            let interior: Vec<usize> = (0..n)
+                .filter(|a| boundary.binary_search(&(*a as u32)).is_err())
+                .collect();
+            assert!(
+                !interior.is_empty(),
+                "{name}: test mesh needs interior nodes"
+            );
+            for &a in &interior {
+                for k in 0..3 {
+                    assert!(
+                        r[3 * a + k].abs() <= 1e-9 * fscale,
+                        "{name}/{}: interior force",
+                        mat.name()
+                    );
+                }
+            }
+            let s0 = model.element_cauchy(0, &u);
+            for e in 1..model.num_elements() {
+                let s = model.element_cauchy(e, &u);
+                assert!(
+                    (s - s0).norm() <= 1e-9 * s0.norm(),
+                    "{name}: stress not uniform"
+                );
+            }
+            let mut t = vec![0.0; 9 * n];
+            model.nodal_stress(&u, &mut t);
+            for a in 0..n {
+                for i in 0..3 {
+                    for j in 0..3 {
+                        assert!((t[9 * a + 3 * i + j] - s0[(i, j)]).abs() <= 1e-9 * s0.norm());
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn lumped_mass_sums_to_total_mass() {
+    for (name, mesh) in meshes() {
+        let mut p = FemParams::new(materials()[1].clone());
+        p.density = 1070.0;
+        p.thickness = 2e-3;
+        let model = FemModel::new(&mesh, p).unwrap();
+        let total: f64 = model.lumped_mass().iter().sum();
+        let expect = 1070.0
+            * mesh.total_measure()
+            * if mesh.kind == ElementKind::Tri3 {
+                2e-3
+            } else {
+                1.0
+            };
+        assert!(
+            (total - expect).abs() <= 1e-12 * expect,
+            "{name}: {total} vs {expect}"
+        );
+        assert!(model.lumped_mass().iter().all(|&m| m > 0.0));
+    }
+}
+
+/// The parallel gather path equals the serial scatter reference, and gives the same bits on
+/// 1 and 2 threads.
+#[test]
+fn parallel_forces_match_reference_and_are_thread_count_independent() {
+    for mesh in [jittered_box(6, 0.3), jittered_membrane(40, 0.3)] {
+        let mut p = FemParams::new(materials()[1].clone());
+        p.chunk = 64; // force the parallel path on a small mesh
+        let mut model = FemModel::new(&mesh, p).unwrap();
+        let n = mesh.num_nodes();
+        let u = random_u(n, 0.1 * mesh.edge_range().0, 11);
+        let mut r_ref = vec![0.0; 3 * n];
+        model.internal_forces_reference(&u, &mut r_ref).unwrap();
+        let mut runs = Vec::new();
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut r = vec![0.0; 3 * n];
+            pool.install(|| model.internal_forces(&u, &mut r)).unwrap();
+            runs.push(r);
+        }
+        assert_eq!(runs[0], runs[1], "bits differ between 1 and 2 threads");
+        let scale = r_ref.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        for (a, b) in runs[0].iter().zip(&r_ref) {
+            assert!((a - b).abs() <= 1e-12 * scale);
+        }
+    }
+}
+
+#[test]
+fn inverted_element_is_reported() {
+    let mesh = jittered_box(1, 0.0);
+    let mut model = FemModel::new(&mesh, FemParams::new(materials()[1].clone())).unwrap();
+    let n = mesh.num_nodes();
+    // Mirror the whole box through x = 0: every element inverts.
+    let mut u = vec![0.0; 3 * n];
+    for a in 0..n {
+        u[3 * a] = -2.0 * mesh.nodes[a][0];
+    }
+    let mut r = vec![0.0; 3 * n];
+    let err = model.internal_forces(&u, &mut r).unwrap_err();
+    assert!(err.det_f < 0.0);
+    // Mirroring inverts the elements having volume across x; the first reported is the lowest.
+    assert_eq!(err.element, 0);
+}

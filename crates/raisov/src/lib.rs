@@ -22,6 +22,7 @@
 
 pub mod error;
 pub mod fem;
+pub mod integrate;
 pub mod material;
 pub mod mesh;
 

@@ -467,4 +467,4 @@ impl ForceModel for FemModel {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

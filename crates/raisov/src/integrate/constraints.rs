@@ -1,0 +1,177 @@
+//! Dirichlet constraints: fixed nodes (u = 0) and prescribed node displacements g(t).
+//!
+//! A prescribed displacement is held (applied at t = 0 and kept, the paper's instantaneous
+//! 3 cm lift), ramped linearly over a duration then held, or follows a table of
+//! (time, displacement) rows, linear between rows and held after the last.
+
+/// Time law of a prescribed displacement.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Motion {
+    /// `g(t) = d` for all t ≥ 0.
+    Held { d: [f64; 3] },
+    /// `g(t) = d · min(t / duration, 1)`.
+    Ramp { d: [f64; 3], duration: f64 },
+    /// Piecewise linear through `(times[k], values[k])`; `times` strictly increasing;
+    /// before the first row the first value, after the last the last value.
+    Table {
+        times: Vec<f64>,
+        values: Vec<[f64; 3]>,
+    },
+}
+
+impl Motion {
+    /// Displacement g(t).
+    pub fn displacement(&self, t: f64) -> [f64; 3] {
+        match self {
+            Motion::Held { d } => *d,
+            Motion::Ramp { d, duration } => {
+                let s = if *duration > 0.0 {
+                    (t / duration).clamp(0.0, 1.0)
+                } else {
+                    1.0
+                };
+                [d[0] * s, d[1] * s, d[2] * s]
+            }
+            Motion::Table { times, values } => {
+                let k = times.partition_point(|&x| x <= t);
+                if k == 0 {
+                    values[0]
+                } else if k == times.len() {
+                    values[k - 1]
+                } else {
+                    let s = (t - times[k - 1]) / (times[k] - times[k - 1]);
+                    let (a, b) = (values[k - 1], values[k]);
+                    [
+                        a[0] + s * (b[0] - a[0]),
+                        a[1] + s * (b[1] - a[1]),
+                        a[2] + s * (b[2] - a[2]),
+                    ]
+                }
+            }
+        }
+    }
+    /// Velocity ġ(t) (right derivative).
+    pub fn velocity(&self, t: f64) -> [f64; 3] {
+        match self {
+            Motion::Held { .. } => [0.0; 3],
+            Motion::Ramp { d, duration } => {
+                if *duration > 0.0 && t < *duration && t >= 0.0 {
+                    [d[0] / duration, d[1] / duration, d[2] / duration]
+                } else {
+                    [0.0; 3]
+                }
+            }
+            Motion::Table { times, values } => {
+                let k = times.partition_point(|&x| x <= t);
+                if k == 0 || k == times.len() {
+                    [0.0; 3]
+                } else {
+                    let dt = times[k] - times[k - 1];
+                    let (a, b) = (values[k - 1], values[k]);
+                    [(b[0] - a[0]) / dt, (b[1] - a[1]) / dt, (b[2] - a[2]) / dt]
+                }
+            }
+        }
+    }
+    /// Largest |g(t)| over all t (for energy scales).
+    pub fn max_displacement(&self) -> f64 {
+        let n = |d: &[f64; 3]| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        match self {
+            Motion::Held { d } | Motion::Ramp { d, .. } => n(d),
+            Motion::Table { values, .. } => values.iter().map(n).fold(0.0, f64::max),
+        }
+    }
+}
+
+/// Fixed and prescribed nodes of one mesh.
+#[derive(Clone, Debug, Default)]
+pub struct Constraints {
+    /// Fixed nodes (u = 0, u̇ = 0), sorted, deduplicated.
+    pub fixed: Vec<u32>,
+    /// Nodes with a prescribed displacement. A node both fixed and prescribed is prescribed.
+    pub prescribed: Vec<(u32, Motion)>,
+    mask: Vec<bool>,
+}
+
+impl Constraints {
+    pub fn new(mut fixed: Vec<u32>, prescribed: Vec<(u32, Motion)>) -> Self {
+        fixed.sort_unstable();
+        fixed.dedup();
+        fixed.retain(|n| !prescribed.iter().any(|(p, _)| p == n));
+        Constraints {
+            fixed,
+            prescribed,
+            mask: Vec::new(),
+        }
+    }
+    /// Build the per-node mask for `n` nodes.
+    pub fn with_nodes(mut self, n: usize) -> Self {
+        self.mask = vec![false; n];
+        for &a in &self.fixed {
+            self.mask[a as usize] = true;
+        }
+        for (a, _) in &self.prescribed {
+            self.mask[*a as usize] = true;
+        }
+        self
+    }
+    /// Whether node `a` is fixed or prescribed.
+    #[inline]
+    pub fn is_constrained(&self, a: usize) -> bool {
+        self.mask.get(a).copied().unwrap_or(false)
+    }
+    /// Per-node mask (true = constrained).
+    pub fn mask(&self) -> &[bool] {
+        &self.mask
+    }
+    /// Set entries of constrained nodes to zero (3 per node).
+    pub fn zero_constrained(&self, x: &mut [f64]) {
+        for &a in &self.fixed {
+            let a = a as usize * 3;
+            x[a..a + 3].fill(0.0);
+        }
+        for (a, _) in &self.prescribed {
+            let a = *a as usize * 3;
+            x[a..a + 3].fill(0.0);
+        }
+    }
+    /// Impose u = g(t), u̇ = ġ(t) on constrained nodes.
+    pub fn impose(&self, t: f64, u: &mut [f64], v: &mut [f64]) {
+        for &a in &self.fixed {
+            let a = a as usize * 3;
+            u[a..a + 3].fill(0.0);
+            v[a..a + 3].fill(0.0);
+        }
+        for (a, m) in &self.prescribed {
+            let a = *a as usize * 3;
+            u[a..a + 3].copy_from_slice(&m.displacement(t));
+            v[a..a + 3].copy_from_slice(&m.velocity(t));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ramp_and_table_motions() {
+        let r = Motion::Ramp {
+            d: [0.0, 0.0, 0.03],
+            duration: 0.5,
+        };
+        assert_eq!(r.displacement(0.25), [0.0, 0.0, 0.015]);
+        assert_eq!(r.displacement(2.0), [0.0, 0.0, 0.03]);
+        assert_eq!(r.velocity(0.1), [0.0, 0.0, 0.06]);
+        assert_eq!(r.velocity(0.6), [0.0; 3]);
+        let t = Motion::Table {
+            times: vec![0.0, 1.0, 2.0],
+            values: vec![[0.0; 3], [0.01, 0.0, 0.0], [0.01, 0.02, 0.0]],
+        };
+        assert_eq!(t.displacement(0.5), [0.005, 0.0, 0.0]);
+        assert_eq!(t.displacement(1.5), [0.01, 0.01, 0.0]);
+        assert_eq!(t.displacement(9.0), [0.01, 0.02, 0.0]);
+        assert_eq!(t.velocity(1.5), [0.0, 0.02, 0.0]);
+        assert!((t.max_displacement() - (0.0005f64).sqrt()).abs() < 1e-15);
+    }
+}

@@ -14,6 +14,8 @@
 
 use std::collections::BTreeMap;
 
+pub mod generate;
+
 /// Element type of a mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ElementKind {
@@ -192,7 +194,7 @@ impl Mesh {
             ElementKind::Tri3 => 2,
             ElementKind::Tet4 => 3,
         };
-        !(h > 0.0) || self.element_measure(e).abs() <= DEGENERATE_REL * h.powi(d)
+        h.is_nan() || h <= 0.0 || self.element_measure(e).abs() <= DEGENERATE_REL * h.powi(d)
     }
 
     /// Element quality in [0, 1]; see [`MeshStats::quality_min`].

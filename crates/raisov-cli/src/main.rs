@@ -1,1 +1,220 @@
-fn main() {}
+//! `raisov`: run soft-tissue scenarios, inspect and generate meshes.
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use raisov::io::{load_mesh, write_msh22, write_vtu};
+use raisov::mesh::generate::{box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern};
+use raisov::mesh::Mesh;
+use raisov::scenario::{run, RunOptions, Scenario};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+/// The paper's membrane, lifted 3 cm at its centre: the built-in default scenario.
+const BUILTIN: &str = include_str!("../../../examples/membrane_lift.toml");
+
+#[derive(Parser)]
+#[command(name = "raisov", version, about = "Nonlinear FEM soft-tissue simulation with multigrid explicit integration (Wu & Tendick 2004)")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Run a scenario (TOML). Without SCENARIO, runs the built-in membrane lift.
+    Run {
+        /// Scenario file; omit for the built-in default (examples/membrane_lift.toml).
+        scenario: Option<PathBuf>,
+        /// Output directory (overrides [output] dir).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Parse and resolve a scenario, print what it would run, and exit.
+    Check { scenario: PathBuf },
+    /// Mesh tools.
+    Mesh {
+        #[command(subcommand)]
+        cmd: MeshCmd,
+    },
+}
+
+#[derive(Subcommand)]
+enum MeshCmd {
+    /// Counts, measure, element quality, inverted or degenerate elements, groups.
+    Info {
+        file: PathBuf,
+    },
+    /// Generate a membrane or a tetrahedral box and write it (.msh Gmsh 2.2, or .vtu).
+    Generate {
+        /// rectangle | polygon | box
+        kind: String,
+        /// Output file: .msh or .vtu
+        #[arg(long, short)]
+        out: PathBuf,
+        /// Target node count.
+        #[arg(long)]
+        nodes: Option<usize>,
+        /// Sizes in m: rectangle W,H; box X,Y,Z.
+        #[arg(long, value_delimiter = ',')]
+        size: Vec<f64>,
+        /// Polygon vertices x1,y1,x2,y2,... (m).
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        polygon: Vec<f64>,
+        /// Box divisions NX,NY,NZ instead of --nodes.
+        #[arg(long, value_delimiter = ',')]
+        divisions: Vec<usize>,
+        /// Box: 5 or 6 tets per cube.
+        #[arg(long, default_value_t = 6)]
+        pattern: u32,
+    },
+}
+
+fn main() {
+    let cli = Cli::parse();
+    if let Err(e) = real_main(cli) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn real_main(cli: Cli) -> Result<()> {
+    match cli.cmd {
+        Cmd::Run { scenario, out, quiet } => cmd_run(scenario, out, quiet),
+        Cmd::Check { scenario } => cmd_check(&scenario),
+        Cmd::Mesh { cmd: MeshCmd::Info { file } } => cmd_mesh_info(&file),
+        Cmd::Mesh {
+            cmd: MeshCmd::Generate { kind, out, nodes, size, polygon, divisions, pattern },
+        } => cmd_generate(&kind, &out, nodes, &size, &polygon, &divisions, pattern),
+    }
+}
+
+fn load_scenario(path: Option<&Path>) -> Result<Scenario> {
+    Ok(match path {
+        Some(p) => Scenario::load(p)?,
+        None => Scenario::from_toml(BUILTIN, Path::new("examples/membrane_lift.toml (built-in)"))?,
+    })
+}
+
+fn cmd_run(scenario: Option<PathBuf>, out: Option<PathBuf>, quiet: bool) -> Result<()> {
+    let sc = load_scenario(scenario.as_deref())?;
+    for n in &sc.notes {
+        eprintln!("note: {n}");
+    }
+    let show = !quiet && std::io::stderr().is_terminal();
+    let bar = if show { ProgressBar::new(1000) } else { ProgressBar::hidden() };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
+            .expect("valid template"),
+    );
+    eprintln!(
+        "running {} ({} nodes, {} elements, {}, dt = {:.3e} s)",
+        sc.name,
+        sc.mesh.num_nodes(),
+        sc.mesh.num_elements(),
+        sc.method.name(),
+        sc.dt
+    );
+    let mut progress = |f: f64, s: &raisov::metrics::Sample| {
+        bar.set_position((f * 1000.0) as u64);
+        bar.set_message(format!("t = {:.4} s  KE = {:.2e} J  |r| = {:.2e} N", s.time, s.kinetic, s.residual));
+    };
+    let res = run(
+        &sc,
+        RunOptions {
+            out_dir: out,
+            progress: Some(&mut progress),
+        },
+    );
+    bar.finish_and_clear();
+    let summary = res.with_context(|| format!("run of {} stopped", sc.name))?;
+    println!("{summary}");
+    Ok(())
+}
+
+fn cmd_check(path: &Path) -> Result<()> {
+    let sc = Scenario::load(path)?;
+    let sys = sc.build_system()?;
+    println!("scenario      {} ({})", sc.name, path.display());
+    for n in &sc.notes {
+        println!("note          {n}");
+    }
+    println!("mesh          {} nodes, {} {} elements", sc.mesh.num_nodes(), sc.mesh.num_elements(), sc.mesh.kind.name());
+    println!("material      {:?}", sc.material);
+    println!("density       {} kg/m^3, total mass {:.4e} kg", sc.density, sys.mass.iter().sum::<f64>());
+    println!("damping       alpha = {} 1/s", sc.alpha);
+    println!("gravity       {:?} m/s^2", sc.gravity);
+    println!("fixed nodes   {}", sc.fixed.len());
+    println!("loads         {} nodes", sc.loads.len());
+    for (a, m) in &sc.prescribed {
+        println!("prescribed    node {a} at {:?}: {m:?}", sc.mesh.nodes[*a as usize]);
+    }
+    println!("integrator    {}, dt = {:.4e} s (estimated critical {:.4e} s)", sc.method.name(), sc.dt, sc.dt_critical_estimate);
+    println!("stop          {:?}", sc.stop);
+    println!("output        {}", sc.out_dir.display());
+    println!("ok");
+    Ok(())
+}
+
+fn cmd_mesh_info(file: &Path) -> Result<()> {
+    let loaded = load_mesh(file)?;
+    let s = loaded.mesh.stats();
+    let unit = if s.kind == raisov::mesh::ElementKind::Tri3 { "area" } else { "volume" };
+    println!("file            {} ({})", file.display(), loaded.format);
+    println!("elements        {} {}", s.elements, s.kind.name());
+    println!("nodes           {} ({} on the boundary)", s.nodes, s.boundary_nodes);
+    println!("{unit:<15} {:.6e}", s.measure);
+    println!("bounding box    {:?} .. {:?}", s.bbox_min, s.bbox_max);
+    println!("edge length     {:.4e} .. {:.4e}", s.min_edge, s.max_edge);
+    println!("quality         min {:.3}, mean {:.3} (1 = equilateral/regular)", s.quality_min, s.quality_mean);
+    println!("reoriented      {}", loaded.reoriented.len());
+    println!("unused nodes    {} dropped", loaded.unused_nodes_dropped);
+    println!("inverted        {}", s.inverted.len());
+    println!("degenerate      {}", s.degenerate.len());
+    for (g, n) in &s.groups {
+        println!("group           \"{g}\": {n} nodes");
+    }
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn cmd_generate(kind: &str, out: &Path, nodes: Option<usize>, size: &[f64], polygon: &[f64], divisions: &[usize], pattern: u32) -> Result<()> {
+    let mesh: Mesh = match kind {
+        "rectangle" => {
+            let [w, h] = size[..] else { bail!("rectangle needs --size W,H (m)") };
+            rectangle_membrane(w, h, nodes.context("rectangle needs --nodes N")?)?
+        }
+        "polygon" => {
+            if polygon.len() < 6 || polygon.len() % 2 != 0 {
+                bail!("polygon needs --polygon x1,y1,x2,y2,x3,y3[,...] (at least 3 vertices, m)");
+            }
+            let pts: Vec<[f64; 2]> = polygon.chunks(2).map(|c| [c[0], c[1]]).collect();
+            polygon_membrane(&pts, nodes.context("polygon needs --nodes N")?)?
+        }
+        "box" => {
+            let [x, y, z] = size[..] else { bail!("box needs --size X,Y,Z (m)") };
+            let pat = match pattern {
+                5 => BoxPattern::Five,
+                6 => BoxPattern::Six,
+                p => bail!("--pattern {p}: valid are 5 or 6"),
+            };
+            match (nodes, divisions) {
+                (Some(n), []) => box_tets_target([x, y, z], n, pat)?,
+                (None, &[a, b, c]) => box_tets([x, y, z], [a, b, c], pat)?,
+                _ => bail!("box needs exactly one of --nodes N or --divisions NX,NY,NZ"),
+            }
+        }
+        other => bail!("unknown mesh kind `{other}`: valid are rectangle, polygon, box"),
+    };
+    match out.extension().and_then(|e| e.to_str()) {
+        Some("msh") => write_msh22(out, &mesh)?,
+        Some("vtu") => write_vtu(out, &mesh, &mesh.nodes, &[], &[])?,
+        _ => bail!("{}: output must end in .msh (Gmsh 2.2) or .vtu (ParaView)", out.display()),
+    }
+    let s = mesh.stats();
+    println!("wrote {}: {} nodes, {} {} elements, quality min {:.3} mean {:.3}", out.display(), s.nodes, s.elements, s.kind.name(), s.quality_min, s.quality_mean);
+    Ok(())
+}

@@ -49,6 +49,8 @@ pub trait ForceModel: Send {
     fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure>;
     /// Strain energy E(u) (J).
     fn strain_energy(&self, u: &[f64]) -> f64;
+    /// Nodal stress tensor T (9 per node, row-major, Pa): the measure of paper section 3.
+    fn nodal_stress(&self, u: &[f64], t: &mut [f64]);
 }
 
 /// Parameters of an FE model.
@@ -265,7 +267,7 @@ impl FemModel {
 
     /// Nodal stress tensor T (9 per node, row-major): element Cauchy stresses averaged onto
     /// nodes weighted by reference measure (paper section 3; design note "Measures").
-    pub fn nodal_stress(&self, u: &[f64], t: &mut [f64]) {
+    pub fn nodal_cauchy(&self, u: &[f64], t: &mut [f64]) {
         let npe = self.npe();
         t.iter_mut().for_each(|x| *x = 0.0);
         let mut w = vec![0.0; self.n_nodes];
@@ -443,6 +445,10 @@ impl ForceModel for FemModel {
         }
         self.elem_forces = ef;
         result
+    }
+
+    fn nodal_stress(&self, u: &[f64], t: &mut [f64]) {
+        self.nodal_cauchy(u, t)
     }
 
     fn strain_energy(&self, u: &[f64]) -> f64 {

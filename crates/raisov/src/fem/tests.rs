@@ -255,7 +255,7 @@ fn patch_test_affine_deformation() {
                 );
             }
             let mut t = vec![0.0; 9 * n];
-            model.nodal_stress(&u, &mut t);
+            model.nodal_cauchy(&u, &mut t);
             for a in 0..n {
                 for i in 0..3 {
                     for j in 0..3 {

@@ -23,10 +23,11 @@
 //!   `u_{n+1} = u_n + Δ u̇_{n+1/2}`; 1 evaluation.
 
 mod constraints;
+pub mod relax;
 mod stepper;
 
 pub use constraints::{Constraints, Motion};
-pub use stepper::{SingleLevel, Stepper, StepperParams};
+pub use stepper::{check_state, energy_limit, energy_limit_for, SingleLevel, Stepper, StepperParams};
 
 use crate::fem::{ElementFailure, ForceModel};
 

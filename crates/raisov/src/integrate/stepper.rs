@@ -139,3 +139,26 @@ impl Stepper for SingleLevel {
         )
     }
 }
+
+/// [`energy_limit`] for a system on `mesh`: the prescribed motions' strain energy is that of
+/// every prescribed node at its largest displacement, all other nodes at rest.
+pub fn energy_limit_for(sys: &System, mesh: &crate::mesh::Mesh, factor: f64) -> f64 {
+    let n = sys.num_nodes();
+    let mut u = vec![0.0; 3 * n];
+    for (a, m) in &sys.constraints.prescribed {
+        let d = match m {
+            super::Motion::Held { d } | super::Motion::Ramp { d, .. } => *d,
+            super::Motion::Table { values, .. } => values
+                .iter()
+                .copied()
+                .max_by(|x, y| x.iter().map(|v| v * v).sum::<f64>().total_cmp(&y.iter().map(|v| v * v).sum::<f64>()))
+                .unwrap_or([0.0; 3]),
+        };
+        u[3 * *a as usize..3 * *a as usize + 3].copy_from_slice(&d);
+    }
+    let e_presc = sys.force.strain_energy(&u);
+    let e_presc = if e_presc.is_finite() { e_presc } else { 0.0 };
+    let (lo, hi) = mesh.bounding_box();
+    let size = crate::mesh::norm(crate::mesh::sub(hi, lo));
+    energy_limit(&sys.f_ext, size, e_presc, factor)
+}

@@ -1,0 +1,363 @@
+//! Running a scenario: step, measure, write.
+//!
+//! Files written under the output directory, each atomically (temp file + rename):
+//! - `measures.csv`: one row per `csv_every` steps ([`crate::metrics::CSV_HEADER`]);
+//! - `NAME.pvd` + `frames/NAME_NNNNNN.vtu`: ParaView time series on the deformed mesh with
+//!   point fields `displacement` (m), `velocity` (m/s), `stress` (nodal Cauchy T, Pa);
+//! - `nodal_stress.csv`: the final nodal stress per node (usable as a later run's
+//!   `output.reference`);
+//! - `summary.txt`: what the closing summary says.
+//!
+//! A diverging run writes what it measured up to the last finite state, then returns
+//! [`Error::Diverged`] naming time, step, element and cause. Nothing non-finite is written.
+
+use super::{Reference, Scenario, StopRule};
+use crate::error::{Error, Result};
+use crate::integrate::relax::relax;
+use crate::integrate::{energy_limit_for, SingleLevel, State, Stepper, StepperParams};
+use crate::io::{write_atomic, write_vtu, Field, FieldData, PvdWriter};
+use crate::metrics::{write_csv, Meter, Sample};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Why a run ended normally.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StopReason {
+    /// The requested duration was simulated.
+    Duration,
+    /// Kinetic energy and residual fell below their tolerances.
+    Steady,
+    /// `stop = "steady"` but the cap on simulated time came first.
+    NotSteadyBeforeCap,
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            StopReason::Duration => "reached the requested duration",
+            StopReason::Steady => "reached steady state",
+            StopReason::NotSteadyBeforeCap => "hit the time cap before reaching steady state",
+        })
+    }
+}
+
+/// Options of a run.
+#[derive(Default)]
+pub struct RunOptions<'a> {
+    /// Output directory; default the scenario's.
+    pub out_dir: Option<PathBuf>,
+    /// Called after every sample with the fraction done (0..1) and the sample.
+    pub progress: Option<&'a mut dyn FnMut(f64, &Sample)>,
+}
+
+/// What a finished run reports.
+#[derive(Clone, Debug)]
+pub struct RunSummary {
+    pub name: String,
+    pub stepper: String,
+    pub nodes: usize,
+    pub elements: usize,
+    pub steps: u64,
+    pub simulated: f64,
+    pub wall: f64,
+    pub steps_per_second: f64,
+    pub force_evaluations: f64,
+    pub reason: StopReason,
+    pub last: Sample,
+    pub out_dir: PathBuf,
+    pub files: Vec<PathBuf>,
+    pub reference_note: Option<String>,
+}
+
+impl std::fmt::Display for RunSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "scenario        {}", self.name)?;
+        writeln!(f, "mesh            {} nodes, {} elements", self.nodes, self.elements)?;
+        writeln!(f, "integration     {}", self.stepper)?;
+        writeln!(f, "stopped         {} at t = {:.6} s", self.reason, self.simulated)?;
+        writeln!(f, "steps           {}", self.steps)?;
+        writeln!(f, "force evals     {:.0} (finest-level units)", self.force_evaluations)?;
+        writeln!(f, "wall time       {:.3} s", self.wall)?;
+        writeln!(f, "steps/s         {:.1}", self.steps_per_second)?;
+        writeln!(f, "kinetic energy  {:.4e} J", self.last.kinetic)?;
+        writeln!(f, "residual        {:.4e} N", self.last.residual)?;
+        writeln!(f, "max |u|         {:.4e} m", self.last.max_u)?;
+        if self.last.stress_err_max.is_finite() {
+            writeln!(
+                f,
+                "|T - T_inf|     max {:.4e} Pa, mean {:.4e} Pa",
+                self.last.stress_err_max, self.last.stress_err_mean
+            )?;
+        }
+        if let Some(n) = &self.reference_note {
+            writeln!(f, "reference       {n}")?;
+        }
+        write!(f, "output          {}", self.out_dir.display())
+    }
+}
+
+impl Scenario {
+    /// The stepper this scenario asks for (single-level integration).
+    pub fn stepper(&self) -> Result<Box<dyn Stepper>> {
+        let sys = self.build_system()?;
+        let limit = energy_limit_for(&sys, &self.mesh, self.blowup_factor);
+        Ok(Box::new(SingleLevel::new(
+            sys,
+            self.method,
+            StepperParams {
+                dt: self.dt,
+                kinetic_limit: limit,
+            },
+        )))
+    }
+
+    /// The time after which every prescribed motion is constant.
+    pub fn motion_end(&self) -> f64 {
+        use crate::integrate::Motion;
+        self.prescribed
+            .iter()
+            .map(|(_, m)| match m {
+                Motion::Held { .. } => 0.0,
+                Motion::Ramp { duration, .. } => *duration,
+                Motion::Table { times, .. } => *times.last().unwrap_or(&0.0),
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Steady-state nodal stress T∞ with the constraints at their final values, by dynamic
+    /// relaxation to a residual of 1e-10 of the load scale.
+    pub fn steady_reference(&self) -> Result<(Vec<f64>, String)> {
+        let mut sys = self.build_system()?;
+        let n = sys.num_nodes();
+        let mut s = State::at_rest(n);
+        s.t = self.motion_end();
+        let dt = 0.9 * self.dt_critical_estimate.min(self.dt);
+        let r = relax(&mut sys, s, dt, 1e-10, 2_000_000).map_err(|f| {
+            Error::Diverged(crate::error::Divergence {
+                time: 0.0,
+                step: 0,
+                element: Some(f.element),
+                cause: crate::error::DivergenceCause::Inverted { det_f: f.det_f },
+            })
+        })?;
+        let mut t = vec![0.0; 9 * n];
+        sys.force.nodal_stress(&r.state.u, &mut t);
+        let note = format!(
+            "T_inf by dynamic relaxation: residual {:.3e} N ({:.1e} of start) after {} steps{}",
+            r.residual,
+            r.residual / r.initial_residual.max(f64::MIN_POSITIVE),
+            r.steps,
+            if r.converged { "" } else { " (NOT converged to 1e-10)" }
+        );
+        Ok((t, note))
+    }
+}
+
+/// Read a `nodal_stress.csv` written by an earlier run.
+pub fn read_nodal_stress(path: &Path, n: usize) -> Result<Vec<f64>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let bad = |line: usize, msg: String| Error::Scenario {
+        path: path.to_path_buf(),
+        line: Some(line),
+        msg,
+    };
+    let mut t = vec![f64::NAN; 9 * n];
+    let mut rows = 0;
+    for (i, line) in text.lines().enumerate().skip(1) {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 16 {
+            return Err(bad(i + 1, format!("expected 16 columns (node, x, y, z, ux, uy, uz, T00..T22), found {}", f.len())));
+        }
+        let a: usize = f[0].trim().parse().map_err(|_| bad(i + 1, format!("bad node id `{}`", f[0])))?;
+        if a >= n {
+            return Err(bad(i + 1, format!("node {a} does not exist in this mesh of {n} nodes")));
+        }
+        for k in 0..9 {
+            t[9 * a + k] = f[7 + k].trim().parse().map_err(|_| bad(i + 1, format!("bad number `{}`", f[7 + k])))?;
+        }
+        rows += 1;
+    }
+    if rows != n {
+        return Err(bad(text.lines().count(), format!("has {rows} nodes, this mesh has {n}")));
+    }
+    Ok(t)
+}
+
+fn write_nodal_stress(path: &Path, x0: &[[f64; 3]], u: &[f64], t: &[f64]) -> Result<()> {
+    write_atomic(path, |w| {
+        writeln!(w, "node,x,y,z,ux,uy,uz,T00,T01,T02,T10,T11,T12,T20,T21,T22")?;
+        for (a, p) in x0.iter().enumerate() {
+            write!(w, "{a},{:e},{:e},{:e},{:e},{:e},{:e}", p[0], p[1], p[2], u[3 * a], u[3 * a + 1], u[3 * a + 2])?;
+            for k in 0..9 {
+                write!(w, ",{:e}", t[9 * a + k])?;
+            }
+            writeln!(w)?;
+        }
+        Ok(())
+    })
+}
+
+/// Writes VTU frames and the PVD collection.
+struct Frames {
+    dir: PathBuf,
+    name: String,
+    pvd: PvdWriter,
+    count: usize,
+    positions: Vec<[f64; 3]>,
+    stress: Vec<f64>,
+}
+
+impl Frames {
+    fn new(out: &Path, name: &str, n: usize) -> Result<Self> {
+        let dir = out.join("frames");
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        Ok(Frames {
+            dir,
+            name: name.to_string(),
+            pvd: PvdWriter::new(out.join(format!("{name}.pvd"))),
+            count: 0,
+            positions: vec![[0.0; 3]; n],
+            stress: vec![0.0; 9 * n],
+        })
+    }
+    fn write(&mut self, sc: &Scenario, stepper: &mut dyn Stepper) -> Result<()> {
+        let (sys, s) = stepper.finest();
+        for (a, p) in sc.mesh.nodes.iter().enumerate() {
+            self.positions[a] = [p[0] + s.u[3 * a], p[1] + s.u[3 * a + 1], p[2] + s.u[3 * a + 2]];
+        }
+        sys.force.nodal_stress(&s.u, &mut self.stress);
+        let file = format!("{}_{:06}.vtu", self.name, self.count);
+        write_vtu(
+            &self.dir.join(&file),
+            &sc.mesh,
+            &self.positions,
+            &[
+                Field { name: "displacement", data: FieldData::Vector(&s.u) },
+                Field { name: "velocity", data: FieldData::Vector(&s.v) },
+                Field { name: "stress", data: FieldData::Tensor(&self.stress) },
+            ],
+            &[],
+        )?;
+        self.pvd.add(s.t, &format!("frames/{file}"))?;
+        self.count += 1;
+        Ok(())
+    }
+}
+
+/// Run a scenario with its own stepper.
+pub fn run(sc: &Scenario, opts: RunOptions) -> Result<RunSummary> {
+    let mut stepper = sc.stepper()?;
+    run_with(sc, stepper.as_mut(), opts)
+}
+
+/// Run a scenario with a given stepper (single level or multigrid) whose finest level is the
+/// scenario's mesh.
+pub fn run_with(sc: &Scenario, stepper: &mut dyn Stepper, mut opts: RunOptions) -> Result<RunSummary> {
+    let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
+    std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
+    let n = sc.mesh.num_nodes();
+    let (t_inf, reference_note) = match &sc.reference {
+        Reference::None => (None, None),
+        Reference::Auto => {
+            let (t, note) = sc.steady_reference()?;
+            (Some(t), Some(note))
+        }
+        Reference::File(p) => (Some(read_nodal_stress(p, n)?), Some(format!("T_inf from {}", p.display()))),
+    };
+    let mut meter = Meter::new(n, t_inf);
+    let mut frames = Frames::new(&out, &sc.name, n)?;
+    let mut rows: Vec<Sample> = Vec::new();
+    let start = Instant::now();
+    let dt = stepper.dt();
+    let (t_end, steady) = match sc.stop {
+        StopRule::Duration(d) => (d, None),
+        StopRule::Steady { kinetic_tol, residual_tol, max } => (max, Some((kinetic_tol, residual_tol))),
+    };
+    let total_steps = (t_end / dt).ceil() as u64;
+    let frame_every = if sc.frame_interval > 0.0 {
+        ((sc.frame_interval / dt).round() as u64).max(1)
+    } else {
+        u64::MAX
+    };
+    let mut sample = |stepper: &mut dyn Stepper, meter: &mut Meter| {
+        let steps = stepper.steps();
+        let evals = stepper.force_evaluations();
+        let (sys, s) = stepper.finest();
+        let mut row = meter.sample(sys, s, steps);
+        row.force_evals = evals;
+        row.wall = start.elapsed().as_secs_f64();
+        row
+    };
+    rows.push(sample(stepper, &mut meter));
+    frames.write(sc, stepper)?;
+    let (mut ke_peak, mut res_peak) = (rows[0].kinetic, rows[0].residual);
+    let mut reason = StopReason::Duration;
+    let mut result = Ok(());
+    while stepper.steps() < total_steps {
+        if let Err(d) = stepper.advance() {
+            result = Err(Error::Diverged(d));
+            break;
+        }
+        let k = stepper.steps();
+        let last = k == total_steps;
+        if k % sc.csv_every == 0 || last {
+            let row = sample(stepper, &mut meter);
+            ke_peak = ke_peak.max(row.kinetic);
+            res_peak = res_peak.max(row.residual);
+            rows.push(row);
+            if let Some(p) = opts.progress.as_mut() {
+                p(k as f64 / total_steps as f64, &row);
+            }
+            if let Some((kt, rt)) = steady {
+                if row.kinetic <= kt * ke_peak && row.residual <= rt * res_peak && row.time >= sc.motion_end() {
+                    reason = StopReason::Steady;
+                    if k % frame_every != 0 {
+                        frames.write(sc, stepper)?;
+                    }
+                    break;
+                }
+            }
+        }
+        if k % frame_every == 0 || (last && k % frame_every != 0) {
+            frames.write(sc, stepper)?;
+        }
+    }
+    if steady.is_some() && reason != StopReason::Steady && result.is_ok() {
+        reason = StopReason::NotSteadyBeforeCap;
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let csv = out.join("measures.csv");
+    write_csv(&csv, &rows)?;
+    result?;
+    let stress_path = out.join("nodal_stress.csv");
+    {
+        let (sys, s) = stepper.finest();
+        let mut t = vec![0.0; 9 * n];
+        sys.force.nodal_stress(&s.u, &mut t);
+        write_nodal_stress(&stress_path, &sc.mesh.nodes, &s.u, &t)?;
+    }
+    let last = *rows.last().expect("at least the initial sample");
+    let summary = RunSummary {
+        name: sc.name.clone(),
+        stepper: stepper.describe(),
+        nodes: n,
+        elements: sc.mesh.num_elements(),
+        steps: stepper.steps(),
+        simulated: last.time,
+        wall,
+        steps_per_second: stepper.steps() as f64 / wall.max(1e-9),
+        force_evaluations: stepper.force_evaluations(),
+        reason,
+        last,
+        out_dir: out.clone(),
+        files: vec![csv, frames.pvd.path().to_path_buf(), stress_path],
+        reference_note,
+    };
+    let text = summary.to_string();
+    write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;
+    Ok(summary)
+}

@@ -1,0 +1,140 @@
+//! Scenario parsing, validation and short runs.
+
+use super::*;
+use crate::error::Error;
+
+const BASE: &str = r#"
+[mesh]
+generate = "rectangle"
+size = [0.1, 0.1]
+nodes = 60
+
+[material]
+law = "mooney-rivlin"
+c1 = 1000.0
+c2 = 1000.0
+
+[[fix]]
+boundary = true
+
+[run]
+duration = 0.01
+"#;
+
+fn parse(text: &str) -> Result<Scenario> {
+    Scenario::from_toml(text, Path::new("test.toml"))
+}
+
+/// The scenario error message, asserting it names the file.
+fn error_of(text: &str) -> String {
+    let e = parse(text).expect_err("should fail");
+    let s = e.to_string();
+    assert!(s.starts_with("test.toml"), "error does not name the file: {s}");
+    s
+}
+
+#[test]
+fn base_scenario_resolves_with_documented_defaults() {
+    let sc = parse(BASE).unwrap();
+    assert_eq!(sc.density, 1000.0);
+    assert_eq!(sc.thickness, 1e-3);
+    assert_eq!(sc.alpha, 0.0);
+    assert_eq!(sc.method, Method::SymplecticEuler);
+    assert!((sc.dt - 0.5 * sc.dt_critical_estimate).abs() < 1e-18);
+    assert_eq!(sc.fixed.len(), sc.mesh.boundary_nodes().len());
+    assert_eq!(sc.out_dir, PathBuf::from("raisov-out/test"));
+    assert_eq!(sc.stop, StopRule::Duration(0.01));
+}
+
+#[test]
+fn every_error_path_names_the_problem() {
+    let cases: Vec<(String, &str)> = vec![
+        (BASE.replace("nodes = 60", "nodes = 60\ncolour = 3"), "unknown field `colour`"),
+        (BASE.replace("law = \"mooney-rivlin\"", "law = \"jelly\""), "valid are \"stvk\""),
+        (BASE.replace("c2 = 1000.0", ""), "needs `c2`"),
+        (BASE.replace("c2 = 1000.0", "c2 = 1000.0\nyoung = 3.0"), "`young` is not a parameter"),
+        (BASE.replace("c2 = 1000.0", "c2 = 1000.0\nkappa = 3.0"), "`kappa` is not used by membranes"),
+        (BASE.replace("size = [0.1, 0.1]", "size = [0.1, -0.1]"), "need 2 positive lengths"),
+        (BASE.replace("generate = \"rectangle\"", "generate = \"sphere\""), "valid are \"rectangle\""),
+        (BASE.replace("generate = \"rectangle\"", "file = \"missing.msh\""), "missing.msh"),
+        (BASE.replace("duration = 0.01", "duration = -1.0"), "must be a positive number"),
+        (BASE.replace("duration = 0.01", ""), "`duration` (s) is required"),
+        (BASE.replace("duration = 0.01", "duration = 1.0\nstop = \"never\""), "valid are \"duration\", \"steady\""),
+        (BASE.replace("boundary = true", "group = \"walls\""), "no group \"walls\""),
+        (BASE.replace("boundary = true", "nodes = [100000]"), "does not exist"),
+        (BASE.replace("boundary = true", "boundary = true\npoint = [0.0, 0.0, 0.0]"), "exactly one selector"),
+        (BASE.replace("boundary = true", "box = { min = [1.0, 1.0, 1.0], max = [2.0, 2.0, 2.0] }"), "contains no node"),
+        (format!("{BASE}\n[integrator]\nmethod = \"leapfrog\""), "valid are forward-euler"),
+        (format!("{BASE}\n[integrator]\ndt = 0.0"), "`integrator.dt`"),
+        (format!("{BASE}\n[damping]\nalpha = 1.0\nratio = 1.0"), "not a mix"),
+        (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\nmode = \"ramp\"\ndisplacement = [0.0, 0.0, 0.01]"), "needs `duration`"),
+        (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ntable = [[1.0, 0, 0, 0], [0.5, 0, 0, 1]]"), "times must increase"),
+        (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\nmode = \"wiggle\"\ndisplacement = [0.0, 0.0, 0.01]"), "valid are \"held\""),
+        (format!("{BASE}\n[output]\ncsv_every = 0"), "csv_every"),
+        (format!("{BASE}\n[output]\nreference = \"nowhere.csv\""), "no such file"),
+        (BASE.replace("[mesh]", "[mesh]\nfile = \"x.msh\""), "either `file` or `generate`"),
+        ("[mesh\n".to_string(), "test.toml, line 1"),
+    ];
+    for (text, want) in cases {
+        let msg = error_of(&text);
+        assert!(msg.contains(want), "expected `{want}` in: {msg}");
+    }
+}
+
+#[test]
+fn unknown_key_error_gives_the_line() {
+    let text = BASE.replace("nodes = 60", "nodes = 60\ncolour = 3");
+    let line = text.lines().position(|l| l.starts_with("colour")).unwrap() + 1;
+    match parse(&text).unwrap_err() {
+        Error::Scenario { line: Some(l), .. } => assert_eq!(l, line),
+        e => panic!("unexpected {e}"),
+    }
+}
+
+#[test]
+fn the_builtin_and_example_scenarios_resolve() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
+    for f in ["membrane_lift.toml", "membrane_drape.toml", "cantilever.toml", "liver_grasp.toml"] {
+        let p = Path::new(dir).join(f);
+        let sc = Scenario::load(&p).unwrap_or_else(|e| panic!("{f}: {e}"));
+        assert!(sc.dt > 0.0 && sc.mesh.num_nodes() > 100, "{f}");
+    }
+}
+
+/// The draping membrane settles: kinetic energy and residual fall to the steady tolerances
+/// and the sag is downward, symmetric and of the size the material implies.
+#[test]
+fn draping_membrane_settles() {
+    let body = BASE.replace("nodes = 60", "nodes = 120").replace(
+        "[run]\nduration = 0.01",
+        "[run]\nstop = \"steady\"\nduration = 3.0\nkinetic_tol = 1e-10\nresidual_tol = 1e-6",
+    );
+    let text = format!("gravity = [0.0, 0.0, -9.81]\n{body}\n[damping]\nratio = 1.0\nomega = 177.7\n");
+    let sc = parse(&text).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let sum = run(&sc, RunOptions { out_dir: Some(dir.path().to_path_buf()), progress: None }).unwrap();
+    assert_eq!(sum.reason, StopReason::Steady, "{sum}");
+    let sag = sum.last.max_u;
+    // Membrane theory for this material: a sag of order 2 cm (see examples/membrane_drape.toml).
+    assert!((0.01..0.04).contains(&sag), "sag {sag}");
+    assert!(dir.path().join("measures.csv").is_file());
+    assert!(dir.path().join("test.pvd").is_file());
+    let pvd = std::fs::read_to_string(dir.path().join("test.pvd")).unwrap();
+    assert!(pvd.contains("frames/test_000000.vtu"));
+}
+
+/// A run that blows up stops with a message naming step, time and cause, and leaves finite
+/// measures on disk.
+#[test]
+fn diverging_run_stops_and_says_where() {
+    let text = format!("{BASE}\n[integrator]\nmethod = \"symplectic-euler\"\ndt = 0.01\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ndisplacement = [0.0, 0.0, 0.03]\n");
+    let text = text.replace("duration = 0.01", "duration = 5.0");
+    let sc = parse(&text).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let e = run(&sc, RunOptions { out_dir: Some(dir.path().to_path_buf()), progress: None }).unwrap_err();
+    let msg = e.to_string();
+    assert!(matches!(e, Error::Diverged(_)), "{msg}");
+    assert!(msg.contains("diverged at t = ") && msg.contains("step"), "{msg}");
+    let csv = std::fs::read_to_string(dir.path().join("measures.csv")).unwrap();
+    assert!(!csv.contains("NaN") && !csv.contains("inf"), "non-finite values written");
+}

@@ -4,7 +4,9 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use raisov::io::{load_mesh, write_msh22, write_vtu};
-use raisov::mesh::generate::{box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern};
+use raisov::mesh::generate::{
+    box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern,
+};
 use raisov::mesh::Mesh;
 use raisov::scenario::{run, RunOptions, Scenario};
 use std::io::IsTerminal;
@@ -14,7 +16,11 @@ use std::path::{Path, PathBuf};
 const BUILTIN: &str = include_str!("../../../examples/membrane_lift.toml");
 
 #[derive(Parser)]
-#[command(name = "raisov", version, about = "Nonlinear FEM soft-tissue simulation with multigrid explicit integration (Wu & Tendick 2004)")]
+#[command(
+    name = "raisov",
+    version,
+    about = "Nonlinear FEM soft-tissue simulation with multigrid explicit integration (Wu & Tendick 2004)"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -45,9 +51,7 @@ enum Cmd {
 #[derive(Subcommand)]
 enum MeshCmd {
     /// Counts, measure, element quality, inverted or degenerate elements, groups.
-    Info {
-        file: PathBuf,
-    },
+    Info { file: PathBuf },
     /// Generate a membrane or a tetrahedral box and write it (.msh Gmsh 2.2, or .vtu).
     Generate {
         /// rectangle | polygon | box
@@ -83,11 +87,26 @@ fn main() {
 
 fn real_main(cli: Cli) -> Result<()> {
     match cli.cmd {
-        Cmd::Run { scenario, out, quiet } => cmd_run(scenario, out, quiet),
+        Cmd::Run {
+            scenario,
+            out,
+            quiet,
+        } => cmd_run(scenario, out, quiet),
         Cmd::Check { scenario } => cmd_check(&scenario),
-        Cmd::Mesh { cmd: MeshCmd::Info { file } } => cmd_mesh_info(&file),
         Cmd::Mesh {
-            cmd: MeshCmd::Generate { kind, out, nodes, size, polygon, divisions, pattern },
+            cmd: MeshCmd::Info { file },
+        } => cmd_mesh_info(&file),
+        Cmd::Mesh {
+            cmd:
+                MeshCmd::Generate {
+                    kind,
+                    out,
+                    nodes,
+                    size,
+                    polygon,
+                    divisions,
+                    pattern,
+                },
         } => cmd_generate(&kind, &out, nodes, &size, &polygon, &divisions, pattern),
     }
 }
@@ -105,7 +124,11 @@ fn cmd_run(scenario: Option<PathBuf>, out: Option<PathBuf>, quiet: bool) -> Resu
         eprintln!("note: {n}");
     }
     let show = !quiet && std::io::stderr().is_terminal();
-    let bar = if show { ProgressBar::new(1000) } else { ProgressBar::hidden() };
+    let bar = if show {
+        ProgressBar::new(1000)
+    } else {
+        ProgressBar::hidden()
+    };
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
             .expect("valid template"),
@@ -120,7 +143,10 @@ fn cmd_run(scenario: Option<PathBuf>, out: Option<PathBuf>, quiet: bool) -> Resu
     );
     let mut progress = |f: f64, s: &raisov::metrics::Sample| {
         bar.set_position((f * 1000.0) as u64);
-        bar.set_message(format!("t = {:.4} s  KE = {:.2e} J  |r| = {:.2e} N", s.time, s.kinetic, s.residual));
+        bar.set_message(format!(
+            "t = {:.4} s  KE = {:.2e} J  |r| = {:.2e} N",
+            s.time, s.kinetic, s.residual
+        ));
     };
     let res = run(
         &sc,
@@ -142,17 +168,34 @@ fn cmd_check(path: &Path) -> Result<()> {
     for n in &sc.notes {
         println!("note          {n}");
     }
-    println!("mesh          {} nodes, {} {} elements", sc.mesh.num_nodes(), sc.mesh.num_elements(), sc.mesh.kind.name());
+    println!(
+        "mesh          {} nodes, {} {} elements",
+        sc.mesh.num_nodes(),
+        sc.mesh.num_elements(),
+        sc.mesh.kind.name()
+    );
     println!("material      {:?}", sc.material);
-    println!("density       {} kg/m^3, total mass {:.4e} kg", sc.density, sys.mass.iter().sum::<f64>());
+    println!(
+        "density       {} kg/m^3, total mass {:.4e} kg",
+        sc.density,
+        sys.mass.iter().sum::<f64>()
+    );
     println!("damping       alpha = {} 1/s", sc.alpha);
     println!("gravity       {:?} m/s^2", sc.gravity);
     println!("fixed nodes   {}", sc.fixed.len());
     println!("loads         {} nodes", sc.loads.len());
     for (a, m) in &sc.prescribed {
-        println!("prescribed    node {a} at {:?}: {m:?}", sc.mesh.nodes[*a as usize]);
+        println!(
+            "prescribed    node {a} at {:?}: {m:?}",
+            sc.mesh.nodes[*a as usize]
+        );
     }
-    println!("integrator    {}, dt = {:.4e} s (estimated critical {:.4e} s)", sc.method.name(), sc.dt, sc.dt_critical_estimate);
+    println!(
+        "integrator    {}, dt = {:.4e} s (estimated critical {:.4e} s)",
+        sc.method.name(),
+        sc.dt,
+        sc.dt_critical_estimate
+    );
     println!("stop          {:?}", sc.stop);
     println!("output        {}", sc.out_dir.display());
     println!("ok");
@@ -162,14 +205,24 @@ fn cmd_check(path: &Path) -> Result<()> {
 fn cmd_mesh_info(file: &Path) -> Result<()> {
     let loaded = load_mesh(file)?;
     let s = loaded.mesh.stats();
-    let unit = if s.kind == raisov::mesh::ElementKind::Tri3 { "area" } else { "volume" };
+    let unit = if s.kind == raisov::mesh::ElementKind::Tri3 {
+        "area"
+    } else {
+        "volume"
+    };
     println!("file            {} ({})", file.display(), loaded.format);
     println!("elements        {} {}", s.elements, s.kind.name());
-    println!("nodes           {} ({} on the boundary)", s.nodes, s.boundary_nodes);
+    println!(
+        "nodes           {} ({} on the boundary)",
+        s.nodes, s.boundary_nodes
+    );
     println!("{unit:<15} {:.6e}", s.measure);
     println!("bounding box    {:?} .. {:?}", s.bbox_min, s.bbox_max);
     println!("edge length     {:.4e} .. {:.4e}", s.min_edge, s.max_edge);
-    println!("quality         min {:.3}, mean {:.3} (1 = equilateral/regular)", s.quality_min, s.quality_mean);
+    println!(
+        "quality         min {:.3}, mean {:.3} (1 = equilateral/regular)",
+        s.quality_min, s.quality_mean
+    );
     println!("reoriented      {}", loaded.reoriented.len());
     println!("unused nodes    {} dropped", loaded.unused_nodes_dropped);
     println!("inverted        {}", s.inverted.len());
@@ -181,10 +234,20 @@ fn cmd_mesh_info(file: &Path) -> Result<()> {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn cmd_generate(kind: &str, out: &Path, nodes: Option<usize>, size: &[f64], polygon: &[f64], divisions: &[usize], pattern: u32) -> Result<()> {
+fn cmd_generate(
+    kind: &str,
+    out: &Path,
+    nodes: Option<usize>,
+    size: &[f64],
+    polygon: &[f64],
+    divisions: &[usize],
+    pattern: u32,
+) -> Result<()> {
     let mesh: Mesh = match kind {
         "rectangle" => {
-            let [w, h] = size[..] else { bail!("rectangle needs --size W,H (m)") };
+            let [w, h] = size[..] else {
+                bail!("rectangle needs --size W,H (m)")
+            };
             rectangle_membrane(w, h, nodes.context("rectangle needs --nodes N")?)?
         }
         "polygon" => {
@@ -195,7 +258,9 @@ fn cmd_generate(kind: &str, out: &Path, nodes: Option<usize>, size: &[f64], poly
             polygon_membrane(&pts, nodes.context("polygon needs --nodes N")?)?
         }
         "box" => {
-            let [x, y, z] = size[..] else { bail!("box needs --size X,Y,Z (m)") };
+            let [x, y, z] = size[..] else {
+                bail!("box needs --size X,Y,Z (m)")
+            };
             let pat = match pattern {
                 5 => BoxPattern::Five,
                 6 => BoxPattern::Six,
@@ -212,9 +277,20 @@ fn cmd_generate(kind: &str, out: &Path, nodes: Option<usize>, size: &[f64], poly
     match out.extension().and_then(|e| e.to_str()) {
         Some("msh") => write_msh22(out, &mesh)?,
         Some("vtu") => write_vtu(out, &mesh, &mesh.nodes, &[], &[])?,
-        _ => bail!("{}: output must end in .msh (Gmsh 2.2) or .vtu (ParaView)", out.display()),
+        _ => bail!(
+            "{}: output must end in .msh (Gmsh 2.2) or .vtu (ParaView)",
+            out.display()
+        ),
     }
     let s = mesh.stats();
-    println!("wrote {}: {} nodes, {} {} elements, quality min {:.3} mean {:.3}", out.display(), s.nodes, s.elements, s.kind.name(), s.quality_min, s.quality_mean);
+    println!(
+        "wrote {}: {} nodes, {} {} elements, quality min {:.3} mean {:.3}",
+        out.display(),
+        s.nodes,
+        s.elements,
+        s.kind.name(),
+        s.quality_min,
+        s.quality_mean
+    );
     Ok(())
 }

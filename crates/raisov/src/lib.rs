@@ -23,7 +23,10 @@
 pub mod error;
 pub mod fem;
 pub mod integrate;
+pub mod io;
 pub mod material;
 pub mod mesh;
+pub mod metrics;
+pub mod scenario;
 
 pub use error::{Error, Result};

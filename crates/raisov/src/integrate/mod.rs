@@ -27,7 +27,9 @@ pub mod relax;
 mod stepper;
 
 pub use constraints::{Constraints, Motion};
-pub use stepper::{check_state, energy_limit, energy_limit_for, SingleLevel, Stepper, StepperParams};
+pub use stepper::{
+    check_state, energy_limit, energy_limit_for, SingleLevel, Stepper, StepperParams,
+};
 
 use crate::fem::{ElementFailure, ForceModel};
 

@@ -20,7 +20,13 @@ pub struct Relaxed {
 
 /// Relax `state` (constraints imposed at `state.t`, which does not advance: the constraints
 /// are taken at that time) until `‖V − R(u)‖ ≤ rel_tol × max(‖V − R(u0)‖, ‖V‖)` or `max_steps`.
-pub fn relax(sys: &mut System, mut state: State, dt: f64, rel_tol: f64, max_steps: u64) -> Result<Relaxed, ElementFailure> {
+pub fn relax(
+    sys: &mut System,
+    mut state: State,
+    dt: f64,
+    rel_tol: f64,
+    max_steps: u64,
+) -> Result<Relaxed, ElementFailure> {
     let n = sys.num_nodes();
     let t = state.t;
     sys.impose(t, &mut state.u, &mut state.v);

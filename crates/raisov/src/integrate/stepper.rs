@@ -151,7 +151,12 @@ pub fn energy_limit_for(sys: &System, mesh: &crate::mesh::Mesh, factor: f64) -> 
             super::Motion::Table { values, .. } => values
                 .iter()
                 .copied()
-                .max_by(|x, y| x.iter().map(|v| v * v).sum::<f64>().total_cmp(&y.iter().map(|v| v * v).sum::<f64>()))
+                .max_by(|x, y| {
+                    x.iter()
+                        .map(|v| v * v)
+                        .sum::<f64>()
+                        .total_cmp(&y.iter().map(|v| v * v).sum::<f64>())
+                })
                 .unwrap_or([0.0; 3]),
         };
         u[3 * *a as usize..3 * *a as usize + 3].copy_from_slice(&d);

@@ -7,7 +7,6 @@
 use crate::error::Result;
 use crate::integrate::{State, System};
 use crate::io::write_atomic;
-use std::io::Write;
 use std::path::Path;
 
 /// One row of the measures CSV.
@@ -109,7 +108,13 @@ pub const CSV_HEADER: &str =
 pub fn write_csv(path: &Path, rows: &[Sample]) -> Result<()> {
     write_atomic(path, |w| {
         writeln!(w, "{CSV_HEADER}")?;
-        let opt = |x: f64| if x.is_finite() { format!("{x:.9e}") } else { String::new() };
+        let opt = |x: f64| {
+            if x.is_finite() {
+                format!("{x:.9e}")
+            } else {
+                String::new()
+            }
+        };
         for r in rows {
             writeln!(
                 w,

@@ -13,7 +13,9 @@ use crate::io::load_mesh;
 use crate::material::{
     lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, VerondaWestmann,
 };
-use crate::mesh::generate::{box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern};
+use crate::mesh::generate::{
+    box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern,
+};
 use crate::mesh::{dot, norm, sub, ElementKind, Mesh};
 pub use run::{run, RunOptions, RunSummary, StopReason};
 pub use spec::ScenarioSpec;
@@ -84,7 +86,10 @@ fn positive(path: &Path, key: &str, v: f64) -> Result<f64> {
     if v > 0.0 && v.is_finite() {
         Ok(v)
     } else {
-        Err(err(path, format!("`{key}` = {v}: must be a positive number")))
+        Err(err(
+            path,
+            format!("`{key}` = {v}: must be a positive number"),
+        ))
     }
 }
 
@@ -98,7 +103,7 @@ impl Scenario {
     /// Parse and resolve scenario text; `path` names it in messages and anchors relative paths.
     pub fn from_toml(text: &str, path: &Path) -> Result<Scenario> {
         let spec: ScenarioSpec = toml::from_str(text).map_err(|e| {
-            let line = e.span().map(|s| text[..s.start].lines().count().max(1));
+            let line = e.span().map(|s| text[..s.start].matches('\n').count() + 1);
             Error::Scenario {
                 path: path.to_path_buf(),
                 line,
@@ -118,10 +123,21 @@ impl Scenario {
         });
         let (mesh, notes) = resolve_mesh(&spec.mesh, path, base)?;
         let material = resolve_material(&spec.material, mesh.kind, path)?;
-        let density = positive(path, "material.density", spec.material.density.unwrap_or(1000.0))?;
-        let thickness = positive(path, "material.thickness", spec.material.thickness.unwrap_or(1e-3))?;
+        let density = positive(
+            path,
+            "material.density",
+            spec.material.density.unwrap_or(1000.0),
+        )?;
+        let thickness = positive(
+            path,
+            "material.thickness",
+            spec.material.thickness.unwrap_or(1e-3),
+        )?;
         if mesh.kind == ElementKind::Tet4 && spec.material.thickness.is_some() {
-            return Err(err(path, "`material.thickness` applies to membranes only; this mesh is tetrahedral"));
+            return Err(err(
+                path,
+                "`material.thickness` applies to membranes only; this mesh is tetrahedral",
+            ));
         }
         let alpha = match (spec.damping.alpha, spec.damping.ratio, spec.damping.omega) {
             (Some(a), None, None) if a >= 0.0 && a.is_finite() => a,
@@ -167,22 +183,52 @@ impl Scenario {
                 .ok_or_else(|| err(path, format!("`integrator.method` = \"{m}\": valid are forward-euler, symplectic-euler, rk4, central-difference")))?,
         };
         let dt_crit = critical_step_estimate(&mesh, &material, density, method);
-        let safety = positive(path, "integrator.safety", spec.integrator.safety.unwrap_or(0.5))?;
+        let safety = positive(
+            path,
+            "integrator.safety",
+            spec.integrator.safety.unwrap_or(0.5),
+        )?;
         let dt = match spec.integrator.dt {
             Some(dt) => positive(path, "integrator.dt", dt)?,
             None => safety * dt_crit,
         };
-        let duration = spec.run.duration.map(|d| positive(path, "run.duration", d)).transpose()?;
+        let duration = spec
+            .run
+            .duration
+            .map(|d| positive(path, "run.duration", d))
+            .transpose()?;
         let stop = match spec.run.stop.as_deref().unwrap_or("duration") {
-            "duration" => StopRule::Duration(duration.ok_or_else(|| err(path, "[run]: `duration` (s) is required when stop = \"duration\""))?),
+            "duration" => StopRule::Duration(duration.ok_or_else(|| {
+                err(
+                    path,
+                    "[run]: `duration` (s) is required when stop = \"duration\"",
+                )
+            })?),
             "steady" => StopRule::Steady {
-                kinetic_tol: positive(path, "run.kinetic_tol", spec.run.kinetic_tol.unwrap_or(1e-8))?,
-                residual_tol: positive(path, "run.residual_tol", spec.run.residual_tol.unwrap_or(1e-4))?,
+                kinetic_tol: positive(
+                    path,
+                    "run.kinetic_tol",
+                    spec.run.kinetic_tol.unwrap_or(1e-8),
+                )?,
+                residual_tol: positive(
+                    path,
+                    "run.residual_tol",
+                    spec.run.residual_tol.unwrap_or(1e-4),
+                )?,
                 max: duration.unwrap_or(60.0),
             },
-            other => return Err(err(path, format!("`run.stop` = \"{other}\": valid are \"duration\", \"steady\""))),
+            other => {
+                return Err(err(
+                    path,
+                    format!("`run.stop` = \"{other}\": valid are \"duration\", \"steady\""),
+                ))
+            }
         };
-        let blowup_factor = positive(path, "run.blowup_factor", spec.run.blowup_factor.unwrap_or(1e3))?;
+        let blowup_factor = positive(
+            path,
+            "run.blowup_factor",
+            spec.run.blowup_factor.unwrap_or(1e3),
+        )?;
         let out_dir = spec
             .output
             .dir
@@ -191,11 +237,17 @@ impl Scenario {
             .unwrap_or_else(|| PathBuf::from("raisov-out").join(&name));
         let frame_interval = spec.output.frame_interval.unwrap_or(0.05);
         if !(frame_interval >= 0.0 && frame_interval.is_finite()) {
-            return Err(err(path, format!("`output.frame_interval` = {frame_interval}: must be >= 0 (s)")));
+            return Err(err(
+                path,
+                format!("`output.frame_interval` = {frame_interval}: must be >= 0 (s)"),
+            ));
         }
         let csv_every = spec.output.csv_every.unwrap_or(1);
         if csv_every == 0 {
-            return Err(err(path, "`output.csv_every` = 0: must be at least 1 (steps)"));
+            return Err(err(
+                path,
+                "`output.csv_every` = 0: must be at least 1 (steps)",
+            ));
         }
         let reference = match spec.output.reference.as_deref() {
             None | Some("none") => Reference::None,
@@ -250,7 +302,11 @@ impl Scenario {
     pub fn total_mass(&self) -> f64 {
         self.mesh.total_measure().abs()
             * self.density
-            * if self.mesh.kind == ElementKind::Tri3 { self.thickness } else { 1.0 }
+            * if self.mesh.kind == ElementKind::Tri3 {
+                self.thickness
+            } else {
+                1.0
+            }
     }
 }
 
@@ -285,7 +341,12 @@ pub fn build_system(
 /// Estimated critical time step: `bound / ω_max` with `ω_max ≈ 2 c / h_min`, `c` the
 /// small-strain P-wave speed and `h_min` the smallest element altitude. Large stretches
 /// stiffen hyperelastic laws, hence the safety factor on top.
-pub fn critical_step_estimate(mesh: &Mesh, material: &Material, density: f64, method: Method) -> f64 {
+pub fn critical_step_estimate(
+    mesh: &Mesh,
+    material: &Material,
+    density: f64,
+    method: Method,
+) -> f64 {
     let (_, p_mod) = material.wave_moduli();
     let c = (p_mod / density).sqrt();
     let h = min_altitude(mesh);
@@ -328,7 +389,7 @@ fn resolve_mesh(m: &spec::MeshSpec, path: &Path, base: &Path) -> Result<(Mesh, V
                 }
             }
             let p = base.join(f);
-            let loaded = load_mesh(&p)?;
+            let loaded = load_mesh(&p).map_err(|e| err(path, format!("[mesh] file = \"{f}\": {e}")))?;
             if !loaded.reoriented.is_empty() {
                 notes.push(format!("{}: reoriented {} inverted elements (first: {})", p.display(), loaded.reoriented.len(), loaded.reoriented[0]));
             }
@@ -381,12 +442,23 @@ fn resolve_mesh(m: &spec::MeshSpec, path: &Path, base: &Path) -> Result<(Mesh, V
 
 fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> Result<Material> {
     let need = |key: &str, v: Option<f64>| -> Result<f64> {
-        v.ok_or_else(|| err(path, format!("[material]: law = \"{}\" needs `{key}`", m.law)))
+        v.ok_or_else(|| {
+            err(
+                path,
+                format!("[material]: law = \"{}\" needs `{key}`", m.law),
+            )
+        })
     };
     let forbid = |keys: &[(&str, bool)]| -> Result<()> {
         for (k, set) in keys {
             if *set {
-                return Err(err(path, format!("[material]: `{k}` is not a parameter of law = \"{}\"", m.law)));
+                return Err(err(
+                    path,
+                    format!(
+                        "[material]: `{k}` is not a parameter of law = \"{}\"",
+                        m.law
+                    ),
+                ));
             }
         }
         Ok(())
@@ -402,7 +474,10 @@ fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> R
         let e = positive(path, "material.young", need("young", m.young)?)?;
         let nu = need("poisson", m.poisson)?;
         if !(-1.0 < nu && nu < 0.5) {
-            return Err(err(path, format!("`material.poisson` = {nu}: must be in (-1, 0.5)")));
+            return Err(err(
+                path,
+                format!("`material.poisson` = {nu}: must be in (-1, 0.5)"),
+            ));
         }
         Ok((e, nu))
     };
@@ -440,25 +515,55 @@ fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> R
 }
 
 fn resolve_motion(d: &spec::DisplaceSpec, path: &Path, key: &str) -> Result<Motion> {
-    let mode = d.mode.as_deref().unwrap_or(if d.table.is_some() { "table" } else { "held" });
-    let disp = || d.displacement.ok_or_else(|| err(path, format!("{key}: mode = \"{mode}\" needs `displacement` = [dx, dy, dz] (m)")));
+    let mode = d
+        .mode
+        .as_deref()
+        .unwrap_or(if d.table.is_some() { "table" } else { "held" });
+    let disp = || {
+        d.displacement.ok_or_else(|| {
+            err(
+                path,
+                format!("{key}: mode = \"{mode}\" needs `displacement` = [dx, dy, dz] (m)"),
+            )
+        })
+    };
     Ok(match mode {
         "held" => Motion::Held { d: disp()? },
         "ramp" => Motion::Ramp {
             d: disp()?,
-            duration: positive(path, &format!("{key}.duration"), d.duration.ok_or_else(|| err(path, format!("{key}: mode = \"ramp\" needs `duration` (s)")))?)?,
+            duration: positive(
+                path,
+                &format!("{key}.duration"),
+                d.duration.ok_or_else(|| {
+                    err(path, format!("{key}: mode = \"ramp\" needs `duration` (s)"))
+                })?,
+            )?,
         },
         "table" => {
-            let t = d.table.as_ref().ok_or_else(|| err(path, format!("{key}: mode = \"table\" needs `table` = [[t, dx, dy, dz], ...]")))?;
+            let t = d.table.as_ref().ok_or_else(|| {
+                err(
+                    path,
+                    format!("{key}: mode = \"table\" needs `table` = [[t, dx, dy, dz], ...]"),
+                )
+            })?;
             if t.is_empty() {
                 return Err(err(path, format!("{key}.table is empty")));
             }
             if d.displacement.is_some() {
-                return Err(err(path, format!("{key}: give `table` or `displacement`, not both")));
+                return Err(err(
+                    path,
+                    format!("{key}: give `table` or `displacement`, not both"),
+                ));
             }
             for w in t.windows(2) {
                 if !(w[1][0] > w[0][0]) {
-                    return Err(err(path, format!("{key}.table: times must increase strictly ({} then {})", w[0][0], w[1][0])));
+                    return Err(err(
+                        path,
+                        format!(
+                            "{key}.table: times must increase strictly ({} then {})",
+                            w[0][0], w[1][0]
+                        ),
+                    ));
                 }
             }
             Motion::Table {
@@ -466,7 +571,12 @@ fn resolve_motion(d: &spec::DisplaceSpec, path: &Path, key: &str) -> Result<Moti
                 values: t.iter().map(|r| [r[1], r[2], r[3]]).collect(),
             }
         }
-        other => return Err(err(path, format!("{key}: mode = \"{other}\": valid are \"held\", \"ramp\", \"table\""))),
+        other => {
+            return Err(err(
+                path,
+                format!("{key}: mode = \"{other}\": valid are \"held\", \"ramp\", \"table\""),
+            ))
+        }
     })
 }
 
@@ -491,7 +601,10 @@ pub fn select(mesh: &Mesh, r: &spec::RegionSpec, path: &Path, key: &str) -> Resu
     let all = 0..mesh.num_nodes() as u32;
     let sel: Vec<u32> = if let Some(b) = r.boundary {
         if !b {
-            return Err(err(path, format!("{key}: `boundary = false` selects nothing; remove the entry")));
+            return Err(err(
+                path,
+                format!("{key}: `boundary = false` selects nothing; remove the entry"),
+            ));
         }
         mesh.boundary_nodes()
     } else if let Some(b) = &r.aabb {
@@ -510,15 +623,33 @@ pub fn select(mesh: &Mesh, r: &spec::RegionSpec, path: &Path, key: &str) -> Resu
     } else if let Some(g) = &r.group {
         mesh.groups.get(g).cloned().ok_or_else(|| {
             let names: Vec<&str> = mesh.groups.keys().map(|s| s.as_str()).collect();
-            err(path, format!("{key}: no group \"{g}\" in the mesh (groups: {})", if names.is_empty() { "none".to_string() } else { names.join(", ") }))
+            err(
+                path,
+                format!(
+                    "{key}: no group \"{g}\" in the mesh (groups: {})",
+                    if names.is_empty() {
+                        "none".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                ),
+            )
         })?
     } else if let Some(ns) = &r.nodes {
         if let Some(&bad) = ns.iter().find(|&&a| a as usize >= mesh.num_nodes()) {
-            return Err(err(path, format!("{key}.nodes: node {bad} does not exist (valid: 0..{})", mesh.num_nodes() - 1)));
+            return Err(err(
+                path,
+                format!(
+                    "{key}.nodes: node {bad} does not exist (valid: 0..{})",
+                    mesh.num_nodes() - 1
+                ),
+            ));
         }
         ns.clone()
     } else if let Some(p) = r.point {
-        vec![mesh.nearest_node(p).ok_or_else(|| err(path, "the mesh has no nodes"))? as u32]
+        vec![mesh
+            .nearest_node(p)
+            .ok_or_else(|| err(path, "the mesh has no nodes"))? as u32]
     } else {
         unreachable!("exactly one selector is set")
     };

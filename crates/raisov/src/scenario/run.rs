@@ -73,11 +73,23 @@ pub struct RunSummary {
 impl std::fmt::Display for RunSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "scenario        {}", self.name)?;
-        writeln!(f, "mesh            {} nodes, {} elements", self.nodes, self.elements)?;
+        writeln!(
+            f,
+            "mesh            {} nodes, {} elements",
+            self.nodes, self.elements
+        )?;
         writeln!(f, "integration     {}", self.stepper)?;
-        writeln!(f, "stopped         {} at t = {:.6} s", self.reason, self.simulated)?;
+        writeln!(
+            f,
+            "stopped         {} at t = {:.6} s",
+            self.reason, self.simulated
+        )?;
         writeln!(f, "steps           {}", self.steps)?;
-        writeln!(f, "force evals     {:.0} (finest-level units)", self.force_evaluations)?;
+        writeln!(
+            f,
+            "force evals     {:.0} (finest-level units)",
+            self.force_evaluations
+        )?;
         writeln!(f, "wall time       {:.3} s", self.wall)?;
         writeln!(f, "steps/s         {:.1}", self.steps_per_second)?;
         writeln!(f, "kinetic energy  {:.4e} J", self.last.kinetic)?;
@@ -148,7 +160,11 @@ impl Scenario {
             r.residual,
             r.residual / r.initial_residual.max(f64::MIN_POSITIVE),
             r.steps,
-            if r.converged { "" } else { " (NOT converged to 1e-10)" }
+            if r.converged {
+                ""
+            } else {
+                " (NOT converged to 1e-10)"
+            }
         );
         Ok((t, note))
     }
@@ -170,19 +186,37 @@ pub fn read_nodal_stress(path: &Path, n: usize) -> Result<Vec<f64>> {
         }
         let f: Vec<&str> = line.split(',').collect();
         if f.len() != 16 {
-            return Err(bad(i + 1, format!("expected 16 columns (node, x, y, z, ux, uy, uz, T00..T22), found {}", f.len())));
+            return Err(bad(
+                i + 1,
+                format!(
+                    "expected 16 columns (node, x, y, z, ux, uy, uz, T00..T22), found {}",
+                    f.len()
+                ),
+            ));
         }
-        let a: usize = f[0].trim().parse().map_err(|_| bad(i + 1, format!("bad node id `{}`", f[0])))?;
+        let a: usize = f[0]
+            .trim()
+            .parse()
+            .map_err(|_| bad(i + 1, format!("bad node id `{}`", f[0])))?;
         if a >= n {
-            return Err(bad(i + 1, format!("node {a} does not exist in this mesh of {n} nodes")));
+            return Err(bad(
+                i + 1,
+                format!("node {a} does not exist in this mesh of {n} nodes"),
+            ));
         }
         for k in 0..9 {
-            t[9 * a + k] = f[7 + k].trim().parse().map_err(|_| bad(i + 1, format!("bad number `{}`", f[7 + k])))?;
+            t[9 * a + k] = f[7 + k]
+                .trim()
+                .parse()
+                .map_err(|_| bad(i + 1, format!("bad number `{}`", f[7 + k])))?;
         }
         rows += 1;
     }
     if rows != n {
-        return Err(bad(text.lines().count(), format!("has {rows} nodes, this mesh has {n}")));
+        return Err(bad(
+            text.lines().count(),
+            format!("has {rows} nodes, this mesh has {n}"),
+        ));
     }
     Ok(t)
 }
@@ -191,7 +225,16 @@ fn write_nodal_stress(path: &Path, x0: &[[f64; 3]], u: &[f64], t: &[f64]) -> Res
     write_atomic(path, |w| {
         writeln!(w, "node,x,y,z,ux,uy,uz,T00,T01,T02,T10,T11,T12,T20,T21,T22")?;
         for (a, p) in x0.iter().enumerate() {
-            write!(w, "{a},{:e},{:e},{:e},{:e},{:e},{:e}", p[0], p[1], p[2], u[3 * a], u[3 * a + 1], u[3 * a + 2])?;
+            write!(
+                w,
+                "{a},{:e},{:e},{:e},{:e},{:e},{:e}",
+                p[0],
+                p[1],
+                p[2],
+                u[3 * a],
+                u[3 * a + 1],
+                u[3 * a + 2]
+            )?;
             for k in 0..9 {
                 write!(w, ",{:e}", t[9 * a + k])?;
             }
@@ -227,7 +270,11 @@ impl Frames {
     fn write(&mut self, sc: &Scenario, stepper: &mut dyn Stepper) -> Result<()> {
         let (sys, s) = stepper.finest();
         for (a, p) in sc.mesh.nodes.iter().enumerate() {
-            self.positions[a] = [p[0] + s.u[3 * a], p[1] + s.u[3 * a + 1], p[2] + s.u[3 * a + 2]];
+            self.positions[a] = [
+                p[0] + s.u[3 * a],
+                p[1] + s.u[3 * a + 1],
+                p[2] + s.u[3 * a + 2],
+            ];
         }
         sys.force.nodal_stress(&s.u, &mut self.stress);
         let file = format!("{}_{:06}.vtu", self.name, self.count);
@@ -236,9 +283,18 @@ impl Frames {
             &sc.mesh,
             &self.positions,
             &[
-                Field { name: "displacement", data: FieldData::Vector(&s.u) },
-                Field { name: "velocity", data: FieldData::Vector(&s.v) },
-                Field { name: "stress", data: FieldData::Tensor(&self.stress) },
+                Field {
+                    name: "displacement",
+                    data: FieldData::Vector(&s.u),
+                },
+                Field {
+                    name: "velocity",
+                    data: FieldData::Vector(&s.v),
+                },
+                Field {
+                    name: "stress",
+                    data: FieldData::Tensor(&self.stress),
+                },
             ],
             &[],
         )?;
@@ -256,7 +312,11 @@ pub fn run(sc: &Scenario, opts: RunOptions) -> Result<RunSummary> {
 
 /// Run a scenario with a given stepper (single level or multigrid) whose finest level is the
 /// scenario's mesh.
-pub fn run_with(sc: &Scenario, stepper: &mut dyn Stepper, mut opts: RunOptions) -> Result<RunSummary> {
+pub fn run_with(
+    sc: &Scenario,
+    stepper: &mut dyn Stepper,
+    mut opts: RunOptions,
+) -> Result<RunSummary> {
     let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
     std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
     let n = sc.mesh.num_nodes();
@@ -266,7 +326,10 @@ pub fn run_with(sc: &Scenario, stepper: &mut dyn Stepper, mut opts: RunOptions) 
             let (t, note) = sc.steady_reference()?;
             (Some(t), Some(note))
         }
-        Reference::File(p) => (Some(read_nodal_stress(p, n)?), Some(format!("T_inf from {}", p.display()))),
+        Reference::File(p) => (
+            Some(read_nodal_stress(p, n)?),
+            Some(format!("T_inf from {}", p.display())),
+        ),
     };
     let mut meter = Meter::new(n, t_inf);
     let mut frames = Frames::new(&out, &sc.name, n)?;
@@ -275,7 +338,11 @@ pub fn run_with(sc: &Scenario, stepper: &mut dyn Stepper, mut opts: RunOptions) 
     let dt = stepper.dt();
     let (t_end, steady) = match sc.stop {
         StopRule::Duration(d) => (d, None),
-        StopRule::Steady { kinetic_tol, residual_tol, max } => (max, Some((kinetic_tol, residual_tol))),
+        StopRule::Steady {
+            kinetic_tol,
+            residual_tol,
+            max,
+        } => (max, Some((kinetic_tol, residual_tol))),
     };
     let total_steps = (t_end / dt).ceil() as u64;
     let frame_every = if sc.frame_interval > 0.0 {
@@ -283,7 +350,7 @@ pub fn run_with(sc: &Scenario, stepper: &mut dyn Stepper, mut opts: RunOptions) 
     } else {
         u64::MAX
     };
-    let mut sample = |stepper: &mut dyn Stepper, meter: &mut Meter| {
+    let sample = |stepper: &mut dyn Stepper, meter: &mut Meter| {
         let steps = stepper.steps();
         let evals = stepper.force_evaluations();
         let (sys, s) = stepper.finest();
@@ -313,7 +380,10 @@ pub fn run_with(sc: &Scenario, stepper: &mut dyn Stepper, mut opts: RunOptions) 
                 p(k as f64 / total_steps as f64, &row);
             }
             if let Some((kt, rt)) = steady {
-                if row.kinetic <= kt * ke_peak && row.residual <= rt * res_peak && row.time >= sc.motion_end() {
+                if row.kinetic <= kt * ke_peak
+                    && row.residual <= rt * res_peak
+                    && row.time >= sc.motion_end()
+                {
                     reason = StopReason::Steady;
                     if k % frame_every != 0 {
                         frames.write(sc, stepper)?;

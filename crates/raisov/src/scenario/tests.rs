@@ -29,7 +29,10 @@ fn parse(text: &str) -> Result<Scenario> {
 fn error_of(text: &str) -> String {
     let e = parse(text).expect_err("should fail");
     let s = e.to_string();
-    assert!(s.starts_with("test.toml"), "error does not name the file: {s}");
+    assert!(
+        s.starts_with("test.toml"),
+        "error does not name the file: {s}"
+    );
     s
 }
 
@@ -56,7 +59,7 @@ fn every_error_path_names_the_problem() {
         (BASE.replace("c2 = 1000.0", "c2 = 1000.0\nkappa = 3.0"), "`kappa` is not used by membranes"),
         (BASE.replace("size = [0.1, 0.1]", "size = [0.1, -0.1]"), "need 2 positive lengths"),
         (BASE.replace("generate = \"rectangle\"", "generate = \"sphere\""), "valid are \"rectangle\""),
-        (BASE.replace("generate = \"rectangle\"", "file = \"missing.msh\""), "missing.msh"),
+        (BASE.replace("generate = \"rectangle\"\nsize = [0.1, 0.1]\nnodes = 60", "file = \"missing.msh\""), "missing.msh"),
         (BASE.replace("duration = 0.01", "duration = -1.0"), "must be a positive number"),
         (BASE.replace("duration = 0.01", ""), "`duration` (s) is required"),
         (BASE.replace("duration = 0.01", "duration = 1.0\nstop = \"never\""), "valid are \"duration\", \"steady\""),
@@ -94,7 +97,12 @@ fn unknown_key_error_gives_the_line() {
 #[test]
 fn the_builtin_and_example_scenarios_resolve() {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
-    for f in ["membrane_lift.toml", "membrane_drape.toml", "cantilever.toml", "liver_grasp.toml"] {
+    for f in [
+        "membrane_lift.toml",
+        "membrane_drape.toml",
+        "cantilever.toml",
+        "liver_grasp.toml",
+    ] {
         let p = Path::new(dir).join(f);
         let sc = Scenario::load(&p).unwrap_or_else(|e| panic!("{f}: {e}"));
         assert!(sc.dt > 0.0 && sc.mesh.num_nodes() > 100, "{f}");
@@ -109,10 +117,18 @@ fn draping_membrane_settles() {
         "[run]\nduration = 0.01",
         "[run]\nstop = \"steady\"\nduration = 3.0\nkinetic_tol = 1e-10\nresidual_tol = 1e-6",
     );
-    let text = format!("gravity = [0.0, 0.0, -9.81]\n{body}\n[damping]\nratio = 1.0\nomega = 177.7\n");
+    let text =
+        format!("gravity = [0.0, 0.0, -9.81]\n{body}\n[damping]\nratio = 1.0\nomega = 177.7\n");
     let sc = parse(&text).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let sum = run(&sc, RunOptions { out_dir: Some(dir.path().to_path_buf()), progress: None }).unwrap();
+    let sum = run(
+        &sc,
+        RunOptions {
+            out_dir: Some(dir.path().to_path_buf()),
+            progress: None,
+        },
+    )
+    .unwrap();
     assert_eq!(sum.reason, StopReason::Steady, "{sum}");
     let sag = sum.last.max_u;
     // Membrane theory for this material: a sag of order 2 cm (see examples/membrane_drape.toml).
@@ -131,10 +147,23 @@ fn diverging_run_stops_and_says_where() {
     let text = text.replace("duration = 0.01", "duration = 5.0");
     let sc = parse(&text).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let e = run(&sc, RunOptions { out_dir: Some(dir.path().to_path_buf()), progress: None }).unwrap_err();
+    let e = run(
+        &sc,
+        RunOptions {
+            out_dir: Some(dir.path().to_path_buf()),
+            progress: None,
+        },
+    )
+    .unwrap_err();
     let msg = e.to_string();
     assert!(matches!(e, Error::Diverged(_)), "{msg}");
-    assert!(msg.contains("diverged at t = ") && msg.contains("step"), "{msg}");
+    assert!(
+        msg.contains("diverged at t = ") && msg.contains("step"),
+        "{msg}"
+    );
     let csv = std::fs::read_to_string(dir.path().join("measures.csv")).unwrap();
-    assert!(!csv.contains("NaN") && !csv.contains("inf"), "non-finite values written");
+    assert!(
+        !csv.contains("NaN") && !csv.contains("inf"),
+        "non-finite values written"
+    );
 }

@@ -1,0 +1,555 @@
+//! VTK legacy files (`.vtk`) holding an `UNSTRUCTURED_GRID`.
+//!
+//! ASCII files are read here (versions up to 5.1, including the 5.1 `CELLS` layout with
+//! `OFFSETS` and `CONNECTIVITY`), so errors carry line numbers; binary files are read with
+//! `vtkio`. Sections read: `POINTS`, `CELLS`, `CELL_TYPES` (`FIELD` blocks are skipped);
+//! reading stops at `POINT_DATA`, `CELL_DATA` or `METADATA`.
+//!
+//! Cell types: 5 (triangle) and 10 (tetrahedron) are the mesh elements; 22 (quadratic
+//! triangle) and 24 (quadratic tetrahedron) are read as their corners. Cells of lower
+//! dimension than the mesh are ignored (legacy VTK has no named groups, so the mesh has no
+//! groups); unsupported cells of the mesh dimension (hexahedra, quads...) are an error.
+//! Point ids are 0-based and the file ids reported in messages are those 0-based ids.
+
+use std::path::Path;
+
+use super::text::{format_err, format_err_noline, show, Tokens};
+use super::{finish, read_bytes, LoadedMesh, RawMesh};
+use crate::{Error, Result};
+
+/// Dimension and name of a VTK cell type.
+fn vtk_cell(t: i64) -> (Option<u8>, &'static str) {
+    match t {
+        1 => (Some(0), "vertex"),
+        2 => (Some(0), "poly-vertex"),
+        3 => (Some(1), "line"),
+        4 => (Some(1), "poly-line"),
+        5 => (Some(2), "triangle"),
+        6 => (Some(2), "triangle strip"),
+        7 => (Some(2), "polygon"),
+        8 => (Some(2), "pixel"),
+        9 => (Some(2), "quad"),
+        10 => (Some(3), "tetrahedron"),
+        11 => (Some(3), "voxel"),
+        12 => (Some(3), "hexahedron"),
+        13 => (Some(3), "wedge"),
+        14 => (Some(3), "pyramid"),
+        15 => (Some(3), "pentagonal prism"),
+        16 => (Some(3), "hexagonal prism"),
+        21 => (Some(1), "quadratic edge"),
+        22 => (Some(2), "quadratic triangle"),
+        23 => (Some(2), "quadratic quad"),
+        24 => (Some(3), "quadratic tetrahedron"),
+        25 => (Some(3), "quadratic hexahedron"),
+        26 => (Some(3), "quadratic wedge"),
+        27 => (Some(3), "quadratic pyramid"),
+        _ => (None, "unknown"),
+    }
+}
+
+/// The parsed pieces of an unstructured grid, before checks.
+struct Grid {
+    points: Vec<f64>,
+    conn: Vec<u64>,
+    /// `ncells + 1` offsets into `conn`.
+    offsets: Vec<usize>,
+    types: Vec<i64>,
+    /// Line of each cell (ASCII only) and of each cell type.
+    cell_lines: Option<Vec<usize>>,
+    type_lines: Option<Vec<usize>>,
+}
+
+/// Read a legacy `.vtk` unstructured grid (ASCII or binary).
+pub fn read_vtk(path: &Path) -> Result<LoadedMesh> {
+    let bytes = read_bytes(path)?;
+    // The first three lines: magic, title, encoding.
+    let mut lines = bytes.split(|&c| c == b'\n');
+    let l1 = String::from_utf8_lossy(lines.next().unwrap_or(b""));
+    if !l1
+        .trim()
+        .to_ascii_lowercase()
+        .starts_with("# vtk datafile version")
+    {
+        return Err(format_err(
+            path,
+            1,
+            format!(
+                "expected `# vtk DataFile Version x.x`, found {}",
+                show(l1.trim())
+            ),
+        ));
+    }
+    let _title = lines.next();
+    let l3 = lines
+        .next()
+        .map(|l| String::from_utf8_lossy(l).trim().to_ascii_uppercase());
+    match l3.as_deref() {
+        Some("ASCII") => {
+            let text = String::from_utf8_lossy(&bytes);
+            let grid = parse_ascii(path, &text)?;
+            finish(build(path, grid)?, path, "vtk legacy ascii")
+        }
+        Some("BINARY") => {
+            let grid = parse_binary(path, &bytes)?;
+            finish(build(path, grid)?, path, "vtk legacy binary")
+        }
+        other => Err(format_err(
+            path,
+            3,
+            format!(
+                "expected `ASCII` or `BINARY`, found {}",
+                show(other.unwrap_or("end of file"))
+            ),
+        )),
+    }
+}
+
+fn parse_ascii(path: &Path, text: &str) -> Result<Grid> {
+    let mut tk = Tokens::new(path, text, 3);
+    let mut points: Option<Vec<f64>> = None;
+    let mut cells: Option<(Vec<u64>, Vec<usize>, Vec<usize>)> = None;
+    let mut types: Option<(Vec<i64>, Vec<usize>)> = None;
+    let mut have_dataset = false;
+    while let Some(kw) = tk.next_opt() {
+        match kw.to_ascii_uppercase().as_str() {
+            "DATASET" => {
+                let t = tk.next("a dataset type")?;
+                if !t.eq_ignore_ascii_case("UNSTRUCTURED_GRID") {
+                    return Err(tk.err(format!(
+                        "only `DATASET UNSTRUCTURED_GRID` is supported, found {}",
+                        show(t)
+                    )));
+                }
+                have_dataset = true;
+            }
+            "FIELD" => {
+                tk.next("a field name")?;
+                let n: usize = tk.parse("the number of field arrays")?;
+                for _ in 0..n {
+                    tk.next("an array name")?;
+                    let nc: usize = tk.parse("the number of components")?;
+                    let nt: usize = tk.parse("the number of tuples")?;
+                    tk.next("a data type")?;
+                    for _ in 0..nc.saturating_mul(nt) {
+                        tk.next("a field value")?;
+                    }
+                }
+            }
+            "POINTS" => {
+                if !have_dataset {
+                    return Err(tk.err("`POINTS` before `DATASET UNSTRUCTURED_GRID`"));
+                }
+                let n: usize = tk.parse("the number of points")?;
+                tk.next("the point data type")?;
+                let mut p = Vec::with_capacity(n.saturating_mul(3).min(1 << 28));
+                for i in 0..n {
+                    for c in ["x", "y", "z"] {
+                        p.push(tk.f64(&format!("{c} of point {i}"))?);
+                    }
+                }
+                points = Some(p);
+            }
+            "CELLS" => {
+                let a: usize = tk.parse("the number of cells")?;
+                let b: usize = tk.parse("the cell list size")?;
+                let mut conn = Vec::new();
+                let mut offsets = vec![0usize];
+                let mut lines = Vec::new();
+                let first = tk.next("the cell list")?;
+                if first.eq_ignore_ascii_case("OFFSETS") {
+                    // VTK 5.1: `CELLS nOffsets nConnectivity`.
+                    tk.next("the offsets data type")?;
+                    let mut offs = Vec::with_capacity(a.min(1 << 28));
+                    for _ in 0..a {
+                        offs.push(tk.parse::<usize>("an offset")?);
+                    }
+                    let kw = tk.next("`CONNECTIVITY`")?;
+                    if !kw.eq_ignore_ascii_case("CONNECTIVITY") {
+                        return Err(tk.err(format!("expected `CONNECTIVITY`, found {}", show(kw))));
+                    }
+                    tk.next("the connectivity data type")?;
+                    if offs.first() != Some(&0) || offs.last() != Some(&b) {
+                        return Err(tk.err(format!(
+                            "offsets must start at 0 and end at {b} (the connectivity size)"
+                        )));
+                    }
+                    let mut cell = 0;
+                    for k in 0..b {
+                        let v: u64 = tk.parse("a point id")?;
+                        while cell + 1 < offs.len() && offs[cell] == k {
+                            lines.push(tk.line);
+                            cell += 1;
+                        }
+                        conn.push(v);
+                    }
+                    if offs.windows(2).any(|w| w[1] < w[0]) {
+                        return Err(tk.err("offsets must not decrease"));
+                    }
+                    while lines.len() + 1 < offs.len() {
+                        lines.push(tk.line);
+                    }
+                    offsets = offs;
+                } else {
+                    let mut tok = Some(first);
+                    let mut used = 0usize;
+                    for i in 0..a {
+                        let t = match tok.take() {
+                            Some(t) => t,
+                            None => tk.next(&format!("the size of cell {i}"))?,
+                        };
+                        let k: usize = super::text::parse_tok(
+                            path,
+                            tk.line,
+                            t,
+                            &format!("the size of cell {i}"),
+                        )?;
+                        lines.push(tk.line);
+                        for _ in 0..k {
+                            conn.push(tk.parse("a point id")?);
+                        }
+                        used += 1 + k;
+                        offsets.push(conn.len());
+                    }
+                    if used != b {
+                        return Err(tk.err(format!(
+                            "`CELLS {a} {b}` announces {b} numbers but the cells hold {used}"
+                        )));
+                    }
+                }
+                cells = Some((conn, offsets, lines));
+            }
+            "CELL_TYPES" => {
+                let n: usize = tk.parse("the number of cell types")?;
+                let mut t = Vec::with_capacity(n.min(1 << 28));
+                let mut l = Vec::with_capacity(n.min(1 << 28));
+                for _ in 0..n {
+                    t.push(tk.parse::<i64>("a cell type")?);
+                    l.push(tk.line);
+                }
+                types = Some((t, l));
+            }
+            "POINT_DATA" | "CELL_DATA" | "METADATA" => break,
+            _ => {
+                return Err(tk.err(format!(
+                    "expected `DATASET`, `POINTS`, `CELLS`, `CELL_TYPES`, `POINT_DATA` or \
+                     `CELL_DATA`, found {}",
+                    show(kw)
+                )))
+            }
+        }
+    }
+    let missing = |what: &str| format_err_noline(path, format!("no `{what}` section"));
+    let points = points.ok_or_else(|| missing("POINTS"))?;
+    let (conn, offsets, cell_lines) = cells.ok_or_else(|| missing("CELLS"))?;
+    let (types, type_lines) = types.ok_or_else(|| missing("CELL_TYPES"))?;
+    Ok(Grid {
+        points,
+        conn,
+        offsets,
+        types,
+        cell_lines: Some(cell_lines),
+        type_lines: Some(type_lines),
+    })
+}
+
+fn parse_binary(path: &Path, bytes: &[u8]) -> Result<Grid> {
+    use vtkio::model::{DataSet, Piece, VertexNumbers};
+    let fail = |msg: String| format_err_noline(path, msg);
+    let vtk = vtkio::Vtk::parse_legacy_be(bytes)
+        .map_err(|e| fail(format!("cannot parse binary legacy VTK: {e}")))?;
+    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+        return Err(fail("only `DATASET UNSTRUCTURED_GRID` is supported".into()));
+    };
+    let Some(Piece::Inline(piece)) = pieces.into_iter().next() else {
+        return Err(fail("no unstructured grid data in the file".into()));
+    };
+    let points = piece
+        .points
+        .cast_into::<f64>()
+        .ok_or_else(|| fail("unsupported point data type".into()))?;
+    if let Some(i) = points.iter().position(|v| !v.is_finite()) {
+        return Err(fail(format!(
+            "point {} has a non-finite coordinate {}",
+            i / 3,
+            points[i]
+        )));
+    }
+    let (conn, offsets) = match piece.cells.cell_verts {
+        VertexNumbers::Legacy {
+            num_cells,
+            vertices,
+        } => {
+            let mut conn = Vec::new();
+            let mut offsets = vec![0usize];
+            let mut i = 0usize;
+            for c in 0..num_cells {
+                let k = *vertices
+                    .get(i)
+                    .ok_or_else(|| fail(format!("cell list ends before cell {c}")))?
+                    as usize;
+                let ids = vertices
+                    .get(i + 1..i + 1 + k)
+                    .ok_or_else(|| fail(format!("cell list ends inside cell {c}")))?;
+                conn.extend(ids.iter().map(|&v| v as u64));
+                offsets.push(conn.len());
+                i += 1 + k;
+            }
+            (conn, offsets)
+        }
+        VertexNumbers::XML {
+            connectivity,
+            offsets,
+        } => {
+            let mut o = vec![0usize];
+            o.extend(offsets.iter().map(|&v| v as usize));
+            (connectivity, o)
+        }
+    };
+    let types = piece.cells.types.iter().map(|&t| t as i64).collect();
+    Ok(Grid {
+        points,
+        conn,
+        offsets,
+        types,
+        cell_lines: None,
+        type_lines: None,
+    })
+}
+
+/// Checks and conversion of a parsed grid.
+fn build(path: &Path, g: Grid) -> Result<RawMesh> {
+    let at = |lines: &Option<Vec<usize>>, i: usize, msg: String| -> Error {
+        match lines.as_ref().and_then(|l| l.get(i)) {
+            Some(&l) => format_err(path, l, msg),
+            None => format_err_noline(path, msg),
+        }
+    };
+    let ncells = g.offsets.len() - 1;
+    if g.types.len() != ncells {
+        return Err(at(
+            &g.type_lines,
+            0,
+            format!(
+                "`CELL_TYPES` has {} entries but `CELLS` has {ncells} cells",
+                g.types.len()
+            ),
+        ));
+    }
+    let np = g.points.len() / 3;
+    let mut raw = RawMesh::default();
+    for (i, p) in g.points.chunks_exact(3).enumerate() {
+        raw.push_node(i as u64, [p[0], p[1], p[2]]);
+    }
+    let mut max_dim = 0u8;
+    let mut unsupported: [Option<Error>; 4] = Default::default();
+    for c in 0..ncells {
+        let ids = &g.conn[g.offsets[c]..g.offsets[c + 1]];
+        let t = g.types[c];
+        if let Some(&bad) = ids.iter().find(|&&v| v as usize >= np) {
+            return Err(at(
+                &g.cell_lines,
+                c,
+                format!("cell {c} refers to point {bad}, but there are {np} points (0-based)"),
+            ));
+        }
+        let (dim, name) = vtk_cell(t);
+        let Some(dim) = dim else {
+            return Err(at(
+                &g.type_lines,
+                c,
+                format!("unknown cell type {t} (cell {c})"),
+            ));
+        };
+        max_dim = max_dim.max(dim);
+        let need = match t {
+            5 => Some(3),
+            22 => Some(6),
+            10 => Some(4),
+            24 => Some(10),
+            _ => None,
+        };
+        match need {
+            Some(k) if ids.len() != k => {
+                return Err(at(
+                    &g.cell_lines,
+                    c,
+                    format!(
+                        "expected {k} point ids for cell type {t} ({name}), found {}",
+                        ids.len()
+                    ),
+                ))
+            }
+            Some(_) if dim == 3 => {
+                raw.tets.extend(ids[..4].iter().map(|&v| v as u32));
+                raw.tet_ids.push(c as u64);
+            }
+            Some(_) => {
+                raw.tris.extend(ids[..3].iter().map(|&v| v as u32));
+                raw.tri_ids.push(c as u64);
+            }
+            None => {
+                let slot = &mut unsupported[dim as usize];
+                if slot.is_none() {
+                    *slot = Some(at(
+                        &g.type_lines,
+                        c,
+                        format!(
+                            "cell {c} has type {t} ({name}), which raisov cannot simulate; \
+                             supported: 5 (triangle), 10 (tetrahedron), 22 and 24 (read as \
+                             their corners)"
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    if max_dim >= 2 {
+        if let Some(e) = unsupported[max_dim as usize].take() {
+            return Err(e);
+        }
+    }
+    Ok(raw)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::io::load_mesh;
+    use crate::mesh::ElementKind;
+    use crate::Error;
+
+    const TET: &str = "# vtk DataFile Version 3.0
+two tets
+ASCII
+DATASET UNSTRUCTURED_GRID
+FIELD FieldData 1
+TIME 1 1 double
+0.5
+POINTS 6 double
+0 0 0  1 0 0  0 1 0
+0 0 1
+1 1 1
+7 7 7
+CELLS 4 16
+4 0 1 2 3
+4 1 2 4 3
+3 0 1 2
+1 5
+CELL_TYPES 4
+10
+10
+5
+1
+POINT_DATA 6
+SCALARS s double 1
+LOOKUP_TABLE default
+0 0 0 0 0 0
+";
+
+    #[test]
+    fn ascii_tets_lower_dim_ignored() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.vtk");
+        std::fs::write(&p, TET).unwrap();
+        let l = load_mesh(&p).unwrap();
+        assert_eq!(l.format, "vtk legacy ascii");
+        assert_eq!(l.mesh.kind, ElementKind::Tet4);
+        assert_eq!(l.mesh.num_elements(), 2);
+        assert_eq!(l.unused_nodes_dropped, 1);
+        assert_eq!(l.reoriented, vec![1]);
+        assert!(l.mesh.groups.is_empty());
+    }
+
+    #[test]
+    fn ascii_v51_triangles() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.vtk");
+        std::fs::write(
+            &p,
+            "# vtk DataFile Version 5.1\ntri\nASCII\nDATASET UNSTRUCTURED_GRID\n\
+             POINTS 4 float\n0 0 0 1 0 0 1 1 0 0 1 0\n\
+             CELLS 3 6\nOFFSETS vtktypeint64\n0 3 6\nCONNECTIVITY vtktypeint64\n0 1 2\n0 2 3\n\
+             CELL_TYPES 2\n5 5\n",
+        )
+        .unwrap();
+        let l = load_mesh(&p).unwrap();
+        assert_eq!(l.mesh.kind, ElementKind::Tri3);
+        assert_eq!(l.mesh.cells, vec![0, 1, 2, 0, 2, 3]);
+        assert!((l.mesh.total_measure() - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn ascii_errors_name_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let cases: &[(&str, &str, usize, &str)] = &[
+            ("4 1 2 4 3\n", "4 1 2 9 3\n", 15, "refers to point 9"),
+            (
+                "CELLS 4 16\n4 0 1 2 3\n4 1 2 4 3\n",
+                "CELLS 4 15\n4 0 1 2 3\n3 1 2 4\n",
+                15,
+                "expected 4 point ids for cell type 10",
+            ),
+            (
+                "0 0 1\n",
+                "0 zero 1\n",
+                10,
+                "expected y of point 3, found `zero`",
+            ),
+            (
+                "CELL_TYPES 4\n10\n10\n",
+                "CELL_TYPES 4\n10\n12\n",
+                20,
+                "hexahedron",
+            ),
+            (
+                "CELL_TYPES 4\n10\n10\n",
+                "CELL_TYPES 4\n10\n99\n",
+                20,
+                "unknown cell type 99",
+            ),
+            ("ASCII\n", "TEXT\n", 3, "expected `ASCII` or `BINARY`"),
+            ("UNSTRUCTURED_GRID", "POLYDATA", 4, "UNSTRUCTURED_GRID"),
+        ];
+        for (i, (from, to, line, msg)) in cases.iter().enumerate() {
+            let p = dir.path().join(format!("e{i}.vtk"));
+            std::fs::write(&p, TET.replacen(from, to, 1)).unwrap();
+            let e = load_mesh(&p).unwrap_err();
+            let s = e.to_string();
+            match e {
+                Error::MeshFormat { line: l, .. } => assert_eq!(l, Some(*line), "{s}"),
+                _ => panic!("{s}"),
+            }
+            assert!(s.contains(msg), "{s}");
+        }
+        // Truncated.
+        let p = dir.path().join("cut.vtk");
+        std::fs::write(&p, &TET[..TET.find("3 0 1 2").unwrap()]).unwrap();
+        let e = load_mesh(&p).unwrap_err().to_string();
+        assert!(e.contains("unexpected end of file"), "{e}");
+    }
+
+    #[test]
+    fn binary_legacy() {
+        let mut b: Vec<u8> = Vec::new();
+        b.extend_from_slice(
+            b"# vtk DataFile Version 3.0\nbin\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n",
+        );
+        for v in [0.0f64, 0., 0., 1., 0., 0., 0., 0., 1., 0., 1., 0.] {
+            b.extend_from_slice(&v.to_be_bytes());
+        }
+        b.extend_from_slice(b"\nCELLS 1 5\n");
+        for v in [4i32, 0, 1, 2, 3] {
+            b.extend_from_slice(&v.to_be_bytes());
+        }
+        b.extend_from_slice(b"\nCELL_TYPES 1\n");
+        b.extend_from_slice(&10i32.to_be_bytes());
+        b.extend_from_slice(b"\n");
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("b.vtk");
+        std::fs::write(&p, &b).unwrap();
+        let l = load_mesh(&p).unwrap();
+        assert_eq!(l.format, "vtk legacy binary");
+        assert_eq!(l.mesh.num_elements(), 1);
+        assert_eq!(l.reoriented, vec![0]);
+        assert!((l.mesh.total_measure() - 1.0 / 6.0).abs() < 1e-15);
+    }
+}

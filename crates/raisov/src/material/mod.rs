@@ -21,6 +21,7 @@
 //! state is stress free, and that W is invariant under rotation (W depends on C only, so this
 //! checks the wiring of F → C).
 
+use crate::mesh::ElementKind;
 use nalgebra::{Matrix2, Matrix3};
 
 mod mooney_rivlin;
@@ -59,13 +60,6 @@ pub fn lame(young: f64, poisson: f64) -> (f64, f64) {
     (lambda, mu)
 }
 
-fn incompressible_p_modulus(mu: f64, kappa: f64) -> f64 {
-    if kappa > 0.0 {
-        kappa + 4.0 / 3.0 * mu
-    } else {
-        4.0 * mu
-    }
-}
 
 /// The materials a scenario can name; dispatches statically to each law.
 #[derive(Clone, Debug, PartialEq)]
@@ -86,22 +80,35 @@ impl Material {
             Material::VerondaWestmann(_) => "veronda-westmann",
         }
     }
-    /// Small-strain shear modulus μ (Pa) and P-wave modulus (Pa) used for stable-time-step
-    /// estimates, c = √(modulus/ρ): λ+2μ for StVK and neo-Hookean (solid form); κ + 4μ/3 for
-    /// Mooney-Rivlin and Veronda-Westmann with κ > 0; 4μ, the incompressible plane-stress
-    /// modulus E/(1−ν²) with E = 3μ, ν = 1/2, when κ = 0 (membranes).
-    pub fn wave_moduli(&self) -> (f64, f64) {
+
+    /// Small-strain shear modulus μ (Pa).
+    pub fn shear_modulus(&self) -> f64 {
         match self {
-            Material::StVenantKirchhoff(m) => (m.mu, m.lambda + 2.0 * m.mu),
-            Material::NeoHookean(m) => (m.mu, m.lambda + 2.0 * m.mu),
-            Material::MooneyRivlin(m) => {
-                let mu = 2.0 * (m.c1 + m.c2);
-                (mu, incompressible_p_modulus(mu, m.kappa))
+            Material::StVenantKirchhoff(m) => m.mu,
+            Material::NeoHookean(m) => m.mu,
+            Material::MooneyRivlin(m) => 2.0 * (m.c1 + m.c2),
+            Material::VerondaWestmann(m) => m.c1 * m.gamma,
+        }
+    }
+
+    /// Small-strain modulus bounding one element's stiffness, for stable time steps
+    /// (`c² = modulus / ρ` in [`crate::scenario::critical_step_estimate`]): the energy
+    /// density `λ (tr ε)² + 2μ ε:ε` is at most `(dλ + 2μ) |∇u|²` in d dimensions, the bound
+    /// reached by an element's dilatation mode. Solids: `3λ + 2μ = 3K` (`3κ` for the laws with
+    /// a bulk modulus). Membranes (plane stress, d = 2): `2λ* + 2μ`, `λ* = 2λμ/(λ + 2μ)`;
+    /// `6μ` for the incompressible laws (λ* = 2μ).
+    pub fn stability_modulus(&self, kind: ElementKind) -> f64 {
+        let mu = self.shear_modulus();
+        match (self, kind) {
+            (Material::StVenantKirchhoff(m), ElementKind::Tet4) => 3.0 * m.lambda + 2.0 * m.mu,
+            (Material::NeoHookean(m), ElementKind::Tet4) => 3.0 * m.lambda + 2.0 * m.mu,
+            (Material::MooneyRivlin(m), ElementKind::Tet4) => (3.0 * m.kappa).max(2.0 * mu),
+            (Material::VerondaWestmann(m), ElementKind::Tet4) => (3.0 * m.kappa).max(2.0 * mu),
+            (Material::StVenantKirchhoff(m), ElementKind::Tri3) => {
+                let ls = 2.0 * m.lambda * m.mu / (m.lambda + 2.0 * m.mu);
+                2.0 * ls + 2.0 * m.mu
             }
-            Material::VerondaWestmann(m) => {
-                let mu = m.c1 * m.gamma;
-                (mu, incompressible_p_modulus(mu, m.kappa))
-            }
+            (_, ElementKind::Tri3) => 6.0 * mu,
         }
     }
 }
@@ -259,7 +266,7 @@ mod tests {
             ),
         ];
         for (desc, m) in mats {
-            let (mu, _) = desc.wave_moduli();
+            let mu = desc.shear_modulus();
             let s = m.pk2(&c);
             assert!(
                 (s[(0, 1)] - mu * eps).abs() < 1e-3 * mu * eps,

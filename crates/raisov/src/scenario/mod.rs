@@ -338,19 +338,47 @@ pub fn build_system(
     Ok(sys)
 }
 
-/// Estimated critical time step: `bound / ω_max` with `ω_max ≈ 2 c / h_min`, `c` the
-/// small-strain P-wave speed and `h_min` the smallest element altitude. Large stretches
-/// stiffen hyperelastic laws, hence the safety factor on top.
-pub fn critical_step_estimate(
-    mesh: &Mesh,
-    material: &Material,
-    density: f64,
-    method: Method,
-) -> f64 {
-    let (_, p_mod) = material.wave_moduli();
-    let c = (p_mod / density).sqrt();
-    let h = min_altitude(mesh);
-    method.stability_bound() * h / (2.0 * c)
+/// Estimated critical time step `bound / ω_max` (`bound` = 2 for the symplectic schemes,
+/// 2√2 for RK4), with the element-wise upper bound on the highest frequency of lumped-mass
+/// linear elements
+///
+/// ```text
+/// ω_max² ≤ max_e  npe c² Σ_a |∇N_a|²,     c² = Material::stability_modulus / ρ
+/// ```
+///
+/// (the element stiffness is at most `P V Σ|∇N_a|²` in norm and each node carries `ρV/npe`).
+/// Hyperelastic laws stiffen under large stretch, hence the scenario's safety factor on top.
+pub fn critical_step_estimate(mesh: &Mesh, material: &Material, density: f64, method: Method) -> f64 {
+    let c2 = material.stability_modulus(mesh.kind) / density;
+    method.stability_bound() / (c2 * max_gradient_sum(mesh)).sqrt()
+}
+
+/// `max_e npe Σ_a |∇N_a|²` over the elements (1/m²).
+pub fn max_gradient_sum(mesh: &Mesh) -> f64 {
+    use crate::fem::{membrane_frame, tet_dm_inverse};
+    let mut worst: f64 = 0.0;
+    for e in 0..mesh.num_elements() {
+        let p = mesh.element_points(e);
+        // Rows of Dm⁻¹ are ∇N_1.. ; ∇N_0 = −Σ.
+        let sum = match mesh.kind {
+            ElementKind::Tet4 => match tet_dm_inverse(&p) {
+                Some((inv, _)) => {
+                    let g0 = -(inv.row(0) + inv.row(1) + inv.row(2));
+                    4.0 * (g0.norm_squared() + (0..3).map(|i| inv.row(i).norm_squared()).sum::<f64>())
+                }
+                None => continue,
+            },
+            ElementKind::Tri3 => match membrane_frame(&p) {
+                Some((inv, _, _)) => {
+                    let g0 = -(inv.row(0) + inv.row(1));
+                    3.0 * (g0.norm_squared() + (0..2).map(|i| inv.row(i).norm_squared()).sum::<f64>())
+                }
+                None => continue,
+            },
+        };
+        worst = worst.max(sum);
+    }
+    worst
 }
 
 /// Smallest element altitude: tets `3V / max face area`, triangles `2A / max edge`.

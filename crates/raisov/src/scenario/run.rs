@@ -17,7 +17,6 @@ use crate::integrate::relax::relax;
 use crate::integrate::{energy_limit_for, SingleLevel, State, Stepper, StepperParams};
 use crate::io::{write_atomic, write_vtu, Field, FieldData, PvdWriter};
 use crate::metrics::{write_csv, Meter, Sample};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -144,7 +143,7 @@ impl Scenario {
         let n = sys.num_nodes();
         let mut s = State::at_rest(n);
         s.t = self.motion_end();
-        let dt = 0.9 * self.dt_critical_estimate.min(self.dt);
+        let dt = 0.5 * self.dt_critical_estimate.min(self.dt);
         let r = relax(&mut sys, s, dt, 1e-10, 2_000_000).map_err(|f| {
             Error::Diverged(crate::error::Divergence {
                 time: 0.0,

@@ -21,6 +21,7 @@
 //! FAS multigrid), [`scenario`] (TOML scenes), [`metrics`], [`io`] (readers and writers).
 
 pub mod error;
+pub mod hierarchy;
 pub mod mesh;
 
 pub use error::{Error, Result};

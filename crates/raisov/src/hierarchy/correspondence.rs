@@ -6,15 +6,20 @@ use std::fmt;
 
 use rayon::prelude::*;
 
-use super::tree::{dist2, CentroidTree, Item};
+use super::tree::{dist2, BoxItem, PointItem, Tree};
 use crate::mesh::{cross, dot, norm, sub, tet_volume, ElementKind, Mesh, DEGENERATE_REL};
 use crate::{Error, Result};
 
 /// A point counts as inside an element when its smallest weight is at least `-INSIDE_TOL`.
 pub const INSIDE_TOL: f64 = 1e-10;
 
-/// Relative slack on the centroid search radius (covers `INSIDE_TOL` and round-off).
-const RADIUS_SLACK: f64 = 1e-6;
+/// Relative slack on the element boxes searched (covers `INSIDE_TOL` and round-off).
+const BOX_SLACK: f64 = 1e-6;
+
+/// Membranes: element boxes are widened by this many centroid-to-vertex radii, enough for
+/// every point that a triangle may host (plane distance at most one radius, and a gap
+/// host's in-plane overshoot at most `d / r` times an altitude, at most two radii).
+const TRI_BOX_WIDEN: f64 = 3.0;
 
 /// Transfers with at least this many points are applied in parallel (bitwise the same).
 const PAR_APPLY: usize = 1 << 14;
@@ -153,8 +158,8 @@ fn element_geo(target: &Mesh) -> Vec<Geo> {
 }
 
 /// Barycentric weights of `p` in element `el` (eq. 6) and, for triangles, the distance from
-/// `p` to the triangle's plane. Sub-measures are normalised by their sum, so the weights sum
-/// to 1 up to round-off for any `p`, inside or not.
+/// `p` to the triangle's plane. Sub-measures are normalised by (one reciprocal of) their sum,
+/// so the weights sum to 1 up to round-off for any `p`, inside or not.
 #[inline]
 fn weights(kind: ElementKind, nodes: &[[f64; 3]], el: &[u32], p: [f64; 3]) -> ([f64; 4], f64) {
     let x = |j: usize| nodes[el[j] as usize];
@@ -167,8 +172,8 @@ fn weights(kind: ElementKind, nodes: &[[f64; 3]], el: &[u32], p: [f64; 3]) -> ([
                 tet_volume(x0, x1, p, x3),
                 tet_volume(x0, x1, x2, p),
             ];
-            let s = v[0] + v[1] + v[2] + v[3];
-            ([v[0] / s, v[1] / s, v[2] / s, v[3] / s], 0.0)
+            let inv = 1.0 / (v[0] + v[1] + v[2] + v[3]);
+            ([v[0] * inv, v[1] * inv, v[2] * inv, v[3] * inv], 0.0)
         }
         ElementKind::Tri3 => {
             let (x0, x1, x2) = (x(0), x(1), x(2));
@@ -179,14 +184,14 @@ fn weights(kind: ElementKind, nodes: &[[f64; 3]], el: &[u32], p: [f64; 3]) -> ([
             let a0 = dot(cross(b, c), n);
             let a1 = dot(cross(c, a), n);
             let a2 = dot(cross(a, b), n);
-            let s = a0 + a1 + a2;
+            let inv = 1.0 / (a0 + a1 + a2);
             let nn = norm(n);
             let plane = if nn > 0.0 {
                 (dot(sub(p, x0), n) / nn).abs()
             } else {
                 0.0
             };
-            ([a0 / s, a1 / s, a2 / s, 0.0], plane)
+            ([a0 * inv, a1 * inv, a2 * inv, 0.0], plane)
         }
     }
 }
@@ -199,10 +204,10 @@ fn min_weight(w: &[f64; 4], npe: usize) -> f64 {
 fn boundary_elements(mesh: &Mesh) -> Vec<bool> {
     let npe = mesh.npe();
     let ne = mesh.num_elements();
-    let facets_of = |e: usize| -> Vec<[u32; 4]> {
+    // Key: the facet's sorted node ids, then the element id, packed in a u128 (fast to sort).
+    let facets_of = |e: usize| {
         let el = mesh.element(e);
-        let mut out = Vec::with_capacity(npe);
-        for skip in 0..npe {
+        (0..npe).map(move |skip| {
             let mut f = [u32::MAX; 3];
             let mut k = 0;
             for (j, &n) in el.iter().enumerate() {
@@ -212,22 +217,21 @@ fn boundary_elements(mesh: &Mesh) -> Vec<bool> {
                 }
             }
             f.sort_unstable();
-            out.push([f[0], f[1], f[2], e as u32]);
-        }
-        out
+            (f[0] as u128) << 96 | (f[1] as u128) << 64 | (f[2] as u128) << 32 | e as u128
+        })
     };
-    let mut facets: Vec<[u32; 4]> = (0..ne).into_par_iter().flat_map_iter(facets_of).collect();
+    let mut facets: Vec<u128> = (0..ne).into_par_iter().flat_map_iter(facets_of).collect();
     // A total order (the element id is part of the key): the same result on any thread count.
     facets.par_sort_unstable();
     let mut bnd = vec![false; ne];
     let mut i = 0;
     while i < facets.len() {
         let mut j = i + 1;
-        while j < facets.len() && facets[j][..3] == facets[i][..3] {
+        while j < facets.len() && facets[j] >> 32 == facets[i] >> 32 {
             j += 1;
         }
         if j - i == 1 {
-            bnd[facets[i][3] as usize] = true;
+            bnd[(facets[i] & 0xffff_ffff) as usize] = true;
         }
         i = j;
     }
@@ -244,27 +248,32 @@ impl Transfer {
         let kind = target.kind;
         let npe = target.npe();
         let geo = element_geo(target);
-        let items: Vec<Item> = geo
-            .iter()
+        let boxes: Vec<BoxItem> = geo
+            .par_iter()
             .enumerate()
             .filter(|(_, g)| g.ok)
-            .map(|(e, g)| Item {
-                c: g.centroid,
-                id: e as u32,
-                // Triangles: a point within `radius` of the centroid in the plane and at most
-                // `radius` off it; tetrahedra: within `radius`.
-                aux: g.radius
-                    * match kind {
-                        ElementKind::Tri3 => std::f64::consts::SQRT_2,
-                        ElementKind::Tet4 => 1.0,
+            .map(|(e, g)| {
+                let mut lo = [f64::INFINITY; 3];
+                let mut hi = [f64::NEG_INFINITY; 3];
+                for &n in target.element(e) {
+                    let x = target.nodes[n as usize];
+                    for k in 0..3 {
+                        lo[k] = lo[k].min(x[k]);
+                        hi[k] = hi[k].max(x[k]);
                     }
-                    * (1.0 + RADIUS_SLACK),
+                }
+                let widen = g.radius
+                    * match kind {
+                        ElementKind::Tri3 => TRI_BOX_WIDEN,
+                        ElementKind::Tet4 => BOX_SLACK,
+                    };
+                BoxItem::new(lo.map(|x| x - widen), hi.map(|x| x + widen), e as u32)
             })
             .collect();
-        if items.is_empty() {
+        if boxes.is_empty() {
             return Err(Error::param("target", "every element is degenerate"));
         }
-        let tree = CentroidTree::new(items);
+        let tree = Tree::new(boxes);
 
         let located: Vec<Option<Hit>> = points
             .par_iter()
@@ -272,8 +281,8 @@ impl Transfer {
                 // Best candidate by (class, plane distance, -min weight, id); see the
                 // module documentation for the two classes.
                 let mut best: Option<(bool, f64, f64, Hit)> = None;
-                tree.for_each_within(p, &mut |it| {
-                    let e = it.id as usize;
+                tree.for_each_containing(p, &mut |id| {
+                    let e = id as usize;
                     let (w, plane) = weights(kind, &target.nodes, target.element(e), p);
                     let mw = min_weight(&w, npe);
                     let r = geo[e].radius;
@@ -296,12 +305,11 @@ impl Transfer {
                             (inside && !bi)
                                 || (inside == *bi
                                     && (pe < *bp
-                                        || (pe == *bp
-                                            && (mw > *bw || (mw == *bw && it.id < bh.e)))))
+                                        || (pe == *bp && (mw > *bw || (mw == *bw && id < bh.e)))))
                         }
                     };
                     if better {
-                        best = Some((inside, pe, mw, Hit { e: it.id, w, plane }));
+                        best = Some((inside, pe, mw, Hit { e: id, w, plane }));
                     }
                 });
                 best.map(|b| b.3)
@@ -322,11 +330,11 @@ impl Transfer {
         } else {
             // Eq. 7 over the non-degenerate boundary elements.
             let bnd = boundary_elements(target);
-            let items: Vec<Item> = geo
+            let items: Vec<PointItem> = geo
                 .iter()
                 .enumerate()
                 .filter(|&(e, g)| g.ok && bnd[e])
-                .map(|(e, g)| Item {
+                .map(|(e, g)| PointItem {
                     c: g.centroid,
                     id: e as u32,
                     aux: g.measure,
@@ -338,7 +346,7 @@ impl Transfer {
                     "no non-degenerate boundary element to host outside points",
                 ));
             }
-            let btree = CentroidTree::new(items);
+            let btree = Tree::new(items);
             let extra: Vec<Hit> = outside
                 .par_iter()
                 .map(|&i| {

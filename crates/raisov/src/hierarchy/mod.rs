@@ -43,9 +43,10 @@
 //!   largest smallest weight wins, ties to the lowest id). Such points are not counted as
 //!   outside; their weights are slightly negative (of order `d / r`). Tetrahedra have `d = 0`,
 //!   so this never applies to them.
-//! - Search: a static k-d tree over element centroids with, per subtree, the largest search
-//!   radius (a point inside element `e` is within `e`'s centroid-to-vertex radius of its
-//!   centroid) and the largest measure (bounding `m_k / γ` for eq. 7). Both queries are exact,
+//! - Search: static k-d trees, one over element bounding boxes (a point inside an element is
+//!   in its box; triangle boxes are widened by three centroid-to-vertex radii for the plane
+//!   distance), one over boundary-element centroids with, per subtree, the largest measure
+//!   (bounding `m_k / γ` for eq. 7, searched by branch and bound). Both queries are exact,
 //!   `O(log n)` per point for ordinary meshes, and run in parallel over points; each point's
 //!   result is independent of the others and of the visiting order, so the output is the same
 //!   bits on any number of threads.

@@ -590,6 +590,8 @@ fn liver_levels_0_and_1() {
 }
 
 /// Timing: `cargo test --release -p raisov --lib hierarchy -- --ignored --nocapture`.
+/// Measured: 1,000,000 nodes (5.82 M tets) against 512,000 nodes (2.96 M tets), both
+/// directions, 6.7 s on 2 shared cores (load about 3.5); one 3-vector interpolation about 16 ms.
 #[test]
 #[ignore]
 fn timing_one_million_nodes() {

@@ -1,34 +1,115 @@
-//! A static, balanced k-d tree over element centroids, each carrying one non-negative scalar
-//! `aux` (a search radius or an element measure); every tree node stores the bounding box of
-//! its centroids and the largest `aux` below it, which gives exact pruning bounds:
+//! A static, balanced k-d tree over element data, two kinds of items:
 //!
-//! - [`CentroidTree::for_each_within`]: every item with `|p - c| <= aux` (a point inside an
-//!   element lies within the element's own search radius of its centroid);
-//! - [`CentroidTree::best_ratio`]: the item maximising `aux / |p - c|` (eq. 7), ties to the
-//!   lowest id, found by branch and bound (`aux_max / dist(p, box)` bounds a subtree).
+//! - [`BoxItem`]: an element's bounding box (f32, rounded outwards); every tree node stores
+//!   the union of its items' boxes, and [`Tree::for_each_containing`] visits every item whose
+//!   box contains a point (a point inside an element lies in the element's box);
+//! - [`PointItem`]: an element's centroid and a non-negative scalar (its measure); every tree
+//!   node stores the box of its centroids and the largest scalar below it, and
+//!   [`Tree::best_ratio`] finds the item maximising `aux / |p - c|` (eq. 7), ties to the
+//!   lowest id, by branch and bound (`aux_max / dist(p, box)` bounds a subtree).
 //!
 //! Why not `kiddo`: kiddo 4's mutable tree panics when more than a bucket's worth of points
 //! share a coordinate (any structured mesh), its immutable tree has had an underflow in
-//! `calc_pivot` (kiddo issue #172), and neither stores the per-subtree maxima needed here.
+//! `calc_pivot` (kiddo issue #172), and neither stores boxes or per-subtree maxima.
 //!
 //! Layout: a complete binary tree in heap order (children of `i` are `2i+1`, `2i+2`), all
 //! leaves at depth `D`, the smallest depth at which halving leaves at most [`LEAF`] items per
-//! leaf. Items are permuted in place by median splits on the longest box axis (ties by id):
-//! the result depends only on the input, never on the thread count. Floating-point box
-//! distances never exceed the distance to any centroid inside the box (rounding is monotone),
-//! so the pruning is exact, not approximate.
+//! leaf. Items are permuted in place by median splits of their centres on the longest axis
+//! (ties by id): the result depends only on the input, never on the thread count. Box tests
+//! are exact (outward rounding), and floating-point box distances never exceed the distance to
+//! any centroid inside the box (rounding is monotone), so the pruning is exact.
 
 use rayon::prelude::*;
 
 /// Most items in a leaf.
 pub const LEAF: usize = 8;
 
-/// One centroid with its element id and scalar.
+/// What the tree needs from an item.
+pub trait TreeItem: Copy + Send + Sync {
+    /// Centre coordinate on `axis` (the split key).
+    fn key(&self, axis: usize) -> f64;
+    fn id(&self) -> u32;
+    /// Bounds that the tree nodes enclose.
+    fn bounds(&self) -> ([f64; 3], [f64; 3]);
+    /// Scalar whose maximum the tree nodes keep.
+    fn aux(&self) -> f64;
+}
+
+/// An element's bounding box, in f32 rounded outwards.
 #[derive(Clone, Copy, Debug)]
-pub struct Item {
+pub struct BoxItem {
+    pub lo: [f32; 3],
+    pub hi: [f32; 3],
+    pub id: u32,
+}
+
+impl BoxItem {
+    /// The f32 box enclosing `[lo, hi]`.
+    pub fn new(lo: [f64; 3], hi: [f64; 3], id: u32) -> Self {
+        let down = |x: f64| {
+            let y = x as f32;
+            if y as f64 > x {
+                y.next_down()
+            } else {
+                y
+            }
+        };
+        let up = |x: f64| {
+            let y = x as f32;
+            if (y as f64) < x {
+                y.next_up()
+            } else {
+                y
+            }
+        };
+        BoxItem {
+            lo: lo.map(down),
+            hi: hi.map(up),
+            id,
+        }
+    }
+    #[inline]
+    fn contains(&self, p: [f64; 3]) -> bool {
+        (0..3).all(|k| self.lo[k] as f64 <= p[k] && p[k] <= self.hi[k] as f64)
+    }
+}
+
+impl TreeItem for BoxItem {
+    fn key(&self, axis: usize) -> f64 {
+        0.5 * (self.lo[axis] as f64 + self.hi[axis] as f64)
+    }
+    fn id(&self) -> u32 {
+        self.id
+    }
+    fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        (self.lo.map(f64::from), self.hi.map(f64::from))
+    }
+    fn aux(&self) -> f64 {
+        0.0
+    }
+}
+
+/// A centroid with its element id and scalar.
+#[derive(Clone, Copy, Debug)]
+pub struct PointItem {
     pub c: [f64; 3],
     pub id: u32,
     pub aux: f64,
+}
+
+impl TreeItem for PointItem {
+    fn key(&self, axis: usize) -> f64 {
+        self.c[axis]
+    }
+    fn id(&self) -> u32 {
+        self.id
+    }
+    fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        (self.c, self.c)
+    }
+    fn aux(&self) -> f64 {
+        self.aux
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -42,8 +123,8 @@ struct Node {
 
 /// See the module documentation.
 #[derive(Clone, Debug)]
-pub struct CentroidTree {
-    items: Vec<Item>,
+pub struct Tree<I> {
+    items: Vec<I>,
     nodes: Vec<Node>,
     first_leaf: usize,
 }
@@ -51,42 +132,47 @@ pub struct CentroidTree {
 /// Below this many items a subtree is split on the current thread.
 const PAR_SPLIT: usize = 1 << 15;
 
-fn cmp_on(axis: usize) -> impl Fn(&Item, &Item) -> std::cmp::Ordering {
-    move |a, b| a.c[axis].total_cmp(&b.c[axis]).then(a.id.cmp(&b.id))
-}
-
-fn bbox(items: &[Item]) -> ([f64; 3], [f64; 3], f64) {
+/// Union of the items' bounds and their largest `aux`.
+fn bounds_of<I: TreeItem>(items: &[I]) -> ([f64; 3], [f64; 3], f64) {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     let mut aux = 0.0f64;
     for it in items {
+        let (a, b) = it.bounds();
         for k in 0..3 {
-            lo[k] = lo[k].min(it.c[k]);
-            hi[k] = hi[k].max(it.c[k]);
+            lo[k] = lo[k].min(a[k]);
+            hi[k] = hi[k].max(b[k]);
         }
-        aux = aux.max(it.aux);
+        aux = aux.max(it.aux());
     }
     (lo, hi, aux)
 }
 
-fn longest_axis(lo: [f64; 3], hi: [f64; 3]) -> usize {
+/// Median splits of the centres, `levels` deep, in place.
+fn partition<I: TreeItem>(items: &mut [I], levels: u32) {
+    if levels == 0 || items.len() < 2 {
+        return;
+    }
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for it in items.iter() {
+        for k in 0..3 {
+            lo[k] = lo[k].min(it.key(k));
+            hi[k] = hi[k].max(it.key(k));
+        }
+    }
     let mut axis = 0;
     for k in 1..3 {
         if hi[k] - lo[k] > hi[axis] - lo[axis] {
             axis = k;
         }
     }
-    axis
-}
-
-/// Median splits, `levels` deep, in place.
-fn partition(items: &mut [Item], levels: u32) {
-    if levels == 0 || items.len() < 2 {
-        return;
-    }
-    let (lo, hi, _) = bbox(items);
     let mid = items.len() / 2;
-    items.select_nth_unstable_by(mid, cmp_on(longest_axis(lo, hi)));
+    items.select_nth_unstable_by(mid, |a, b| {
+        a.key(axis)
+            .total_cmp(&b.key(axis))
+            .then(a.id().cmp(&b.id()))
+    });
     let (l, r) = items.split_at_mut(mid);
     if l.len() + r.len() >= PAR_SPLIT {
         rayon::join(|| partition(l, levels - 1), || partition(r, levels - 1));
@@ -113,6 +199,11 @@ fn box_dist2(p: [f64; 3], lo: [f64; 3], hi: [f64; 3]) -> f64 {
     d2
 }
 
+#[inline]
+fn in_box(p: [f64; 3], lo: [f64; 3], hi: [f64; 3]) -> bool {
+    (0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k])
+}
+
 /// Squared distance between two points.
 #[inline]
 pub fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -130,12 +221,12 @@ pub fn ratio(m: f64, gamma2: f64) -> f64 {
     }
 }
 
-impl CentroidTree {
+impl<I: TreeItem> Tree<I> {
     /// Build from items (any order). `aux` must be finite and non-negative.
-    pub fn new(mut items: Vec<Item>) -> Self {
+    pub fn new(mut items: Vec<I>) -> Self {
         let n = items.len();
         if n == 0 {
-            return CentroidTree {
+            return Tree {
                 items,
                 nodes: Vec::new(),
                 first_leaf: 0,
@@ -162,7 +253,7 @@ impl CentroidTree {
             .enumerate()
             .map(|(i, &(s, e))| {
                 let (lo, hi, aux) = if i >= first_leaf {
-                    bbox(&items[s as usize..e as usize])
+                    bounds_of(&items[s as usize..e as usize])
                 } else {
                     ([0.0; 3], [0.0; 3], 0.0)
                 };
@@ -175,7 +266,7 @@ impl CentroidTree {
                 }
             })
             .collect();
-        // Internal boxes bottom-up from their children.
+        // Internal bounds bottom-up from the children.
         for i in (0..first_leaf).rev() {
             let (a, b) = (nodes[2 * i + 1], nodes[2 * i + 2]);
             let n = &mut nodes[i];
@@ -185,7 +276,7 @@ impl CentroidTree {
             }
             n.aux = a.aux.max(b.aux);
         }
-        CentroidTree {
+        Tree {
             items,
             nodes,
             first_leaf,
@@ -197,31 +288,35 @@ impl CentroidTree {
     pub fn len(&self) -> usize {
         self.items.len()
     }
+}
 
-    /// Call `f` on every item with `|p - c|^2 <= aux^2`, in a fixed order.
-    pub fn for_each_within<F: FnMut(&Item)>(&self, p: [f64; 3], f: &mut F) {
+impl Tree<BoxItem> {
+    /// Call `f` on every item whose box contains `p`, in a fixed order.
+    pub fn for_each_containing<F: FnMut(u32)>(&self, p: [f64; 3], f: &mut F) {
         if !self.nodes.is_empty() {
-            self.within_rec(0, p, f);
+            self.containing_rec(0, p, f);
         }
     }
 
-    fn within_rec<F: FnMut(&Item)>(&self, i: usize, p: [f64; 3], f: &mut F) {
+    fn containing_rec<F: FnMut(u32)>(&self, i: usize, p: [f64; 3], f: &mut F) {
         let n = &self.nodes[i];
-        if box_dist2(p, n.lo, n.hi) > n.aux * n.aux {
+        if !in_box(p, n.lo, n.hi) {
             return;
         }
         if i >= self.first_leaf {
             for it in &self.items[n.start as usize..n.end as usize] {
-                if dist2(p, it.c) <= it.aux * it.aux {
-                    f(it);
+                if it.contains(p) {
+                    f(it.id);
                 }
             }
         } else {
-            self.within_rec(2 * i + 1, p, f);
-            self.within_rec(2 * i + 2, p, f);
+            self.containing_rec(2 * i + 1, p, f);
+            self.containing_rec(2 * i + 2, p, f);
         }
     }
+}
 
+impl Tree<PointItem> {
     /// The item maximising `aux / |p - c|` (infinite at `c == p`), ties to the lowest id:
     /// `(id, ratio)`, or `None` for an empty tree.
     pub fn best_ratio(&self, p: [f64; 3]) -> Option<(u32, f64)> {
@@ -261,16 +356,20 @@ impl CentroidTree {
 mod tests {
     use super::*;
 
-    fn items(n: usize) -> Vec<Item> {
-        let mut s = 12345u64;
-        let mut r = || {
+    fn rng(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
             s ^= s << 13;
             s ^= s >> 7;
             s ^= s << 17;
             (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        }
+    }
+
+    fn points(n: usize) -> Vec<PointItem> {
+        let mut r = rng(12345);
         (0..n)
-            .map(|i| Item {
+            .map(|i| PointItem {
                 // Coarse coordinates: many shared values on each axis.
                 c: [
                     (r() * 5.0).floor(),
@@ -283,21 +382,37 @@ mod tests {
             .collect()
     }
 
+    fn boxes(n: usize) -> Vec<BoxItem> {
+        let mut r = rng(777);
+        (0..n)
+            .map(|i| {
+                let lo = [(r() * 5.0).floor(), r() * 5.0, (r() * 50.0).floor() / 7.0];
+                let hi = [lo[0] + r(), lo[1] + 2.0 * r(), lo[2] + 0.1];
+                BoxItem::new(lo, hi, i as u32)
+            })
+            .collect()
+    }
+
+    const QUERIES: [[f64; 3]; 4] = [
+        [0.3, 2.2, 1.0],
+        [-3.0, 9.0, 0.0],
+        [2.0, 2.0, 2.0 / 7.0],
+        [1.5, 3.1, 4.0 / 7.0],
+    ];
+
     #[test]
     fn tree_queries_match_brute_force() {
         for n in [0, 1, 7, 8, 9, 100, 1000] {
-            let it = items(n);
-            let t = CentroidTree::new(it.clone());
+            let it = points(n);
+            let t = Tree::new(it.clone());
             assert_eq!(t.len(), n);
-            for q in [[0.3, 2.2, 1.0], [-3.0, 9.0, 0.0], [2.0, 2.0, 2.0 / 7.0]] {
+            let bx = boxes(n);
+            let tb = Tree::new(bx.clone());
+            for q in QUERIES {
                 let mut got = Vec::new();
-                t.for_each_within(q, &mut |x| got.push(x.id));
+                tb.for_each_containing(q, &mut |id| got.push(id));
                 got.sort_unstable();
-                let want: Vec<u32> = it
-                    .iter()
-                    .filter(|x| dist2(q, x.c) <= x.aux * x.aux)
-                    .map(|x| x.id)
-                    .collect();
+                let want: Vec<u32> = bx.iter().filter(|b| b.contains(q)).map(|b| b.id).collect();
                 assert_eq!(got, want);
                 let mut bb = None::<(u32, f64)>;
                 for x in &it {
@@ -309,5 +424,12 @@ mod tests {
                 assert_eq!(t.best_ratio(q), bb);
             }
         }
+    }
+
+    #[test]
+    fn f32_boxes_round_outwards() {
+        let b = BoxItem::new([0.1, -0.1, 1e-9], [0.3, 1.0 / 3.0, 123.456789], 0);
+        assert!(b.contains([0.1, -0.1, 1e-9]));
+        assert!(b.contains([0.3, 1.0 / 3.0, 123.456789]));
     }
 }

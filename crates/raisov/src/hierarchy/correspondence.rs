@@ -32,8 +32,9 @@ pub struct Transfer {
     pub host: Vec<u32>,
     /// The host element's node ids (for triangles the 4th repeats the 1st, with weight 0).
     pub nodes: Vec<[u32; 4]>,
-    /// Barycentric weights ω (eq. 6); they sum to 1. Negative or above 1 only for the points
-    /// in [`Transfer::outside`]. For triangles the 4th is 0.
+    /// Barycentric weights ω (eq. 6); they sum to 1. Below `-INSIDE_TOL` or above 1 only for
+    /// the points in [`Transfer::outside`], and (slightly, see the module documentation) for
+    /// membrane points in gaps between bent triangles. For triangles the 4th is 0.
     pub weights: Vec<[f64; 4]>,
     /// Nodes per element of the target mesh: 3 or 4.
     pub npe: usize,

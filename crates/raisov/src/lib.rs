@@ -22,6 +22,7 @@
 
 pub mod error;
 pub mod fem;
+pub mod hierarchy;
 pub mod integrate;
 pub mod io;
 pub mod material;

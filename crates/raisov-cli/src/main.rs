@@ -251,7 +251,7 @@ fn cmd_generate(
             rectangle_membrane(w, h, nodes.context("rectangle needs --nodes N")?)?
         }
         "polygon" => {
-            if polygon.len() < 6 || polygon.len() % 2 != 0 {
+            if polygon.len() < 6 || !polygon.len().is_multiple_of(2) {
                 bail!("polygon needs --polygon x1,y1,x2,y2,x3,y3[,...] (at least 3 vertices, m)");
             }
             let pts: Vec<[f64; 2]> = polygon.chunks(2).map(|c| [c[0], c[1]]).collect();

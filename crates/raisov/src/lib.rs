@@ -20,6 +20,11 @@
 //! integrators), [`hierarchy`] (levels, host elements, weights), [`multigrid`] (RaISoV and the
 //! FAS multigrid), [`scenario`] (TOML scenes), [`metrics`], [`io`] (readers and writers).
 
+// `!(x > 0.0)` is written on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Index loops over x, y, z components read like the equations they implement.
+#![allow(clippy::needless_range_loop)]
+
 pub mod error;
 pub mod fem;
 pub mod hierarchy;

@@ -24,6 +24,7 @@
 
 mod constraints;
 pub mod relax;
+pub mod statics;
 mod stepper;
 
 pub use constraints::{Constraints, Motion};

@@ -29,7 +29,7 @@ fn block(alpha: f64) -> (System, State) {
     for a in 0..n {
         let x = mesh.nodes[a];
         s.v[3 * a + 1] = 2.0 * x[0]; // bending-like velocity, 0 at the clamp
-        s.v[3 * a + 2] = -1.0 * x[0] * x[1] * 100.0;
+        s.v[3 * a + 2] = -100.0 * x[0] * x[1];
     }
     sys.impose(0.0, &mut s.u, &mut s.v);
     (sys, s)

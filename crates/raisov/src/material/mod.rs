@@ -60,7 +60,6 @@ pub fn lame(young: f64, poisson: f64) -> (f64, f64) {
     (lambda, mu)
 }
 
-
 /// The materials a scenario can name; dispatches statically to each law.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {

@@ -348,7 +348,12 @@ pub fn build_system(
 ///
 /// (the element stiffness is at most `P V Σ|∇N_a|²` in norm and each node carries `ρV/npe`).
 /// Hyperelastic laws stiffen under large stretch, hence the scenario's safety factor on top.
-pub fn critical_step_estimate(mesh: &Mesh, material: &Material, density: f64, method: Method) -> f64 {
+pub fn critical_step_estimate(
+    mesh: &Mesh,
+    material: &Material,
+    density: f64,
+    method: Method,
+) -> f64 {
     let c2 = material.stability_modulus(mesh.kind) / density;
     method.stability_bound() / (c2 * max_gradient_sum(mesh)).sqrt()
 }
@@ -364,14 +369,16 @@ pub fn max_gradient_sum(mesh: &Mesh) -> f64 {
             ElementKind::Tet4 => match tet_dm_inverse(&p) {
                 Some((inv, _)) => {
                     let g0 = -(inv.row(0) + inv.row(1) + inv.row(2));
-                    4.0 * (g0.norm_squared() + (0..3).map(|i| inv.row(i).norm_squared()).sum::<f64>())
+                    4.0 * (g0.norm_squared()
+                        + (0..3).map(|i| inv.row(i).norm_squared()).sum::<f64>())
                 }
                 None => continue,
             },
             ElementKind::Tri3 => match membrane_frame(&p) {
                 Some((inv, _, _)) => {
                     let g0 = -(inv.row(0) + inv.row(1));
-                    3.0 * (g0.norm_squared() + (0..2).map(|i| inv.row(i).norm_squared()).sum::<f64>())
+                    3.0 * (g0.norm_squared()
+                        + (0..2).map(|i| inv.row(i).norm_squared()).sum::<f64>())
                 }
                 None => continue,
             },

@@ -41,13 +41,16 @@ impl std::fmt::Display for StopReason {
     }
 }
 
+/// Progress callback: the fraction done (0..1) and the latest sample.
+pub type Progress<'a> = &'a mut dyn FnMut(f64, &Sample);
+
 /// Options of a run.
 #[derive(Default)]
 pub struct RunOptions<'a> {
     /// Output directory; default the scenario's.
     pub out_dir: Option<PathBuf>,
-    /// Called after every sample with the fraction done (0..1) and the sample.
-    pub progress: Option<&'a mut dyn FnMut(f64, &Sample)>,
+    /// Called after every sample.
+    pub progress: Option<Progress<'a>>,
 }
 
 /// What a finished run reports.
@@ -370,7 +373,7 @@ pub fn run_with(
         }
         let k = stepper.steps();
         let last = k == total_steps;
-        if k % sc.csv_every == 0 || last {
+        if k.is_multiple_of(sc.csv_every) || last {
             let row = sample(stepper, &mut meter);
             ke_peak = ke_peak.max(row.kinetic);
             res_peak = res_peak.max(row.residual);
@@ -384,14 +387,14 @@ pub fn run_with(
                     && row.time >= sc.motion_end()
                 {
                     reason = StopReason::Steady;
-                    if k % frame_every != 0 {
+                    if !k.is_multiple_of(frame_every) {
                         frames.write(sc, stepper)?;
                     }
                     break;
                 }
             }
         }
-        if k % frame_every == 0 || (last && k % frame_every != 0) {
+        if k.is_multiple_of(frame_every) || last {
             frames.write(sc, stepper)?;
         }
     }

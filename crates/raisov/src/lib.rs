@@ -33,6 +33,7 @@ pub mod io;
 pub mod material;
 pub mod mesh;
 pub mod metrics;
+pub mod multigrid;
 pub mod scenario;
 
 pub use error::{Error, Result};

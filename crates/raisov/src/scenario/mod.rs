@@ -3,6 +3,7 @@
 //!
 //! Units are SI throughout. Paths inside a scenario are relative to the scenario file.
 
+mod levels;
 pub mod run;
 pub mod spec;
 
@@ -72,6 +73,8 @@ pub struct Scenario {
     pub frame_interval: f64,
     pub csv_every: u64,
     pub reference: Reference,
+    /// The parsed file, for what is re-resolved per multigrid level.
+    pub spec: ScenarioSpec,
 }
 
 fn err(path: &Path, msg: impl Into<String>) -> Error {
@@ -122,6 +125,9 @@ impl Scenario {
                 .unwrap_or_else(|| "scenario".into())
         });
         let (mesh, notes) = resolve_mesh(&spec.mesh, path, base)?;
+        if let Some(mg) = &spec.multigrid {
+            levels::validate(mg, &spec.mesh, path)?;
+        }
         let material = resolve_material(&spec.material, mesh.kind, path)?;
         let density = positive(
             path,
@@ -282,6 +288,7 @@ impl Scenario {
             frame_interval,
             csv_every,
             reference,
+            spec,
         })
     }
 

@@ -14,7 +14,7 @@
 use super::{Reference, Scenario, StopRule};
 use crate::error::{Error, Result};
 use crate::integrate::relax::relax;
-use crate::integrate::{energy_limit_for, SingleLevel, State, Stepper, StepperParams};
+use crate::integrate::{State, Stepper};
 use crate::io::{write_atomic, write_vtu, Field, FieldData, PvdWriter};
 use crate::metrics::{write_csv, Meter, Sample};
 use std::path::{Path, PathBuf};
@@ -112,20 +112,6 @@ impl std::fmt::Display for RunSummary {
 }
 
 impl Scenario {
-    /// The stepper this scenario asks for (single-level integration).
-    pub fn stepper(&self) -> Result<Box<dyn Stepper>> {
-        let sys = self.build_system()?;
-        let limit = energy_limit_for(&sys, &self.mesh, self.blowup_factor);
-        Ok(Box::new(SingleLevel::new(
-            sys,
-            self.method,
-            StepperParams {
-                dt: self.dt,
-                kinetic_limit: limit,
-            },
-        )))
-    }
-
     /// The time after which every prescribed motion is constant.
     pub fn motion_end(&self) -> f64 {
         use crate::integrate::Motion;

@@ -66,6 +66,21 @@
 //! frame_interval = 0.05           # s between VTU frames; 0 writes only the first and last
 //! csv_every = 1                   # steps between rows of measures.csv
 //! reference = "none"              # T∞ for |T − T∞|: "none" | "auto" | path to nodal_stress.csv
+//!
+//! [multigrid]                     # optional: integrate over a hierarchy of independent meshes
+//! scheme = "fas"                  # "fas" (converges; default) | "raisov-paper" (the literal method)
+//! levels = 4                      # with [mesh] generate: level count, node counts a geometric series
+//! ratio = 0.5                     # node-count ratio between levels, default 0.5 (the paper's)
+//! files = ["L1.msh", "L2.msh"]    # or coarser levels as files (level 0 is [mesh]); same `scale`
+//! reading = "correction"          # raisov-paper: "paper" | "correction", default "correction"
+//! epsilon = 1e-5                  # raisov-paper: switch threshold (m), default 1e-3 × shortest edge
+//! pre_smooth = 2                  # fas: ν1, default 2
+//! post_smooth = 2                 # fas: ν2, default 2
+//! coarse = "explicit"             # fas: coarsest solve, "explicit" | "newton", default "explicit"
+//! coarse_time = 0.1               # fas explicit coarsest: simulated time per visit (s), default 0.1
+//! level_methods = ["rk4", "rk4"]  # per level integrator, default [integrator] method on all
+//! level_dt = [1e-3, 2e-3]         # per level step (s); default: raisov-paper the level-0 step
+//!                                 # on every level (the paper), fas each level's own estimate
 //! ```
 
 use serde::Deserialize;
@@ -91,6 +106,25 @@ pub struct ScenarioSpec {
     pub run: RunSpec,
     #[serde(default)]
     pub output: OutputSpec,
+    pub multigrid: Option<MultigridSpec>,
+}
+
+/// `[multigrid]`: integrate over a hierarchy of independent meshes of the same object.
+#[derive(Clone, Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct MultigridSpec {
+    pub scheme: Option<String>,
+    pub levels: Option<usize>,
+    pub ratio: Option<f64>,
+    pub files: Option<Vec<String>>,
+    pub reading: Option<String>,
+    pub epsilon: Option<f64>,
+    pub pre_smooth: Option<usize>,
+    pub post_smooth: Option<usize>,
+    pub coarse: Option<String>,
+    pub coarse_time: Option<f64>,
+    pub level_methods: Option<Vec<String>>,
+    pub level_dt: Option<Vec<f64>>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]

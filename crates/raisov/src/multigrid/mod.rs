@@ -1,0 +1,76 @@
+//! Multigrid integration over a hierarchy of independent meshes.
+//!
+//! Two schemes behind the same [`Stepper`](crate::integrate::Stepper) interface as
+//! single-level integration (SLIM):
+//! - [`raisov::Raisov`]: the paper's RaISoV V-cycle (Wu & Tendick 2004, eqs. 8-13), exactly as
+//!   `../shared/design/raisov-reading.md` reads it, with both up-stroke readings;
+//! - [`fas::Fas`]: the project's own full-approximation-scheme multigrid built from the same
+//!   ingredients (host weights both ways, explicit damped integrators as smoothers, coarse
+//!   changes carried up as variations), which converges to SLIM's equilibrium.
+//!
+//! Every level is a full [`System`] (`M ü + α M u̇ + R(u) = V` on that mesh) with its own
+//! constraints: fixed regions re-selected on every level, a prescribed displacement of level 0
+//! carried to the nearest node of each coarser level (paper section 3.1).
+
+pub mod fas;
+pub mod raisov;
+
+use crate::hierarchy::{Correspondence, Transfer};
+use crate::integrate::{Integrator, Method, State, System};
+use crate::mesh::Mesh;
+
+/// One level: its mesh, system, state and integrator.
+pub struct Level {
+    pub mesh: Mesh,
+    pub sys: System,
+    pub state: State,
+    pub integrator: Box<dyn Integrator>,
+    /// This level's time step (s).
+    pub dt: f64,
+    /// Force evaluations so far on this level.
+    pub evaluations: u64,
+}
+
+impl Level {
+    pub fn new(mesh: Mesh, sys: System, method: Method, dt: f64) -> Self {
+        let n = mesh.num_nodes();
+        let mut state = State::at_rest(n);
+        sys.impose(0.0, &mut state.u, &mut state.v);
+        Level {
+            mesh,
+            sys,
+            state,
+            integrator: method.build(n),
+            dt,
+            evaluations: 0,
+        }
+    }
+    pub fn num_nodes(&self) -> usize {
+        self.mesh.num_nodes()
+    }
+}
+
+/// Node-wise weighted sum `Σ_j ω_j src[host_j]` of one 3-vector field at point `p` of `t`.
+#[inline]
+pub(crate) fn weighted(t: &Transfer, p: usize, src: &[f64]) -> [f64; 3] {
+    let mut out = [0.0; 3];
+    for j in 0..t.npe {
+        let w = t.weights[p][j];
+        let a = t.nodes[p][j] as usize * 3;
+        out[0] += w * src[a];
+        out[1] += w * src[a + 1];
+        out[2] += w * src[a + 2];
+    }
+    out
+}
+
+#[inline]
+pub(crate) fn norm3(x: [f64; 3]) -> f64 {
+    (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
+}
+
+/// Links between consecutive levels: `links[i]` joins level i (fine) and i+1 (coarse).
+pub type Links = Vec<Correspondence>;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,227 @@
+//! RaISoV, Restrict-and-Interpolate-State-or-Variation (Wu & Tendick 2004, section 2.2),
+//! exactly as `../shared/design/raisov-reading.md` reads it. One time step is one V-cycle.
+//!
+//! State per node `X = [u; u̇]`; `X_n^(i)` a level's state at the start of cycle n, before any
+//! transfer; `ΔX^(i) = X_n^(i) − X_(n−1)^(i)` (eq. 8), its whole change over the last cycle.
+//! The switches use the norm of the displacement part, in metres, against ε.
+//!
+//! 1. Down stroke, i = 1 … m−1, node θ of level i with host γ on level i−1 (eq. 9, 10):
+//!    `d = Σ_j ω_j ΔX^(i−1)_γ,j`; if `|d| > ε`: `X^(i)_θ = Σ_j ω_j X^(i−1)_γ,j` (state),
+//!    else `X^(i)_θ += d` (variation).
+//! 2. Up stroke, i = m−1 … 0: if i < m−1, node θ of level i with host Γ on level i+1
+//!    (eq. 11, 12): if `|ΔX^(i)_θ| > ε`: `X^(i)_θ = Σ ω X^(i+1)_Γ` (state), else
+//!    `X^(i)_θ += Σ ω δX^(i+1)_Γ` (variation). Then one integrator step G on level i (eq. 13).
+//!    `δX^(i+1)` by [`Reading`]:
+//!    - `Paper`: eq. 8 literally, level i+1's state now minus its `X_n` (all it changed this
+//!      cycle, including what was restricted down from level i);
+//!    - `Correction`: level i+1's state now minus its state at the start of its own up-stroke
+//!      (a classic coarse-grid correction).
+//! 3. Constrained nodes are re-imposed on every level after every transfer.
+//!
+//! With one level this is single-level integration, bit for bit (a test).
+
+use super::{norm3, weighted, Level, Links};
+use crate::error::{Divergence, DivergenceCause};
+use crate::integrate::{check_state, Stepper};
+
+/// How the up stroke reads δX^(i+1) (design note, step 2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Reading {
+    Paper,
+    Correction,
+}
+
+/// Parameters of the literal RaISoV cycle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RaisovParams {
+    /// The switch threshold ε of eqs. 10 and 12 (m).
+    pub epsilon: f64,
+    pub reading: Reading,
+    /// Kinetic-energy ceiling of the finest level (J), for divergence detection.
+    pub kinetic_limit: f64,
+}
+
+/// The paper's multigrid time integrator.
+pub struct Raisov {
+    pub levels: Vec<Level>,
+    pub links: Links,
+    pub params: RaisovParams,
+    /// X_(n−1) per level (u then v, 6 per node packed as two vectors).
+    prev_u: Vec<Vec<f64>>,
+    prev_v: Vec<Vec<f64>>,
+    /// X_n per level (start of this cycle).
+    start_u: Vec<Vec<f64>>,
+    start_v: Vec<Vec<f64>>,
+    /// ΔX per level.
+    du: Vec<Vec<f64>>,
+    dv: Vec<Vec<f64>>,
+    /// State at the start of each level's up-stroke (for the `Correction` reading).
+    up_u: Vec<Vec<f64>>,
+    up_v: Vec<Vec<f64>>,
+    steps: u64,
+    /// Counts of state / variation transfers in the last cycle (down, up).
+    pub last_switches: [(usize, usize); 2],
+}
+
+impl Raisov {
+    pub fn new(levels: Vec<Level>, links: Links, params: RaisovParams) -> Self {
+        assert_eq!(links.len() + 1, levels.len());
+        let z = |l: &Level| vec![0.0; 3 * l.num_nodes()];
+        let prev_u: Vec<_> = levels.iter().map(|l| l.state.u.clone()).collect();
+        let prev_v: Vec<_> = levels.iter().map(|l| l.state.v.clone()).collect();
+        Raisov {
+            start_u: prev_u.clone(),
+            start_v: prev_v.clone(),
+            du: levels.iter().map(z).collect(),
+            dv: levels.iter().map(z).collect(),
+            up_u: levels.iter().map(z).collect(),
+            up_v: levels.iter().map(z).collect(),
+            prev_u,
+            prev_v,
+            levels,
+            links,
+            params,
+            steps: 0,
+            last_switches: [(0, 0); 2],
+        }
+    }
+
+    fn cycle(&mut self) -> Result<(), Divergence> {
+        let m = self.levels.len();
+        let eps = self.params.epsilon;
+        // X_n and ΔX = X_n − X_(n−1) for every level.
+        for i in 0..m {
+            let l = &self.levels[i];
+            self.start_u[i].copy_from_slice(&l.state.u);
+            self.start_v[i].copy_from_slice(&l.state.v);
+            for k in 0..l.state.u.len() {
+                self.du[i][k] = l.state.u[k] - self.prev_u[i][k];
+                self.dv[i][k] = l.state.v[k] - self.prev_v[i][k];
+            }
+        }
+        let mut sw = [(0usize, 0usize); 2];
+        // Down stroke (eqs. 9, 10).
+        for i in 1..m {
+            let t = &self.links[i - 1].up; // level-i nodes hosted on level i−1
+            let (fine, coarse) = self.levels.split_at_mut(i);
+            let (f, c) = (&fine[i - 1], &mut coarse[0]);
+            for th in 0..c.num_nodes() {
+                let d_u = weighted(t, th, &self.du[i - 1]);
+                let a = 3 * th;
+                if norm3(d_u) > eps {
+                    let su = weighted(t, th, &f.state.u);
+                    let sv = weighted(t, th, &f.state.v);
+                    c.state.u[a..a + 3].copy_from_slice(&su);
+                    c.state.v[a..a + 3].copy_from_slice(&sv);
+                    sw[0].0 += 1;
+                } else {
+                    let d_v = weighted(t, th, &self.dv[i - 1]);
+                    for k in 0..3 {
+                        c.state.u[a + k] += d_u[k];
+                        c.state.v[a + k] += d_v[k];
+                    }
+                    sw[0].1 += 1;
+                }
+            }
+            let tt = c.state.t;
+            c.sys.impose(tt, &mut c.state.u, &mut c.state.v);
+        }
+        // Up stroke (eqs. 11-13).
+        for i in (0..m).rev() {
+            if i + 1 < m {
+                let t = &self.links[i].down; // level-i nodes hosted on level i+1
+                let (fine, coarse) = self.levels.split_at_mut(i + 1);
+                let (f, c) = (&mut fine[i], &coarse[0]);
+                let (base_u, base_v) = match self.params.reading {
+                    Reading::Paper => (&self.start_u[i + 1], &self.start_v[i + 1]),
+                    Reading::Correction => (&self.up_u[i + 1], &self.up_v[i + 1]),
+                };
+                for th in 0..f.num_nodes() {
+                    let a = 3 * th;
+                    let own = [self.du[i][a], self.du[i][a + 1], self.du[i][a + 2]];
+                    if norm3(own) > eps {
+                        let su = weighted(t, th, &c.state.u);
+                        let sv = weighted(t, th, &c.state.v);
+                        f.state.u[a..a + 3].copy_from_slice(&su);
+                        f.state.v[a..a + 3].copy_from_slice(&sv);
+                        sw[1].0 += 1;
+                    } else {
+                        let cu = weighted(t, th, &c.state.u);
+                        let cv = weighted(t, th, &c.state.v);
+                        let bu = weighted(t, th, base_u);
+                        let bv = weighted(t, th, base_v);
+                        for k in 0..3 {
+                            f.state.u[a + k] += cu[k] - bu[k];
+                            f.state.v[a + k] += cv[k] - bv[k];
+                        }
+                        sw[1].1 += 1;
+                    }
+                }
+                let tt = f.state.t;
+                f.sys.impose(tt, &mut f.state.u, &mut f.state.v);
+            }
+            let l = &mut self.levels[i];
+            self.up_u[i].copy_from_slice(&l.state.u);
+            self.up_v[i].copy_from_slice(&l.state.v);
+            let t0 = l.state.t;
+            l.integrator
+                .step(&mut l.sys, &mut l.state, l.dt)
+                .map_err(|f| Divergence {
+                    time: t0,
+                    step: self.steps + 1,
+                    element: Some(f.element),
+                    cause: DivergenceCause::Inverted { det_f: f.det_f },
+                })?;
+            l.evaluations += l.integrator.method().evaluations();
+        }
+        for i in 0..m {
+            self.prev_u[i].copy_from_slice(&self.start_u[i]);
+            self.prev_v[i].copy_from_slice(&self.start_v[i]);
+        }
+        self.last_switches = sw;
+        Ok(())
+    }
+}
+
+impl Stepper for Raisov {
+    fn advance(&mut self) -> Result<(), Divergence> {
+        self.cycle()?;
+        self.steps += 1;
+        let l = &self.levels[0];
+        check_state(&l.sys, &l.state, self.steps, self.params.kinetic_limit)
+    }
+    fn finest(&mut self) -> (&mut crate::integrate::System, &crate::integrate::State) {
+        let l = &mut self.levels[0];
+        (&mut l.sys, &l.state)
+    }
+    fn steps(&self) -> u64 {
+        self.steps
+    }
+    fn force_evaluations(&self) -> f64 {
+        let n0 = self.levels[0].num_nodes() as f64;
+        self.levels
+            .iter()
+            .map(|l| l.evaluations as f64 * l.num_nodes() as f64 / n0)
+            .sum()
+    }
+    fn dt(&self) -> f64 {
+        self.levels[0].dt
+    }
+    fn describe(&self) -> String {
+        let nodes: Vec<String> = self
+            .levels
+            .iter()
+            .map(|l| l.num_nodes().to_string())
+            .collect();
+        format!(
+            "raisov-paper ({:?} reading, epsilon = {:.3e} m), {} levels ({} nodes), {}, dt = {:.4e} s",
+            self.params.reading,
+            self.params.epsilon,
+            self.levels.len(),
+            nodes.join("/"),
+            self.levels[0].integrator.method().name(),
+            self.levels[0].dt
+        )
+    }
+}

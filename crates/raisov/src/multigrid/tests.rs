@@ -1,0 +1,159 @@
+//! Invariants of the multigrid schemes.
+
+use crate::integrate::relax::relax;
+use crate::integrate::{Method, State, Stepper};
+use crate::multigrid::raisov::{Raisov, RaisovParams, Reading};
+use crate::scenario::Scenario;
+use std::path::Path;
+
+fn drape(nodes: usize, multigrid: &str, method: &str) -> Scenario {
+    let text = format!(
+        r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "rectangle"
+size = [0.1, 0.1]
+nodes = {nodes}
+[material]
+law = "mooney-rivlin"
+c1 = 1000.0
+c2 = 1000.0
+[damping]
+ratio = 1.0
+omega = 177.7
+[[fix]]
+boundary = true
+[integrator]
+method = "{method}"
+[run]
+duration = 1.0
+{multigrid}
+"#
+    );
+    Scenario::from_toml(&text, Path::new("mg-test.toml")).unwrap()
+}
+
+/// One level: the paper's V-cycle is single-level integration, bit for bit.
+#[test]
+fn one_level_raisov_is_slim_bit_for_bit() {
+    for method in ["rk4", "symplectic-euler"] {
+        let slim = drape(120, "", method);
+        let mg = drape(
+            120,
+            "[multigrid]\nscheme = \"raisov-paper\"\nlevels = 1",
+            method,
+        );
+        let mut a = slim.stepper().unwrap();
+        let mut b = mg.stepper().unwrap();
+        for _ in 0..200 {
+            a.advance().unwrap();
+            b.advance().unwrap();
+        }
+        let (_, sa) = a.finest();
+        let sa = sa.clone();
+        let (_, sb) = b.finest();
+        assert_eq!(sa.u, sb.u, "{method}: displacements differ");
+        assert_eq!(sa.v, sb.v, "{method}: velocities differ");
+        assert_eq!(sa.t, sb.t);
+    }
+}
+
+/// The fine level's equilibrium (at rest) is a fixed point of the literal cycle under both
+/// readings once every level sits at its own equilibrium: nothing moves.
+#[test]
+fn equilibrium_is_a_fixed_point_of_raisov() {
+    for reading in ["paper", "correction"] {
+        let sc = drape(
+            120,
+            &format!("[multigrid]\nscheme = \"raisov-paper\"\nlevels = 3\nreading = \"{reading}\""),
+            "symplectic-euler",
+        );
+        let (mut levels, links) = sc.build_levels().unwrap();
+        // Every level at its own static equilibrium (single-level relaxation to round-off).
+        let mut eq = Vec::new();
+        for l in levels.iter_mut() {
+            let dt = 0.5
+                * crate::scenario::critical_step_estimate(
+                    &l.mesh,
+                    &sc.material,
+                    sc.density,
+                    Method::SymplecticEuler,
+                );
+            let n = l.num_nodes();
+            let r = relax(&mut l.sys, State::at_rest(n), dt, 1e-13, 2_000_000).unwrap();
+            assert!(r.converged);
+            l.state.u.copy_from_slice(&r.state.u);
+            eq.push(r.state.u);
+        }
+        // X_n = X_(n-1) at the start: the cycle should leave everything in place.
+        let params = RaisovParams {
+            epsilon: 1e-3 * sc.mesh.edge_range().0,
+            reading: if reading == "paper" {
+                Reading::Paper
+            } else {
+                Reading::Correction
+            },
+            kinetic_limit: f64::INFINITY,
+        };
+        let mut rs2 = Raisov::new(levels, links, params);
+        for _ in 0..20 {
+            rs2.advance().unwrap();
+        }
+        let scale = eq[0].iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        let drift = rs2.levels[0]
+            .state
+            .u
+            .iter()
+            .zip(&eq[0])
+            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+        assert!(
+            drift <= 1e-9 * scale,
+            "{reading}: equilibrium drifts by {drift:e} (scale {scale:e})"
+        );
+    }
+}
+
+/// The convergent multigrid reaches single-level integration's equilibrium on the same mesh,
+/// displacements within 1e-8 relative.
+#[test]
+fn fas_converges_to_slim_equilibrium() {
+    for coarse in ["explicit", "newton"] {
+        let sc = drape(
+            186,
+            &format!("[multigrid]\nscheme = \"fas\"\nlevels = 4\ncoarse = \"{coarse}\""),
+            "symplectic-euler",
+        );
+        // SLIM's equilibrium: single-level dynamic relaxation to 1e-12 of the load.
+        let mut sys = sc.build_system().unwrap();
+        let dt = 0.5 * sc.dt_critical_estimate;
+        let r = relax(
+            &mut sys,
+            State::at_rest(sc.mesh.num_nodes()),
+            dt,
+            1e-12,
+            5_000_000,
+        )
+        .unwrap();
+        assert!(r.converged, "reference did not converge");
+        let u_ref = r.state.u;
+        let scale = u_ref.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        let mut st = sc.stepper().unwrap();
+        let mut err = f64::INFINITY;
+        for _ in 0..3000 {
+            st.advance().unwrap();
+            let (_, s) = st.finest();
+            err =
+                s.u.iter()
+                    .zip(&u_ref)
+                    .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
+                    / scale;
+            if err < 1e-9 {
+                break;
+            }
+        }
+        assert!(
+            err < 1e-8,
+            "{coarse}: FAS ends {err:e} (relative) from SLIM's equilibrium"
+        );
+    }
+}

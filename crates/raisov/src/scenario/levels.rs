@@ -62,6 +62,14 @@ pub(super) fn validate(mg: &MultigridSpec, mesh: &MeshSpec, path: &Path) -> Resu
     Ok(())
 }
 
+/// Constraints and loads of one level.
+#[derive(Clone, Debug, Default)]
+pub struct LevelConstraints {
+    pub fixed: Vec<u32>,
+    pub prescribed: Vec<(u32, Motion)>,
+    pub loads: Vec<(u32, [f64; 3])>,
+}
+
 impl Scenario {
     /// Number of levels (1 without `[multigrid]`).
     pub fn num_levels(&self) -> usize {
@@ -163,7 +171,11 @@ impl Scenario {
                 prescribed.push((n, m.clone()));
             }
         }
-        Ok((fixed, prescribed, loads))
+        Ok(LevelConstraints {
+            fixed,
+            prescribed,
+            loads,
+        })
     }
 
     /// Per-level integrator methods.

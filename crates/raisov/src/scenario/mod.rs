@@ -18,7 +18,8 @@ use crate::mesh::generate::{
     box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern,
 };
 use crate::mesh::{dot, norm, sub, ElementKind, Mesh};
-pub use run::{run, RunOptions, RunSummary, StopReason};
+pub use levels::LevelConstraints;
+pub use run::{run, run_with, RunOptions, RunSummary, StopReason};
 pub use spec::ScenarioSpec;
 use std::path::{Path, PathBuf};
 

@@ -116,17 +116,13 @@ impl Scenario {
     }
 
     /// Fixed nodes, prescribed motions and nodal loads of this scenario on `mesh` (a level).
-    pub fn constraints_on(
-        &self,
-        mesh: &Mesh,
-        level: usize,
-    ) -> Result<(Vec<u32>, Vec<(u32, Motion)>, Vec<(u32, [f64; 3])>)> {
+    pub fn constraints_on(&self, mesh: &Mesh, level: usize) -> Result<LevelConstraints> {
         if level == 0 {
-            return Ok((
-                self.fixed.clone(),
-                self.prescribed.clone(),
-                self.loads.clone(),
-            ));
+            return Ok(LevelConstraints {
+                fixed: self.fixed.clone(),
+                prescribed: self.prescribed.clone(),
+                loads: self.loads.clone(),
+            });
         }
         let carry = |r: &RegionSpec| -> RegionSpec {
             match &r.nodes {
@@ -250,11 +246,11 @@ impl Scenario {
         }
         let mut levels = Vec::with_capacity(m);
         for (i, mesh) in meshes.into_iter().enumerate() {
-            let (fixed, prescribed, loads) = self.constraints_on(&mesh, i)?;
+            let c = self.constraints_on(&mesh, i)?;
             let sys = if i == 0 {
                 self.build_system()?
             } else {
-                build_system(self, &mesh, &fixed, &prescribed, &loads)?
+                build_system(self, &mesh, &c.fixed, &c.prescribed, &c.loads)?
             };
             levels.push(Level::new(mesh, sys, methods[i], dts[i]));
         }

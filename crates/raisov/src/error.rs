@@ -37,7 +37,7 @@ pub enum Error {
     #[error("invalid parameter `{name}`: {msg}")]
     Param { name: String, msg: String },
     /// A simulation diverged: where, when and why.
-    #[error("{0}")]
+    #[error(transparent)]
     Diverged(#[from] Divergence),
 }
 

@@ -29,11 +29,26 @@ use crate::fem::ElementFailure;
 use crate::integrate::statics::{NewtonParams, NewtonSolver};
 use crate::integrate::{check_state, Constraints, Motion, Stepper};
 
+/// The smoother G on each level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Smoother {
+    /// Explicit damped dynamics: the level's integrator at its own step (the paper's G).
+    Dynamics,
+    /// Chebyshev polynomial iteration on `M⁻¹ (F − R(u))` over the upper part
+    /// `[λ_max / ratio, λ_max]` of the spectrum of `M⁻¹K`, with `λ_max` the level's rigorous
+    /// small-strain bound scaled by `stretch` (> 1 leaves room for stiffening). Each iteration
+    /// costs one force evaluation and damps every mode in the interval; this is the smoother
+    /// multigrid needs (dynamics damps all modes alike at α/2).
+    Chebyshev { ratio: f64, stretch: f64 },
+}
+
 /// How the coarsest level solves its problem.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CoarseSolve {
     /// Explicit damped steps from rest for this much simulated time (s) at the level's step.
     Explicit { time: f64 },
+    /// This many Chebyshev iterations over `[λ_max / ratio, λ_max]`.
+    Chebyshev { iterations: usize, ratio: f64 },
     /// Matrix-free Newton-Krylov to this relative residual.
     Newton { rel_tol: f64 },
 }
@@ -41,12 +56,16 @@ pub enum CoarseSolve {
 /// Parameters of the FAS cycle.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FasParams {
-    /// Pre-smoothing steps ν1 per level. Default 2.
+    /// Pre-smoothing steps ν1 per level. Default 4.
     pub pre_smooth: usize,
-    /// Post-smoothing steps ν2 per level. Default 2.
+    /// Post-smoothing steps ν2 per level. Default 4.
     pub post_smooth: usize,
-    /// Coarsest-level solve. Default explicit for 0.1 s.
+    /// Coarsest-level solve. Default Chebyshev, 60 iterations over [λ_max/1000, λ_max].
     pub coarse: CoarseSolve,
+    /// Smoother. Default Chebyshev over [1.2 λ_max / 100, 1.2 λ_max] (measured on the drape:
+    /// 186 nodes 895 force evaluations to steady state against 6500 for single-level symplectic
+    /// Euler; 3000 nodes 2334 against 30730).
+    pub smoother: Smoother,
     /// Kinetic-energy ceiling of the finest level (J), for divergence detection.
     pub kinetic_limit: f64,
 }
@@ -54,9 +73,16 @@ pub struct FasParams {
 impl Default for FasParams {
     fn default() -> Self {
         FasParams {
-            pre_smooth: 2,
-            post_smooth: 2,
-            coarse: CoarseSolve::Explicit { time: 0.1 },
+            pre_smooth: 4,
+            post_smooth: 4,
+            coarse: CoarseSolve::Chebyshev {
+                iterations: 60,
+                ratio: 1000.0,
+            },
+            smoother: Smoother::Chebyshev {
+                ratio: 100.0,
+                stretch: 1.2,
+            },
             kinetic_limit: f64::INFINITY,
         }
     }
@@ -71,8 +97,89 @@ pub struct Fas {
     u0: Vec<Vec<f64>>,
     /// Residual scratch per level.
     r: Vec<Vec<f64>>,
+    /// Chebyshev direction per level.
+    d: Vec<Vec<f64>>,
+    /// Power-iteration estimate of λ_max(M⁻¹K) per level (0 = not yet estimated).
+    lambda: Vec<f64>,
+    /// State saved before smoothing, to fall back from an inverting Chebyshev sweep.
+    saved: Vec<Vec<f64>>,
+    /// Smoothing sweeps that fell back to Jacobi steps (an element would have inverted).
+    pub fallbacks: u64,
+    /// Cycle number of each level's last λ estimate.
+    visits: Vec<u64>,
     newton: Option<NewtonSolver>,
     steps: u64,
+}
+
+/// Cycles between re-estimates of the finest level's λ_max.
+const REESTIMATE: u64 = 10;
+/// Power iterations per estimate.
+const POWER_ITERATIONS: usize = 20;
+
+/// Largest eigenvalue of `M⁻¹K(u)` on free dofs by power iteration with finite-difference
+/// products `K x ≈ (R(u + εx) − R(u − εx)) / 2ε`. Power iteration approaches from below;
+/// the caller's `stretch` covers that, and an inverting sweep falls back to safe steps. Not
+/// capped by the small-strain bound: stretched hyperelastic elements are stiffer.
+/// Uses `x` and `y` as scratch.
+fn estimate_lambda_max(
+    lv: &mut Level,
+    x: &mut [f64],
+    y: &mut [f64],
+    step: u64,
+    t: f64,
+) -> Result<f64, Divergence> {
+    let n = x.len();
+    // Deterministic start vector with every frequency present.
+    for i in 0..n {
+        let h = (i as u64)
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            .rotate_left(17);
+        x[i] = (h >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+    }
+    lv.sys.constraints.zero_constrained(x);
+    let umax = lv.state.u.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    let (lo, hi) = lv.mesh.bounding_box();
+    let length = 1e-3 * crate::mesh::norm(crate::mesh::sub(hi, lo));
+    let mut lambda = 0.0;
+    let mut w = vec![0.0; n];
+    for _ in 0..POWER_ITERATIONS {
+        let xmax = x.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        if xmax == 0.0 {
+            break;
+        }
+        let eps = 1e-7 * umax.max(length) / xmax;
+        for i in 0..n {
+            w[i] = lv.state.u[i] + eps * x[i];
+        }
+        lv.sys.residual(&w, y).map_err(|f| diverged(step, t, f))?;
+        for i in 0..n {
+            w[i] = lv.state.u[i] - eps * x[i];
+        }
+        let yy = y.to_vec();
+        lv.sys.residual(&w, y).map_err(|f| diverged(step, t, f))?;
+        lv.evaluations += 2;
+        // y = K x
+        for i in 0..n {
+            y[i] = (y[i] - yy[i]) / (2.0 * eps);
+        }
+        let xkx: f64 = x.iter().zip(y.iter()).map(|(a, b)| a * b).sum();
+        let xmx: f64 = (0..n).map(|i| lv.sys.mass[i / 3] * x[i] * x[i]).sum();
+        lambda = xkx / xmx;
+        // x <- M⁻¹ K x, normalised
+        let mut norm = 0.0f64;
+        for i in 0..n {
+            x[i] = y[i] / lv.sys.mass[i / 3];
+            norm = norm.max(x[i].abs());
+        }
+        if norm > 0.0 {
+            x.iter_mut().for_each(|v| *v /= norm);
+        }
+    }
+    Ok(if lambda.is_finite() && lambda > 0.0 {
+        lambda
+    } else {
+        lv.lambda_max
+    })
 }
 
 fn diverged(step: u64, time: f64, f: ElementFailure) -> Divergence {
@@ -114,6 +221,17 @@ impl Fas {
                 .iter()
                 .map(|l| vec![0.0; 3 * l.num_nodes()])
                 .collect(),
+            d: levels
+                .iter()
+                .map(|l| vec![0.0; 3 * l.num_nodes()])
+                .collect(),
+            lambda: vec![0.0; levels.len()],
+            saved: levels
+                .iter()
+                .map(|l| vec![0.0; 3 * l.num_nodes()])
+                .collect(),
+            fallbacks: 0,
+            visits: vec![u64::MAX; levels.len()],
             levels,
             links,
             params,
@@ -123,6 +241,116 @@ impl Fas {
     }
 
     fn smooth(&mut self, l: usize, steps: usize, t: f64) -> Result<(), Divergence> {
+        match self.params.smoother {
+            Smoother::Dynamics => self.dynamics(l, steps, t),
+            Smoother::Chebyshev { ratio, stretch } => self.chebyshev(l, steps, ratio, stretch, t),
+        }
+    }
+
+    /// Chebyshev iteration for `R_l(u) = F_l` preconditioned by `M⁻¹` (Saad, Alg. 12.1),
+    /// eigenvalue interval `[b/ratio, b]`, `b = stretch λ_max`. Velocities are left at zero.
+    fn chebyshev(
+        &mut self,
+        l: usize,
+        iterations: usize,
+        ratio: f64,
+        stretch: f64,
+        t: f64,
+    ) -> Result<(), Divergence> {
+        let step_no = self.steps + 1;
+        let lv = &mut self.levels[l];
+        let r = &mut self.r[l];
+        let d = &mut self.d[l];
+        if self.lambda[l] == 0.0
+            || self.steps.is_multiple_of(REESTIMATE) && self.visits[l] != self.steps
+        {
+            self.visits[l] = self.steps;
+            let est = estimate_lambda_max(lv, r, d, step_no, t)?;
+            self.lambda[l] = est;
+        }
+        let b = stretch * self.lambda[l];
+        self.saved[l].copy_from_slice(&lv.state.u);
+        match chebyshev_sweeps(lv, r, d, iterations, b, ratio) {
+            Ok(()) => {}
+            Err(_) => {
+                // Large residuals (a sudden lift) can make the long Chebyshev steps invert an
+                // element: restore and take the conservative damped-Jacobi steps u += r/(M b).
+                self.fallbacks += 1;
+                lv.state.u.copy_from_slice(&self.saved[l]);
+                let mut b_safe = 4.0 * b.max(stretch * lv.lambda_max);
+                let mut attempt = 0;
+                loop {
+                    lv.state.u.copy_from_slice(&self.saved[l]);
+                    match chebyshev_sweeps(lv, r, d, iterations, b_safe, 1.0) {
+                        Ok(()) => break,
+                        Err(f) if attempt >= 4 => return Err(diverged(step_no, t, f)),
+                        Err(_) => {
+                            attempt += 1;
+                            b_safe *= 2.0;
+                        }
+                    }
+                }
+                // The state was stiffer than estimated: estimate again next visit.
+                self.lambda[l] = 0.0;
+            }
+        }
+        lv.state.v.iter_mut().for_each(|x| *x = 0.0);
+        lv.state.t = t;
+        let (tt, st) = (t, &mut lv.state);
+        lv.sys.impose(tt, &mut st.u, &mut st.v);
+        Ok(())
+    }
+}
+
+/// `iterations` Chebyshev sweeps for `R(u) = F` with preconditioner `M⁻¹` over `[b/ratio, b]`
+/// (Saad, Alg. 12.1); `ratio = 1` is damped Jacobi `u += r / (M b)`. Uses `r`, `d` as scratch.
+fn chebyshev_sweeps(
+    lv: &mut Level,
+    r: &mut [f64],
+    d: &mut [f64],
+    iterations: usize,
+    b: f64,
+    ratio: f64,
+) -> Result<(), ElementFailure> {
+    {
+        let a = b / ratio;
+        let theta = 0.5 * (b + a);
+        let delta = 0.5 * (b - a);
+        let sigma = if delta > 0.0 {
+            theta / delta
+        } else {
+            f64::INFINITY
+        };
+        let mut rho = 1.0 / sigma;
+        for k in 0..iterations {
+            lv.sys.residual(&lv.state.u, r)?;
+            lv.evaluations += 1;
+            if k == 0 || delta == 0.0 {
+                for i in 0..r.len() {
+                    d[i] = r[i] / (lv.sys.mass[i / 3] * theta);
+                }
+            } else {
+                let rho_new = 1.0 / (2.0 * sigma - rho);
+                let c0 = rho_new * rho;
+                let c1 = 2.0 * rho_new / delta;
+                for i in 0..r.len() {
+                    d[i] = c0 * d[i] + c1 * r[i] / lv.sys.mass[i / 3];
+                }
+                rho = rho_new;
+            }
+            for i in 0..r.len() {
+                lv.state.u[i] += d[i];
+            }
+        }
+        // Check the final state here, where an inversion can still be undone.
+        lv.sys.residual(&lv.state.u, r)?;
+        lv.evaluations += 1;
+        Ok(())
+    }
+}
+
+impl Fas {
+    fn dynamics(&mut self, l: usize, steps: usize, t: f64) -> Result<(), Divergence> {
         let step_no = self.steps + 1;
         let lv = &mut self.levels[l];
         for _ in 0..steps {
@@ -142,7 +370,10 @@ impl Fas {
         match self.params.coarse {
             CoarseSolve::Explicit { time } => {
                 let k = (time / self.levels[l].dt).ceil().max(1.0) as usize;
-                self.smooth(l, k, t)
+                self.dynamics(l, k, t)
+            }
+            CoarseSolve::Chebyshev { iterations, ratio } => {
+                self.chebyshev(l, iterations, ratio, 1.2, t)
             }
             CoarseSolve::Newton { rel_tol } => {
                 let lv = &mut self.levels[l];
@@ -237,12 +468,26 @@ impl Fas {
 
 impl Stepper for Fas {
     fn advance(&mut self) -> Result<(), Divergence> {
-        let t = self.levels[0].state.t;
+        let t0 = self.levels[0].state.t;
+        let t1 = t0 + self.dt();
+        // Static smoothers solve the equilibrium at the cycle's end time; dynamics integrates
+        // level 0 from t0 (coarse levels frozen at t0).
+        let t = match self.params.smoother {
+            Smoother::Dynamics => t0,
+            Smoother::Chebyshev { .. } => {
+                let l = &mut self.levels[0];
+                l.state.t = t1;
+                let st = &mut l.state;
+                l.sys.impose(t1, &mut st.u, &mut st.v);
+                t1
+            }
+        };
         if self.levels.len() == 1 {
             self.coarsest(0, t)?;
         } else {
             self.visit(0, t)?;
         }
+        self.levels[0].state.t = t1;
         self.steps += 1;
         let l = &self.levels[0];
         check_state(&l.sys, &l.state, self.steps, self.params.kinetic_limit)

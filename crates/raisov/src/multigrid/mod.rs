@@ -27,12 +27,15 @@ pub struct Level {
     pub integrator: Box<dyn Integrator>,
     /// This level's time step (s).
     pub dt: f64,
+    /// Upper bound on the largest eigenvalue of M⁻¹K at small strain (1/s²), from
+    /// [`crate::scenario::max_gradient_sum`]: `λ_max ≤ c² max_e npe Σ|∇N_a|²`.
+    pub lambda_max: f64,
     /// Force evaluations so far on this level.
     pub evaluations: u64,
 }
 
 impl Level {
-    pub fn new(mesh: Mesh, sys: System, method: Method, dt: f64) -> Self {
+    pub fn new(mesh: Mesh, sys: System, method: Method, dt: f64, lambda_max: f64) -> Self {
         let n = mesh.num_nodes();
         let mut state = State::at_rest(n);
         sys.impose(0.0, &mut state.u, &mut state.v);
@@ -42,6 +45,7 @@ impl Level {
             state,
             integrator: method.build(n),
             dt,
+            lambda_max,
             evaluations: 0,
         }
     }

@@ -11,7 +11,7 @@ use crate::error::Result;
 use crate::hierarchy::Correspondence;
 use crate::integrate::{energy_limit_for, Method, Motion, SingleLevel, Stepper, StepperParams};
 use crate::mesh::Mesh;
-use crate::multigrid::fas::{CoarseSolve, Fas, FasParams};
+use crate::multigrid::fas::{CoarseSolve, Fas, FasParams, Smoother};
 use crate::multigrid::raisov::{Raisov, RaisovParams, Reading};
 use crate::multigrid::Level;
 use std::path::Path;
@@ -252,7 +252,9 @@ impl Scenario {
             } else {
                 build_system(self, &mesh, &c.fixed, &c.prescribed, &c.loads)?
             };
-            levels.push(Level::new(mesh, sys, methods[i], dts[i]));
+            let lambda_max = self.material.stability_modulus(mesh.kind) / self.density
+                * super::max_gradient_sum(&mesh);
+            levels.push(Level::new(mesh, sys, methods[i], dts[i], lambda_max));
         }
         Ok((levels, links))
     }
@@ -302,21 +304,27 @@ impl Scenario {
             _ => {
                 let coarse = match mg.coarse.as_deref() {
                     Some("newton") => CoarseSolve::Newton { rel_tol: 1e-6 },
-                    _ => CoarseSolve::Explicit {
+                    Some("explicit") => CoarseSolve::Explicit {
                         time: positive(
                             &self.path,
                             "multigrid.coarse_time",
                             mg.coarse_time.unwrap_or(0.1),
                         )?,
                     },
+                    _ => FasParams::default().coarse,
+                };
+                let smoother = match mg.smoother.as_deref() {
+                    Some("dynamics") => Smoother::Dynamics,
+                    _ => FasParams::default().smoother,
                 };
                 Box::new(Fas::new(
                     levels,
                     links,
                     FasParams {
-                        pre_smooth: mg.pre_smooth.unwrap_or(2),
-                        post_smooth: mg.post_smooth.unwrap_or(2),
+                        pre_smooth: mg.pre_smooth.unwrap_or(FasParams::default().pre_smooth),
+                        post_smooth: mg.post_smooth.unwrap_or(FasParams::default().post_smooth),
                         coarse,
+                        smoother,
                         kinetic_limit: limit,
                     },
                 ))

@@ -74,9 +74,11 @@
 //! files = ["L1.msh", "L2.msh"]    # or coarser levels as files (level 0 is [mesh]); same `scale`
 //! reading = "correction"          # raisov-paper: "paper" | "correction", default "correction"
 //! epsilon = 1e-5                  # raisov-paper: switch threshold (m), default 1e-3 × shortest edge
-//! pre_smooth = 2                  # fas: ν1, default 2
-//! post_smooth = 2                 # fas: ν2, default 2
-//! coarse = "explicit"             # fas: coarsest solve, "explicit" | "newton", default "explicit"
+//! pre_smooth = 4                  # fas: ν1, default 4
+//! post_smooth = 4                 # fas: ν2, default 4
+//! smoother = "chebyshev"          # fas: "chebyshev" (default) | "dynamics" (damped explicit steps)
+//! coarse = "chebyshev"            # fas: coarsest solve, "chebyshev" (60 iterations, default) |
+//!                                 #      "explicit" (damped steps) | "newton" (Newton-Krylov)
 //! coarse_time = 0.1               # fas explicit coarsest: simulated time per visit (s), default 0.1
 //! level_methods = ["rk4", "rk4"]  # per level integrator, default [integrator] method on all
 //! level_dt = [1e-3, 2e-3]         # per level step (s); default: raisov-paper the level-0 step
@@ -123,6 +125,7 @@ pub struct MultigridSpec {
     pub post_smooth: Option<usize>,
     pub coarse: Option<String>,
     pub coarse_time: Option<f64>,
+    pub smoother: Option<String>,
     pub level_methods: Option<Vec<String>>,
     pub level_dt: Option<Vec<f64>>,
 }

@@ -107,6 +107,10 @@ pub struct Fas {
     pub fallbacks: u64,
     /// Cycle number of each level's last λ estimate.
     visits: Vec<u64>,
+    /// Coarse corrections dropped because even 1/32 of them would invert a fine element.
+    pub dropped_corrections: u64,
+    /// Coarse visits skipped because the restricted state inverted a coarse element.
+    pub skipped_coarse: u64,
     newton: Option<NewtonSolver>,
     steps: u64,
 }
@@ -232,6 +236,8 @@ impl Fas {
                 .collect(),
             fallbacks: 0,
             visits: vec![u64::MAX; levels.len()],
+            dropped_corrections: 0,
+            skipped_coarse: 0,
             levels,
             links,
             params,
@@ -432,19 +438,22 @@ impl Fas {
                 .residual(&f.state.u, &mut self.r[l])
                 .map_err(|e| diverged(step_no, t, e))?;
             f.evaluations += 1;
-            // F_c = R_c(u_c0) + Pᵀ r_f
+            // F_c = R_c(u_c0) + Pᵀ r_f. The restricted state can invert a coarse element where
+            // boundary nodes extrapolate (eq. 7 weights beyond [0, 1]): then this cycle has no
+            // coarse correction on this level, only smoothing.
             let fc = &mut c.sys.f_ext;
-            c.sys
-                .force
-                .internal_forces(u0c, fc)
-                .map_err(|e| diverged(step_no, t, e))?;
             c.evaluations += 1;
+            if c.sys.force.internal_forces(u0c, fc).is_err() {
+                self.skipped_coarse += 1;
+                return self.smooth(l, self.params.post_smooth, t);
+            }
             link.down
                 .transpose_add(&self.r[l], 3, fc)
                 .expect("sizes match");
         }
         self.visit(l + 1, t)?;
-        // Carry the coarse change up as a variation.
+        // Carry the coarse change up as a variation, u += s P (u_c − u_c0), halving s while it
+        // would invert a fine element (a coarse solve far from converged on a large residual).
         {
             let (fine, coarse) = self.levels.split_at_mut(l + 1);
             let (f, c) = (&mut fine[l], &coarse[0]);
@@ -452,15 +461,30 @@ impl Fas {
             for k in 0..e.len() {
                 e[k] = c.state.u[k] - self.u0[l + 1][k];
             }
+            // P e into the fine direction scratch, with constrained nodes left alone.
+            let pe = &mut self.d[l];
             self.links[l]
                 .down
-                .interpolate_add(e, 3, &mut f.state.u)
+                .interpolate(e, 3, pe)
                 .expect("sizes match");
-            let tt = f.state.t;
-            let v = std::mem::take(&mut f.state.v);
-            let mut vv = v;
-            f.sys.impose(tt, &mut f.state.u, &mut vv);
-            f.state.v = vv;
+            f.sys.constraints.zero_constrained(pe);
+            self.saved[l].copy_from_slice(&f.state.u);
+            let mut s = 1.0;
+            for _ in 0..6 {
+                for k in 0..pe.len() {
+                    f.state.u[k] = self.saved[l][k] + s * pe[k];
+                }
+                f.evaluations += 1;
+                if f.sys.residual(&f.state.u, &mut self.r[l]).is_ok() {
+                    break;
+                }
+                s *= 0.5;
+                if s < 0.04 {
+                    f.state.u.copy_from_slice(&self.saved[l]);
+                    self.dropped_corrections += 1;
+                    break;
+                }
+            }
         }
         self.smooth(l, self.params.post_smooth, t)
     }

@@ -8,7 +8,7 @@ use raisov::mesh::generate::{
     box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern,
 };
 use raisov::mesh::Mesh;
-use raisov::scenario::{run, RunOptions, Scenario};
+use raisov::scenario::{run_with, RunOptions, Scenario};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
@@ -148,8 +148,11 @@ fn cmd_run(scenario: Option<PathBuf>, out: Option<PathBuf>, quiet: bool) -> Resu
             s.time, s.kinetic, s.residual
         ));
     };
-    let res = run(
+    let mut stepper = sc.stepper()?;
+    eprint!("{}", stepper.report());
+    let res = run_with(
         &sc,
+        stepper.as_mut(),
         RunOptions {
             out_dir: out,
             progress: Some(&mut progress),
@@ -197,6 +200,9 @@ fn cmd_check(path: &Path) -> Result<()> {
         sc.dt_critical_estimate
     );
     println!("stop          {:?}", sc.stop);
+    let stepper = sc.stepper()?;
+    println!("stepping      {}", stepper.describe());
+    print!("{}", stepper.report());
     println!("output        {}", sc.out_dir.display());
     println!("ok");
     Ok(())

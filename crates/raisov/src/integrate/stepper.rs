@@ -42,6 +42,10 @@ pub trait Stepper {
     fn dt(&self) -> f64;
     /// A short description (method, levels).
     fn describe(&self) -> String;
+    /// Setup report for the user (multigrid: levels and correspondences, with warnings).
+    fn report(&self) -> String {
+        String::new()
+    }
 }
 
 /// Check a state for non-finite values and kinetic-energy blow-up.

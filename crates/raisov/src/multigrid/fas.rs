@@ -533,6 +533,9 @@ impl Stepper for Fas {
     fn dt(&self) -> f64 {
         self.levels[0].dt * (self.params.pre_smooth + self.params.post_smooth).max(1) as f64
     }
+    fn report(&self) -> String {
+        super::hierarchy_report(&self.levels, &self.links)
+    }
     fn describe(&self) -> String {
         let nodes: Vec<String> = self
             .levels

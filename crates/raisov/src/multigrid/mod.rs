@@ -76,5 +76,31 @@ pub(crate) fn norm3(x: [f64; 3]) -> f64 {
 /// Links between consecutive levels: `links[i]` joins level i (fine) and i+1 (coarse).
 pub type Links = Vec<Correspondence>;
 
+/// Levels and correspondences, one line each, with a warning where the paper's covering
+/// condition (section 2.1) fails.
+pub fn hierarchy_report(levels: &[Level], links: &Links) -> String {
+    let mut out = String::new();
+    for (i, l) in levels.iter().enumerate() {
+        out += &format!(
+            "level {i}: {} nodes, {} elements, dt = {:.4e} s, {}\n",
+            l.num_nodes(),
+            l.mesh.num_elements(),
+            l.dt,
+            l.integrator.method().name()
+        );
+    }
+    for (i, c) in links.iter().enumerate() {
+        out += &format!("link {i}-{}: {}\n", i + 1, c.report);
+        if !c.report.covered {
+            out += &format!(
+                "warning: level {} hosts do not cover level {i} ({} nodes uncovered); detail there can be lost in restriction\n",
+                i + 1,
+                c.report.uncovered_fine_nodes
+            );
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests;

@@ -208,6 +208,9 @@ impl Stepper for Raisov {
     fn dt(&self) -> f64 {
         self.levels[0].dt
     }
+    fn report(&self) -> String {
+        super::hierarchy_report(&self.levels, &self.links)
+    }
     fn describe(&self) -> String {
         let nodes: Vec<String> = self
             .levels

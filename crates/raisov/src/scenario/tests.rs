@@ -77,6 +77,11 @@ fn every_error_path_names_the_problem() {
         (format!("{BASE}\n[output]\nreference = \"nowhere.csv\""), "no such file"),
         (BASE.replace("[mesh]", "[mesh]\nfile = \"x.msh\""), "either `file` or `generate`"),
         ("[mesh\n".to_string(), "test.toml, line 1"),
+        (format!("{BASE}\n[multigrid]\nscheme = \"w-cycle\"\nlevels = 2"), "valid are \"fas\""),
+        (format!("{BASE}\n[multigrid]\nlevels = 2\nfiles = [\"a.msh\"]"), "not both"),
+        (format!("{BASE}\n[multigrid]\nscheme = \"fas\""), "give `levels`"),
+        (format!("{BASE}\n[multigrid]\nlevels = 2\nratio = 2.0"), "must be in (0, 1)"),
+        (format!("{BASE}\n[multigrid]\nlevels = 2\nsmoother = \"gauss\""), "valid are \"chebyshev\""),
     ];
     for (text, want) in cases {
         let msg = error_of(&text);

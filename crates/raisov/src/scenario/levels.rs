@@ -51,12 +51,26 @@ pub(super) fn validate(mg: &MultigridSpec, mesh: &MeshSpec, path: &Path) -> Resu
             ));
         }
     }
-    if let Some(c) = mg.coarse.as_deref() {
-        if c != "explicit" && c != "newton" {
-            return Err(err(
-                path,
-                format!("`multigrid.coarse` = \"{c}\": valid are \"explicit\", \"newton\""),
-            ));
+    for (key, value, valid) in [
+        (
+            "coarse",
+            mg.coarse.as_deref(),
+            &["chebyshev", "explicit", "newton"][..],
+        ),
+        (
+            "smoother",
+            mg.smoother.as_deref(),
+            &["chebyshev", "dynamics"][..],
+        ),
+    ] {
+        if let Some(v) = value {
+            if !valid.contains(&v) {
+                let list: Vec<String> = valid.iter().map(|x| format!("\"{x}\"")).collect();
+                return Err(err(
+                    path,
+                    format!("`multigrid.{key}` = \"{v}\": valid are {}", list.join(", ")),
+                ));
+            }
         }
     }
     Ok(())

@@ -264,6 +264,12 @@ impl TetPack {
         good
     }
 
+    /// Use the portable kernel even where AVX2 is available (tests compare the two).
+    #[cfg(test)]
+    pub(crate) fn force_portable(&mut self) {
+        self.avx2 = false;
+    }
+
     #[inline]
     unsafe fn run_slab(&self, g: &[Group], u: &[f64], r: SyncPtr) -> bool {
         #[cfg(target_arch = "x86_64")]
@@ -291,40 +297,211 @@ struct SyncPtr(*mut f64);
 unsafe impl Send for SyncPtr {}
 unsafe impl Sync for SyncPtr {}
 
-/// The same code compiled with AVX2 (4 f64 lanes). No FMA contraction happens (Rust does not
-/// fuse `a * b + c`), so the bits equal those of the baseline build.
+/// The kernel written with AVX2 intrinsics, 4 lanes per group. Every floating-point
+/// operation is the one of [`run_groups`] in the same order (no FMA), so the bits are equal.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn run_groups_avx2(g: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: f64) -> bool {
-    run_groups(g, u, r, mu, lambda)
+unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: f64) -> bool {
+    use std::arch::x86_64::*;
+    let up = u.as_ptr();
+    macro_rules! add { ($a:expr, $b:expr) => { _mm256_add_pd($a, $b) } }
+    macro_rules! sub { ($a:expr, $b:expr) => { _mm256_sub_pd($a, $b) } }
+    macro_rules! mul { ($a:expr, $b:expr) => { _mm256_mul_pd($a, $b) } }
+    let one = _mm256_set1_pd(1.0);
+    let zero = _mm256_setzero_pd();
+    let vmu = _mm256_set1_pd(mu);
+    let vlam = _mm256_set1_pd(lambda);
+    let sign = _mm256_set1_pd(-0.0);
+    let mut good = 0xf;
+    for g in groups {
+        // Gather corner displacements as [x; y; z] vectors over lanes.
+        let mut cx = [zero; 4];
+        let mut cy = [zero; 4];
+        let mut cz = [zero; 4];
+        for k in 0..4 {
+            let p = |l: usize| up.add(g.idx[k][l] as usize * 3);
+            let a = _mm256_insertf128_pd(
+                _mm256_castpd128_pd256(_mm_loadu_pd(p(0))),
+                _mm_loadu_pd(p(2)),
+                1,
+            );
+            let b = _mm256_insertf128_pd(
+                _mm256_castpd128_pd256(_mm_loadu_pd(p(1))),
+                _mm_loadu_pd(p(3)),
+                1,
+            );
+            cx[k] = _mm256_unpacklo_pd(a, b);
+            cy[k] = _mm256_unpackhi_pd(a, b);
+            let z01 = _mm_loadh_pd(_mm_load_sd(p(0).add(2)), p(1).add(2));
+            let z23 = _mm_loadh_pd(_mm_load_sd(p(2).add(2)), p(3).add(2));
+            cz[k] = _mm256_insertf128_pd(_mm256_castpd128_pd256(z01), z23, 1);
+        }
+        // w[k][i] = Du_ik = u_{k+1,i} − u_{0,i}
+        let w = [
+            [sub!(cx[1], cx[0]), sub!(cy[1], cy[0]), sub!(cz[1], cz[0])],
+            [sub!(cx[2], cx[0]), sub!(cy[2], cy[0]), sub!(cz[2], cz[0])],
+            [sub!(cx[3], cx[0]), sub!(cy[3], cy[0]), sub!(cz[3], cz[0])],
+        ];
+        let mut d = [zero; 9];
+        for q in 0..9 {
+            d[q] = _mm256_loadu_pd(g.dminv[q].as_ptr());
+        }
+        macro_rules! fm {
+            ($i:expr, $j:expr) => {
+                add!(
+                    add!(mul!(w[0][$i], d[$j]), mul!(w[1][$i], d[3 + $j])),
+                    mul!(w[2][$i], d[6 + $j])
+                )
+            };
+        }
+        let f00 = add!(one, fm!(0, 0));
+        let f01 = fm!(0, 1);
+        let f02 = fm!(0, 2);
+        let f10 = fm!(1, 0);
+        let f11 = add!(one, fm!(1, 1));
+        let f12 = fm!(1, 2);
+        let f20 = fm!(2, 0);
+        let f21 = fm!(2, 1);
+        let f22 = add!(one, fm!(2, 2));
+        let c00 = sub!(mul!(f11, f22), mul!(f12, f21));
+        let c01 = sub!(mul!(f12, f20), mul!(f10, f22));
+        let c02 = sub!(mul!(f10, f21), mul!(f11, f20));
+        let c10 = sub!(mul!(f02, f21), mul!(f01, f22));
+        let c11 = sub!(mul!(f00, f22), mul!(f02, f20));
+        let c12 = sub!(mul!(f01, f20), mul!(f00, f21));
+        let c20 = sub!(mul!(f01, f12), mul!(f02, f11));
+        let c21 = sub!(mul!(f02, f10), mul!(f00, f12));
+        let c22 = sub!(mul!(f00, f11), mul!(f01, f10));
+        let j = add!(add!(mul!(f00, c00), mul!(f01, c01)), mul!(f02, c02));
+        good &= _mm256_movemask_pd(_mm256_cmp_pd(j, zero, _CMP_GT_OQ));
+        // ln J, as ln_series.
+        let bits = _mm256_castpd_si256(j);
+        let eb = _mm256_and_si256(_mm256_srli_epi64(bits, 52), _mm256_set1_epi64x(0x7ff));
+        let magic = _mm256_set1_pd(4503599627370496.0); // 2^52
+        let ef = _mm256_sub_pd(
+            _mm256_castsi256_pd(_mm256_or_si256(eb, _mm256_castpd_si256(magic))),
+            magic,
+        );
+        let m = _mm256_castsi256_pd(_mm256_or_si256(
+            _mm256_and_si256(bits, _mm256_set1_epi64x(0x000f_ffff_ffff_ffff)),
+            _mm256_set1_epi64x(0x3ff0_0000_0000_0000),
+        ));
+        let big = _mm256_cmp_pd(m, _mm256_set1_pd(std::f64::consts::SQRT_2), _CMP_GT_OQ);
+        let m = _mm256_blendv_pd(m, mul!(_mm256_set1_pd(0.5), m), big);
+        let e = add!(sub!(ef, _mm256_set1_pd(1023.0)), _mm256_and_pd(big, one));
+        let s = _mm256_div_pd(sub!(m, one), add!(m, one));
+        let z = mul!(s, s);
+        let mut pp = _mm256_set1_pd(LN_COEF[0]);
+        for &c in &LN_COEF[1..] {
+            pp = add!(mul!(pp, z), _mm256_set1_pd(c));
+        }
+        let two = _mm256_set1_pd(2.0);
+        let t = mul!(mul!(two, s), mul!(pp, z));
+        let lnj = add!(
+            mul!(e, _mm256_set1_pd(LN2_HI)),
+            add!(mul!(two, s), add!(t, mul!(e, _mm256_set1_pd(LN2_LO))))
+        );
+        let v0 = _mm256_loadu_pd(g.vol.as_ptr());
+        let a = mul!(vmu, v0);
+        let b = _mm256_div_pd(mul!(v0, sub!(mul!(vlam, lnj), vmu)), j);
+        let p = [
+            [
+                add!(mul!(a, f00), mul!(b, c00)),
+                add!(mul!(a, f01), mul!(b, c01)),
+                add!(mul!(a, f02), mul!(b, c02)),
+            ],
+            [
+                add!(mul!(a, f10), mul!(b, c10)),
+                add!(mul!(a, f11), mul!(b, c11)),
+                add!(mul!(a, f12), mul!(b, c12)),
+            ],
+            [
+                add!(mul!(a, f20), mul!(b, c20)),
+                add!(mul!(a, f21), mul!(b, c21)),
+                add!(mul!(a, f22), mul!(b, c22)),
+            ],
+        ];
+        // h[corner][component]
+        let mut h = [[zero; 3]; 4];
+        for i in 0..3 {
+            let mut acc = zero;
+            for jj in 0..3 {
+                let hv = add!(
+                    add!(mul!(p[i][0], d[3 * jj]), mul!(p[i][1], d[3 * jj + 1])),
+                    mul!(p[i][2], d[3 * jj + 2])
+                );
+                h[jj + 1][i] = hv;
+                acc = add!(acc, hv);
+            }
+            h[0][i] = _mm256_xor_pd(acc, sign);
+        }
+        // Transpose to per-lane (x, y) pairs and z, then scatter lane by lane, corner by
+        // corner (the order of run_groups).
+        let mut xy = [[_mm_setzero_pd(); 4]; 4]; // [corner][lane]
+        let mut zz = [[_mm_setzero_pd(); 4]; 4];
+        for k in 0..4 {
+            let lo = _mm256_unpacklo_pd(h[k][0], h[k][1]); // x0 y0 x2 y2
+            let hi = _mm256_unpackhi_pd(h[k][0], h[k][1]); // x1 y1 x3 y3
+            xy[k] = [
+                _mm256_castpd256_pd128(lo),
+                _mm256_castpd256_pd128(hi),
+                _mm256_extractf128_pd(lo, 1),
+                _mm256_extractf128_pd(hi, 1),
+            ];
+            let zl = _mm256_castpd256_pd128(h[k][2]);
+            let zh = _mm256_extractf128_pd(h[k][2], 1);
+            zz[k] = [
+                zl,
+                _mm_unpackhi_pd(zl, zl),
+                zh,
+                _mm_unpackhi_pd(zh, zh),
+            ];
+        }
+        for l in 0..LANES {
+            for k in 0..4 {
+                let q = r.add(g.idx[k][l] as usize * 3);
+                _mm_storeu_pd(q, _mm_add_pd(_mm_loadu_pd(q), xy[k][l]));
+                _mm_store_sd(q.add(2), _mm_add_sd(_mm_load_sd(q.add(2)), zz[k][l]));
+            }
+        }
+    }
+    good == 0xf
 }
+
+/// Coefficients `1/21, 1/19, ..., 1/3` of the atanh series (Horner order).
+const LN_COEF: [f64; 10] = [
+    1.0 / 21.0,
+    1.0 / 19.0,
+    1.0 / 17.0,
+    1.0 / 15.0,
+    1.0 / 13.0,
+    1.0 / 11.0,
+    1.0 / 9.0,
+    1.0 / 7.0,
+    1.0 / 5.0,
+    1.0 / 3.0,
+];
+/// ln 2 split hi + lo for an accurate `e ln 2`.
+const LN2_HI: f64 = 6.931_471_803_691_238_2e-1;
+const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
 
 /// ln x for normal positive x, branch-free: `x = m 2^e`, `m ∈ [√½, √2)`,
 /// `ln m = 2 atanh s`, `s = (m − 1)/(m + 1)`, series to `s²¹` (|s| ≤ 0.1716).
 #[inline(always)]
 pub(crate) fn ln_series(x: f64) -> f64 {
     let bits = x.to_bits();
-    let e = ((bits >> 52) & 0x7ff) as i64 - 1023;
+    let e = ((bits >> 52) & 0x7ff) as f64 - 1023.0;
     let m = f64::from_bits((bits & 0x000f_ffff_ffff_ffff) | 0x3ff0_0000_0000_0000);
     let big = m > std::f64::consts::SQRT_2;
     let m = if big { 0.5 * m } else { m };
-    let e = (e + big as i64) as f64;
+    let e = e + if big { 1.0 } else { 0.0 };
     let s = (m - 1.0) / (m + 1.0);
     let z = s * s;
-    let mut p = 1.0 / 21.0;
-    p = p * z + 1.0 / 19.0;
-    p = p * z + 1.0 / 17.0;
-    p = p * z + 1.0 / 15.0;
-    p = p * z + 1.0 / 13.0;
-    p = p * z + 1.0 / 11.0;
-    p = p * z + 1.0 / 9.0;
-    p = p * z + 1.0 / 7.0;
-    p = p * z + 1.0 / 5.0;
-    p = p * z + 1.0 / 3.0;
+    let mut p = LN_COEF[0];
+    for &c in &LN_COEF[1..] {
+        p = p * z + c;
+    }
     let t = 2.0 * s * (p * z);
-    // ln 2 split hi + lo for accuracy of e ln 2.
-    const LN2_HI: f64 = 6.931_471_803_691_238_2e-1;
-    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     e * LN2_HI + (2.0 * s + (t + e * LN2_LO))
 }
 

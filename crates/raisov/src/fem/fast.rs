@@ -14,8 +14,10 @@
 //!
 //! Layout: elements packed in groups of [`LANES`] (structure of arrays inside a group:
 //! `Dm⁻¹` entries, volumes and corner ids lane-contiguous, 96 bytes per tetrahedron), sorted
-//! into slabs along the longest axis of the mesh (equal element counts) and, inside a slab,
-//! by the Morton key of the element centroid. Slabs are coloured greedily so that slabs of
+//! into slabs of equal element counts (by mean node id when the node numbering is banded,
+//! as for the structured boxes, so that a slab touches one contiguous stretch of `u` and
+//! `r`; else along the longest axis of the mesh) and, inside a slab, by the Morton key of
+//! the element centroid. Slabs are coloured greedily so that slabs of
 //! one colour share no node; the force pass runs colour by colour, the slabs of a colour in
 //! parallel, each slab scattering serially into `r`. Every node thus receives its element
 //! contributions in one fixed order (colour, then slab order, then element order) whatever
@@ -102,19 +104,51 @@ impl TetPack {
                 ext[d] += emax[d] - emin[d];
             }
         }
+        // Slab key: the mean node id of the element when the numbering is banded (each
+        // slab then reads and writes one contiguous stretch of u and r: prefetchable), else
+        // the centroid along the longest axis. Slabs at least two element "widths" thick
+        // so that two colours usually suffice, about `target_block` elements each.
+        let bw = (0..ne)
+            .map(|e| {
+                let el = &cells[4 * e..4 * e + 4];
+                let (mn, mx) = el
+                    .iter()
+                    .fold((u32::MAX, 0), |(a, b), &c| (a.min(c), b.max(c)));
+                (mx - mn) as usize
+            })
+            .max()
+            .unwrap_or(0);
+        let max_slabs_index = (n_nodes / (2 * bw.max(1))).max(1);
         let axis = (0..3)
             .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
             .unwrap_or(0);
-        // Slabs at least two mean element extents thick, about `target_block` elements each.
         let mean_ext = if ne > 0 { ext[axis] / ne as f64 } else { 1.0 };
-        let max_slabs = ((hi[axis] - lo[axis]) / (2.0 * mean_ext.max(f64::MIN_POSITIVE)))
+        let max_slabs_geo = ((hi[axis] - lo[axis]) / (2.0 * mean_ext.max(f64::MIN_POSITIVE)))
             .floor()
             .max(1.0) as usize;
-        let slabs = ne.div_ceil(target_block.max(1)).clamp(1, max_slabs);
+        let wanted = ne.div_ceil(target_block.max(1));
+        let by_index = max_slabs_index >= wanted.min(8);
+        let slabs = wanted.clamp(
+            1,
+            if by_index {
+                max_slabs_index
+            } else {
+                max_slabs_geo
+            },
+        );
+        let slab_key: Vec<f64> = (0..ne)
+            .map(|e| {
+                if by_index {
+                    cells[4 * e..4 * e + 4].iter().map(|&c| c as f64).sum::<f64>()
+                } else {
+                    cen[e][axis]
+                }
+            })
+            .collect();
         let mut by_axis: Vec<u32> = (0..ne as u32).collect();
         by_axis.sort_by(|&a, &b| {
-            cen[a as usize][axis]
-                .total_cmp(&cen[b as usize][axis])
+            slab_key[a as usize]
+                .total_cmp(&slab_key[b as usize])
                 .then(a.cmp(&b))
         });
         let mut slab_of = vec![0u32; ne];
@@ -283,7 +317,7 @@ impl TetPack {
 fn detect_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        std::is_x86_feature_detected!("avx2")
+        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -297,16 +331,19 @@ struct SyncPtr(*mut f64);
 unsafe impl Send for SyncPtr {}
 unsafe impl Sync for SyncPtr {}
 
-/// The kernel written with AVX2 intrinsics, 4 lanes per group. Every floating-point
-/// operation is the one of [`run_groups`] in the same order (no FMA), so the bits are equal.
+/// The kernel written with AVX2 + FMA intrinsics, 4 lanes per group. Every floating-point
+/// operation is the one of [`run_groups`] in the same order (fused multiply-adds where it
+/// uses `mul_add`), so the bits are equal.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: f64) -> bool {
     use std::arch::x86_64::*;
     let up = u.as_ptr();
     macro_rules! add { ($a:expr, $b:expr) => { _mm256_add_pd($a, $b) } }
     macro_rules! sub { ($a:expr, $b:expr) => { _mm256_sub_pd($a, $b) } }
     macro_rules! mul { ($a:expr, $b:expr) => { _mm256_mul_pd($a, $b) } }
+    macro_rules! fma { ($a:expr, $b:expr, $c:expr) => { _mm256_fmadd_pd($a, $b, $c) } }
+    macro_rules! fms { ($a:expr, $b:expr, $c:expr) => { _mm256_fmsub_pd($a, $b, $c) } }
     let one = _mm256_set1_pd(1.0);
     let zero = _mm256_setzero_pd();
     let vmu = _mm256_set1_pd(mu);
@@ -348,9 +385,10 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
         }
         macro_rules! fm {
             ($i:expr, $j:expr) => {
-                add!(
-                    add!(mul!(w[0][$i], d[$j]), mul!(w[1][$i], d[3 + $j])),
-                    mul!(w[2][$i], d[6 + $j])
+                fma!(
+                    w[2][$i],
+                    d[6 + $j],
+                    fma!(w[1][$i], d[3 + $j], mul!(w[0][$i], d[$j]))
                 )
             };
         }
@@ -363,16 +401,16 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
         let f20 = fm!(2, 0);
         let f21 = fm!(2, 1);
         let f22 = add!(one, fm!(2, 2));
-        let c00 = sub!(mul!(f11, f22), mul!(f12, f21));
-        let c01 = sub!(mul!(f12, f20), mul!(f10, f22));
-        let c02 = sub!(mul!(f10, f21), mul!(f11, f20));
-        let c10 = sub!(mul!(f02, f21), mul!(f01, f22));
-        let c11 = sub!(mul!(f00, f22), mul!(f02, f20));
-        let c12 = sub!(mul!(f01, f20), mul!(f00, f21));
-        let c20 = sub!(mul!(f01, f12), mul!(f02, f11));
-        let c21 = sub!(mul!(f02, f10), mul!(f00, f12));
-        let c22 = sub!(mul!(f00, f11), mul!(f01, f10));
-        let j = add!(add!(mul!(f00, c00), mul!(f01, c01)), mul!(f02, c02));
+        let c00 = fms!(f11, f22, mul!(f12, f21));
+        let c01 = fms!(f12, f20, mul!(f10, f22));
+        let c02 = fms!(f10, f21, mul!(f11, f20));
+        let c10 = fms!(f02, f21, mul!(f01, f22));
+        let c11 = fms!(f00, f22, mul!(f02, f20));
+        let c12 = fms!(f01, f20, mul!(f00, f21));
+        let c20 = fms!(f01, f12, mul!(f02, f11));
+        let c21 = fms!(f02, f10, mul!(f00, f12));
+        let c22 = fms!(f00, f11, mul!(f01, f10));
+        let j = fma!(f02, c02, fma!(f01, c01, mul!(f00, c00)));
         good &= _mm256_movemask_pd(_mm256_cmp_pd(j, zero, _CMP_GT_OQ));
         // ln J, as ln_series.
         let bits = _mm256_castpd_si256(j);
@@ -393,7 +431,7 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
         let z = mul!(s, s);
         let mut pp = _mm256_set1_pd(LN_COEF[0]);
         for &c in &LN_COEF[1..] {
-            pp = add!(mul!(pp, z), _mm256_set1_pd(c));
+            pp = fma!(pp, z, _mm256_set1_pd(c));
         }
         let two = _mm256_set1_pd(2.0);
         let t = mul!(mul!(two, s), mul!(pp, z));
@@ -406,19 +444,19 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
         let b = _mm256_div_pd(mul!(v0, sub!(mul!(vlam, lnj), vmu)), j);
         let p = [
             [
-                add!(mul!(a, f00), mul!(b, c00)),
-                add!(mul!(a, f01), mul!(b, c01)),
-                add!(mul!(a, f02), mul!(b, c02)),
+                fma!(a, f00, mul!(b, c00)),
+                fma!(a, f01, mul!(b, c01)),
+                fma!(a, f02, mul!(b, c02)),
             ],
             [
-                add!(mul!(a, f10), mul!(b, c10)),
-                add!(mul!(a, f11), mul!(b, c11)),
-                add!(mul!(a, f12), mul!(b, c12)),
+                fma!(a, f10, mul!(b, c10)),
+                fma!(a, f11, mul!(b, c11)),
+                fma!(a, f12, mul!(b, c12)),
             ],
             [
-                add!(mul!(a, f20), mul!(b, c20)),
-                add!(mul!(a, f21), mul!(b, c21)),
-                add!(mul!(a, f22), mul!(b, c22)),
+                fma!(a, f20, mul!(b, c20)),
+                fma!(a, f21, mul!(b, c21)),
+                fma!(a, f22, mul!(b, c22)),
             ],
         ];
         // h[corner][component]
@@ -426,9 +464,10 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
         for i in 0..3 {
             let mut acc = zero;
             for jj in 0..3 {
-                let hv = add!(
-                    add!(mul!(p[i][0], d[3 * jj]), mul!(p[i][1], d[3 * jj + 1])),
-                    mul!(p[i][2], d[3 * jj + 2])
+                let hv = fma!(
+                    p[i][2],
+                    d[3 * jj + 2],
+                    fma!(p[i][1], d[3 * jj + 1], mul!(p[i][0], d[3 * jj]))
                 );
                 h[jj + 1][i] = hv;
                 acc = add!(acc, hv);
@@ -499,7 +538,7 @@ pub(crate) fn ln_series(x: f64) -> f64 {
     let z = s * s;
     let mut p = LN_COEF[0];
     for &c in &LN_COEF[1..] {
-        p = p * z + c;
+        p = p.mul_add(z, c);
     }
     let t = 2.0 * s * (p * z);
     e * LN2_HI + (2.0 * s + (t + e * LN2_LO))
@@ -532,7 +571,7 @@ unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: 
             let w = |k: usize, i: usize| du[k][i][l];
             // F_ij = δ_ij + Σ_k Du_ik Dm⁻¹_kj, Du_ik = w(k, i).
             let fm = |i: usize, j: usize| {
-                w(0, i) * d(0, j) + w(1, i) * d(1, j) + w(2, i) * d(2, j)
+                w(2, i).mul_add(d(2, j), w(1, i).mul_add(d(1, j), w(0, i) * d(0, j)))
             };
             let f00 = 1.0 + fm(0, 0);
             let f01 = fm(0, 1);
@@ -543,30 +582,30 @@ unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: 
             let f20 = fm(2, 0);
             let f21 = fm(2, 1);
             let f22 = 1.0 + fm(2, 2);
-            let c00 = f11 * f22 - f12 * f21;
-            let c01 = f12 * f20 - f10 * f22;
-            let c02 = f10 * f21 - f11 * f20;
-            let c10 = f02 * f21 - f01 * f22;
-            let c11 = f00 * f22 - f02 * f20;
-            let c12 = f01 * f20 - f00 * f21;
-            let c20 = f01 * f12 - f02 * f11;
-            let c21 = f02 * f10 - f00 * f12;
-            let c22 = f00 * f11 - f01 * f10;
-            let j = f00 * c00 + f01 * c01 + f02 * c02;
+            let c00 = f11.mul_add(f22, -(f12 * f21));
+            let c01 = f12.mul_add(f20, -(f10 * f22));
+            let c02 = f10.mul_add(f21, -(f11 * f20));
+            let c10 = f02.mul_add(f21, -(f01 * f22));
+            let c11 = f00.mul_add(f22, -(f02 * f20));
+            let c12 = f01.mul_add(f20, -(f00 * f21));
+            let c20 = f01.mul_add(f12, -(f02 * f11));
+            let c21 = f02.mul_add(f10, -(f00 * f12));
+            let c22 = f00.mul_add(f11, -(f01 * f10));
+            let j = f02.mul_add(c02, f01.mul_add(c01, f00 * c00));
             neg[l] = !(j > 0.0);
             let v0 = g.vol[l];
             let a = mu * v0;
             let b = v0 * (lambda * ln_series(j) - mu) / j;
             let p = [
-                [a * f00 + b * c00, a * f01 + b * c01, a * f02 + b * c02],
-                [a * f10 + b * c10, a * f11 + b * c11, a * f12 + b * c12],
-                [a * f20 + b * c20, a * f21 + b * c21, a * f22 + b * c22],
+                [a.mul_add(f00, b * c00), a.mul_add(f01, b * c01), a.mul_add(f02, b * c02)],
+                [a.mul_add(f10, b * c10), a.mul_add(f11, b * c11), a.mul_add(f12, b * c12)],
+                [a.mul_add(f20, b * c20), a.mul_add(f21, b * c21), a.mul_add(f22, b * c22)],
             ];
             for i in 0..3 {
                 let mut s = 0.0;
                 for jj in 0..3 {
                     // H_i,jj = Σ_k P_ik Dm⁻¹_jj,k
-                    let hv = p[i][0] * d(jj, 0) + p[i][1] * d(jj, 1) + p[i][2] * d(jj, 2);
+                    let hv = p[i][2].mul_add(d(jj, 2), p[i][1].mul_add(d(jj, 1), p[i][0] * d(jj, 0)));
                     h[jj + 1][i][l] = hv;
                     s += hv;
                 }

@@ -228,16 +228,18 @@ impl FemModel {
         let d = |i: usize, j: usize| self.dminv[9 * e + 3 * j + i];
         let a0 = el[0] as usize * 3;
         let w = |k: usize, i: usize| u[el[k + 1] as usize * 3 + i] - u[a0 + i];
-        let fm = |i: usize, j: usize| w(0, i) * d(0, j) + w(1, i) * d(1, j) + w(2, i) * d(2, j);
+        let fm = |i: usize, j: usize| {
+            w(2, i).mul_add(d(2, j), w(1, i).mul_add(d(1, j), w(0, i) * d(0, j)))
+        };
         let f = [
             [1.0 + fm(0, 0), fm(0, 1), fm(0, 2)],
             [fm(1, 0), 1.0 + fm(1, 1), fm(1, 2)],
             [fm(2, 0), fm(2, 1), 1.0 + fm(2, 2)],
         ];
-        let c00 = f[1][1] * f[2][2] - f[1][2] * f[2][1];
-        let c01 = f[1][2] * f[2][0] - f[1][0] * f[2][2];
-        let c02 = f[1][0] * f[2][1] - f[1][1] * f[2][0];
-        f[0][0] * c00 + f[0][1] * c01 + f[0][2] * c02
+        let c00 = f[1][1].mul_add(f[2][2], -(f[1][2] * f[2][1]));
+        let c01 = f[1][2].mul_add(f[2][0], -(f[1][0] * f[2][2]));
+        let c02 = f[1][0].mul_add(f[2][1], -(f[1][1] * f[2][0]));
+        f[0][2].mul_add(c02, f[0][1].mul_add(c01, f[0][0] * c00))
     }
 
     /// The lowest-numbered element the fast kernel rejects.

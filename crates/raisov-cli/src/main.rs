@@ -61,6 +61,9 @@ enum Cmd {
         /// Only the correctness check: STEPS steps on the boxes of --sizes, then exit.
         #[arg(long)]
         check: Option<usize>,
+        /// Only the standard-work rows (no integrator, membrane, hierarchy, memory rows).
+        #[arg(long)]
+        standard_only: bool,
     },
     /// Mesh tools.
     Mesh {
@@ -121,7 +124,8 @@ fn real_main(cli: Cli) -> Result<()> {
             out,
             write_mesh,
             check,
-        } => cmd_bench(&sizes, threads, quick, out, write_mesh, check),
+            standard_only,
+        } => cmd_bench(&sizes, threads, quick, out, write_mesh, check, standard_only),
         Cmd::Mesh {
             cmd: MeshCmd::Info { file },
         } => cmd_mesh_info(&file),
@@ -231,6 +235,7 @@ fn cmd_check(path: &Path) -> Result<()> {
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
 fn cmd_bench(
     sizes: &str,
     threads: Vec<usize>,
@@ -238,6 +243,7 @@ fn cmd_bench(
     out: Option<PathBuf>,
     write_mesh: Option<PathBuf>,
     check: Option<usize>,
+    standard_only: bool,
 ) -> Result<()> {
     use raisov::bench;
     let sizes = if quick && sizes == "1k,10k,100k,1M" {
@@ -294,6 +300,7 @@ fn cmd_bench(
             sizes: sizes.clone(),
             threads,
             quick,
+            standard_only,
         },
         &mut |r| {
             eprintln!(

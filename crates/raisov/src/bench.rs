@@ -246,6 +246,8 @@ pub struct BenchOptions {
     pub threads: Vec<usize>,
     /// Small and short (CI smoke).
     pub quick: bool,
+    /// Only the standard-work rows.
+    pub standard_only: bool,
 }
 
 /// Parse `1k,10k,100k,1M` (also plain numbers).
@@ -353,6 +355,9 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
                 &mut rows,
             );
         }
+    }
+    if opts.standard_only {
+        return Ok(rows);
     }
     // Integrators through the generic System path, on the size nearest 100k.
     let isize = *opts
@@ -659,6 +664,7 @@ mod tests {
                 sizes: vec![1000],
                 threads: vec![1],
                 quick: true,
+                standard_only: false,
             },
             &mut |_| {},
         )

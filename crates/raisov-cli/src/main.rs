@@ -125,7 +125,15 @@ fn real_main(cli: Cli) -> Result<()> {
             write_mesh,
             check,
             standard_only,
-        } => cmd_bench(&sizes, threads, quick, out, write_mesh, check, standard_only),
+        } => cmd_bench(
+            &sizes,
+            threads,
+            quick,
+            out,
+            write_mesh,
+            check,
+            standard_only,
+        ),
         Cmd::Mesh {
             cmd: MeshCmd::Info { file },
         } => cmd_mesh_info(&file),

@@ -271,9 +271,9 @@ pub fn parse_sizes(s: &str) -> Result<Vec<usize>> {
 
 /// Size label: 1000 → `1k`, 1000000 → `1M`.
 pub fn size_label(n: usize) -> String {
-    if n >= 1_000_000 && n % 1_000_000 == 0 {
+    if n >= 1_000_000 && n.is_multiple_of(1_000_000) {
         format!("{}M", n / 1_000_000)
-    } else if n >= 1000 && n % 1000 == 0 {
+    } else if n >= 1000 && n.is_multiple_of(1000) {
         format!("{}k", n / 1000)
     } else {
         n.to_string()
@@ -504,10 +504,7 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
                 nodes: max_nodes,
                 value: Some(hwm as f64 / max_nodes as f64),
                 unit: "B/node",
-                note: format!(
-                    "VmHWM {:.1} MiB over the whole run",
-                    hwm as f64 / 1048576.0
-                ),
+                note: format!("VmHWM {:.1} MiB over the whole run", hwm as f64 / 1048576.0),
                 ..Default::default()
             },
             &mut rows,

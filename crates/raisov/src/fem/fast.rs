@@ -139,7 +139,10 @@ impl TetPack {
         let slab_key: Vec<f64> = (0..ne)
             .map(|e| {
                 if by_index {
-                    cells[4 * e..4 * e + 4].iter().map(|&c| c as f64).sum::<f64>()
+                    cells[4 * e..4 * e + 4]
+                        .iter()
+                        .map(|&c| c as f64)
+                        .sum::<f64>()
                 } else {
                     cen[e][axis]
                 }
@@ -290,7 +293,10 @@ impl TetPack {
                 unsafe { self.run_slab(g, u, rp) }
             };
             good &= if n_slabs >= 2 && s1 - s0 >= 2 {
-                (s0..s1).into_par_iter().map(run).reduce(|| true, |a, b| a & b)
+                (s0..s1)
+                    .into_par_iter()
+                    .map(run)
+                    .reduce(|| true, |a, b| a & b)
             } else {
                 (s0..s1).map(run).fold(true, |a, b| a & b)
             };
@@ -339,11 +345,31 @@ unsafe impl Sync for SyncPtr {}
 unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: f64) -> bool {
     use std::arch::x86_64::*;
     let up = u.as_ptr();
-    macro_rules! add { ($a:expr, $b:expr) => { _mm256_add_pd($a, $b) } }
-    macro_rules! sub { ($a:expr, $b:expr) => { _mm256_sub_pd($a, $b) } }
-    macro_rules! mul { ($a:expr, $b:expr) => { _mm256_mul_pd($a, $b) } }
-    macro_rules! fma { ($a:expr, $b:expr, $c:expr) => { _mm256_fmadd_pd($a, $b, $c) } }
-    macro_rules! fms { ($a:expr, $b:expr, $c:expr) => { _mm256_fmsub_pd($a, $b, $c) } }
+    macro_rules! add {
+        ($a:expr, $b:expr) => {
+            _mm256_add_pd($a, $b)
+        };
+    }
+    macro_rules! sub {
+        ($a:expr, $b:expr) => {
+            _mm256_sub_pd($a, $b)
+        };
+    }
+    macro_rules! mul {
+        ($a:expr, $b:expr) => {
+            _mm256_mul_pd($a, $b)
+        };
+    }
+    macro_rules! fma {
+        ($a:expr, $b:expr, $c:expr) => {
+            _mm256_fmadd_pd($a, $b, $c)
+        };
+    }
+    macro_rules! fms {
+        ($a:expr, $b:expr, $c:expr) => {
+            _mm256_fmsub_pd($a, $b, $c)
+        };
+    }
     let one = _mm256_set1_pd(1.0);
     let zero = _mm256_setzero_pd();
     let vmu = _mm256_set1_pd(mu);
@@ -474,14 +500,12 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
             }
             h[0][i] = _mm256_xor_pd(acc, sign);
         }
-        // Transpose to per-lane (x, y) pairs and z, then scatter lane by lane, corner by
-        // corner (the order of run_groups).
-        let mut xy = [[_mm_setzero_pd(); 4]; 4]; // [corner][lane]
-        let mut zz = [[_mm_setzero_pd(); 4]; 4];
+        // Transpose each corner to per-lane (x, y) pairs and z and scatter it, corner by
+        // corner, lane by lane (the order of run_groups).
         for k in 0..4 {
             let lo = _mm256_unpacklo_pd(h[k][0], h[k][1]); // x0 y0 x2 y2
             let hi = _mm256_unpackhi_pd(h[k][0], h[k][1]); // x1 y1 x3 y3
-            xy[k] = [
+            let xy = [
                 _mm256_castpd256_pd128(lo),
                 _mm256_castpd256_pd128(hi),
                 _mm256_extractf128_pd(lo, 1),
@@ -489,18 +513,11 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
             ];
             let zl = _mm256_castpd256_pd128(h[k][2]);
             let zh = _mm256_extractf128_pd(h[k][2], 1);
-            zz[k] = [
-                zl,
-                _mm_unpackhi_pd(zl, zl),
-                zh,
-                _mm_unpackhi_pd(zh, zh),
-            ];
-        }
-        for l in 0..LANES {
-            for k in 0..4 {
+            let zz = [zl, _mm_unpackhi_pd(zl, zl), zh, _mm_unpackhi_pd(zh, zh)];
+            for l in 0..LANES {
                 let q = r.add(g.idx[k][l] as usize * 3);
-                _mm_storeu_pd(q, _mm_add_pd(_mm_loadu_pd(q), xy[k][l]));
-                _mm_store_sd(q.add(2), _mm_add_sd(_mm_load_sd(q.add(2)), zz[k][l]));
+                _mm_storeu_pd(q, _mm_add_pd(_mm_loadu_pd(q), xy[l]));
+                _mm_store_sd(q.add(2), _mm_add_sd(_mm_load_sd(q.add(2)), zz[l]));
             }
         }
     }
@@ -521,7 +538,7 @@ const LN_COEF: [f64; 10] = [
     1.0 / 3.0,
 ];
 /// ln 2 split hi + lo for an accurate `e ln 2`.
-const LN2_HI: f64 = 6.931_471_803_691_238_2e-1;
+const LN2_HI: f64 = 6.931_471_803_691_238e-1;
 const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
 
 /// ln x for normal positive x, branch-free: `x = m 2^e`, `m ∈ [√½, √2)`,
@@ -597,15 +614,28 @@ unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: 
             let a = mu * v0;
             let b = v0 * (lambda * ln_series(j) - mu) / j;
             let p = [
-                [a.mul_add(f00, b * c00), a.mul_add(f01, b * c01), a.mul_add(f02, b * c02)],
-                [a.mul_add(f10, b * c10), a.mul_add(f11, b * c11), a.mul_add(f12, b * c12)],
-                [a.mul_add(f20, b * c20), a.mul_add(f21, b * c21), a.mul_add(f22, b * c22)],
+                [
+                    a.mul_add(f00, b * c00),
+                    a.mul_add(f01, b * c01),
+                    a.mul_add(f02, b * c02),
+                ],
+                [
+                    a.mul_add(f10, b * c10),
+                    a.mul_add(f11, b * c11),
+                    a.mul_add(f12, b * c12),
+                ],
+                [
+                    a.mul_add(f20, b * c20),
+                    a.mul_add(f21, b * c21),
+                    a.mul_add(f22, b * c22),
+                ],
             ];
             for i in 0..3 {
                 let mut s = 0.0;
                 for jj in 0..3 {
                     // H_i,jj = Σ_k P_ik Dm⁻¹_jj,k
-                    let hv = p[i][2].mul_add(d(jj, 2), p[i][1].mul_add(d(jj, 1), p[i][0] * d(jj, 0)));
+                    let hv =
+                        p[i][2].mul_add(d(jj, 2), p[i][1].mul_add(d(jj, 1), p[i][0] * d(jj, 0)));
                     h[jj + 1][i][l] = hv;
                     s += hv;
                 }
@@ -615,8 +645,8 @@ unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: 
         for &n in &neg {
             bad |= n;
         }
-        for l in 0..LANES {
-            for k in 0..4 {
+        for k in 0..4 {
+            for l in 0..LANES {
                 let n = g.idx[k][l] as usize * 3;
                 *r.add(n) += h[k][0][l];
                 *r.add(n + 1) += h[k][1][l];

@@ -173,7 +173,10 @@ impl FemModel {
             *k += 1;
         }
         let x0: Vec<f64> = mesh.nodes.iter().flatten().copied().collect();
-        assert!(mesh.cells.iter().all(|&c| (c as usize) < n), "node id out of range");
+        assert!(
+            mesh.cells.iter().all(|&c| (c as usize) < n),
+            "node id out of range"
+        );
         let pack = match (&params.material, mesh.kind) {
             (Material::NeoHookean(m), ElementKind::Tet4) => Some(fast::TetPack::new(
                 m.mu,

@@ -350,6 +350,12 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
                     roofline_gb_per_s: Some(roof),
                     roofline_fraction: Some(gbs / roof),
                     unit: "",
+                    note: match (w.model.fast_kernel_isa(), w.model.fast_path()) {
+                        (Some(isa), Some((slabs, colours, _))) => {
+                            format!("{isa} kernel, {slabs} slabs, {colours} colours")
+                        }
+                        _ => String::new(),
+                    },
                     ..Default::default()
                 },
                 &mut rows,

@@ -224,6 +224,11 @@ impl FemModel {
         })
     }
 
+    /// Instruction set of the fast kernel (`"portable"`, `"avx2"`), if in use.
+    pub fn fast_kernel_isa(&self) -> Option<&'static str> {
+        self.pack.as_ref().map(|p| p.isa())
+    }
+
     /// `det F` of tet e as the fast kernel computes it (`F = I + Du Dm⁻¹`, same operations,
     /// same bits), for reporting failures of the fast path.
     fn fast_det(&self, e: usize, u: &[f64]) -> f64 {

@@ -366,12 +366,16 @@ fn packed_kernel_paths_agree() {
         pool.install(|| model.internal_forces(&u, &mut r)).unwrap();
         runs.push(r);
     }
-    model.pack.as_mut().unwrap().force_portable();
-    let mut r = vec![0.0; 3 * n];
-    model.internal_forces(&u, &mut r).unwrap();
-    runs.push(r);
+    for isa in [1, 0] {
+        // Widest detected first (runs[0..2]), then AVX2, then portable.
+        model.pack.as_mut().unwrap().force_isa(isa);
+        let mut r = vec![0.0; 3 * n];
+        model.internal_forces(&u, &mut r).unwrap();
+        runs.push(r);
+    }
     assert_eq!(runs[0], runs[1]);
-    assert_eq!(runs[0], runs[2], "AVX2 and portable kernels differ");
+    assert_eq!(runs[0], runs[2], "widest and AVX2 kernels differ");
+    assert_eq!(runs[0], runs[3], "SIMD and portable kernels differ");
     let scale = r_ref.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
     for (a, b) in runs[0].iter().zip(&r_ref) {
         assert!((a - b).abs() <= 1e-12 * scale, "{a} vs {b}");

@@ -320,9 +320,11 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
     };
     let work = if opts.quick { 2e5 } else { 3e7 };
     let max_nodes = opts.sizes.iter().copied().max().unwrap_or(1000);
+    let mut largest = 0;
     for &size in &opts.sizes {
         let mesh = standard_box(size)?;
         let (nodes, tets) = (mesh.num_nodes(), mesh.num_elements());
+        largest = largest.max(nodes);
         let mut w = StandardWork::new(&mesh)?;
         let bpt = bytes_per_tet_step(nodes, tets);
         let footprint = tets * BYTES_PER_TET + nodes * BYTES_PER_NODE_STEP / 2;
@@ -507,8 +509,8 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
         push(
             Row {
                 case: "peak memory (VmHWM) per node of the largest box".into(),
-                nodes: max_nodes,
-                value: Some(hwm as f64 / max_nodes as f64),
+                nodes: largest,
+                value: Some(hwm as f64 / largest.max(1) as f64),
                 unit: "B/node",
                 note: format!("VmHWM {:.1} MiB over the whole run", hwm as f64 / 1048576.0),
                 ..Default::default()

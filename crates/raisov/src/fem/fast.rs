@@ -448,6 +448,8 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
         let c22 = fms!(f00, f11, mul!(f01, f10));
         let j = fma!(f02, c02, fma!(f01, c01, mul!(f00, c00)));
         good &= _mm256_movemask_pd(_mm256_cmp_pd(j, zero, _CMP_GT_OQ));
+        // 1/J off the critical path (overlaps ln J).
+        let invj = _mm256_div_pd(one, j);
         // ln J, as ln_series.
         let bits = _mm256_castpd_si256(j);
         let eb = _mm256_and_si256(_mm256_srli_epi64(bits, 52), _mm256_set1_epi64x(0x7ff));
@@ -465,10 +467,19 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
         let e = add!(sub!(ef, _mm256_set1_pd(1023.0)), _mm256_and_pd(big, one));
         let s = _mm256_div_pd(sub!(m, one), add!(m, one));
         let z = mul!(s, s);
-        let mut pp = _mm256_set1_pd(LN_COEF[0]);
-        for &c in &LN_COEF[1..] {
-            pp = fma!(pp, z, _mm256_set1_pd(c));
-        }
+        // Estrin, as ln_series.
+        let cc = |i: usize| _mm256_set1_pd(LN_COEF[i]);
+        let z2 = mul!(z, z);
+        let z4 = mul!(z2, z2);
+        let z8 = mul!(z4, z4);
+        let q0 = fma!(cc(8), z, cc(9));
+        let q1 = fma!(cc(6), z, cc(7));
+        let q2 = fma!(cc(4), z, cc(5));
+        let q3 = fma!(cc(2), z, cc(3));
+        let q4 = fma!(cc(0), z, cc(1));
+        let r0 = fma!(q1, z2, q0);
+        let r1 = fma!(q3, z2, q2);
+        let pp = fma!(q4, z8, fma!(r1, z4, r0));
         let two = _mm256_set1_pd(2.0);
         let t = mul!(mul!(two, s), mul!(pp, z));
         let lnj = add!(
@@ -477,7 +488,7 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
         );
         let v0 = _mm256_loadu_pd(g.vol.as_ptr());
         let a = mul!(vmu, v0);
-        let b = _mm256_div_pd(mul!(v0, sub!(mul!(vlam, lnj), vmu)), j);
+        let b = mul!(mul!(v0, sub!(mul!(vlam, lnj), vmu)), invj);
         let p = [
             [
                 fma!(a, f00, mul!(b, c00)),
@@ -534,7 +545,7 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
     good == 0xf
 }
 
-/// Coefficients `1/21, 1/19, ..., 1/3` of the atanh series (Horner order).
+/// Coefficients `1/21, 1/19, ..., 1/3` of the atanh series (highest power first).
 const LN_COEF: [f64; 10] = [
     1.0 / 21.0,
     1.0 / 19.0,
@@ -552,7 +563,8 @@ const LN2_HI: f64 = 6.931_471_803_691_238e-1;
 const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
 
 /// ln x for normal positive x, branch-free: `x = m 2^e`, `m ∈ [√½, √2)`,
-/// `ln m = 2 atanh s`, `s = (m − 1)/(m + 1)`, series to `s²¹` (|s| ≤ 0.1716).
+/// `ln m = 2 atanh s`, `s = (m − 1)/(m + 1)`, series to `s²¹` (|s| ≤ 0.1716), evaluated
+/// by Estrin's scheme.
 #[inline(always)]
 pub(crate) fn ln_series(x: f64) -> f64 {
     let bits = x.to_bits();
@@ -563,10 +575,19 @@ pub(crate) fn ln_series(x: f64) -> f64 {
     let e = e + if big { 1.0 } else { 0.0 };
     let s = (m - 1.0) / (m + 1.0);
     let z = s * s;
-    let mut p = LN_COEF[0];
-    for &c in &LN_COEF[1..] {
-        p = p.mul_add(z, c);
-    }
+    // Estrin's scheme (short dependency chain): p = Σ LN_COEF[i] z^(9−i).
+    let c = LN_COEF;
+    let z2 = z * z;
+    let z4 = z2 * z2;
+    let z8 = z4 * z4;
+    let q0 = c[8].mul_add(z, c[9]);
+    let q1 = c[6].mul_add(z, c[7]);
+    let q2 = c[4].mul_add(z, c[5]);
+    let q3 = c[2].mul_add(z, c[3]);
+    let q4 = c[0].mul_add(z, c[1]);
+    let r0 = q1.mul_add(z2, q0);
+    let r1 = q3.mul_add(z2, q2);
+    let p = q4.mul_add(z8, r1.mul_add(z4, r0));
     let t = 2.0 * s * (p * z);
     e * LN2_HI + (2.0 * s + (t + e * LN2_LO))
 }
@@ -622,7 +643,8 @@ unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: 
             neg[l] = !(j > 0.0);
             let v0 = g.vol[l];
             let a = mu * v0;
-            let b = v0 * (lambda * ln_series(j) - mu) / j;
+            let inv_j = 1.0 / j;
+            let b = v0 * (lambda * ln_series(j) - mu) * inv_j;
             let p = [
                 [
                     a.mul_add(f00, b * c00),

@@ -386,159 +386,178 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
     let vlam = _mm256_set1_pd(lambda);
     let sign = _mm256_set1_pd(-0.0);
     let mut good = 0xf;
-    for g in groups {
-        // Gather corner displacements as [x; y; z] vectors over lanes.
-        let mut cx = [zero; 4];
-        let mut cy = [zero; 4];
-        let mut cz = [zero; 4];
-        for k in 0..4 {
-            let p = |l: usize| up.add(g.idx[k][l] as usize * 3);
-            let a = _mm256_insertf128_pd(
-                _mm256_castpd128_pd256(_mm_loadu_pd(p(0))),
-                _mm_loadu_pd(p(2)),
-                1,
-            );
-            let b = _mm256_insertf128_pd(
-                _mm256_castpd128_pd256(_mm_loadu_pd(p(1))),
-                _mm_loadu_pd(p(3)),
-                1,
-            );
-            cx[k] = _mm256_unpacklo_pd(a, b);
-            cy[k] = _mm256_unpackhi_pd(a, b);
-            let z01 = _mm_loadh_pd(_mm_load_sd(p(0).add(2)), p(1).add(2));
-            let z23 = _mm_loadh_pd(_mm_load_sd(p(2).add(2)), p(3).add(2));
-            cz[k] = _mm256_insertf128_pd(_mm256_castpd128_pd256(z01), z23, 1);
-        }
-        // w[k][i] = Du_ik = u_{k+1,i} − u_{0,i}
-        let w = [
-            [sub!(cx[1], cx[0]), sub!(cy[1], cy[0]), sub!(cz[1], cz[0])],
-            [sub!(cx[2], cx[0]), sub!(cy[2], cy[0]), sub!(cz[2], cz[0])],
-            [sub!(cx[3], cx[0]), sub!(cy[3], cy[0]), sub!(cz[3], cz[0])],
-        ];
-        let mut d = [zero; 9];
-        for q in 0..9 {
-            d[q] = _mm256_loadu_pd(g.dminv[q].as_ptr());
-        }
-        macro_rules! fm {
-            ($i:expr, $j:expr) => {
-                fma!(
-                    w[2][$i],
-                    d[6 + $j],
-                    fma!(w[1][$i], d[3 + $j], mul!(w[0][$i], d[$j]))
-                )
-            };
-        }
-        let f00 = add!(one, fm!(0, 0));
-        let f01 = fm!(0, 1);
-        let f02 = fm!(0, 2);
-        let f10 = fm!(1, 0);
-        let f11 = add!(one, fm!(1, 1));
-        let f12 = fm!(1, 2);
-        let f20 = fm!(2, 0);
-        let f21 = fm!(2, 1);
-        let f22 = add!(one, fm!(2, 2));
-        let c00 = fms!(f11, f22, mul!(f12, f21));
-        let c01 = fms!(f12, f20, mul!(f10, f22));
-        let c02 = fms!(f10, f21, mul!(f11, f20));
-        let c10 = fms!(f02, f21, mul!(f01, f22));
-        let c11 = fms!(f00, f22, mul!(f02, f20));
-        let c12 = fms!(f01, f20, mul!(f00, f21));
-        let c20 = fms!(f01, f12, mul!(f02, f11));
-        let c21 = fms!(f02, f10, mul!(f00, f12));
-        let c22 = fms!(f00, f11, mul!(f01, f10));
-        let j = fma!(f02, c02, fma!(f01, c01, mul!(f00, c00)));
-        good &= _mm256_movemask_pd(_mm256_cmp_pd(j, zero, _CMP_GT_OQ));
-        // 1/J off the critical path (overlaps ln J).
-        let invj = _mm256_div_pd(one, j);
-        // ln J, as ln_series.
-        let bits = _mm256_castpd_si256(j);
-        let eb = _mm256_and_si256(_mm256_srli_epi64(bits, 52), _mm256_set1_epi64x(0x7ff));
-        let magic = _mm256_set1_pd(4503599627370496.0); // 2^52
-        let ef = _mm256_sub_pd(
-            _mm256_castsi256_pd(_mm256_or_si256(eb, _mm256_castpd_si256(magic))),
-            magic,
-        );
-        let m = _mm256_castsi256_pd(_mm256_or_si256(
-            _mm256_and_si256(bits, _mm256_set1_epi64x(0x000f_ffff_ffff_ffff)),
-            _mm256_set1_epi64x(0x3ff0_0000_0000_0000),
-        ));
-        let big = _mm256_cmp_pd(m, _mm256_set1_pd(std::f64::consts::SQRT_2), _CMP_GT_OQ);
-        let m = _mm256_blendv_pd(m, mul!(_mm256_set1_pd(0.5), m), big);
-        let e = add!(sub!(ef, _mm256_set1_pd(1023.0)), _mm256_and_pd(big, one));
-        let s = _mm256_div_pd(sub!(m, one), add!(m, one));
-        let z = mul!(s, s);
-        // Estrin, as ln_series.
-        let cc = |i: usize| _mm256_set1_pd(LN_COEF[i]);
-        let z2 = mul!(z, z);
-        let z4 = mul!(z2, z2);
-        let z8 = mul!(z4, z4);
-        let q0 = fma!(cc(8), z, cc(9));
-        let q1 = fma!(cc(6), z, cc(7));
-        let q2 = fma!(cc(4), z, cc(5));
-        let q3 = fma!(cc(2), z, cc(3));
-        let q4 = fma!(cc(0), z, cc(1));
-        let r0 = fma!(q1, z2, q0);
-        let r1 = fma!(q3, z2, q2);
-        let pp = fma!(q4, z8, fma!(r1, z4, r0));
-        let two = _mm256_set1_pd(2.0);
-        let t = mul!(mul!(two, s), mul!(pp, z));
-        let lnj = add!(
-            mul!(e, _mm256_set1_pd(LN2_HI)),
-            add!(mul!(two, s), add!(t, mul!(e, _mm256_set1_pd(LN2_LO))))
-        );
-        let v0 = _mm256_loadu_pd(g.vol.as_ptr());
-        let a = mul!(vmu, v0);
-        let b = mul!(mul!(v0, sub!(mul!(vlam, lnj), vmu)), invj);
-        let p = [
-            [
-                fma!(a, f00, mul!(b, c00)),
-                fma!(a, f01, mul!(b, c01)),
-                fma!(a, f02, mul!(b, c02)),
-            ],
-            [
-                fma!(a, f10, mul!(b, c10)),
-                fma!(a, f11, mul!(b, c11)),
-                fma!(a, f12, mul!(b, c12)),
-            ],
-            [
-                fma!(a, f20, mul!(b, c20)),
-                fma!(a, f21, mul!(b, c21)),
-                fma!(a, f22, mul!(b, c22)),
-            ],
-        ];
-        // h[corner][component]
-        let mut h = [[zero; 3]; 4];
-        for i in 0..3 {
-            let mut acc = zero;
-            for jj in 0..3 {
-                let hv = fma!(
-                    p[i][2],
-                    d[3 * jj + 2],
-                    fma!(p[i][1], d[3 * jj + 1], mul!(p[i][0], d[3 * jj]))
+    // Loop fission: the per-group dependency chain (gather → F → J → ln J → P → H → scatter)
+    // is longer than the out-of-order window covers, so stage 1 (through a, b) runs over a
+    // block of groups, then stage 2 (P, H, scatter): independent work for the core to overlap.
+    const BLK: usize = 8;
+    let mut stage = [[zero; 20]; BLK];
+    for chunk in groups.chunks(BLK) {
+        for (qq, g) in chunk.iter().enumerate() {
+            // Gather corner displacements as [x; y; z] vectors over lanes.
+            let mut cx = [zero; 4];
+            let mut cy = [zero; 4];
+            let mut cz = [zero; 4];
+            for k in 0..4 {
+                let p = |l: usize| up.add(g.idx[k][l] as usize * 3);
+                let a = _mm256_insertf128_pd(
+                    _mm256_castpd128_pd256(_mm_loadu_pd(p(0))),
+                    _mm_loadu_pd(p(2)),
+                    1,
                 );
-                h[jj + 1][i] = hv;
-                acc = add!(acc, hv);
+                let b = _mm256_insertf128_pd(
+                    _mm256_castpd128_pd256(_mm_loadu_pd(p(1))),
+                    _mm_loadu_pd(p(3)),
+                    1,
+                );
+                cx[k] = _mm256_unpacklo_pd(a, b);
+                cy[k] = _mm256_unpackhi_pd(a, b);
+                let z01 = _mm_loadh_pd(_mm_load_sd(p(0).add(2)), p(1).add(2));
+                let z23 = _mm_loadh_pd(_mm_load_sd(p(2).add(2)), p(3).add(2));
+                cz[k] = _mm256_insertf128_pd(_mm256_castpd128_pd256(z01), z23, 1);
             }
-            h[0][i] = _mm256_xor_pd(acc, sign);
-        }
-        // Transpose each corner to per-lane (x, y) pairs and z and scatter it, corner by
-        // corner, lane by lane (the order of run_groups).
-        for k in 0..4 {
-            let lo = _mm256_unpacklo_pd(h[k][0], h[k][1]); // x0 y0 x2 y2
-            let hi = _mm256_unpackhi_pd(h[k][0], h[k][1]); // x1 y1 x3 y3
-            let xy = [
-                _mm256_castpd256_pd128(lo),
-                _mm256_castpd256_pd128(hi),
-                _mm256_extractf128_pd(lo, 1),
-                _mm256_extractf128_pd(hi, 1),
+            // w[k][i] = Du_ik = u_{k+1,i} − u_{0,i}
+            let w = [
+                [sub!(cx[1], cx[0]), sub!(cy[1], cy[0]), sub!(cz[1], cz[0])],
+                [sub!(cx[2], cx[0]), sub!(cy[2], cy[0]), sub!(cz[2], cz[0])],
+                [sub!(cx[3], cx[0]), sub!(cy[3], cy[0]), sub!(cz[3], cz[0])],
             ];
-            let zl = _mm256_castpd256_pd128(h[k][2]);
-            let zh = _mm256_extractf128_pd(h[k][2], 1);
-            let zz = [zl, _mm_unpackhi_pd(zl, zl), zh, _mm_unpackhi_pd(zh, zh)];
-            for l in 0..LANES {
-                let q = r.add(g.idx[k][l] as usize * 3);
-                _mm_storeu_pd(q, _mm_add_pd(_mm_loadu_pd(q), xy[l]));
-                _mm_store_sd(q.add(2), _mm_add_sd(_mm_load_sd(q.add(2)), zz[l]));
+            let mut d = [zero; 9];
+            for q in 0..9 {
+                d[q] = _mm256_loadu_pd(g.dminv[q].as_ptr());
+            }
+            macro_rules! fm {
+                ($i:expr, $j:expr) => {
+                    fma!(
+                        w[2][$i],
+                        d[6 + $j],
+                        fma!(w[1][$i], d[3 + $j], mul!(w[0][$i], d[$j]))
+                    )
+                };
+            }
+            let f00 = add!(one, fm!(0, 0));
+            let f01 = fm!(0, 1);
+            let f02 = fm!(0, 2);
+            let f10 = fm!(1, 0);
+            let f11 = add!(one, fm!(1, 1));
+            let f12 = fm!(1, 2);
+            let f20 = fm!(2, 0);
+            let f21 = fm!(2, 1);
+            let f22 = add!(one, fm!(2, 2));
+            let c00 = fms!(f11, f22, mul!(f12, f21));
+            let c01 = fms!(f12, f20, mul!(f10, f22));
+            let c02 = fms!(f10, f21, mul!(f11, f20));
+            let c10 = fms!(f02, f21, mul!(f01, f22));
+            let c11 = fms!(f00, f22, mul!(f02, f20));
+            let c12 = fms!(f01, f20, mul!(f00, f21));
+            let c20 = fms!(f01, f12, mul!(f02, f11));
+            let c21 = fms!(f02, f10, mul!(f00, f12));
+            let c22 = fms!(f00, f11, mul!(f01, f10));
+            let j = fma!(f02, c02, fma!(f01, c01, mul!(f00, c00)));
+            good &= _mm256_movemask_pd(_mm256_cmp_pd(j, zero, _CMP_GT_OQ));
+            // 1/J off the critical path (overlaps ln J).
+            let invj = _mm256_div_pd(one, j);
+            // ln J, as ln_series.
+            let bits = _mm256_castpd_si256(j);
+            let eb = _mm256_and_si256(_mm256_srli_epi64(bits, 52), _mm256_set1_epi64x(0x7ff));
+            let magic = _mm256_set1_pd(4503599627370496.0); // 2^52
+            let ef = _mm256_sub_pd(
+                _mm256_castsi256_pd(_mm256_or_si256(eb, _mm256_castpd_si256(magic))),
+                magic,
+            );
+            let m = _mm256_castsi256_pd(_mm256_or_si256(
+                _mm256_and_si256(bits, _mm256_set1_epi64x(0x000f_ffff_ffff_ffff)),
+                _mm256_set1_epi64x(0x3ff0_0000_0000_0000),
+            ));
+            let big = _mm256_cmp_pd(m, _mm256_set1_pd(std::f64::consts::SQRT_2), _CMP_GT_OQ);
+            let m = _mm256_blendv_pd(m, mul!(_mm256_set1_pd(0.5), m), big);
+            let e = add!(sub!(ef, _mm256_set1_pd(1023.0)), _mm256_and_pd(big, one));
+            let s = _mm256_div_pd(sub!(m, one), add!(m, one));
+            let z = mul!(s, s);
+            // Estrin, as ln_series.
+            let cc = |i: usize| _mm256_set1_pd(LN_COEF[i]);
+            let z2 = mul!(z, z);
+            let z4 = mul!(z2, z2);
+            let z8 = mul!(z4, z4);
+            let q0 = fma!(cc(8), z, cc(9));
+            let q1 = fma!(cc(6), z, cc(7));
+            let q2 = fma!(cc(4), z, cc(5));
+            let q3 = fma!(cc(2), z, cc(3));
+            let q4 = fma!(cc(0), z, cc(1));
+            let r0 = fma!(q1, z2, q0);
+            let r1 = fma!(q3, z2, q2);
+            let pp = fma!(q4, z8, fma!(r1, z4, r0));
+            let two = _mm256_set1_pd(2.0);
+            let t = mul!(mul!(two, s), mul!(pp, z));
+            let lnj = add!(
+                mul!(e, _mm256_set1_pd(LN2_HI)),
+                add!(mul!(two, s), add!(t, mul!(e, _mm256_set1_pd(LN2_LO))))
+            );
+            let v0 = _mm256_loadu_pd(g.vol.as_ptr());
+            let a = mul!(vmu, v0);
+            let b = mul!(mul!(v0, sub!(mul!(vlam, lnj), vmu)), invj);
+            stage[qq] = [
+                f00, f01, f02, f10, f11, f12, f20, f21, f22, c00, c01, c02, c10, c11, c12, c20,
+                c21, c22, a, b,
+            ];
+        }
+        for (qq, g) in chunk.iter().enumerate() {
+            let [f00, f01, f02, f10, f11, f12, f20, f21, f22, c00, c01, c02, c10, c11, c12, c20, c21, c22, a, b] =
+                stage[qq];
+            let mut d = [zero; 9];
+            for q in 0..9 {
+                d[q] = _mm256_loadu_pd(g.dminv[q].as_ptr());
+            }
+            let p = [
+                [
+                    fma!(a, f00, mul!(b, c00)),
+                    fma!(a, f01, mul!(b, c01)),
+                    fma!(a, f02, mul!(b, c02)),
+                ],
+                [
+                    fma!(a, f10, mul!(b, c10)),
+                    fma!(a, f11, mul!(b, c11)),
+                    fma!(a, f12, mul!(b, c12)),
+                ],
+                [
+                    fma!(a, f20, mul!(b, c20)),
+                    fma!(a, f21, mul!(b, c21)),
+                    fma!(a, f22, mul!(b, c22)),
+                ],
+            ];
+            // h[corner][component]
+            let mut h = [[zero; 3]; 4];
+            for i in 0..3 {
+                let mut acc = zero;
+                for jj in 0..3 {
+                    let hv = fma!(
+                        p[i][2],
+                        d[3 * jj + 2],
+                        fma!(p[i][1], d[3 * jj + 1], mul!(p[i][0], d[3 * jj]))
+                    );
+                    h[jj + 1][i] = hv;
+                    acc = add!(acc, hv);
+                }
+                h[0][i] = _mm256_xor_pd(acc, sign);
+            }
+            // Transpose each corner to per-lane (x, y) pairs and z and scatter it, corner by
+            // corner, lane by lane (the order of run_groups).
+            for k in 0..4 {
+                let lo = _mm256_unpacklo_pd(h[k][0], h[k][1]); // x0 y0 x2 y2
+                let hi = _mm256_unpackhi_pd(h[k][0], h[k][1]); // x1 y1 x3 y3
+                let xy = [
+                    _mm256_castpd256_pd128(lo),
+                    _mm256_castpd256_pd128(hi),
+                    _mm256_extractf128_pd(lo, 1),
+                    _mm256_extractf128_pd(hi, 1),
+                ];
+                let zl = _mm256_castpd256_pd128(h[k][2]);
+                let zh = _mm256_extractf128_pd(h[k][2], 1);
+                let zz = [zl, _mm_unpackhi_pd(zl, zl), zh, _mm_unpackhi_pd(zh, zh)];
+                for l in 0..LANES {
+                    let q = r.add(g.idx[k][l] as usize * 3);
+                    _mm_storeu_pd(q, _mm_add_pd(_mm_loadu_pd(q), xy[l]));
+                    _mm_store_sd(q.add(2), _mm_add_sd(_mm_load_sd(q.add(2)), zz[l]));
+                }
             }
         }
     }

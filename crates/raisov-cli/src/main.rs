@@ -41,6 +41,30 @@ enum Cmd {
     },
     /// Parse and resolve a scenario, print what it would run, and exit.
     Check { scenario: PathBuf },
+    /// Performance benchmark of the standard explicit-dynamics work (see `raisov::bench`).
+    Bench {
+        /// Box sizes in nodes, e.g. 1k,10k,100k,1M.
+        #[arg(long, default_value = "1k,10k,100k,1M")]
+        sizes: String,
+        /// Thread counts.
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Small sizes and few steps (CI smoke test).
+        #[arg(long)]
+        quick: bool,
+        /// Also write the table to FILE (.csv or .md).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Write the standard boxes of --sizes to DIR/box_<size>.msh (Gmsh 2.2) and exit.
+        #[arg(long)]
+        write_mesh: Option<PathBuf>,
+        /// Only the correctness check: STEPS steps on the boxes of --sizes, then exit.
+        #[arg(long)]
+        check: Option<usize>,
+        /// Only the standard-work rows (no integrator, membrane, hierarchy, memory rows).
+        #[arg(long)]
+        standard_only: bool,
+    },
     /// Mesh tools.
     Mesh {
         #[command(subcommand)]
@@ -93,6 +117,23 @@ fn real_main(cli: Cli) -> Result<()> {
             quiet,
         } => cmd_run(scenario, out, quiet),
         Cmd::Check { scenario } => cmd_check(&scenario),
+        Cmd::Bench {
+            sizes,
+            threads,
+            quick,
+            out,
+            write_mesh,
+            check,
+            standard_only,
+        } => cmd_bench(
+            &sizes,
+            threads,
+            quick,
+            out,
+            write_mesh,
+            check,
+            standard_only,
+        ),
         Cmd::Mesh {
             cmd: MeshCmd::Info { file },
         } => cmd_mesh_info(&file),
@@ -205,6 +246,111 @@ fn cmd_check(path: &Path) -> Result<()> {
     print!("{}", stepper.report());
     println!("output        {}", sc.out_dir.display());
     println!("ok");
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn cmd_bench(
+    sizes: &str,
+    threads: Vec<usize>,
+    quick: bool,
+    out: Option<PathBuf>,
+    write_mesh: Option<PathBuf>,
+    check: Option<usize>,
+    standard_only: bool,
+) -> Result<()> {
+    use raisov::bench;
+    let sizes = if quick && sizes == "1k,10k,100k,1M" {
+        vec![1000, 10_000]
+    } else {
+        bench::parse_sizes(sizes)?
+    };
+    if threads.is_empty() || threads.contains(&0) {
+        bail!("--threads: give positive thread counts, e.g. 1,2");
+    }
+    if let Some(dir) = write_mesh {
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        for &n in &sizes {
+            let mesh = bench::standard_box(n)?;
+            let f = dir.join(format!("box_{}.msh", bench::size_label(n)));
+            write_msh22(&f, &mesh)?;
+            println!(
+                "wrote {}: {} nodes, {} tets",
+                f.display(),
+                mesh.num_nodes(),
+                mesh.num_elements()
+            );
+        }
+        return Ok(());
+    }
+    if let Some(steps) = check {
+        for &n in &sizes {
+            let c = bench::check(n, steps)?;
+            println!(
+                "check size={} nodes={} steps={} mean_uy_free_end={:.9e} max_abs_u={:.9e}",
+                bench::size_label(n),
+                c.nodes,
+                c.steps,
+                c.mean_uy_free_end,
+                c.max_abs_u
+            );
+        }
+        return Ok(());
+    }
+    if let Some(o) = &out {
+        match o.extension().and_then(|e| e.to_str()) {
+            Some("csv" | "md") => {}
+            _ => bail!("{}: --out must end in .csv or .md", o.display()),
+        }
+    }
+    eprintln!(
+        "raisov bench: sizes {:?}, threads {:?}{}",
+        sizes,
+        threads,
+        if quick { ", quick" } else { "" }
+    );
+    let rows = bench::run(
+        &bench::BenchOptions {
+            sizes: sizes.clone(),
+            threads,
+            quick,
+            standard_only,
+        },
+        &mut |r| {
+            eprintln!(
+                "  {} | {} nodes | {} threads | {}",
+                r.case,
+                r.nodes,
+                r.threads,
+                r.node_updates_per_s
+                    .map(|x| format!("{:.2}M node-updates/s", x / 1e6))
+                    .or(r.value.map(|v| format!("{v:.4} {}", r.unit)))
+                    .unwrap_or_default()
+            )
+        },
+    )?;
+    println!("{}", bench::to_text(&rows));
+    let steps = if quick { 50 } else { 500 };
+    for &n in sizes.iter().filter(|&&n| n <= 10_000) {
+        let c = bench::check(n, steps)?;
+        println!(
+            "check size={} nodes={} steps={} mean_uy_free_end={:.9e} max_abs_u={:.9e}",
+            bench::size_label(n),
+            c.nodes,
+            c.steps,
+            c.mean_uy_free_end,
+            c.max_abs_u
+        );
+    }
+    if let Some(o) = out {
+        let text = if o.extension().and_then(|e| e.to_str()) == Some("md") {
+            bench::to_markdown(&rows)
+        } else {
+            bench::to_csv(&rows)
+        };
+        std::fs::write(&o, text).with_context(|| format!("writing {}", o.display()))?;
+        eprintln!("wrote {}", o.display());
+    }
     Ok(())
 }
 

@@ -19,11 +19,22 @@
 //! (membranes: `J = λ3 √det C`, σ in-plane, 3x3), averaged onto nodes weighted by reference
 //! element measure.
 //!
-//! Data layout for speed: flat arrays, `Dm⁻¹` and measures precomputed, element forces
-//! written into per-element slots in parallel and then gathered per node in a fixed order,
-//! so the result has the same bits on any number of threads and no atomics are needed.
+//! Data layout for speed: flat arrays, `Dm⁻¹` and measures precomputed. Compressible
+//! neo-Hookean tetrahedra (the benchmark work) take the packed, vectorised path of [`fast`]:
+//! elements sorted into slabs and by a Morton key, slabs coloured so that one colour's slabs
+//! scatter into `r` concurrently without sharing a node (fixed summation order per node).
+//! Every other material and the membranes write element forces into per-element slots in
+//! parallel and then gather them per node in a fixed order. Either way the result has the
+//! same bits on any number of threads and no atomics are needed. Element ids in
+//! [`ElementFailure`] and every public method are the mesh's original ids.
+//!
+//! Fused explicit step ([`FemModel::step_symplectic_euler`]): one force pass accumulating into
+//! a zeroed buffer, then one node pass doing `v += Δ (M⁻¹(V − R) − α v)`, `u += Δ v`,
+//! clearing the buffer for the next step: the bits of [`crate::integrate::SymplecticEuler`]
+//! on a [`crate::integrate::System`] with fixed (zero) constraints.
 
 mod element;
+pub mod fast;
 
 use crate::material::{Material, MembraneMaterial, SolidMaterial};
 use crate::mesh::{ElementKind, Mesh};
@@ -96,8 +107,12 @@ pub struct FemModel {
     /// into `elem_forces`.
     node_ptr: Vec<u32>,
     node_slots: Vec<u32>,
-    /// Per-element-corner force scratch (3 per slot).
+    /// Per-element-corner force scratch (3 per slot); empty when `pack` is used.
     elem_forces: Vec<f64>,
+    /// Packed neo-Hookean tetrahedra (the fast path), if the model qualifies.
+    pack: Option<fast::TetPack>,
+    /// Force accumulator of the fused step, all zeros between steps.
+    acc: Vec<f64>,
 }
 
 impl FemModel {
@@ -157,23 +172,165 @@ impl FemModel {
             node_slots[*k as usize] = slot as u32;
             *k += 1;
         }
+        let x0: Vec<f64> = mesh.nodes.iter().flatten().copied().collect();
+        assert!(
+            mesh.cells.iter().all(|&c| (c as usize) < n),
+            "node id out of range"
+        );
+        let pack = match (&params.material, mesh.kind) {
+            (Material::NeoHookean(m), ElementKind::Tet4) => Some(fast::TetPack::new(
+                m.mu,
+                m.lambda,
+                &x0,
+                &mesh.cells,
+                &dminv,
+                &measure,
+                params.chunk.max(1),
+            )),
+            _ => None,
+        };
+        let elem_forces = if pack.is_some() {
+            Vec::new()
+        } else {
+            vec![0.0; mesh.cells.len() * 3]
+        };
         Ok(FemModel {
             kind: mesh.kind,
             n_nodes: n,
             cells: mesh.cells.clone(),
-            x0: mesh.nodes.iter().flatten().copied().collect(),
+            x0,
             dminv,
             measure,
             normal0,
             node_ptr,
             node_slots,
-            elem_forces: vec![0.0; mesh.cells.len() * 3],
+            elem_forces,
+            pack,
+            acc: vec![0.0; 3 * n],
             params,
         })
     }
 
     pub fn num_elements(&self) -> usize {
         self.measure.len()
+    }
+
+    /// Whether the packed neo-Hookean tetrahedron path is in use, and its layout
+    /// (slabs, colours, bytes of packed element data).
+    pub fn fast_path(&self) -> Option<(usize, usize, usize)> {
+        self.pack.as_ref().map(|p| {
+            let (s, c) = p.layout();
+            (s, c, p.bytes())
+        })
+    }
+
+    /// Instruction set of the fast kernel (`"portable"`, `"avx2"`), if in use.
+    pub fn fast_kernel_isa(&self) -> Option<&'static str> {
+        self.pack.as_ref().map(|p| p.isa())
+    }
+
+    /// `det F` of tet e as the fast kernel computes it (`F = I + Du Dm⁻¹`, same operations,
+    /// same bits), for reporting failures of the fast path.
+    fn fast_det(&self, e: usize, u: &[f64]) -> f64 {
+        let el = &self.cells[e * 4..e * 4 + 4];
+        let d = |i: usize, j: usize| self.dminv[9 * e + 3 * j + i];
+        let a0 = el[0] as usize * 3;
+        let w = |k: usize, i: usize| u[el[k + 1] as usize * 3 + i] - u[a0 + i];
+        let fm = |i: usize, j: usize| {
+            w(2, i).mul_add(d(2, j), w(1, i).mul_add(d(1, j), w(0, i) * d(0, j)))
+        };
+        let f = [
+            [1.0 + fm(0, 0), fm(0, 1), fm(0, 2)],
+            [fm(1, 0), 1.0 + fm(1, 1), fm(1, 2)],
+            [fm(2, 0), fm(2, 1), 1.0 + fm(2, 2)],
+        ];
+        let c00 = f[1][1].mul_add(f[2][2], -(f[1][2] * f[2][1]));
+        let c01 = f[1][2].mul_add(f[2][0], -(f[1][0] * f[2][2]));
+        let c02 = f[1][0].mul_add(f[2][1], -(f[1][1] * f[2][0]));
+        f[0][2].mul_add(c02, f[0][1].mul_add(c01, f[0][0] * c00))
+    }
+
+    /// The lowest-numbered element the fast kernel rejects.
+    fn fast_failure(&self, u: &[f64]) -> ElementFailure {
+        (0..self.num_elements())
+            .map(|e| (e, self.fast_det(e, u)))
+            .find(|&(_, d)| !(d > 0.0))
+            .map(|(element, det_f)| ElementFailure { element, det_f })
+            .unwrap_or(ElementFailure {
+                element: 0,
+                det_f: f64::NAN,
+            })
+    }
+
+    /// One fused symplectic-Euler step, `v += Δ (M⁻¹(V − R(u)) − α v)`, `u += Δ v`, with
+    /// `u = v = 0` on nodes where `fixed` is true: the same bits as
+    /// [`crate::integrate::SymplecticEuler`] on a [`crate::integrate::System`] built from this
+    /// model with those nodes fixed. `inv_mass` per node, `f_ext` 3 per node. On failure `u`
+    /// and `v` are unchanged.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step_symplectic_euler(
+        &mut self,
+        u: &mut [f64],
+        v: &mut [f64],
+        f_ext: &[f64],
+        inv_mass: &[f64],
+        fixed: &[bool],
+        alpha: f64,
+        dt: f64,
+    ) -> Result<(), ElementFailure> {
+        let n = self.n_nodes;
+        assert!(u.len() == 3 * n && v.len() == 3 * n && f_ext.len() == 3 * n);
+        assert!(inv_mass.len() == n && fixed.len() == n);
+        let mut acc = std::mem::take(&mut self.acc);
+        let res = match &self.pack {
+            Some(p) => {
+                if p.accumulate(u, &mut acc) {
+                    Ok(())
+                } else {
+                    Err(self.fast_failure(u))
+                }
+            }
+            None => self.internal_forces(u, &mut acc),
+        };
+        if res.is_err() {
+            acc.fill(0.0);
+            self.acc = acc;
+            return res;
+        }
+        const NB: usize = 4096;
+        #[allow(clippy::type_complexity)]
+        let body = |(((((uc, vc), rc), fc), mc), xc): (
+            ((((&mut [f64], &mut [f64]), &mut [f64]), &[f64]), &[f64]),
+            &[bool],
+        )| {
+            for a in 0..mc.len() {
+                for k in 0..3 {
+                    let i = 3 * a + k;
+                    if xc[a] {
+                        vc[i] = 0.0;
+                        uc[i] = 0.0;
+                    } else {
+                        let acc_i = (fc[i] - rc[i]) * mc[a] - alpha * vc[i];
+                        vc[i] += dt * acc_i;
+                        uc[i] += dt * vc[i];
+                    }
+                    rc[i] = 0.0;
+                }
+            }
+        };
+        if n >= 2 * NB {
+            u.par_chunks_mut(3 * NB)
+                .zip(v.par_chunks_mut(3 * NB))
+                .zip(acc.par_chunks_mut(3 * NB))
+                .zip(f_ext.par_chunks(3 * NB))
+                .zip(inv_mass.par_chunks(NB))
+                .zip(fixed.par_chunks(NB))
+                .for_each(body);
+        } else {
+            body((((((u, v), &mut acc[..]), f_ext), inv_mass), fixed));
+        }
+        self.acc = acc;
+        Ok(())
     }
     fn npe(&self) -> usize {
         self.kind.nodes_per_element()
@@ -392,6 +549,18 @@ impl ForceModel for FemModel {
     }
 
     fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure> {
+        if let Some(p) = &self.pack {
+            if r.len() >= 1 << 16 {
+                r.par_chunks_mut(1 << 14).for_each(|c| c.fill(0.0));
+            } else {
+                r.fill(0.0);
+            }
+            return if p.accumulate(u, r) {
+                Ok(())
+            } else {
+                Err(self.fast_failure(u))
+            };
+        }
         let npe = self.npe();
         let chunk = self.params.chunk.max(1);
         let mut ef = std::mem::take(&mut self.elem_forces);

@@ -1,0 +1,681 @@
+//! The performance benchmark (`raisov bench`): the standard explicit-dynamics work and a
+//! STREAM-like triad measured in the same run as the roofline.
+//!
+//! Standard work: box 0.1 x 0.04 x 0.04 m of linear tetrahedra (5 per cube, nodes x fastest),
+//! nodes at x = 0 fixed; compressible neo-Hookean
+//! `ψ = μ/2 (tr C − 3) − μ ln J + λ/2 (ln J)²`, E = 5e4 Pa, ν = 0.4, ρ = 1000 kg/m³,
+//! gravity (0, −9.81, 0), no damping, lumped mass, symplectic Euler,
+//! `Δ = 0.2 h_min / c`, `c = √((λ + 2μ)/ρ)`. A node-update is one node advanced one step.
+//!
+//! Bytes moved per tet-step *by design* (compulsory traffic if every array is streamed once
+//! per step): the packed element data ([`crate::fem::fast::BYTES_PER_TET`] = 96 B: 4 ids,
+//! 9 `Dm⁻¹` entries, the volume) plus, per node, the force pass reading `u` (24 B) and
+//! reading and writing the accumulator (48 B), and the node pass reading `u, v, acc, V`
+//! (96 B), `1/m` (8 B), the fixed flag (1 B) and writing `u, v, acc` (72 B): 249 B per node,
+//! spread over the tetrahedra. Achieved bandwidth = bytes × tets × steps/s. The roofline is a
+//! triad `a = b + s c` (24 B per entry, STREAM counting) on arrays of the same total size as
+//! the model's data, on the same number of threads, best of 3.
+
+use crate::fem::{fast::BYTES_PER_TET, FemModel, FemParams};
+use crate::hierarchy::Correspondence;
+use crate::integrate::{Constraints, Method, State, System};
+use crate::material::{Material, NeoHookean};
+use crate::mesh::generate::{box_tets_target, rectangle_membrane, BoxPattern};
+use crate::mesh::Mesh;
+use crate::{Error, Result};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Box size of the standard work (m).
+pub const BOX: [f64; 3] = [0.1, 0.04, 0.04];
+/// Node-side bytes per node-step of the fused step, by design (see the module docs).
+pub const BYTES_PER_NODE_STEP: usize = 249;
+
+/// The standard box with about `nodes` nodes (5 tets per cube, nodes numbered x fastest).
+pub fn standard_box(nodes: usize) -> Result<Mesh> {
+    box_tets_target(BOX, nodes, BoxPattern::Five)
+}
+
+/// The standard material: neo-Hookean, E = 5e4 Pa, ν = 0.4.
+pub fn standard_material() -> NeoHookean {
+    NeoHookean::from_young(5e4, 0.4)
+}
+
+/// The standard work on one mesh, advanced by the fused symplectic-Euler step.
+pub struct StandardWork {
+    pub model: FemModel,
+    pub mass: Vec<f64>,
+    pub inv_mass: Vec<f64>,
+    pub f_ext: Vec<f64>,
+    pub fixed: Vec<bool>,
+    /// Nodes at x = max (the free end).
+    pub free_end: Vec<u32>,
+    pub dt: f64,
+    pub u: Vec<f64>,
+    pub v: Vec<f64>,
+    pub steps: usize,
+}
+
+/// Mean y-displacement of the free end and the largest |u| (the correctness check).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Check {
+    pub nodes: usize,
+    pub steps: usize,
+    pub mean_uy_free_end: f64,
+    pub max_abs_u: f64,
+}
+
+impl StandardWork {
+    /// Fixed nodes: x = min; free end: x = max; gravity (0, −9.81, 0).
+    pub fn new(mesh: &Mesh) -> Result<StandardWork> {
+        let m = standard_material();
+        let mut p = FemParams::new(Material::NeoHookean(m));
+        p.density = 1000.0;
+        let model = FemModel::new(mesh, p)?;
+        let mass = model.lumped_mass();
+        let inv_mass: Vec<f64> = mass
+            .iter()
+            .map(|&m| if m > 0.0 { 1.0 / m } else { 0.0 })
+            .collect();
+        let g = [0.0, -9.81, 0.0];
+        let f_ext: Vec<f64> = mass
+            .iter()
+            .flat_map(|&m| [m * g[0], m * g[1], m * g[2]])
+            .collect();
+        let (lo, hi) = mesh.bounding_box();
+        let fixed: Vec<bool> = mesh.nodes.iter().map(|p| p[0] == lo[0]).collect();
+        let free_end: Vec<u32> = (0..mesh.num_nodes() as u32)
+            .filter(|&a| mesh.nodes[a as usize][0] == hi[0])
+            .collect();
+        let c = ((m.lambda + 2.0 * m.mu) / 1000.0).sqrt();
+        let dt = 0.2 * mesh.edge_range().0 / c;
+        let n = mesh.num_nodes();
+        Ok(StandardWork {
+            model,
+            mass,
+            inv_mass,
+            f_ext,
+            fixed,
+            free_end,
+            dt,
+            u: vec![0.0; 3 * n],
+            v: vec![0.0; 3 * n],
+            steps: 0,
+        })
+    }
+
+    pub fn num_nodes(&self) -> usize {
+        self.mass.len()
+    }
+
+    /// Advance `k` fused steps.
+    pub fn advance(&mut self, k: usize) -> Result<()> {
+        for _ in 0..k {
+            self.model
+                .step_symplectic_euler(
+                    &mut self.u,
+                    &mut self.v,
+                    &self.f_ext,
+                    &self.inv_mass,
+                    &self.fixed,
+                    0.0,
+                    self.dt,
+                )
+                .map_err(|f| {
+                    Error::param(
+                        "bench",
+                        format!("element {} inverted (det F = {})", f.element, f.det_f),
+                    )
+                })?;
+            self.steps += 1;
+        }
+        Ok(())
+    }
+
+    /// A [`System`] with the same physics (for the integrator rows).
+    pub fn system(&self, mesh: &Mesh) -> Result<System> {
+        let mut p = FemParams::new(Material::NeoHookean(standard_material()));
+        p.density = 1000.0;
+        let model = FemModel::new(mesh, p)?;
+        let fixed: Vec<u32> = (0..self.num_nodes() as u32)
+            .filter(|&a| self.fixed[a as usize])
+            .collect();
+        Ok(System::new(
+            Box::new(model),
+            self.mass.clone(),
+            0.0,
+            self.f_ext.clone(),
+            Constraints::new(fixed, vec![]),
+        ))
+    }
+
+    pub fn check(&self) -> Check {
+        let n = self.free_end.len().max(1) as f64;
+        let mean = self
+            .free_end
+            .iter()
+            .map(|&a| self.u[3 * a as usize + 1])
+            .sum::<f64>()
+            / n;
+        let max = self
+            .u
+            .chunks_exact(3)
+            .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+            .fold(0.0, f64::max);
+        Check {
+            nodes: self.num_nodes(),
+            steps: self.steps,
+            mean_uy_free_end: mean,
+            max_abs_u: max,
+        }
+    }
+}
+
+/// Bytes moved per tet-step by design for a mesh of `nodes` nodes and `tets` tetrahedra.
+pub fn bytes_per_tet_step(nodes: usize, tets: usize) -> f64 {
+    BYTES_PER_TET as f64 + BYTES_PER_NODE_STEP as f64 * nodes as f64 / tets.max(1) as f64
+}
+
+/// STREAM-like triad `a = b + s c` on three arrays of `footprint` bytes in all, on the
+/// current rayon pool, best of 3 (GB/s, 24 B per entry).
+pub fn triad(footprint: usize) -> f64 {
+    let n = (footprint / 24).max(1 << 12);
+    let mut a = vec![0.0f64; n];
+    let b: Vec<f64> = (0..n).map(|i| i as f64).collect();
+    let c: Vec<f64> = (0..n).map(|i| 0.5 * i as f64).collect();
+    // Repeat small arrays so each timing lasts at least ~20 ms worth of traffic.
+    let reps = ((1usize << 28) / (24 * n)).max(1);
+    let chunk = 1 << 13;
+    let mut best = f64::INFINITY;
+    for rep in 0..4 {
+        let t = Instant::now();
+        for r in 0..reps {
+            let s = 1.0 + r as f64 * 1e-9;
+            a.par_chunks_mut(chunk)
+                .zip(b.par_chunks(chunk))
+                .zip(c.par_chunks(chunk))
+                .for_each(|((a, b), c)| {
+                    for i in 0..a.len() {
+                        a[i] = b[i] + s * c[i];
+                    }
+                });
+        }
+        let dt = t.elapsed().as_secs_f64();
+        if rep > 0 {
+            best = best.min(dt);
+        }
+    }
+    std::hint::black_box(&a);
+    24.0 * n as f64 * reps as f64 / best / 1e9
+}
+
+/// Peak resident memory of this process (VmHWM, bytes), if readable.
+pub fn peak_memory() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// One row of the benchmark table.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Row {
+    pub case: String,
+    pub nodes: usize,
+    pub elements: usize,
+    pub threads: usize,
+    pub precision: &'static str,
+    pub steps_per_s: Option<f64>,
+    pub node_updates_per_s: Option<f64>,
+    pub bytes_per_tet_step: Option<f64>,
+    pub gb_per_s: Option<f64>,
+    pub roofline_gb_per_s: Option<f64>,
+    pub roofline_fraction: Option<f64>,
+    /// Free-form value for rows that are not throughputs (seconds, bytes per node).
+    pub value: Option<f64>,
+    pub unit: &'static str,
+    pub note: String,
+}
+
+/// What the benchmark measures.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Node counts of the standard boxes.
+    pub sizes: Vec<usize>,
+    /// Thread counts.
+    pub threads: Vec<usize>,
+    /// Small and short (CI smoke).
+    pub quick: bool,
+    /// Only the standard-work rows.
+    pub standard_only: bool,
+}
+
+/// Parse `1k,10k,100k,1M` (also plain numbers).
+pub fn parse_sizes(s: &str) -> Result<Vec<usize>> {
+    s.split(',')
+        .map(|t| {
+            let t = t.trim();
+            let (num, mul) = match t.chars().last() {
+                Some('k' | 'K') => (&t[..t.len() - 1], 1_000.0),
+                Some('m' | 'M') => (&t[..t.len() - 1], 1_000_000.0),
+                _ => (t, 1.0),
+            };
+            num.parse::<f64>()
+                .ok()
+                .filter(|x| *x > 0.0)
+                .map(|x| (x * mul).round() as usize)
+                .ok_or_else(|| Error::param("sizes", format!("cannot read `{t}`")))
+        })
+        .collect()
+}
+
+/// Size label: 1000 → `1k`, 1000000 → `1M`.
+pub fn size_label(n: usize) -> String {
+    if n >= 1_000_000 && n.is_multiple_of(1_000_000) {
+        format!("{}M", n / 1_000_000)
+    } else if n >= 1000 && n.is_multiple_of(1000) {
+        format!("{}k", n / 1000)
+    } else {
+        n.to_string()
+    }
+}
+
+fn pool(t: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(t)
+        .build()
+        .map_err(|e| Error::param("threads", e.to_string()))
+}
+
+/// Steps per timing so that one timing is about `work` node-updates.
+fn steps_for(nodes: usize, work: f64, min: usize) -> usize {
+    ((work / nodes as f64) as usize).max(min)
+}
+
+/// Best of 3 seconds for `f`.
+fn best_of_3(mut f: impl FnMut() -> Result<()>) -> Result<f64> {
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let t = Instant::now();
+        f()?;
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    Ok(best)
+}
+
+/// The correctness check: 500 fused steps of the standard work on a box of `nodes` nodes.
+pub fn check(nodes: usize, steps: usize) -> Result<Check> {
+    let mesh = standard_box(nodes)?;
+    let mut w = StandardWork::new(&mesh)?;
+    w.advance(steps)?;
+    Ok(w.check())
+}
+
+/// Run the benchmark; `emit` sees each row as it is measured.
+pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> {
+    let mut rows = Vec::new();
+    let mut push = |r: Row, rows: &mut Vec<Row>| {
+        emit(&r);
+        rows.push(r);
+    };
+    let work = if opts.quick { 2e5 } else { 3e7 };
+    let max_nodes = opts.sizes.iter().copied().max().unwrap_or(1000);
+    let mut largest = 0;
+    for &size in &opts.sizes {
+        let mesh = standard_box(size)?;
+        let (nodes, tets) = (mesh.num_nodes(), mesh.num_elements());
+        largest = largest.max(nodes);
+        let mut w = StandardWork::new(&mesh)?;
+        let bpt = bytes_per_tet_step(nodes, tets);
+        let footprint = tets * BYTES_PER_TET + nodes * BYTES_PER_NODE_STEP / 2;
+        let steps = steps_for(nodes, work, 3);
+        for &t in &opts.threads {
+            let p = pool(t)?;
+            let (secs, roof) = p.install(|| -> Result<(f64, f64)> {
+                w.advance(steps.div_ceil(4))?; // warm-up
+                let s = best_of_3(|| w.advance(steps))?;
+                Ok((s, triad(footprint)))
+            })?;
+            let sps = steps as f64 / secs;
+            let gbs = bpt * tets as f64 * sps / 1e9;
+            push(
+                Row {
+                    case: "box tet NH symplectic-euler (fused)".into(),
+                    nodes,
+                    elements: tets,
+                    threads: t,
+                    precision: "f64",
+                    steps_per_s: Some(sps),
+                    node_updates_per_s: Some(nodes as f64 * sps),
+                    bytes_per_tet_step: Some(bpt),
+                    gb_per_s: Some(gbs),
+                    roofline_gb_per_s: Some(roof),
+                    roofline_fraction: Some(gbs / roof),
+                    unit: "",
+                    note: match (w.model.fast_kernel_isa(), w.model.fast_path()) {
+                        (Some(isa), Some((slabs, colours, _))) => {
+                            format!("{isa} kernel, {slabs} slabs, {colours} colours")
+                        }
+                        _ => String::new(),
+                    },
+                    ..Default::default()
+                },
+                &mut rows,
+            );
+        }
+    }
+    if opts.standard_only {
+        return Ok(rows);
+    }
+    // Integrators through the generic System path, on the size nearest 100k.
+    let isize = *opts
+        .sizes
+        .iter()
+        .min_by_key(|&&s| (s as i64 - 100_000).abs())
+        .unwrap_or(&1000);
+    {
+        let mesh = standard_box(isize)?;
+        let (nodes, tets) = (mesh.num_nodes(), mesh.num_elements());
+        let w = StandardWork::new(&mesh)?;
+        for method in [
+            Method::SymplecticEuler,
+            Method::CentralDifference,
+            Method::Rk4,
+        ] {
+            let mut sys = w.system(&mesh)?;
+            let mut integ = method.build(nodes);
+            let mut state = State::at_rest(nodes);
+            let steps = steps_for(nodes, work / method.evaluations() as f64, 3);
+            for &t in &opts.threads {
+                let p = pool(t)?;
+                let secs = p.install(|| -> Result<f64> {
+                    let mut go = |k: usize| -> Result<()> {
+                        for _ in 0..k {
+                            integ.step(&mut sys, &mut state, w.dt).map_err(|f| {
+                                Error::param("bench", format!("element {} inverted", f.element))
+                            })?;
+                        }
+                        Ok(())
+                    };
+                    go(steps.div_ceil(4))?;
+                    best_of_3(|| go(steps))
+                })?;
+                let sps = steps as f64 / secs;
+                push(
+                    Row {
+                        case: format!("box tet NH {} (System)", method.name()),
+                        nodes,
+                        elements: tets,
+                        threads: t,
+                        precision: "f64",
+                        steps_per_s: Some(sps),
+                        node_updates_per_s: Some(nodes as f64 * sps),
+                        unit: "",
+                        note: format!("{} force passes/step", method.evaluations()),
+                        ..Default::default()
+                    },
+                    &mut rows,
+                );
+            }
+        }
+    }
+    // Membrane, ~100k nodes (generic element path), same fused step.
+    {
+        let target = if opts.quick { 5_000 } else { 100_000 };
+        let mesh = rectangle_membrane(0.1, 0.1, target)?;
+        let (nodes, tris) = (mesh.num_nodes(), mesh.num_elements());
+        let m = standard_material();
+        let mut p = FemParams::new(Material::NeoHookean(m));
+        p.density = 1000.0;
+        p.thickness = 1e-3;
+        let mut model = FemModel::new(&mesh, p)?;
+        let mass = model.lumped_mass();
+        let inv_mass: Vec<f64> = mass.iter().map(|&m| 1.0 / m).collect();
+        let f_ext: Vec<f64> = mass.iter().flat_map(|&m| [0.0, -9.81 * m, 0.0]).collect();
+        let (lo, _) = mesh.bounding_box();
+        let fixed: Vec<bool> = mesh.nodes.iter().map(|p| p[0] == lo[0]).collect();
+        let c = (4.0 * m.mu / 1000.0).sqrt();
+        let dt = 0.2 * mesh.edge_range().0 / c;
+        let (mut u, mut v) = (vec![0.0; 3 * nodes], vec![0.0; 3 * nodes]);
+        let steps = steps_for(nodes, work, 3);
+        for &t in &opts.threads {
+            let pl = pool(t)?;
+            let secs = pl.install(|| -> Result<f64> {
+                let mut go = |k: usize| -> Result<()> {
+                    for _ in 0..k {
+                        model
+                            .step_symplectic_euler(
+                                &mut u, &mut v, &f_ext, &inv_mass, &fixed, 0.0, dt,
+                            )
+                            .map_err(|f| {
+                                Error::param("bench", format!("triangle {} collapsed", f.element))
+                            })?;
+                    }
+                    Ok(())
+                };
+                go(steps.div_ceil(4))?;
+                best_of_3(|| go(steps))
+            })?;
+            let sps = steps as f64 / secs;
+            push(
+                Row {
+                    case: "membrane tri NH symplectic-euler (fused)".into(),
+                    nodes,
+                    elements: tris,
+                    threads: t,
+                    precision: "f64",
+                    steps_per_s: Some(sps),
+                    node_updates_per_s: Some(nodes as f64 * sps),
+                    unit: "",
+                    note: "generic element path".into(),
+                    ..Default::default()
+                },
+                &mut rows,
+            );
+        }
+    }
+    // Hierarchy correspondence of one level pair (fine ≈ largest size, coarse ≈ half).
+    {
+        let fine_n = if opts.quick {
+            max_nodes.min(10_000)
+        } else {
+            max_nodes.max(1_000_000)
+        };
+        let fine = standard_box(fine_n)?;
+        let coarse = standard_box(fine_n / 2)?;
+        let t = opts.threads.iter().copied().max().unwrap_or(1);
+        let secs = pool(t)?.install(|| -> Result<f64> {
+            let t0 = Instant::now();
+            let c = Correspondence::build(&fine, &coarse)?;
+            std::hint::black_box(&c);
+            Ok(t0.elapsed().as_secs_f64())
+        })?;
+        push(
+            Row {
+                case: "hierarchy Correspondence::build".into(),
+                nodes: fine.num_nodes(),
+                elements: fine.num_elements(),
+                threads: t,
+                precision: "f64",
+                value: Some(secs),
+                unit: "s",
+                note: format!("coarse {} nodes, single run", coarse.num_nodes()),
+                ..Default::default()
+            },
+            &mut rows,
+        );
+    }
+    if let Some(hwm) = peak_memory() {
+        push(
+            Row {
+                case: "peak memory (VmHWM) per node of the largest box".into(),
+                nodes: largest,
+                value: Some(hwm as f64 / largest.max(1) as f64),
+                unit: "B/node",
+                note: format!("VmHWM {:.1} MiB over the whole run", hwm as f64 / 1048576.0),
+                ..Default::default()
+            },
+            &mut rows,
+        );
+    }
+    Ok(rows)
+}
+
+fn opt(x: Option<f64>, f: impl Fn(f64) -> String) -> String {
+    x.map(f).unwrap_or_else(|| "-".into())
+}
+
+const HEADER: [&str; 13] = [
+    "case",
+    "nodes",
+    "elements",
+    "threads",
+    "precision",
+    "steps/s",
+    "node-updates/s",
+    "B/tet-step",
+    "GB/s",
+    "triad GB/s",
+    "roofline fraction",
+    "value",
+    "note",
+];
+
+fn cells(r: &Row) -> [String; 13] {
+    [
+        r.case.clone(),
+        r.nodes.to_string(),
+        r.elements.to_string(),
+        if r.threads > 0 {
+            r.threads.to_string()
+        } else {
+            "-".into()
+        },
+        r.precision.to_string(),
+        opt(r.steps_per_s, |x| format!("{x:.1}")),
+        opt(r.node_updates_per_s, |x| format!("{:.2}M", x / 1e6)),
+        opt(r.bytes_per_tet_step, |x| format!("{x:.0}")),
+        opt(r.gb_per_s, |x| format!("{x:.1}")),
+        opt(r.roofline_gb_per_s, |x| format!("{x:.1}")),
+        opt(r.roofline_fraction, |x| format!("{x:.2}")),
+        opt(r.value, |x| format!("{x:.4} {}", r.unit)),
+        r.note.clone(),
+    ]
+}
+
+/// The table as aligned text.
+pub fn to_text(rows: &[Row]) -> String {
+    let body: Vec<[String; 13]> = rows.iter().map(cells).collect();
+    let mut w = HEADER.map(|h| h.len());
+    for c in &body {
+        for (k, s) in c.iter().enumerate() {
+            w[k] = w[k].max(s.chars().count());
+        }
+    }
+    let line = |c: &[String]| -> String {
+        c.iter()
+            .enumerate()
+            .map(|(k, s)| format!("{s:<width$}", width = w[k]))
+            .collect::<Vec<_>>()
+            .join("  ")
+            .trim_end()
+            .to_string()
+    };
+    let mut out = line(&HEADER.map(String::from));
+    out.push('\n');
+    for c in &body {
+        out.push_str(&line(c));
+        out.push('\n');
+    }
+    out
+}
+
+/// The table as Markdown.
+pub fn to_markdown(rows: &[Row]) -> String {
+    let mut out = format!("| {} |\n", HEADER.join(" | "));
+    out.push_str(&format!("|{}\n", "---|".repeat(HEADER.len())));
+    for r in rows {
+        out.push_str(&format!("| {} |\n", cells(r).join(" | ")));
+    }
+    out
+}
+
+/// The table as CSV (raw numbers, no unit suffixes).
+pub fn to_csv(rows: &[Row]) -> String {
+    let mut out = String::from(
+        "case,nodes,elements,threads,precision,steps_per_s,node_updates_per_s,\
+         bytes_per_tet_step,gb_per_s,triad_gb_per_s,roofline_fraction,value,unit,note\n",
+    );
+    let o = |x: Option<f64>| x.map(|v| format!("{v:.6e}")).unwrap_or_default();
+    for r in rows {
+        out.push_str(&format!(
+            "\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            r.case,
+            r.nodes,
+            r.elements,
+            r.threads,
+            r.precision,
+            o(r.steps_per_s),
+            o(r.node_updates_per_s),
+            o(r.bytes_per_tet_step),
+            o(r.gb_per_s),
+            o(r.roofline_gb_per_s),
+            o(r.roofline_fraction),
+            o(r.value),
+            r.unit,
+            r.note
+        ));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_and_label() {
+        assert_eq!(
+            parse_sizes("1k,10k,100k,1M").unwrap(),
+            vec![1000, 10_000, 100_000, 1_000_000]
+        );
+        assert_eq!(size_label(100_000), "100k");
+        assert!(parse_sizes("x").is_err());
+    }
+
+    /// The fused step and System + SymplecticEuler give the same bits.
+    #[test]
+    fn fused_step_equals_system_step() {
+        let mesh = standard_box(1000).unwrap();
+        let mut w = StandardWork::new(&mesh).unwrap();
+        let mut sys = w.system(&mesh).unwrap();
+        let n = w.num_nodes();
+        let mut integ = Method::SymplecticEuler.build(n);
+        let mut s = State::at_rest(n);
+        for _ in 0..20 {
+            integ.step(&mut sys, &mut s, w.dt).unwrap();
+        }
+        w.advance(20).unwrap();
+        assert_eq!(w.u, s.u);
+        assert_eq!(w.v, s.v);
+        let c = w.check();
+        assert!(c.mean_uy_free_end < 0.0 && c.max_abs_u > 0.0);
+    }
+
+    #[test]
+    fn quick_run_produces_rows() {
+        let rows = run(
+            &BenchOptions {
+                sizes: vec![1000],
+                threads: vec![1],
+                quick: true,
+                standard_only: false,
+            },
+            &mut |_| {},
+        )
+        .unwrap();
+        assert!(rows.len() >= 5);
+        assert!(to_csv(&rows).lines().count() == rows.len() + 1);
+        assert!(to_markdown(&rows).contains("node-updates/s"));
+    }
+}

@@ -1,0 +1,709 @@
+//! Fast path of the force pass: compressible neo-Hookean tetrahedra.
+//!
+//! Kernel (specialised, no `C`, no `S`): with `Du = [u1−u0, u2−u0, u3−u0]`
+//!
+//! ```text
+//! F = I + Du Dm⁻¹,   J = det F,   cof F = J F⁻ᵀ,
+//! V0 P = a F + b cof F,   a = μ V0,   b = V0 (λ ln J − μ) / J,
+//! H = V0 P Dm⁻ᵀ,   R_j = H e_j (j = 1..3),   R_0 = −Σ R_j
+//! ```
+//!
+//! which is `P = μ (F − F⁻ᵀ) + λ ln J F⁻ᵀ`, the same `R = ∂E/∂u` as the generic
+//! `P = F S(C)` path (tested against [`super::FemModel::internal_forces_reference`]).
+//! `ln` is a branch-free `2 atanh` series (error below 2 ulp) so that the lane loop vectorises.
+//!
+//! Layout: elements packed in groups of [`LANES`] (structure of arrays inside a group:
+//! `Dm⁻¹` entries, volumes and corner ids lane-contiguous, 96 bytes per tetrahedron), sorted
+//! into slabs of equal element counts (by mean node id when the node numbering is banded,
+//! as for the structured boxes, so that a slab touches one contiguous stretch of `u` and
+//! `r`; else along the longest axis of the mesh) and, inside a slab, by the Morton key of
+//! the element centroid. Slabs are coloured greedily so that slabs of
+//! one colour share no node; the force pass runs colour by colour, the slabs of a colour in
+//! parallel, each slab scattering serially into `r`. Every node thus receives its element
+//! contributions in one fixed order (colour, then slab order, then element order) whatever
+//! the number of threads: the same bits on 1 and 2 threads, no atomics.
+
+use rayon::prelude::*;
+
+/// Elements per SIMD group.
+pub const LANES: usize = 4;
+type L = [f64; LANES];
+
+/// Bytes of element data the force pass streams per tetrahedron (ids, `Dm⁻¹`, volume).
+pub const BYTES_PER_TET: usize = std::mem::size_of::<Group>() / LANES;
+
+/// One group of `LANES` tetrahedra.
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+pub(crate) struct Group {
+    /// Corner node ids, `idx[corner][lane]`.
+    idx: [[u32; LANES]; 4],
+    /// `Dm⁻¹` row-major, `dminv[3 r + c][lane]`.
+    dminv: [L; 9],
+    /// Reference volume (0 for padding lanes).
+    vol: L,
+}
+
+/// Packed neo-Hookean tetrahedra in force-pass order.
+pub(crate) struct TetPack {
+    mu: f64,
+    lambda: f64,
+    groups: Vec<Group>,
+    /// Groups of slab s: `slab_ptr[s]..slab_ptr[s + 1]`, slabs stored colour by colour.
+    slab_ptr: Vec<usize>,
+    /// Slabs of colour c: `colour_ptr[c]..colour_ptr[c + 1]`.
+    colour_ptr: Vec<usize>,
+    n_nodes: usize,
+    /// Instruction set of the kernel: 0 portable, 1 AVX2 + FMA.
+    isa: u8,
+}
+
+/// Spread the low 21 bits of x to every third bit.
+fn spread3(x: u64) -> u64 {
+    let mut x = x & 0x1f_ffff;
+    x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+    x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+    x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+    x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+    x = (x | (x << 2)) & 0x1249_2492_4924_9249;
+    x
+}
+
+impl TetPack {
+    /// Pack the elements. `cells` 4 per element, `dminv` 9 per element column-major,
+    /// `target_block` the wanted elements per slab.
+    pub(crate) fn new(
+        mu: f64,
+        lambda: f64,
+        x0: &[f64],
+        cells: &[u32],
+        dminv: &[f64],
+        vol: &[f64],
+        target_block: usize,
+    ) -> TetPack {
+        let ne = vol.len();
+        let n_nodes = x0.len() / 3;
+        // Centroids, bounding box, mean element extent per axis.
+        let mut cen = vec![[0.0f64; 3]; ne];
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        let mut ext = [0.0f64; 3];
+        for e in 0..ne {
+            let mut emin = [f64::INFINITY; 3];
+            let mut emax = [f64::NEG_INFINITY; 3];
+            for k in 0..4 {
+                let a = cells[4 * e + k] as usize * 3;
+                for d in 0..3 {
+                    let x = x0[a + d];
+                    cen[e][d] += 0.25 * x;
+                    emin[d] = emin[d].min(x);
+                    emax[d] = emax[d].max(x);
+                }
+            }
+            for d in 0..3 {
+                lo[d] = lo[d].min(emin[d]);
+                hi[d] = hi[d].max(emax[d]);
+                ext[d] += emax[d] - emin[d];
+            }
+        }
+        // Slab key: the mean node id of the element when the numbering is banded (each
+        // slab then reads and writes one contiguous stretch of u and r: prefetchable), else
+        // the centroid along the longest axis. Slabs at least two element "widths" thick
+        // so that two colours usually suffice, about `target_block` elements each.
+        let bw = (0..ne)
+            .map(|e| {
+                let el = &cells[4 * e..4 * e + 4];
+                let (mn, mx) = el
+                    .iter()
+                    .fold((u32::MAX, 0), |(a, b), &c| (a.min(c), b.max(c)));
+                (mx - mn) as usize
+            })
+            .max()
+            .unwrap_or(0);
+        let max_slabs_index = (n_nodes / (2 * bw.max(1))).max(1);
+        let axis = (0..3)
+            .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
+            .unwrap_or(0);
+        let mean_ext = if ne > 0 { ext[axis] / ne as f64 } else { 1.0 };
+        let max_slabs_geo = ((hi[axis] - lo[axis]) / (2.0 * mean_ext.max(f64::MIN_POSITIVE)))
+            .floor()
+            .max(1.0) as usize;
+        let wanted = ne.div_ceil(target_block.max(1));
+        let by_index = max_slabs_index >= wanted.min(8);
+        let slabs = wanted.clamp(
+            1,
+            if by_index {
+                max_slabs_index
+            } else {
+                max_slabs_geo
+            },
+        );
+        let slab_key: Vec<f64> = (0..ne)
+            .map(|e| {
+                if by_index {
+                    cells[4 * e..4 * e + 4]
+                        .iter()
+                        .map(|&c| c as f64)
+                        .sum::<f64>()
+                } else {
+                    cen[e][axis]
+                }
+            })
+            .collect();
+        let mut by_axis: Vec<u32> = (0..ne as u32).collect();
+        by_axis.sort_by(|&a, &b| {
+            slab_key[a as usize]
+                .total_cmp(&slab_key[b as usize])
+                .then(a.cmp(&b))
+        });
+        let mut slab_of = vec![0u32; ne];
+        for (rank, &e) in by_axis.iter().enumerate() {
+            slab_of[e as usize] = (rank * slabs / ne.max(1)) as u32;
+        }
+        let q = |d: usize, x: f64| -> u64 {
+            let w = hi[d] - lo[d];
+            if w > 0.0 {
+                (((x - lo[d]) / w) * ((1u64 << 21) - 1) as f64) as u64
+            } else {
+                0
+            }
+        };
+        let key: Vec<u64> = cen
+            .iter()
+            .map(|c| spread3(q(0, c[0])) | (spread3(q(1, c[1])) << 1) | (spread3(q(2, c[2])) << 2))
+            .collect();
+        let mut order: Vec<u32> = (0..ne as u32).collect();
+        order.sort_by_key(|&e| (slab_of[e as usize], key[e as usize], e));
+        // Slab ranges in `order`.
+        let mut slab_range = vec![(0usize, 0usize); slabs];
+        {
+            let mut i = 0;
+            for (s, r) in slab_range.iter_mut().enumerate() {
+                let start = i;
+                while i < ne && slab_of[order[i] as usize] as usize == s {
+                    i += 1;
+                }
+                *r = (start, i);
+            }
+        }
+        // Greedy colouring of slabs: no two slabs of one colour share a node.
+        let mut node_mask = vec![0u64; n_nodes];
+        let mut colour = vec![0usize; slabs];
+        let mut ok = true;
+        for (s, &(a, b)) in slab_range.iter().enumerate() {
+            let mut forbidden = 0u64;
+            for &e in &order[a..b] {
+                for k in 0..4 {
+                    forbidden |= node_mask[cells[4 * e as usize + k] as usize];
+                }
+            }
+            if forbidden == u64::MAX {
+                ok = false;
+                break;
+            }
+            let c = forbidden.trailing_ones() as usize;
+            colour[s] = c;
+            for &e in &order[a..b] {
+                for k in 0..4 {
+                    node_mask[cells[4 * e as usize + k] as usize] |= 1 << c;
+                }
+            }
+        }
+        if !ok {
+            // Pathological mesh: one slab, serial.
+            colour.iter_mut().for_each(|c| *c = 0);
+            slab_range = vec![(0, ne)];
+            colour.truncate(1);
+        }
+        let n_colours = colour.iter().max().map_or(0, |&c| c + 1);
+        let mut slab_order: Vec<usize> = (0..slab_range.len()).collect();
+        slab_order.sort_by_key(|&s| (colour[s], s));
+        let mut colour_ptr = vec![0usize; n_colours + 1];
+        for &c in &colour {
+            colour_ptr[c + 1] += 1;
+        }
+        for c in 0..n_colours {
+            colour_ptr[c + 1] += colour_ptr[c];
+        }
+        // Pack groups slab by slab (padding the last group of each slab).
+        let mut groups = Vec::with_capacity(ne / LANES + slab_range.len());
+        let mut slab_ptr = vec![0usize];
+        for &s in &slab_order {
+            let (a, b) = slab_range[s];
+            for chunk in order[a..b].chunks(LANES) {
+                let mut g = Group {
+                    idx: [[0; LANES]; 4],
+                    dminv: [[0.0; LANES]; 9],
+                    vol: [0.0; LANES],
+                };
+                for l in 0..LANES {
+                    // Padding lanes repeat the first element with zero volume: zero force.
+                    let (e, v) = match chunk.get(l) {
+                        Some(&e) => (e as usize, vol[e as usize]),
+                        None => (chunk[0] as usize, 0.0),
+                    };
+                    for k in 0..4 {
+                        g.idx[k][l] = cells[4 * e + k];
+                    }
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            // Column-major source.
+                            g.dminv[3 * r + c][l] = dminv[9 * e + 3 * c + r];
+                        }
+                    }
+                    g.vol[l] = v;
+                }
+                groups.push(g);
+            }
+            slab_ptr.push(groups.len());
+        }
+        TetPack {
+            mu,
+            lambda,
+            groups,
+            slab_ptr,
+            colour_ptr,
+            n_nodes,
+            isa: detect_isa(),
+        }
+    }
+
+    /// Number of slabs (parallel tasks) and colours (sequential phases).
+    pub(crate) fn layout(&self) -> (usize, usize) {
+        (self.slab_ptr.len() - 1, self.colour_ptr.len() - 1)
+    }
+
+    /// Bytes of the packed element data.
+    pub(crate) fn bytes(&self) -> usize {
+        self.groups.len() * std::mem::size_of::<Group>()
+    }
+
+    /// `r += R(u)` (r must hold what is to be accumulated onto, usually zeros). Returns false
+    /// if some element has `J <= 0` (or NaN); `r` is then unspecified.
+    pub(crate) fn accumulate(&self, u: &[f64], r: &mut [f64]) -> bool {
+        assert!(u.len() >= 3 * self.n_nodes && r.len() >= 3 * self.n_nodes);
+        let rp = SyncPtr(r.as_mut_ptr());
+        let n_slabs = self.slab_ptr.len() - 1;
+        let mut good = true;
+        for c in 0..self.colour_ptr.len() - 1 {
+            let (s0, s1) = (self.colour_ptr[c], self.colour_ptr[c + 1]);
+            let run = |s: usize| -> bool {
+                let g = &self.groups[self.slab_ptr[s]..self.slab_ptr[s + 1]];
+                // SAFETY: node ids were checked < n_nodes at construction, u and r have
+                // 3 n_nodes entries (asserted above), and slabs of one colour share no node, so
+                // concurrent slabs write disjoint entries of r.
+                unsafe { self.run_slab(g, u, rp) }
+            };
+            good &= if n_slabs >= 2 && s1 - s0 >= 2 {
+                (s0..s1)
+                    .into_par_iter()
+                    .map(run)
+                    .reduce(|| true, |a, b| a & b)
+            } else {
+                (s0..s1).map(run).fold(true, |a, b| a & b)
+            };
+        }
+        good
+    }
+
+    /// Use a lower instruction set than detected (tests compare the kernels).
+    #[cfg(test)]
+    pub(crate) fn force_isa(&mut self, isa: u8) {
+        self.isa = isa.min(detect_isa());
+    }
+
+    /// The kernel in use: `"portable"` or `"avx2"`.
+    pub(crate) fn isa(&self) -> &'static str {
+        ["portable", "avx2"][self.isa as usize]
+    }
+
+    #[inline]
+    unsafe fn run_slab(&self, g: &[Group], u: &[f64], r: SyncPtr) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.isa == 1 {
+            return run_groups_avx2(g, u, r.0, self.mu, self.lambda);
+        }
+        run_groups(g, u, r.0, self.mu, self.lambda)
+    }
+}
+
+/// 1 with AVX2 + FMA, else 0; `RAISOV_ISA=portable` forces 0 (for comparisons). An AVX-512
+/// variant (8 lanes, same bits) was measured no faster on Zen 4 and left out.
+fn detect_isa() -> u8 {
+    #[cfg(target_arch = "x86_64")]
+    let found =
+        u8::from(std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma"));
+    #[cfg(not(target_arch = "x86_64"))]
+    let found = 0;
+    let cap = match std::env::var("RAISOV_ISA").as_deref() {
+        Ok("portable") => 0,
+        _ => 1,
+    };
+    found.min(cap)
+}
+
+#[derive(Clone, Copy)]
+struct SyncPtr(*mut f64);
+// SAFETY: used only for disjoint writes (slabs of one colour share no node).
+unsafe impl Send for SyncPtr {}
+unsafe impl Sync for SyncPtr {}
+
+/// The kernel written with AVX2 + FMA intrinsics, 4 lanes per group. Every floating-point
+/// operation is the one of [`run_groups`] in the same order (fused multiply-adds where it
+/// uses `mul_add`), so the bits are equal.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: f64) -> bool {
+    use std::arch::x86_64::*;
+    let up = u.as_ptr();
+    macro_rules! add {
+        ($a:expr, $b:expr) => {
+            _mm256_add_pd($a, $b)
+        };
+    }
+    macro_rules! sub {
+        ($a:expr, $b:expr) => {
+            _mm256_sub_pd($a, $b)
+        };
+    }
+    macro_rules! mul {
+        ($a:expr, $b:expr) => {
+            _mm256_mul_pd($a, $b)
+        };
+    }
+    macro_rules! fma {
+        ($a:expr, $b:expr, $c:expr) => {
+            _mm256_fmadd_pd($a, $b, $c)
+        };
+    }
+    macro_rules! fms {
+        ($a:expr, $b:expr, $c:expr) => {
+            _mm256_fmsub_pd($a, $b, $c)
+        };
+    }
+    let one = _mm256_set1_pd(1.0);
+    let zero = _mm256_setzero_pd();
+    let vmu = _mm256_set1_pd(mu);
+    let vlam = _mm256_set1_pd(lambda);
+    let sign = _mm256_set1_pd(-0.0);
+    let mut good = 0xf;
+    // Loop fission: the per-group dependency chain (gather → F → J → ln J → P → H → scatter)
+    // is longer than the out-of-order window covers, so stage 1 (through a, b) runs over a
+    // block of groups, then stage 2 (P, H, scatter): independent work for the core to overlap.
+    const BLK: usize = 8;
+    let mut stage = [[zero; 20]; BLK];
+    for chunk in groups.chunks(BLK) {
+        for (qq, g) in chunk.iter().enumerate() {
+            // Gather corner displacements as [x; y; z] vectors over lanes.
+            let mut cx = [zero; 4];
+            let mut cy = [zero; 4];
+            let mut cz = [zero; 4];
+            for k in 0..4 {
+                let p = |l: usize| up.add(g.idx[k][l] as usize * 3);
+                let a = _mm256_insertf128_pd(
+                    _mm256_castpd128_pd256(_mm_loadu_pd(p(0))),
+                    _mm_loadu_pd(p(2)),
+                    1,
+                );
+                let b = _mm256_insertf128_pd(
+                    _mm256_castpd128_pd256(_mm_loadu_pd(p(1))),
+                    _mm_loadu_pd(p(3)),
+                    1,
+                );
+                cx[k] = _mm256_unpacklo_pd(a, b);
+                cy[k] = _mm256_unpackhi_pd(a, b);
+                let z01 = _mm_loadh_pd(_mm_load_sd(p(0).add(2)), p(1).add(2));
+                let z23 = _mm_loadh_pd(_mm_load_sd(p(2).add(2)), p(3).add(2));
+                cz[k] = _mm256_insertf128_pd(_mm256_castpd128_pd256(z01), z23, 1);
+            }
+            // w[k][i] = Du_ik = u_{k+1,i} − u_{0,i}
+            let w = [
+                [sub!(cx[1], cx[0]), sub!(cy[1], cy[0]), sub!(cz[1], cz[0])],
+                [sub!(cx[2], cx[0]), sub!(cy[2], cy[0]), sub!(cz[2], cz[0])],
+                [sub!(cx[3], cx[0]), sub!(cy[3], cy[0]), sub!(cz[3], cz[0])],
+            ];
+            let mut d = [zero; 9];
+            for q in 0..9 {
+                d[q] = _mm256_loadu_pd(g.dminv[q].as_ptr());
+            }
+            macro_rules! fm {
+                ($i:expr, $j:expr) => {
+                    fma!(
+                        w[2][$i],
+                        d[6 + $j],
+                        fma!(w[1][$i], d[3 + $j], mul!(w[0][$i], d[$j]))
+                    )
+                };
+            }
+            let f00 = add!(one, fm!(0, 0));
+            let f01 = fm!(0, 1);
+            let f02 = fm!(0, 2);
+            let f10 = fm!(1, 0);
+            let f11 = add!(one, fm!(1, 1));
+            let f12 = fm!(1, 2);
+            let f20 = fm!(2, 0);
+            let f21 = fm!(2, 1);
+            let f22 = add!(one, fm!(2, 2));
+            let c00 = fms!(f11, f22, mul!(f12, f21));
+            let c01 = fms!(f12, f20, mul!(f10, f22));
+            let c02 = fms!(f10, f21, mul!(f11, f20));
+            let c10 = fms!(f02, f21, mul!(f01, f22));
+            let c11 = fms!(f00, f22, mul!(f02, f20));
+            let c12 = fms!(f01, f20, mul!(f00, f21));
+            let c20 = fms!(f01, f12, mul!(f02, f11));
+            let c21 = fms!(f02, f10, mul!(f00, f12));
+            let c22 = fms!(f00, f11, mul!(f01, f10));
+            let j = fma!(f02, c02, fma!(f01, c01, mul!(f00, c00)));
+            good &= _mm256_movemask_pd(_mm256_cmp_pd(j, zero, _CMP_GT_OQ));
+            // 1/J off the critical path (overlaps ln J).
+            let invj = _mm256_div_pd(one, j);
+            // ln J, as ln_series.
+            let bits = _mm256_castpd_si256(j);
+            let eb = _mm256_and_si256(_mm256_srli_epi64(bits, 52), _mm256_set1_epi64x(0x7ff));
+            let magic = _mm256_set1_pd(4503599627370496.0); // 2^52
+            let ef = _mm256_sub_pd(
+                _mm256_castsi256_pd(_mm256_or_si256(eb, _mm256_castpd_si256(magic))),
+                magic,
+            );
+            let m = _mm256_castsi256_pd(_mm256_or_si256(
+                _mm256_and_si256(bits, _mm256_set1_epi64x(0x000f_ffff_ffff_ffff)),
+                _mm256_set1_epi64x(0x3ff0_0000_0000_0000),
+            ));
+            let big = _mm256_cmp_pd(m, _mm256_set1_pd(std::f64::consts::SQRT_2), _CMP_GT_OQ);
+            let m = _mm256_blendv_pd(m, mul!(_mm256_set1_pd(0.5), m), big);
+            let e = add!(sub!(ef, _mm256_set1_pd(1023.0)), _mm256_and_pd(big, one));
+            let s = _mm256_div_pd(sub!(m, one), add!(m, one));
+            let z = mul!(s, s);
+            // Estrin, as ln_series.
+            let cc = |i: usize| _mm256_set1_pd(LN_COEF[i]);
+            let z2 = mul!(z, z);
+            let z4 = mul!(z2, z2);
+            let z8 = mul!(z4, z4);
+            let q0 = fma!(cc(8), z, cc(9));
+            let q1 = fma!(cc(6), z, cc(7));
+            let q2 = fma!(cc(4), z, cc(5));
+            let q3 = fma!(cc(2), z, cc(3));
+            let q4 = fma!(cc(0), z, cc(1));
+            let r0 = fma!(q1, z2, q0);
+            let r1 = fma!(q3, z2, q2);
+            let pp = fma!(q4, z8, fma!(r1, z4, r0));
+            let two = _mm256_set1_pd(2.0);
+            let t = mul!(mul!(two, s), mul!(pp, z));
+            let lnj = add!(
+                mul!(e, _mm256_set1_pd(LN2_HI)),
+                add!(mul!(two, s), add!(t, mul!(e, _mm256_set1_pd(LN2_LO))))
+            );
+            let v0 = _mm256_loadu_pd(g.vol.as_ptr());
+            let a = mul!(vmu, v0);
+            let b = mul!(mul!(v0, sub!(mul!(vlam, lnj), vmu)), invj);
+            stage[qq] = [
+                f00, f01, f02, f10, f11, f12, f20, f21, f22, c00, c01, c02, c10, c11, c12, c20,
+                c21, c22, a, b,
+            ];
+        }
+        for (qq, g) in chunk.iter().enumerate() {
+            let [f00, f01, f02, f10, f11, f12, f20, f21, f22, c00, c01, c02, c10, c11, c12, c20, c21, c22, a, b] =
+                stage[qq];
+            let mut d = [zero; 9];
+            for q in 0..9 {
+                d[q] = _mm256_loadu_pd(g.dminv[q].as_ptr());
+            }
+            let p = [
+                [
+                    fma!(a, f00, mul!(b, c00)),
+                    fma!(a, f01, mul!(b, c01)),
+                    fma!(a, f02, mul!(b, c02)),
+                ],
+                [
+                    fma!(a, f10, mul!(b, c10)),
+                    fma!(a, f11, mul!(b, c11)),
+                    fma!(a, f12, mul!(b, c12)),
+                ],
+                [
+                    fma!(a, f20, mul!(b, c20)),
+                    fma!(a, f21, mul!(b, c21)),
+                    fma!(a, f22, mul!(b, c22)),
+                ],
+            ];
+            // h[corner][component]
+            let mut h = [[zero; 3]; 4];
+            for i in 0..3 {
+                let mut acc = zero;
+                for jj in 0..3 {
+                    let hv = fma!(
+                        p[i][2],
+                        d[3 * jj + 2],
+                        fma!(p[i][1], d[3 * jj + 1], mul!(p[i][0], d[3 * jj]))
+                    );
+                    h[jj + 1][i] = hv;
+                    acc = add!(acc, hv);
+                }
+                h[0][i] = _mm256_xor_pd(acc, sign);
+            }
+            // Transpose each corner to per-lane (x, y) pairs and z and scatter it, corner by
+            // corner, lane by lane (the order of run_groups).
+            for k in 0..4 {
+                let lo = _mm256_unpacklo_pd(h[k][0], h[k][1]); // x0 y0 x2 y2
+                let hi = _mm256_unpackhi_pd(h[k][0], h[k][1]); // x1 y1 x3 y3
+                let xy = [
+                    _mm256_castpd256_pd128(lo),
+                    _mm256_castpd256_pd128(hi),
+                    _mm256_extractf128_pd(lo, 1),
+                    _mm256_extractf128_pd(hi, 1),
+                ];
+                let zl = _mm256_castpd256_pd128(h[k][2]);
+                let zh = _mm256_extractf128_pd(h[k][2], 1);
+                let zz = [zl, _mm_unpackhi_pd(zl, zl), zh, _mm_unpackhi_pd(zh, zh)];
+                for l in 0..LANES {
+                    let q = r.add(g.idx[k][l] as usize * 3);
+                    _mm_storeu_pd(q, _mm_add_pd(_mm_loadu_pd(q), xy[l]));
+                    _mm_store_sd(q.add(2), _mm_add_sd(_mm_load_sd(q.add(2)), zz[l]));
+                }
+            }
+        }
+    }
+    good == 0xf
+}
+
+/// Coefficients `1/21, 1/19, ..., 1/3` of the atanh series (highest power first).
+const LN_COEF: [f64; 10] = [
+    1.0 / 21.0,
+    1.0 / 19.0,
+    1.0 / 17.0,
+    1.0 / 15.0,
+    1.0 / 13.0,
+    1.0 / 11.0,
+    1.0 / 9.0,
+    1.0 / 7.0,
+    1.0 / 5.0,
+    1.0 / 3.0,
+];
+/// ln 2 split hi + lo for an accurate `e ln 2`.
+const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+
+/// ln x for normal positive x, branch-free: `x = m 2^e`, `m ∈ [√½, √2)`,
+/// `ln m = 2 atanh s`, `s = (m − 1)/(m + 1)`, series to `s²¹` (|s| ≤ 0.1716), evaluated
+/// by Estrin's scheme.
+#[inline(always)]
+pub(crate) fn ln_series(x: f64) -> f64 {
+    let bits = x.to_bits();
+    let e = ((bits >> 52) & 0x7ff) as f64 - 1023.0;
+    let m = f64::from_bits((bits & 0x000f_ffff_ffff_ffff) | 0x3ff0_0000_0000_0000);
+    let big = m > std::f64::consts::SQRT_2;
+    let m = if big { 0.5 * m } else { m };
+    let e = e + if big { 1.0 } else { 0.0 };
+    let s = (m - 1.0) / (m + 1.0);
+    let z = s * s;
+    // Estrin's scheme (short dependency chain): p = Σ LN_COEF[i] z^(9−i).
+    let c = LN_COEF;
+    let z2 = z * z;
+    let z4 = z2 * z2;
+    let z8 = z4 * z4;
+    let q0 = c[8].mul_add(z, c[9]);
+    let q1 = c[6].mul_add(z, c[7]);
+    let q2 = c[4].mul_add(z, c[5]);
+    let q3 = c[2].mul_add(z, c[3]);
+    let q4 = c[0].mul_add(z, c[1]);
+    let r0 = q1.mul_add(z2, q0);
+    let r1 = q3.mul_add(z2, q2);
+    let p = q4.mul_add(z8, r1.mul_add(z4, r0));
+    let t = 2.0 * s * (p * z);
+    e * LN2_HI + (2.0 * s + (t + e * LN2_LO))
+}
+
+#[inline(always)]
+unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: f64) -> bool {
+    let mut bad = false;
+    for g in groups {
+        // Gather Du[corner-1][component][lane].
+        let mut du = [[[0.0f64; LANES]; 3]; 3];
+        for l in 0..LANES {
+            let n0 = g.idx[0][l] as usize * 3;
+            let (a0, b0, c0) = (
+                *u.get_unchecked(n0),
+                *u.get_unchecked(n0 + 1),
+                *u.get_unchecked(n0 + 2),
+            );
+            for k in 0..3 {
+                let n = g.idx[k + 1][l] as usize * 3;
+                du[k][0][l] = *u.get_unchecked(n) - a0;
+                du[k][1][l] = *u.get_unchecked(n + 1) - b0;
+                du[k][2][l] = *u.get_unchecked(n + 2) - c0;
+            }
+        }
+        let mut h = [[[0.0f64; LANES]; 3]; 4]; // h[corner][component][lane]
+        let mut neg = [false; LANES];
+        for l in 0..LANES {
+            let d = |i: usize, j: usize| g.dminv[3 * i + j][l];
+            let w = |k: usize, i: usize| du[k][i][l];
+            // F_ij = δ_ij + Σ_k Du_ik Dm⁻¹_kj, Du_ik = w(k, i).
+            let fm = |i: usize, j: usize| {
+                w(2, i).mul_add(d(2, j), w(1, i).mul_add(d(1, j), w(0, i) * d(0, j)))
+            };
+            let f00 = 1.0 + fm(0, 0);
+            let f01 = fm(0, 1);
+            let f02 = fm(0, 2);
+            let f10 = fm(1, 0);
+            let f11 = 1.0 + fm(1, 1);
+            let f12 = fm(1, 2);
+            let f20 = fm(2, 0);
+            let f21 = fm(2, 1);
+            let f22 = 1.0 + fm(2, 2);
+            let c00 = f11.mul_add(f22, -(f12 * f21));
+            let c01 = f12.mul_add(f20, -(f10 * f22));
+            let c02 = f10.mul_add(f21, -(f11 * f20));
+            let c10 = f02.mul_add(f21, -(f01 * f22));
+            let c11 = f00.mul_add(f22, -(f02 * f20));
+            let c12 = f01.mul_add(f20, -(f00 * f21));
+            let c20 = f01.mul_add(f12, -(f02 * f11));
+            let c21 = f02.mul_add(f10, -(f00 * f12));
+            let c22 = f00.mul_add(f11, -(f01 * f10));
+            let j = f02.mul_add(c02, f01.mul_add(c01, f00 * c00));
+            neg[l] = !(j > 0.0);
+            let v0 = g.vol[l];
+            let a = mu * v0;
+            let inv_j = 1.0 / j;
+            let b = v0 * (lambda * ln_series(j) - mu) * inv_j;
+            let p = [
+                [
+                    a.mul_add(f00, b * c00),
+                    a.mul_add(f01, b * c01),
+                    a.mul_add(f02, b * c02),
+                ],
+                [
+                    a.mul_add(f10, b * c10),
+                    a.mul_add(f11, b * c11),
+                    a.mul_add(f12, b * c12),
+                ],
+                [
+                    a.mul_add(f20, b * c20),
+                    a.mul_add(f21, b * c21),
+                    a.mul_add(f22, b * c22),
+                ],
+            ];
+            for i in 0..3 {
+                let mut s = 0.0;
+                for jj in 0..3 {
+                    // H_i,jj = Σ_k P_ik Dm⁻¹_jj,k
+                    let hv =
+                        p[i][2].mul_add(d(jj, 2), p[i][1].mul_add(d(jj, 1), p[i][0] * d(jj, 0)));
+                    h[jj + 1][i][l] = hv;
+                    s += hv;
+                }
+                h[0][i][l] = -s;
+            }
+        }
+        for &n in &neg {
+            bad |= n;
+        }
+        for k in 0..4 {
+            for l in 0..LANES {
+                let n = g.idx[k][l] as usize * 3;
+                *r.add(n) += h[k][0][l];
+                *r.add(n + 1) += h[k][1][l];
+                *r.add(n + 2) += h[k][2][l];
+            }
+        }
+    }
+    !bad
+}

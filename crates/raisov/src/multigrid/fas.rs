@@ -524,11 +524,7 @@ impl Stepper for Fas {
         self.steps
     }
     fn force_evaluations(&self) -> f64 {
-        let n0 = self.levels[0].num_nodes() as f64;
-        self.levels
-            .iter()
-            .map(|l| l.evaluations as f64 * l.num_nodes() as f64 / n0)
-            .sum()
+        super::finest_equivalent_evaluations(&self.levels)
     }
     fn dt(&self) -> f64 {
         self.levels[0].dt * (self.params.pre_smooth + self.params.post_smooth).max(1) as f64

@@ -73,6 +73,15 @@ pub(crate) fn norm3(x: [f64; 3]) -> f64 {
     (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
 }
 
+/// Force evaluations over all levels in finest-level units: `Σ_i evals_i n_i / n_0`.
+pub fn finest_equivalent_evaluations(levels: &[Level]) -> f64 {
+    let n0 = levels[0].num_nodes() as f64;
+    levels
+        .iter()
+        .map(|l| l.evaluations as f64 * l.num_nodes() as f64 / n0)
+        .sum()
+}
+
 /// Links between consecutive levels: `links[i]` joins level i (fine) and i+1 (coarse).
 pub type Links = Vec<Correspondence>;
 

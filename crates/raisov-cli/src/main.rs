@@ -212,6 +212,9 @@ fn cmd_paper(out: PathBuf, quick: bool, meshes: Option<PathBuf>, quiet: bool) ->
     let res = run_paper(&opts, &mut |p| match p {
         Progress::Planned(n) => bar.set_length(n),
         Progress::Done(what) => {
+            if !show && !quiet {
+                eprintln!("[{:>4}] {what}", bar.position() + 1);
+            }
             if bar.position() + 1 >= bar.length().unwrap_or(0) {
                 bar.set_length(bar.position() + 2);
             }

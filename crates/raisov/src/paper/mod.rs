@@ -92,9 +92,9 @@ impl Sizes {
             Sizes {
                 membrane: vec![186, 103, 55, 31],
                 duration: 1.0,
-                iters: 4,
-                eps_sweep: vec![0.0, 0.1, 1.0, 10.0, 100.0, f64::INFINITY],
-                cost_big: 10_000,
+                iters: 3,
+                eps_sweep: vec![0.0, 1.0, 100.0, f64::INFINITY],
+                cost_big: 3_000,
                 cost_reps: 3,
                 steady_big: vec![3_000],
                 wall_cap: 5.0,
@@ -108,7 +108,7 @@ impl Sizes {
                 iters: 6,
                 eps_sweep: vec![0.0, 0.01, 0.1, 1.0, 10.0, 100.0, 1000.0, f64::INFINITY],
                 cost_big: 100_000,
-                cost_reps: 5,
+                cost_reps: 3,
                 steady_big: vec![10_000, 100_000],
                 wall_cap: 15.0,
                 block_nodes: 400,
@@ -126,7 +126,7 @@ impl Sizes {
 /// Relative target of "steady state": mean |T − T∞| below this × its initial value.
 pub const STEADY_TARGET: f64 = 1e-3;
 /// Time steps of the stability bisection, as multiples of the estimated critical step.
-pub const SAFETY_RANGE: (f64, f64) = (0.125, 8.0);
+pub const SAFETY_RANGE: (f64, f64) = (0.25, 8.0);
 
 /// One method's largest stable step on one case.
 #[derive(Clone, Debug)]
@@ -190,7 +190,9 @@ pub struct Results {
     pub lift_ref: String,
     pub drape_ref: String,
     pub stability: Vec<StabilityRow>,
-    pub stab_time: BTreeMap<String, f64>,
+    pub stab_steps: BTreeMap<String, u64>,
+    /// Wall time at the end of each stage (s).
+    pub stages: Vec<(String, f64)>,
     pub inversion: Vec<InversionRow>,
     pub block_desc: String,
     pub cost: Vec<CostRow>,
@@ -353,14 +355,18 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
     }
 
     // ---- 3. stability ----------------------------------------------------------------------
-    let settle = |sims: &[Sim]| -> f64 {
+    res.stages.push(("1-2. lift and drape".into(), start.elapsed().as_secs_f64()));
+    // A stability test runs as many steps (cycles) as SLIM RK4 needed to reach steady state.
+    let settle = |sims: &[Sim]| -> u64 {
         let s = &sims[0];
         let m0 = s.points[0].mean;
-        s.points
+        let t = s
+            .points
             .iter()
             .find(|p| p.mean <= STEADY_TARGET * m0)
             .map_or(sz.duration, |p| p.t)
-            .clamp(0.05, sz.duration)
+            .clamp(0.05, sz.duration);
+        (t / s.dt).ceil() as u64
     };
     let t_lift_settle = settle(&res.lift);
     let t_drape_settle = settle(&res.drape);
@@ -371,7 +377,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         (drape.clone(), t_drape_settle),
     ];
     for (case, t_stab) in &stab_cases {
-        res.stab_time.insert(case.name.clone(), *t_stab);
+        res.stab_steps.insert(case.name.clone(), *t_stab);
         let mut ms = methods.clone();
         if case.name == "drape" {
             ms.push(Meth::Slim("symplectic-euler"));
@@ -389,7 +395,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
                     &m.label(),
                     None,
                     SimCfg {
-                        t_end: *t_stab,
+                        t_end: *t_stab as f64 * sc.dt,
                         wall_cap: 60.0,
                         samples: 200,
                         target: None,
@@ -414,6 +420,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         }
     }
 
+    res.stages.push(("3. stability".into(), start.elapsed().as_secs_f64()));
     // ---- 4. element inversion --------------------------------------------------------------
     let block_size = [0.04, 0.04, 0.02];
     let block_mesh = MeshDesc::Block {
@@ -480,6 +487,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         });
     }
 
+    res.stages.push(("4. inversion".into(), start.elapsed().as_secs_f64()));
     // ---- 5. cost ---------------------------------------------------------------------------
     let cost_meshes = [
         (
@@ -495,7 +503,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
                 nodes: sz.cost_big,
                 levels: 4,
             },
-            (4_000_000 / sz.cost_big).clamp(2, 400),
+            (400_000 / sz.cost_big).clamp(2, 400),
         ),
     ];
     for (name, mesh, k) in cost_meshes {
@@ -541,6 +549,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         });
     }
 
+    res.stages.push(("5. cost".into(), start.elapsed().as_secs_f64()));
     // ---- 6. time to steady state -----------------------------------------------------------
     let safety_of = |key: &str| -> f64 {
         res.stability
@@ -672,6 +681,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         }
     }
 
+    res.stages.push(("6. time to steady state".into(), start.elapsed().as_secs_f64()));
     // ---- files -----------------------------------------------------------------------------
     res.wall = start.elapsed().as_secs_f64();
     report::write_all(&out, &mut res)?;

@@ -369,7 +369,10 @@ pub fn simulate(
         }
         let k = stepper.steps();
         let wall = start.elapsed().as_secs_f64();
-        if k % every == 0 || k == total || target.is_some() && k % every.min(10) == 0 {
+        if k.is_multiple_of(every)
+            || k == total
+            || target.is_some() && k.is_multiple_of(every.min(10))
+        {
             let p = take(stepper, &mut meter, wall);
             if !finite(&p) {
                 outcome = Outcome::Diverged {
@@ -380,7 +383,7 @@ pub fn simulate(
             }
             res_peak = res_peak.max(p.residual);
             ke_peak = ke_peak.max(p.kinetic);
-            if k % every == 0 || k == total {
+            if k.is_multiple_of(every) || k == total {
                 points.push(p);
             }
             if let Some(tg) = target {
@@ -512,7 +515,11 @@ pub fn reference(sc: &Scenario, relax_max_nodes: usize) -> Result<(Vec<f64>, Str
                 "T_inf by Newton-Krylov from rest: residual {:.2e} N ({:.1e} of start{}), {:.1} s",
                 st.residual,
                 st.residual / st.initial_residual.max(f64::MIN_POSITIVE),
-                if st.converged { "" } else { ", NOT converged to 1e-8" },
+                if st.converged {
+                    ""
+                } else {
+                    ", NOT converged to 1e-8"
+                },
                 start.elapsed().as_secs_f64()
             ),
         ));
@@ -526,8 +533,12 @@ pub fn reference(sc: &Scenario, relax_max_nodes: usize) -> Result<(Vec<f64>, Str
     };
     let mut s = State::at_rest(levels[m - 1].num_nodes());
     s.t = t;
-    let r = relax(&mut levels[m - 1].sys, s, dt_relax, 1e-8, 2_000_000)
-        .map_err(|f| fail(format!("coarsest relaxation inverted element {}", f.element)))?;
+    let r = relax(&mut levels[m - 1].sys, s, dt_relax, 1e-8, 2_000_000).map_err(|f| {
+        fail(format!(
+            "coarsest relaxation inverted element {}",
+            f.element
+        ))
+    })?;
     let mut u = r.state.u;
     let mut notes = vec![format!(
         "coarsest level ({} nodes) relaxed to {:.1e} in {} steps",
@@ -545,9 +556,12 @@ pub fn reference(sc: &Scenario, relax_max_nodes: usize) -> Result<(Vec<f64>, Str
             max_newton: if l == 0 { 40 } else { 15 },
             ..Default::default()
         };
-        let st = solver
-            .solve(&mut lv.sys, t, &mut fine, p)
-            .map_err(|f| fail(format!("Newton on level {l} inverted element {}", f.element)))?;
+        let st = solver.solve(&mut lv.sys, t, &mut fine, p).map_err(|f| {
+            fail(format!(
+                "Newton on level {l} inverted element {}",
+                f.element
+            ))
+        })?;
         notes.push(format!(
             "level {l} ({} nodes): Newton residual {:.2e} N ({:.1e} of start{})",
             lv.num_nodes(),

@@ -91,8 +91,16 @@ fn fmt_opt_t(x: Option<f64>) -> String {
 pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
     let mut files = std::mem::take(&mut res.files);
     // ---- CSV ----
-    write_text(&out.join("fig5_lift.csv"), &series_csv(&res.lift), &mut files)?;
-    write_text(&out.join("fig5_drape.csv"), &series_csv(&res.drape), &mut files)?;
+    write_text(
+        &out.join("fig5_lift.csv"),
+        &series_csv(&res.lift),
+        &mut files,
+    )?;
+    write_text(
+        &out.join("fig5_drape.csv"),
+        &series_csv(&res.drape),
+        &mut files,
+    )?;
     let mut t = String::from("reading,epsilon_m,tail_mean_abs_T_minus_Tinf_Pa,outcome\n");
     for (r, e, s, o) in &res.eps_sweep {
         let _ = writeln!(t, "{r},{},{},\"{}\"", num(*e), num(*s), o.replace('"', "'"));
@@ -274,7 +282,9 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
 }
 
 fn find<'a>(sims: &'a [Sim], prefix: &str) -> Vec<&'a Sim> {
-    sims.iter().filter(|s| s.label.starts_with(prefix)).collect()
+    sims.iter()
+        .filter(|s| s.label.starts_with(prefix))
+        .collect()
 }
 
 fn yes(b: bool) -> &'static str {
@@ -368,7 +378,17 @@ fn report_text(out: &Path, res: &Results) -> String {
     };
     let rai_levels: Vec<String> = rai_lift
         .iter()
-        .map(|s| format!("{}: {}", s.label, if s.diverged() { "diverged".to_string() } else { format!("late mean {:.2e} Pa", tail_mean(s)) }))
+        .map(|s| {
+            format!(
+                "{}: {}",
+                s.label,
+                if s.diverged() {
+                    "diverged".to_string()
+                } else {
+                    format!("late mean {:.2e} Pa", tail_mean(s))
+                }
+            )
+        })
         .collect();
     let _ = writeln!(
         w,
@@ -411,7 +431,17 @@ fn report_text(out: &Path, res: &Results) -> String {
     };
     let rai_d: Vec<String> = rai_drape
         .iter()
-        .map(|s| format!("{}: {}", s.label, if s.diverged() { "diverged".to_string() } else { format!("late mean {:.2e} Pa", tail_mean(s)) }))
+        .map(|s| {
+            format!(
+                "{}: {}",
+                s.label,
+                if s.diverged() {
+                    "diverged".to_string()
+                } else {
+                    format!("late mean {:.2e} Pa", tail_mean(s))
+                }
+            )
+        })
         .collect();
     let _ = writeln!(
         w,
@@ -426,7 +456,9 @@ fn report_text(out: &Path, res: &Results) -> String {
     let mut parts = Vec::new();
     let mut c5 = true;
     for case in ["lift3.0cm", "lift3.5cm", "drape"] {
-        let slim = stab(res, case, "slim-rk4").first().and_then(|r| r.bisection.stable);
+        let slim = stab(res, case, "slim-rk4")
+            .first()
+            .and_then(|r| r.bisection.stable);
         let best = stab(res, case, "raisov")
             .iter()
             .filter_map(|r| r.bisection.stable.map(|s| (s, r.method.clone())))
@@ -543,7 +575,11 @@ fn report_text(out: &Path, res: &Results) -> String {
         parts.push(format!(
             "{m}: FAS {}, fastest SLIM {}",
             fas.map_or("not reached".into(), |p| format!("{:.2} s", p.wall)),
-            if fastest_slim.is_finite() { format!("{fastest_slim:.2} s") } else { "not reached".into() }
+            if fastest_slim.is_finite() {
+                format!("{fastest_slim:.2} s")
+            } else {
+                "not reached".into()
+            }
         ));
     }
     let _ = writeln!(
@@ -573,18 +609,36 @@ fn report_text(out: &Path, res: &Results) -> String {
         }
         let _ = writeln!(w);
     };
-    let _ = writeln!(w, "## 1. Perturbation response (section 3.1, Fig. 5 left)\n");
+    let _ = writeln!(
+        w,
+        "## 1. Perturbation response (section 3.1, Fig. 5 left)\n"
+    );
     let _ = writeln!(w, "Centre node lifted 3.0 cm at t = 0 and held. Plot: `fig5_left_lift.png` / `.svg`; series: `fig5_lift.csv`.\n");
     sim_table(w, &res.lift);
     let _ = writeln!(w, "RaISoV epsilon sweep (3 cm lift, RaISoV at twice SLIM's step; score: mean abs(T - T_inf) over the last tenth of the run; `eps_sweep.csv`):\n");
     let _ = writeln!(w, "| reading | epsilon | late mean (Pa) | outcome |");
     let _ = writeln!(w, "|---|---|---|---|");
     for (rd, e, s, o) in &res.eps_sweep {
-        let _ = writeln!(w, "| {rd} | {} | {} | {o} |", fmt_eps(*e), if s.is_finite() { format!("{s:.3e}") } else { "diverged".into() });
+        let _ = writeln!(
+            w,
+            "| {rd} | {} | {} | {o} |",
+            fmt_eps(*e),
+            if s.is_finite() {
+                format!("{s:.3e}")
+            } else {
+                "diverged".into()
+            }
+        );
     }
     let _ = writeln!(w);
-    let _ = writeln!(w, "## 2. Draping under gravity (section 3.2, Fig. 5 right)\n");
-    let _ = writeln!(w, "Plot: `fig5_right_drape.png` / `.svg`; series: `fig5_drape.csv`.\n");
+    let _ = writeln!(
+        w,
+        "## 2. Draping under gravity (section 3.2, Fig. 5 right)\n"
+    );
+    let _ = writeln!(
+        w,
+        "Plot: `fig5_right_drape.png` / `.svg`; series: `fig5_drape.csv`.\n"
+    );
     sim_table(w, &res.drape);
     let _ = writeln!(w, "## 3. Largest stable time step\n");
     let _ = writeln!(w, "Bisection (geometric) on the step as a multiple of the finest mesh's estimated critical step for the method's integrator, in [0.25, 8]; a test runs as many steps (V-cycles for the multigrids) as SLIM RK4 at its default step needed to reach steady state in experiments 1-2 ({}), stopping early once steady (residual 1e-6 of its peak). `converges` = the run at the largest stable step brought the residual down by 1e-6 of its peak; otherwise it only stayed bounded. `stability.csv`, `stability_tests.csv`.\n",
@@ -592,7 +646,9 @@ fn report_text(out: &Path, res: &Results) -> String {
     let _ = writeln!(w, "| case | method | largest stable (x estimate) | largest stable dt (s) | over SLIM RK4 | residual last/peak | converges? |");
     let _ = writeln!(w, "|---|---|---|---|---|---|---|");
     for r in &res.stability {
-        let slim = stab(res, &r.case, "slim-rk4").first().and_then(|x| x.dt_stable());
+        let slim = stab(res, &r.case, "slim-rk4")
+            .first()
+            .and_then(|x| x.dt_stable());
         let _ = writeln!(
             w,
             "| {} | {} | {} | {} | {} | {} | {} |",
@@ -605,21 +661,32 @@ fn report_text(out: &Path, res: &Results) -> String {
                 _ => "-".into(),
             },
             r.residual_drop.map_or("-".into(), |d| format!("{d:.1e}")),
-            r.residual_drop.map_or("-", |d| if d <= 1e-6 { "converges" } else { "bounded only" })
+            r.residual_drop.map_or("-", |d| if d <= 1e-6 {
+                "converges"
+            } else {
+                "bounded only"
+            })
         );
     }
     let _ = writeln!(w);
     let _ = writeln!(w, "## 4. Element inversion in 3-D (section 3.3)\n");
     let _ = writeln!(w, "{}. Bisection on the pull distance in [0.2, 18] mm; a method survives a pull if no element inverts and the run stays finite and bounded. `inversion.csv`.\n", res.block_desc);
-    let _ = writeln!(w, "| method | largest pull survived | smallest pull failed | failure |");
+    let _ = writeln!(
+        w,
+        "| method | largest pull survived | smallest pull failed | failure |"
+    );
     let _ = writeln!(w, "|---|---|---|---|");
     for r in &res.inversion {
         let _ = writeln!(
             w,
             "| {} | {} | {} | {} |",
             r.method,
-            r.bisection.stable.map_or("< 0.2 mm".into(), |x| format!("{:.2} mm", x * 1e3)),
-            r.bisection.unstable.map_or("none up to 18 mm".into(), |x| format!("{:.2} mm", x * 1e3)),
+            r.bisection
+                .stable
+                .map_or("< 0.2 mm".into(), |x| format!("{:.2} mm", x * 1e3)),
+            r.bisection
+                .unstable
+                .map_or("none up to 18 mm".into(), |x| format!("{:.2} mm", x * 1e3)),
             r.failure.clone().unwrap_or_default()
         );
     }
@@ -634,7 +701,11 @@ fn report_text(out: &Path, res: &Results) -> String {
             w,
             "| {} | {} | {:.3e} s | {:.3e} s | {:.2} | {:.2} | {:.3e} s | {:.1} | {:.1} s |",
             c.mesh,
-            c.level_nodes.iter().map(|n| n.to_string()).collect::<Vec<_>>().join("/"),
+            c.level_nodes
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join("/"),
             c.slim_step,
             c.raisov_cycle,
             c.raisov_cycle / c.slim_step,
@@ -660,8 +731,16 @@ fn report_text(out: &Path, res: &Results) -> String {
                     r.nodes,
                     r.method,
                     s.dt,
-                    s.reached.map_or(format!("not reached by {:.3} s", l.t), |p| format!("{:.3} s", p.t)),
-                    s.reached.map_or(format!("not reached in {:.1} s", l.wall), |p| format!("{:.2} s", p.wall)),
+                    s.reached
+                        .map_or(format!("not reached by {:.3} s", l.t), |p| format!(
+                            "{:.3} s",
+                            p.t
+                        )),
+                    s.reached
+                        .map_or(format!("not reached in {:.1} s", l.wall), |p| format!(
+                            "{:.2} s",
+                            p.wall
+                        )),
                     s.reached.map_or("-".into(), |p| format!("{:.0}", p.evals)),
                     l.mean / s.points[0].mean,
                     if r.note.is_empty() {
@@ -672,7 +751,11 @@ fn report_text(out: &Path, res: &Results) -> String {
                 );
             }
             None => {
-                let _ = writeln!(w, "| {} | {} | {} | - | - | - | - | - | {} |", r.mesh, r.nodes, r.method, r.note);
+                let _ = writeln!(
+                    w,
+                    "| {} | {} | {} | - | - | - | - | - | {} |",
+                    r.mesh, r.nodes, r.method, r.note
+                );
             }
         }
     }

@@ -35,21 +35,42 @@ pub(super) fn validate(mg: &MultigridSpec, mesh: &MeshSpec, path: &Path) -> Resu
             return Err(err(path, "[multigrid]: `level_nodes` needs [mesh] generate; for mesh files list the coarser levels in `files`"));
         }
         if ln.is_empty() {
-            return Err(err(path, "`multigrid.level_nodes` is empty: list level 0's node count first"));
+            return Err(err(
+                path,
+                "`multigrid.level_nodes` is empty: list level 0's node count first",
+            ));
         }
         if mesh.nodes != Some(ln[0]) {
-            return Err(err(path, format!("`multigrid.level_nodes[0]` = {} must equal [mesh] nodes = {:?}", ln[0], mesh.nodes)));
+            return Err(err(
+                path,
+                format!(
+                    "`multigrid.level_nodes[0]` = {} must equal [mesh] nodes = {:?}",
+                    ln[0], mesh.nodes
+                ),
+            ));
         }
         if mesh.divisions.is_some() {
-            return Err(err(path, "`multigrid.level_nodes` needs [mesh] `nodes`, not `divisions`"));
+            return Err(err(
+                path,
+                "`multigrid.level_nodes` needs [mesh] `nodes`, not `divisions`",
+            ));
         }
         if let Some(n) = mg.levels {
             if n != ln.len() {
-                return Err(err(path, format!("`multigrid.levels` = {n} but `level_nodes` lists {} levels", ln.len())));
+                return Err(err(
+                    path,
+                    format!(
+                        "`multigrid.levels` = {n} but `level_nodes` lists {} levels",
+                        ln.len()
+                    ),
+                ));
             }
         }
         if ln.iter().any(|&n| n < 4) {
-            return Err(err(path, format!("`multigrid.level_nodes` = {ln:?}: every level needs at least 4 nodes")));
+            return Err(err(
+                path,
+                format!("`multigrid.level_nodes` = {ln:?}: every level needs at least 4 nodes"),
+            ));
         }
         return Ok(());
     }

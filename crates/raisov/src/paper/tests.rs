@@ -106,3 +106,33 @@ fn tiny_paper_run_writes_report_plots_and_csv() {
         .collect();
     assert!(leftovers.is_empty());
 }
+
+/// Timing probe for the T∞ computations on larger meshes (not a check; run by hand).
+#[test]
+#[ignore]
+fn probe_references() {
+    for n in [3000usize, 10_000] {
+        let case = drape_case(MeshDesc::MembraneRatio { nodes: n, levels: 4 }, "probe", 1.0);
+        let sc = scenario(&case, &Meth::Fas, Step::Safety(0.5)).unwrap();
+        let t = std::time::Instant::now();
+        let r = reference(&sc, 1000).map(|x| x.1);
+        eprintln!("{n}: {r:?} in {:.1} s", t.elapsed().as_secs_f64());
+    }
+    if let Ok(d) = std::env::var("LIVER_DIR") {
+        let files: Vec<String> = ["liver_L2.msh", "liver_L3.msh"]
+            .iter()
+            .map(|f| format!("{d}/{f}"))
+            .collect();
+        let case = Case {
+            name: "liver".into(),
+            mesh: MeshDesc::Files { files, scale: 0.001 },
+            top: "gravity = [0.0, 0.0, -9.81]\n".into(),
+            physics: format!("{TISSUE_MATERIAL}\n[[fix]]\nplane = {{ point = [0.0, 0.0, 0.1995], normal = [0.0, 0.0, -1.0] }}\n"),
+            duration: 1.0,
+        };
+        let sc = scenario(&case, &Meth::Fas, Step::Safety(0.5)).unwrap();
+        let t = std::time::Instant::now();
+        let r = reference(&sc, 1000).map(|x| x.1);
+        eprintln!("liver: {r:?} in {:.1} s", t.elapsed().as_secs_f64());
+    }
+}

@@ -547,49 +547,6 @@ pub fn reference(sc: &Scenario, relax_max_nodes: usize) -> Result<(Vec<f64>, Str
     Ok((tt, format!("T_inf: {}", notes.join("; "))))
 }
 
-/// T∞ by the FAS multigrid (whose fixed point is single-level integration's equilibrium):
-/// cycles of `sc`'s own stepper (a `[multigrid] scheme = "fas"` scenario) until the residual
-/// is below `rel_tol` × max(initial residual, ‖V‖), or `wall_cap` seconds.
-pub fn fas_reference(sc: &Scenario, rel_tol: f64, wall_cap: f64) -> Result<(Vec<f64>, String)> {
-    let start = Instant::now();
-    let mut st = sc.stepper()?;
-    let n = sc.mesh.num_nodes();
-    let mut r = vec![0.0; 3 * n];
-    let bad = |e: crate::fem::ElementFailure| {
-        Error::param("reference", format!("inverted element {}", e.element))
-    };
-    let (r0, vnorm) = {
-        let (sys, s) = st.finest();
-        let r0 = sys.residual(&s.u, &mut r).map_err(bad)?;
-        (r0, sys.f_ext.iter().map(|x| x * x).sum::<f64>().sqrt())
-    };
-    let scale = r0.max(vnorm).max(f64::MIN_POSITIVE);
-    let mut res = r0;
-    let mut cycles = 0u64;
-    while res > rel_tol * scale && start.elapsed().as_secs_f64() < wall_cap {
-        st.advance()?;
-        cycles += 1;
-        let (sys, s) = st.finest();
-        res = sys.residual(&s.u, &mut r).map_err(bad)?;
-    }
-    let (sys, s) = st.finest();
-    let mut tt = vec![0.0; 9 * n];
-    sys.force.nodal_stress(&s.u, &mut tt);
-    Ok((
-        tt,
-        format!(
-            "T_inf by the FAS multigrid: residual {:.2e} of the load scale after {cycles} cycles, {:.1} s{}",
-            res / scale,
-            start.elapsed().as_secs_f64(),
-            if res <= rel_tol * scale {
-                String::new()
-            } else {
-                format!(" (NOT converged to {rel_tol:.0e}: stopped by the {wall_cap:.0} s cap)")
-            }
-        ),
-    ))
-}
-
 /// T∞ by dynamic relaxation of the finest mesh with a wall-time budget (the number of steps
 /// is set from the measured cost of one force evaluation). Returns T∞, a note, and whether
 /// the residual fell below `rel_tol` of its scale.

@@ -17,6 +17,8 @@ pub struct Panel {
     pub series: Vec<(String, Vec<(f64, f64)>)>,
     /// Logarithmic y axis.
     pub log_y: bool,
+    /// Mark every point (for short series; a single point draws no line).
+    pub markers: bool,
 }
 
 fn plot_err(e: impl std::fmt::Debug) -> Error {
@@ -88,6 +90,10 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> R
                     .legend(move |(x, y)| {
                         PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
                     });
+                if p.markers {
+                    c.draw_series(pts.iter().map(|&q| Circle::new(q, 4, col.filled())))
+                        .map_err(plot_err)?;
+                }
             }
             c.configure_series_labels()
                 .background_style(WHITE.mix(0.85))

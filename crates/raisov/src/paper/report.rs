@@ -79,6 +79,7 @@ fn fig_panels(sims: &[Sim], what: &str) -> Vec<Panel> {
             })
             .collect(),
         log_y: true,
+        markers: false,
     };
     vec![mk(true), mk(false)]
 }
@@ -256,6 +257,7 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
             })
             .collect(),
         log_y: true,
+        markers: true,
     };
     files.extend(write_chart(
         out,
@@ -718,15 +720,15 @@ fn report_text(out: &Path, res: &Results) -> String {
     let _ = writeln!(w);
     let _ = writeln!(w, "## 6. Time to steady state\n");
     let _ = writeln!(w, "Each method at 0.9 x its own largest stable step found on the paper's drape (experiment 3; as a multiple of each mesh's own estimated critical step; a run that diverges on another mesh is retried at half the step, twice at most, and says so), until mean abs(T - T_inf) <= 1e-3 of its start, capped by wall time and simulated time. Wall time excludes setup and T_inf. Plot: `time_to_steady.png` / `.svg`; `steady_state.csv`, `steady_state_series.csv`.\n");
-    let _ = writeln!(w, "| mesh | finest nodes | method | dt (s) | simulated time | wall time | force evaluations | final mean / start | outcome |");
-    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(w, "| mesh | finest nodes | method | dt (s) | simulated time | wall time | force evaluations | final mean / start | residual last/peak | outcome |");
+    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|---|");
     for r in &res.steady {
         match &r.sim {
             Some(s) => {
                 let l = s.last();
                 let _ = writeln!(
                     w,
-                    "| {} | {} | {} | {:.3e} | {} | {} | {} | {:.1e} | {} |",
+                    "| {} | {} | {} | {:.3e} | {} | {} | {} | {} | {:.1e} | {} |",
                     r.mesh,
                     r.nodes,
                     r.method,
@@ -742,11 +744,19 @@ fn report_text(out: &Path, res: &Results) -> String {
                             p.wall
                         )),
                     s.reached.map_or("-".into(), |p| format!("{:.0}", p.evals)),
-                    l.mean / s.points[0].mean,
+                    {
+                        let x = l.mean / s.points[0].mean;
+                        if x.is_finite() {
+                            format!("{x:.1e}")
+                        } else {
+                            "no T_inf".into()
+                        }
+                    },
+                    s.residual_drop,
                     if r.note.is_empty() {
                         outcome_text(s)
                     } else {
-                        format!("{} (earlier: {})", outcome_text(s), r.note)
+                        format!("{} ({})", outcome_text(s), r.note)
                     }
                 );
             }

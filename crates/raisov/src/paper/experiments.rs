@@ -550,7 +550,11 @@ pub fn reference(sc: &Scenario, relax_max_nodes: usize) -> Result<(Vec<f64>, Str
 /// T∞ by dynamic relaxation of the finest mesh with a wall-time budget (the number of steps
 /// is set from the measured cost of one force evaluation). Returns T∞, a note, and whether
 /// the residual fell below `rel_tol` of its scale.
-pub fn relax_reference(sc: &Scenario, rel_tol: f64, budget: f64) -> Result<(Vec<f64>, String, bool)> {
+pub fn relax_reference(
+    sc: &Scenario,
+    rel_tol: f64,
+    budget: f64,
+) -> Result<(Vec<f64>, String, bool)> {
     let start = Instant::now();
     let mut sys = sc.build_system()?;
     let n = sys.num_nodes();
@@ -563,9 +567,13 @@ pub fn relax_reference(sc: &Scenario, rel_tol: f64, budget: f64) -> Result<(Vec<
     let max_steps = ((budget / per_eval) as u64).max(100);
     let mut s = State::at_rest(n);
     s.t = sc.motion_end();
-    let dt = 0.5 * critical_step_estimate(&sc.mesh, &sc.material, sc.density, Method::SymplecticEuler);
+    let dt =
+        0.5 * critical_step_estimate(&sc.mesh, &sc.material, sc.density, Method::SymplecticEuler);
     let rr = relax(&mut sys, s, dt, rel_tol, max_steps).map_err(|f| {
-        Error::param("reference", format!("relaxation inverted element {}", f.element))
+        Error::param(
+            "reference",
+            format!("relaxation inverted element {}", f.element),
+        )
     })?;
     let mut tt = vec![0.0; 9 * n];
     sys.force.nodal_stress(&rr.state.u, &mut tt);

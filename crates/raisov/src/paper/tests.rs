@@ -112,7 +112,14 @@ fn tiny_paper_run_writes_report_plots_and_csv() {
 #[ignore]
 fn probe_references() {
     for n in [3000usize, 10_000] {
-        let case = drape_case(MeshDesc::MembraneRatio { nodes: n, levels: 4 }, "probe", 1.0);
+        let case = drape_case(
+            MeshDesc::MembraneRatio {
+                nodes: n,
+                levels: 4,
+            },
+            "probe",
+            1.0,
+        );
         let sc = scenario(&case, &Meth::Fas, Step::Safety(0.5)).unwrap();
         let t = std::time::Instant::now();
         let r = reference(&sc, 1000).map(|x| x.1);

@@ -705,60 +705,42 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         for m in &steady_methods {
             let mut safety = safety_of(&m.key());
             save(&case, m, Step::Safety(safety), &mut res.files)?;
-            let (sim, note) = match &t_inf {
-                None => {
-                    // Without T∞: run to the wall cap and report the residual's fall.
-                    let sc = scenario(&case, m, Step::Safety(safety))?;
-                    let mut st = sc.stepper()?;
-                    let sim = simulate(
-                        &sc,
-                        st.as_mut(),
-                        &m.label(),
-                        None,
-                        SimCfg {
-                            t_end: case.duration,
-                            wall_cap: sz.wall_cap,
-                            samples: 200,
-                            target: None,
-                            stop_steady: false,
-                        },
-                    );
-                    (Some(sim), "no T_inf at this size".to_string())
+            // The step found on the paper's mesh need not hold on another mesh: a diverged
+            // run is retried at half the step, twice at most. Without T∞ a run goes to the
+            // wall cap and reports how far its residual fell.
+            let mut notes = Vec::new();
+            if t_inf.is_none() {
+                notes.push("no T_inf".to_string());
+            }
+            let mut tries = 0;
+            let sim = loop {
+                let sc = scenario(&case, m, Step::Safety(safety))?;
+                let mut st = sc.stepper()?;
+                let sim = simulate(
+                    &sc,
+                    st.as_mut(),
+                    &m.label(),
+                    t_inf.as_deref(),
+                    SimCfg {
+                        t_end: case.duration,
+                        wall_cap: sz.wall_cap,
+                        samples: if t_inf.is_some() { 2000 } else { 200 },
+                        target: t_inf.as_ref().map(|_| STEADY_TARGET),
+                        stop_steady: false,
+                    },
+                );
+                tries += 1;
+                if sim.diverged() && tries < 3 {
+                    notes.push(format!(
+                        "at {safety:.3} x estimate: {}; retried at half the step",
+                        outcome_text(&sim)
+                    ));
+                    safety *= 0.5;
+                    continue;
                 }
-                Some(t_inf) => {
-                    // The step found on the paper's mesh need not hold on another mesh: a
-                    // diverged run is retried at half the step, twice at most.
-                    let mut notes = Vec::new();
-                    let mut tries = 0;
-                    loop {
-                        let sc = scenario(&case, m, Step::Safety(safety))?;
-                        let mut st = sc.stepper()?;
-                        let sim = simulate(
-                            &sc,
-                            st.as_mut(),
-                            &m.label(),
-                            Some(t_inf),
-                            SimCfg {
-                                t_end: case.duration,
-                                wall_cap: sz.wall_cap,
-                                samples: 2000,
-                                target: Some(STEADY_TARGET),
-                                stop_steady: false,
-                            },
-                        );
-                        tries += 1;
-                        if sim.diverged() && tries < 3 {
-                            notes.push(format!(
-                                "at {safety:.3} x estimate: {}; retried at half the step",
-                                outcome_text(&sim)
-                            ));
-                            safety *= 0.5;
-                            continue;
-                        }
-                        break (Some(sim), notes.join("; "));
-                    }
-                }
+                break sim;
             };
+            let (sim, note) = (Some(sim), notes.join("; "));
             tick(&format!("steady {mesh_name} {}", m.label()));
             res.steady.push(SteadyRow {
                 mesh: mesh_name.clone(),

@@ -65,6 +65,22 @@ enum Cmd {
         #[arg(long)]
         standard_only: bool,
     },
+    /// Reproduce the paper's experiments (Wu & Tendick 2004): CSV, PNG/SVG plots, report.md.
+    Paper {
+        /// Output directory.
+        #[arg(long, default_value = "raisov-out/paper")]
+        out: PathBuf,
+        /// Smaller hierarchies and fewer bisection steps (CI smoke test); no 100k-node runs.
+        #[arg(long)]
+        quick: bool,
+        /// Directory with liver_L0..L3.msh; default ../shared/meshes (relative to the
+        /// working directory). The liver is skipped with a note if the files are absent.
+        #[arg(long)]
+        meshes: Option<PathBuf>,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Mesh tools.
     Mesh {
         #[command(subcommand)]
@@ -134,6 +150,12 @@ fn real_main(cli: Cli) -> Result<()> {
             check,
             standard_only,
         ),
+        Cmd::Paper {
+            out,
+            quick,
+            meshes,
+            quiet,
+        } => cmd_paper(out, quick, meshes, quiet),
         Cmd::Mesh {
             cmd: MeshCmd::Info { file },
         } => cmd_mesh_info(&file),
@@ -202,6 +224,60 @@ fn cmd_run(scenario: Option<PathBuf>, out: Option<PathBuf>, quiet: bool) -> Resu
     bar.finish_and_clear();
     let summary = res.with_context(|| format!("run of {} stopped", sc.name))?;
     println!("{summary}");
+    Ok(())
+}
+
+fn cmd_paper(out: PathBuf, quick: bool, meshes: Option<PathBuf>, quiet: bool) -> Result<()> {
+    use raisov::paper::{run_paper, PaperOptions, Progress};
+    let meshes = meshes.unwrap_or_else(|| PathBuf::from("../shared/meshes"));
+    let opts = PaperOptions {
+        out_dir: out.clone(),
+        quick,
+        tiny: false,
+        meshes_dir: Some(meshes),
+    };
+    let show = !quiet && std::io::stderr().is_terminal();
+    let bar = if show {
+        ProgressBar::new(1)
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs  {wide_msg}",
+        )
+        .expect("valid template"),
+    );
+    eprintln!(
+        "raisov paper: {} run into {}",
+        if quick { "quick" } else { "full" },
+        out.display()
+    );
+    let res = run_paper(&opts, &mut |p| match p {
+        Progress::Planned(n) => bar.set_length(n),
+        Progress::Done(what) => {
+            if !show && !quiet {
+                eprintln!("[{:>4}] {what}", bar.position() + 1);
+            }
+            if bar.position() + 1 >= bar.length().unwrap_or(0) {
+                bar.set_length(bar.position() + 2);
+            }
+            bar.inc(1);
+            bar.set_message(what.to_string());
+        }
+    });
+    bar.finish_and_clear();
+    let res = res.context("raisov paper stopped")?;
+    for n in &res.notes {
+        eprintln!("note: {n}");
+    }
+    println!(
+        "wrote {} files under {} in {:.1} s; see {}",
+        res.files.len(),
+        out.display(),
+        res.wall,
+        out.join("report.md").display()
+    );
     Ok(())
 }
 

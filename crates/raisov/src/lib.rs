@@ -35,6 +35,7 @@ pub mod material;
 pub mod mesh;
 pub mod metrics;
 pub mod multigrid;
+pub mod paper;
 pub mod scenario;
 
 pub use error::{Error, Result};

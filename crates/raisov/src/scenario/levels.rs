@@ -27,6 +27,53 @@ pub(super) fn validate(mg: &MultigridSpec, mesh: &MeshSpec, path: &Path) -> Resu
             ))
         }
     }
+    if let Some(ln) = &mg.level_nodes {
+        if mg.files.is_some() || mg.ratio.is_some() {
+            return Err(err(path, "[multigrid]: `level_nodes` gives every generated level's node count; do not combine it with `files` or `ratio`"));
+        }
+        if mesh.generate.is_none() {
+            return Err(err(path, "[multigrid]: `level_nodes` needs [mesh] generate; for mesh files list the coarser levels in `files`"));
+        }
+        if ln.is_empty() {
+            return Err(err(
+                path,
+                "`multigrid.level_nodes` is empty: list level 0's node count first",
+            ));
+        }
+        if mesh.nodes != Some(ln[0]) {
+            return Err(err(
+                path,
+                format!(
+                    "`multigrid.level_nodes[0]` = {} must equal [mesh] nodes = {:?}",
+                    ln[0], mesh.nodes
+                ),
+            ));
+        }
+        if mesh.divisions.is_some() {
+            return Err(err(
+                path,
+                "`multigrid.level_nodes` needs [mesh] `nodes`, not `divisions`",
+            ));
+        }
+        if let Some(n) = mg.levels {
+            if n != ln.len() {
+                return Err(err(
+                    path,
+                    format!(
+                        "`multigrid.levels` = {n} but `level_nodes` lists {} levels",
+                        ln.len()
+                    ),
+                ));
+            }
+        }
+        if ln.iter().any(|&n| n < 4) {
+            return Err(err(
+                path,
+                format!("`multigrid.level_nodes` = {ln:?}: every level needs at least 4 nodes"),
+            ));
+        }
+        return Ok(());
+    }
     match (mg.levels, &mg.files, &mesh.generate) {
         (Some(_), Some(_), _) => return Err(err(path, "[multigrid]: give `levels` (generated meshes) or `files`, not both")),
         (Some(n), None, Some(_)) if n >= 1 => {}
@@ -89,9 +136,10 @@ impl Scenario {
     pub fn num_levels(&self) -> usize {
         match &self.spec.multigrid {
             None => 1,
-            Some(mg) => mg
-                .levels
-                .unwrap_or_else(|| 1 + mg.files.as_ref().map_or(0, |f| f.len())),
+            Some(mg) => mg.levels.unwrap_or_else(|| match &mg.level_nodes {
+                Some(ln) => ln.len(),
+                None => 1 + mg.files.as_ref().map_or(0, |f| f.len()),
+            }),
         }
     }
 
@@ -110,6 +158,12 @@ impl Scenario {
                     scale: self.spec.mesh.scale,
                     ..Default::default()
                 };
+                out.push(resolve_mesh(&ms, &self.path, base)?.0);
+            }
+        } else if let Some(ln) = &mg.level_nodes {
+            for &n in &ln[1..] {
+                let mut ms = self.spec.mesh.clone();
+                ms.nodes = Some(n);
                 out.push(resolve_mesh(&ms, &self.path, base)?.0);
             }
         } else {

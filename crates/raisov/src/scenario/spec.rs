@@ -71,6 +71,8 @@
 //! scheme = "fas"                  # "fas" (converges; default) | "raisov-paper" (the literal method)
 //! levels = 4                      # with [mesh] generate: level count, node counts a geometric series
 //! ratio = 0.5                     # node-count ratio between levels, default 0.5 (the paper's)
+//! level_nodes = [186, 103, 55, 31] # or explicit node targets per generated level, level 0
+//!                                 # first (must equal [mesh] nodes); instead of levels/ratio
 //! files = ["L1.msh", "L2.msh"]    # or coarser levels as files (level 0 is [mesh]); same `scale`
 //! reading = "correction"          # raisov-paper: "paper" | "correction", default "correction"
 //! epsilon = 1e-5                  # raisov-paper: switch threshold (m), default 1e-3 × shortest edge
@@ -118,6 +120,8 @@ pub struct MultigridSpec {
     pub scheme: Option<String>,
     pub levels: Option<usize>,
     pub ratio: Option<f64>,
+    /// Explicit node targets of generated levels, level 0 first (= `[mesh] nodes`).
+    pub level_nodes: Option<Vec<usize>>,
     pub files: Option<Vec<String>>,
     pub reading: Option<String>,
     pub epsilon: Option<f64>,

@@ -172,3 +172,26 @@ fn diverging_run_stops_and_says_where() {
         "non-finite values written"
     );
 }
+
+#[test]
+fn level_nodes_gives_each_generated_level_its_node_count() {
+    let text = format!(
+        "{}\n[multigrid]\nscheme = \"fas\"\nlevel_nodes = [60, 33, 17]\n",
+        BASE
+    );
+    let sc = parse(&text).unwrap();
+    assert_eq!(sc.num_levels(), 3);
+    let meshes = sc.level_meshes().unwrap();
+    let counts: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
+    assert_eq!(counts.len(), 3);
+    for (got, want) in counts.iter().zip([60usize, 33, 17]) {
+        let rel = (*got as f64 - want as f64).abs() / want as f64;
+        assert!(rel < 0.25, "level with target {want} nodes has {got}");
+    }
+    assert!(counts[0] > counts[1] && counts[1] > counts[2]);
+    // Level 0 must be the [mesh] count; not with files or ratio.
+    let bad = format!("{BASE}\n[multigrid]\nlevel_nodes = [50, 25]\n");
+    assert!(error_of(&bad).contains("level_nodes[0]"));
+    let bad = format!("{BASE}\n[multigrid]\nlevel_nodes = [60, 30]\nratio = 0.5\n");
+    assert!(error_of(&bad).contains("level_nodes"));
+}

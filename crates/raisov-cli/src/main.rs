@@ -362,14 +362,7 @@ fn cmd_bench(
     if let Some(steps) = check {
         for &n in &sizes {
             let c = bench::check(n, steps)?;
-            println!(
-                "check size={} nodes={} steps={} mean_uy_free_end={:.9e} max_abs_u={:.9e}",
-                bench::size_label(n),
-                c.nodes,
-                c.steps,
-                c.mean_uy_free_end,
-                c.max_abs_u
-            );
+            print_check(n, &c);
         }
         return Ok(());
     }
@@ -409,14 +402,7 @@ fn cmd_bench(
     let steps = if quick { 50 } else { 500 };
     for &n in sizes.iter().filter(|&&n| n <= 10_000) {
         let c = bench::check(n, steps)?;
-        println!(
-            "check size={} nodes={} steps={} mean_uy_free_end={:.9e} max_abs_u={:.9e}",
-            bench::size_label(n),
-            c.nodes,
-            c.steps,
-            c.mean_uy_free_end,
-            c.max_abs_u
-        );
+        print_check(n, &c);
     }
     if let Some(o) = out {
         let text = if o.extension().and_then(|e| e.to_str()) == Some("md") {
@@ -521,4 +507,16 @@ fn cmd_generate(
         s.quality_mean
     );
     Ok(())
+}
+
+/// One line of the standard-work correctness check (the numbers the peers must match).
+fn print_check(n: usize, c: &raisov::bench::Check) {
+    println!(
+        "check size={} nodes={} steps={} mean_uy_free_end={:.9e} max_abs_u={:.9e}",
+        raisov::bench::size_label(n),
+        c.nodes,
+        c.steps,
+        c.mean_uy_free_end,
+        c.max_abs_u
+    );
 }

@@ -165,22 +165,32 @@ impl System {
         v: &[f64],
         a: &mut [f64],
     ) -> Result<(), ElementFailure> {
-        self.elastic_acceleration(u, a)?;
-        let alpha = self.alpha;
-        for (ai, vi) in a.iter_mut().zip(v) {
-            *ai -= alpha * vi;
-        }
-        self.constraints.zero_constrained(a);
-        Ok(())
+        self.accelerate(u, Some(v), a)
     }
 
     /// `a = M⁻¹ (V − R(u))` (no damping term), 0 on constrained nodes.
     pub fn elastic_acceleration(&mut self, u: &[f64], a: &mut [f64]) -> Result<(), ElementFailure> {
+        self.accelerate(u, None, a)
+    }
+
+    /// One force evaluation, one pass over the nodes, constrained nodes zeroed once.
+    fn accelerate(
+        &mut self,
+        u: &[f64],
+        v: Option<&[f64]>,
+        a: &mut [f64],
+    ) -> Result<(), ElementFailure> {
         self.force.internal_forces(u, &mut self.r)?;
         for (n, im) in self.inv_mass.iter().enumerate() {
             for k in 0..3 {
                 let i = 3 * n + k;
                 a[i] = (self.f_ext[i] - self.r[i]) * im;
+            }
+        }
+        if let Some(v) = v {
+            let alpha = self.alpha;
+            for (ai, vi) in a.iter_mut().zip(v) {
+                *ai -= alpha * vi;
             }
         }
         self.constraints.zero_constrained(a);

@@ -213,6 +213,20 @@ fn cmd_run(scenario: Option<PathBuf>, out: Option<PathBuf>, quiet: bool) -> Resu
     };
     let mut stepper = sc.stepper()?;
     eprint!("{}", stepper.report());
+    if sc.interactive.is_some() {
+        let res = raisov::scenario::interactive::run_interactive(
+            &sc,
+            stepper.as_mut(),
+            RunOptions {
+                out_dir: out,
+                progress: Some(&mut progress),
+            },
+        );
+        bar.finish_and_clear();
+        let summary = res.with_context(|| format!("interactive run of {} stopped", sc.name))?;
+        println!("{summary}");
+        return Ok(());
+    }
     let res = run_with(
         &sc,
         stepper.as_mut(),

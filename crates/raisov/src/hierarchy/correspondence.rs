@@ -401,6 +401,31 @@ impl Transfer {
         Ok(t)
     }
 
+    /// The same hosts with convex weights: negative weights set to 0 and the rest divided by
+    /// their sum, so every value is a convex combination of its host's corner values. Inside
+    /// points (weights in `[0, 1]` up to [`INSIDE_TOL`]) are unchanged up to that tolerance;
+    /// outside points take a point of their host element instead of extrapolating (eq. 7's
+    /// weights reach 2-3 on the liver levels). Constants are still reproduced exactly, linear
+    /// fields only inside. `max_extrapolation` of the result is 0.
+    pub fn convex(&self) -> Transfer {
+        let mut t = self.clone();
+        for w in t.weights.iter_mut() {
+            if w[..t.npe].iter().all(|&x| x >= 0.0) {
+                continue;
+            }
+            let mut sum = 0.0;
+            for x in w[..t.npe].iter_mut() {
+                *x = x.max(0.0);
+                sum += *x;
+            }
+            for x in w[..t.npe].iter_mut() {
+                *x /= sum;
+            }
+        }
+        t.max_extrapolation = 0.0;
+        t
+    }
+
     /// Number of points.
     pub fn len(&self) -> usize {
         self.host.len()

@@ -623,3 +623,32 @@ fn timing_one_million_nodes() {
         1e3 * t2.elapsed().as_secs_f64()
     );
 }
+
+/// Convex weights: outside points get a point of their eq. 7 host (weights in [0, 1], summing
+/// to 1, so constants are reproduced and nothing is amplified); inside points are unchanged.
+#[test]
+fn convex_weights_clamp_outside_points_only() {
+    let m = box_tets([3, 3, 3], [0.0; 3], [1.0; 3], 0.2, 3);
+    let mut rng = Rng(9);
+    let pts: Vec<[f64; 3]> = (0..400)
+        .map(|_| [0, 1, 2].map(|_| rng.range(-0.4, 1.4)))
+        .collect();
+    let t = Transfer::build(&pts, &m).unwrap();
+    assert!(t.max_extrapolation > 0.1 && t.outside.len() > 50);
+    let c = t.convex();
+    assert_eq!(c.host, t.host);
+    assert_eq!(c.max_extrapolation, 0.0);
+    for i in 0..pts.len() {
+        let w = &c.weights[i];
+        assert!(w.iter().all(|&x| (0.0..=1.0).contains(&x)), "{i}: {w:?}");
+        assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-14);
+        if t.outside.binary_search(&(i as u32)).is_err() && t.weights[i].iter().all(|&x| x >= 0.0) {
+            assert_eq!(*w, t.weights[i], "inside point {i} changed");
+        }
+    }
+    // A constant field is reproduced exactly, values stay within the host's range.
+    let ones = vec![1.0; m.num_nodes()];
+    let mut out = vec![0.0; pts.len()];
+    c.interpolate(&ones, 1, &mut out).unwrap();
+    assert!(out.iter().all(|&v| (v - 1.0).abs() < 1e-14));
+}

@@ -29,7 +29,7 @@ mod stepper;
 
 pub use constraints::{Constraints, Motion};
 pub use stepper::{
-    check_state, energy_limit, energy_limit_for, SingleLevel, Stepper, StepperParams,
+    check_state, energy_limit, energy_limit_for, hold, SingleLevel, Stepper, StepperParams,
 };
 
 use crate::fem::{ElementFailure, ForceModel};

@@ -54,6 +54,35 @@ fn potential(sys: &System, u: &[f64]) -> f64 {
     }
 }
 
+/// Per-node fictitious masses `D_a = Σ_{e∋a} c² G_e ρ|e|/npe` (dynamic relaxation's, Underwood
+/// 1983): the element bound `K_e ≤ c² G_e M_e` ([`crate::scenario::gradient_sums`]) summed at
+/// the node, so `λ_max(D⁻¹K) ≤ 1` at small strain; `c² = λ_max / max_e G_e`, `ρ` the mass over
+/// the measure (one material). A node in no element keeps `λ_max m_a`. As a diagonal
+/// preconditioner it equilibrates meshes with slivers, where `M` alone does not.
+pub fn fictitious_mass(mesh: &crate::mesh::Mesh, mass: &[f64], lambda_max: f64) -> Vec<f64> {
+    let g = crate::scenario::gradient_sums(mesh);
+    let gmax = g.iter().fold(0.0f64, |a, &b| a.max(b));
+    let c2 = if gmax > 0.0 { lambda_max / gmax } else { 0.0 };
+    let npe = mesh.kind.nodes_per_element();
+    let measure: f64 = (0..mesh.num_elements())
+        .map(|e| mesh.element_measure(e).abs())
+        .sum();
+    let rho = mass.iter().sum::<f64>() / measure.max(f64::MIN_POSITIVE);
+    let mut d = vec![0.0; mesh.num_nodes()];
+    for (e, ge) in g.iter().enumerate() {
+        let share = c2 * ge * rho * mesh.element_measure(e).abs() / npe as f64;
+        for &a in mesh.element(e) {
+            d[a as usize] += share;
+        }
+    }
+    for (da, m) in d.iter_mut().zip(mass) {
+        if *da <= 0.0 {
+            *da = lambda_max * m;
+        }
+    }
+    d
+}
+
 /// Outcome of [`NewtonSolver::solve`].
 #[derive(Clone, Debug)]
 pub struct Static {
@@ -79,12 +108,18 @@ pub struct NewtonSolver {
 }
 
 impl NewtonSolver {
+    /// CG preconditioned by the lumped mass.
     pub fn new(sys: &System) -> Self {
+        Self::with_diagonal(sys, &sys.mass)
+    }
+
+    /// CG preconditioned by a per-node diagonal `diag` (e.g. [`fictitious_mass`]).
+    pub fn with_diagonal(sys: &System, diag: &[f64]) -> Self {
         let n = 3 * sys.num_nodes();
         let z = vec![0.0; n];
         let inv_m = (0..n)
             .map(|i| {
-                let m = sys.mass[i / 3];
+                let m = diag[i / 3];
                 if m > 0.0 && !sys.constraints.is_constrained(i / 3) {
                     1.0 / m
                 } else {

@@ -46,6 +46,13 @@ pub trait Stepper {
     fn report(&self) -> String {
         String::new()
     }
+    /// Hold the scenario's `k`-th prescribed node at `values[k]` (m) from now on, on every level
+    /// the scheme carries it to (interactive mode: the grasp position sampled once per frame).
+    fn hold_prescribed(&mut self, values: &[[f64; 3]]);
+    /// Counters worth reporting after a run (multigrid: skipped or dropped corrections).
+    fn diagnostics(&self) -> Option<String> {
+        None
+    }
 }
 
 /// Check a state for non-finite values and kinetic-energy blow-up.
@@ -80,6 +87,13 @@ pub fn check_state(
     Ok(())
 }
 
+/// Set prescribed motion `k` of `c` to `Held { values[k] }` (extra values are ignored).
+pub fn hold(c: &mut super::Constraints, values: &[[f64; 3]]) {
+    for ((_, m), &d) in c.prescribed.iter_mut().zip(values) {
+        *m = super::Motion::Held { d };
+    }
+}
+
 /// Single-level integration (SLIM): one integrator step per time step on one mesh.
 pub struct SingleLevel {
     pub sys: System,
@@ -105,6 +119,9 @@ impl SingleLevel {
 }
 
 impl Stepper for SingleLevel {
+    fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
+        hold(&mut self.sys.constraints, values);
+    }
     fn advance(&mut self) -> Result<(), Divergence> {
         let t = self.state.t;
         self.integrator

@@ -26,6 +26,7 @@
 use super::{Level, Links};
 use crate::error::{Divergence, DivergenceCause};
 use crate::fem::ElementFailure;
+use crate::hierarchy::Transfer;
 use crate::integrate::statics::{NewtonParams, NewtonSolver};
 use crate::integrate::{check_state, Constraints, Motion, Stepper};
 
@@ -39,7 +40,25 @@ pub enum Smoother {
     /// small-strain bound scaled by `stretch` (> 1 leaves room for stiffening). Each iteration
     /// costs one force evaluation and damps every mode in the interval; this is the smoother
     /// multigrid needs (dynamics damps all modes alike at α/2).
-    Chebyshev { ratio: f64, stretch: f64 },
+    Chebyshev {
+        ratio: f64,
+        stretch: f64,
+        scaling: Scaling,
+    },
+}
+
+/// The diagonal `D` that preconditions the Chebyshev smoother and coarse solve, `D⁻¹(F − R(u))`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scaling {
+    /// The lumped mass: `M⁻¹K`, the spectrum explicit dynamics sees. On graded meshes or
+    /// meshes with slivers `λ_max` comes from the worst element and most of the mesh's
+    /// high-frequency modes fall below the smoothing interval.
+    Mass,
+    /// Per-node fictitious masses (dynamic relaxation's, Underwood 1983): `D_a = Σ_{e∋a} c² G_e
+    /// M_e,a`, the element-wise bound `K_e ≤ c² G_e M_e` ([`crate::scenario::gradient_sums`])
+    /// summed at the node, so that `λ_max(D⁻¹K) ≤ 1` at small strain and every node smooths at
+    /// its own stable step (a Jacobi-type smoother). Equal to `λ_max M` on uniform meshes.
+    Fictitious,
 }
 
 /// How the coarsest level solves its problem.
@@ -51,6 +70,18 @@ pub enum CoarseSolve {
     Chebyshev { iterations: usize, ratio: f64 },
     /// Matrix-free Newton-Krylov to this relative residual.
     Newton { rel_tol: f64 },
+}
+
+/// Which weights carry state and corrections between levels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TransferWeights {
+    /// The paper's eq. 6/7 weights both ways, extrapolating for nodes outside the other mesh.
+    Exact,
+    /// Convex weights ([`crate::hierarchy::Transfer::convex`]) for the state restriction
+    /// `u_c0 = R u_f` only; `P` and `Pᵀ` exact.
+    ConvexRestriction,
+    /// Convex weights for `R`, `P` and `Pᵀ`.
+    Convex,
 }
 
 /// Parameters of the FAS cycle.
@@ -66,6 +97,8 @@ pub struct FasParams {
     /// 186 nodes 895 force evaluations to steady state against 6500 for single-level symplectic
     /// Euler; 3000 nodes 2334 against 30730).
     pub smoother: Smoother,
+    /// Transfer weights. Default [`TransferWeights::Convex`].
+    pub weights: TransferWeights,
     /// Kinetic-energy ceiling of the finest level (J), for divergence detection.
     pub kinetic_limit: f64,
 }
@@ -82,7 +115,9 @@ impl Default for FasParams {
             smoother: Smoother::Chebyshev {
                 ratio: 100.0,
                 stretch: 1.2,
+                scaling: Scaling::Fictitious,
             },
+            weights: TransferWeights::Convex,
             kinetic_limit: f64::INFINITY,
         }
     }
@@ -93,10 +128,18 @@ pub struct Fas {
     pub levels: Vec<Level>,
     pub links: Links,
     pub params: FasParams,
+    /// State restriction `R` per link (coarse nodes in the fine mesh).
+    restrict: Vec<Transfer>,
+    /// Interpolation `P` per link (fine nodes in the coarse mesh); `Pᵀ` restricts residuals.
+    prolong: Vec<Transfer>,
     /// Restricted state u_c0 per level (unused for level 0).
     u0: Vec<Vec<f64>>,
     /// Residual scratch per level.
     r: Vec<Vec<f64>>,
+    /// Diagonal preconditioner `D` per level, one value per node ([`Scaling`]).
+    diag: Vec<Vec<f64>>,
+    /// Small-strain bound on `λ_max(D⁻¹K)` per level.
+    bound: Vec<f64>,
     /// Chebyshev direction per level.
     d: Vec<Vec<f64>>,
     /// Power-iteration estimate of λ_max(M⁻¹K) per level (0 = not yet estimated).
@@ -111,6 +154,14 @@ pub struct Fas {
     pub dropped_corrections: u64,
     /// Coarse visits skipped because the restricted state inverted a coarse element.
     pub skipped_coarse: u64,
+    /// Coarse visits that failed (an element inverted on a coarser level): no correction.
+    pub failed_coarse: u64,
+    last_coarse_failure: Option<String>,
+    /// Coarse visits that started from the coarse level's own last solution because `R u_f`
+    /// inverted a coarse element.
+    pub own_base: u64,
+    /// The coarse level and element of the last restriction that inverted.
+    last_skip: Option<(usize, ElementFailure)>,
     newton: Option<NewtonSolver>,
     steps: u64,
 }
@@ -127,6 +178,8 @@ const POWER_ITERATIONS: usize = 20;
 /// Uses `x` and `y` as scratch.
 fn estimate_lambda_max(
     lv: &mut Level,
+    diag: &[f64],
+    bound: f64,
     x: &mut [f64],
     y: &mut [f64],
     step: u64,
@@ -167,12 +220,12 @@ fn estimate_lambda_max(
             y[i] = (y[i] - yy[i]) / (2.0 * eps);
         }
         let xkx: f64 = x.iter().zip(y.iter()).map(|(a, b)| a * b).sum();
-        let xmx: f64 = (0..n).map(|i| lv.sys.mass[i / 3] * x[i] * x[i]).sum();
+        let xmx: f64 = (0..n).map(|i| diag[i / 3] * x[i] * x[i]).sum();
         lambda = xkx / xmx;
         // x <- M⁻¹ K x, normalised
         let mut norm = 0.0f64;
         for i in 0..n {
-            x[i] = y[i] / lv.sys.mass[i / 3];
+            x[i] = y[i] / diag[i / 3];
             norm = norm.max(x[i].abs());
         }
         if norm > 0.0 {
@@ -182,8 +235,13 @@ fn estimate_lambda_max(
     Ok(if lambda.is_finite() && lambda > 0.0 {
         lambda
     } else {
-        lv.lambda_max
+        bound
     })
+}
+
+/// Per-node fictitious masses of a level (see [`Scaling::Fictitious`]).
+fn fictitious_mass(lv: &Level) -> Vec<f64> {
+    crate::integrate::statics::fictitious_mass(&lv.mesh, &lv.sys.mass, lv.lambda_max)
 }
 
 fn diverged(step: u64, time: f64, f: ElementFailure) -> Divergence {
@@ -201,8 +259,10 @@ impl Fas {
         assert_eq!(links.len() + 1, levels.len());
         for l in levels.iter_mut().skip(1) {
             let c = &l.sys.constraints;
+            // Only fixed regions: a prescribed point is a fine-level feature; holding the
+            // nearest coarse node would pin the correction to zero exactly where the error is
+            // largest (around a grasp). The fine level enforces it (P e is zeroed there).
             let mut nodes: Vec<u32> = c.fixed.clone();
-            nodes.extend(c.prescribed.iter().map(|(a, _)| *a));
             nodes.sort_unstable();
             nodes.dedup();
             let held = nodes
@@ -216,7 +276,30 @@ impl Fas {
             CoarseSolve::Newton { .. } => Some(NewtonSolver::new(&levels[m - 1].sys)),
             _ => None,
         };
+        let (restrict, prolong) = links
+            .iter()
+            .map(|c| match params.weights {
+                TransferWeights::Exact => (c.up.clone(), c.down.clone()),
+                TransferWeights::ConvexRestriction => (c.up.convex(), c.down.clone()),
+                TransferWeights::Convex => (c.up.convex(), c.down.convex()),
+            })
+            .unzip();
+        let scaling = match params.smoother {
+            Smoother::Chebyshev { scaling, .. } => scaling,
+            Smoother::Dynamics => Scaling::Mass,
+        };
+        let (diag, bound) = levels
+            .iter()
+            .map(|l| match scaling {
+                Scaling::Mass => (l.sys.mass.clone(), l.lambda_max),
+                Scaling::Fictitious => (fictitious_mass(l), 1.0),
+            })
+            .unzip();
         Fas {
+            restrict,
+            diag,
+            bound,
+            prolong,
             u0: levels
                 .iter()
                 .map(|l| vec![0.0; 3 * l.num_nodes()])
@@ -238,6 +321,10 @@ impl Fas {
             visits: vec![u64::MAX; levels.len()],
             dropped_corrections: 0,
             skipped_coarse: 0,
+            last_skip: None,
+            own_base: 0,
+            failed_coarse: 0,
+            last_coarse_failure: None,
             levels,
             links,
             params,
@@ -249,7 +336,9 @@ impl Fas {
     fn smooth(&mut self, l: usize, steps: usize, t: f64) -> Result<(), Divergence> {
         match self.params.smoother {
             Smoother::Dynamics => self.dynamics(l, steps, t),
-            Smoother::Chebyshev { ratio, stretch } => self.chebyshev(l, steps, ratio, stretch, t),
+            Smoother::Chebyshev { ratio, stretch, .. } => {
+                self.chebyshev(l, steps, ratio, stretch, t)
+            }
         }
     }
 
@@ -271,23 +360,24 @@ impl Fas {
             || self.steps.is_multiple_of(REESTIMATE) && self.visits[l] != self.steps
         {
             self.visits[l] = self.steps;
-            let est = estimate_lambda_max(lv, r, d, step_no, t)?;
+            let est = estimate_lambda_max(lv, &self.diag[l], self.bound[l], r, d, step_no, t)?;
             self.lambda[l] = est;
         }
         let b = stretch * self.lambda[l];
         self.saved[l].copy_from_slice(&lv.state.u);
-        match chebyshev_sweeps(lv, r, d, iterations, b, ratio) {
+        let diag = &self.diag[l];
+        match chebyshev_sweeps(lv, diag, r, d, iterations, b, ratio) {
             Ok(()) => {}
             Err(_) => {
                 // Large residuals (a sudden lift) can make the long Chebyshev steps invert an
                 // element: restore and take the conservative damped-Jacobi steps u += r/(M b).
                 self.fallbacks += 1;
                 lv.state.u.copy_from_slice(&self.saved[l]);
-                let mut b_safe = 4.0 * b.max(stretch * lv.lambda_max);
+                let mut b_safe = 4.0 * b.max(stretch * self.bound[l]);
                 let mut attempt = 0;
                 loop {
                     lv.state.u.copy_from_slice(&self.saved[l]);
-                    match chebyshev_sweeps(lv, r, d, iterations, b_safe, 1.0) {
+                    match chebyshev_sweeps(lv, diag, r, d, iterations, b_safe, 1.0) {
                         Ok(()) => break,
                         Err(f) if attempt >= 4 => return Err(diverged(step_no, t, f)),
                         Err(_) => {
@@ -312,6 +402,7 @@ impl Fas {
 /// (Saad, Alg. 12.1); `ratio = 1` is damped Jacobi `u += r / (M b)`. Uses `r`, `d` as scratch.
 fn chebyshev_sweeps(
     lv: &mut Level,
+    diag: &[f64],
     r: &mut [f64],
     d: &mut [f64],
     iterations: usize,
@@ -333,14 +424,14 @@ fn chebyshev_sweeps(
             lv.evaluations += 1;
             if k == 0 || delta == 0.0 {
                 for i in 0..r.len() {
-                    d[i] = r[i] / (lv.sys.mass[i / 3] * theta);
+                    d[i] = r[i] / (diag[i / 3] * theta);
                 }
             } else {
                 let rho_new = 1.0 / (2.0 * sigma - rho);
                 let c0 = rho_new * rho;
                 let c1 = 2.0 * rho_new / delta;
                 for i in 0..r.len() {
-                    d[i] = c0 * d[i] + c1 * r[i] / lv.sys.mass[i / 3];
+                    d[i] = c0 * d[i] + c1 * r[i] / diag[i / 3];
                 }
                 rho = rho_new;
             }
@@ -419,11 +510,32 @@ impl Fas {
         {
             let (fine, coarse) = self.levels.split_at_mut(l + 1);
             let (f, c) = (&mut fine[l], &mut coarse[0]);
-            let link = &self.links[l];
-            link.up
+            self.restrict[l]
                 .interpolate(&f.state.u, 3, &mut self.u0[l + 1])
                 .expect("sizes match");
-            // Hold coarse constrained nodes at the restricted values.
+            f.sys
+                .residual(&f.state.u, &mut self.r[l])
+                .map_err(|e| diverged(step_no, t, e))?;
+            f.evaluations += 1;
+            // F_c = R_c(u_c0) + Pᵀ r_f. Any valid u_c0 keeps the fixed point (r_f = 0 gives
+            // u_c = u_c0 and no correction); R u_f is the natural one, but where the fine field
+            // is far from affine over a coarse element (a boundary layer at a support that the
+            // two meshes resolve differently) it can invert that element. Then the coarse
+            // level starts from its own last solution instead (a valid state: it came out of
+            // a solve, zero on the first visit); only if that fails too is the visit skipped.
+            let fc = &mut c.sys.f_ext;
+            c.evaluations += 1;
+            if let Err(e) = c.sys.force.internal_forces(&self.u0[l + 1], fc) {
+                self.last_skip = Some((l + 1, e));
+                self.u0[l + 1].copy_from_slice(&c.state.u);
+                c.evaluations += 1;
+                if c.sys.force.internal_forces(&self.u0[l + 1], fc).is_err() {
+                    self.skipped_coarse += 1;
+                    return self.smooth(l, self.params.post_smooth, t);
+                }
+                self.own_base += 1;
+            }
+            // Hold coarse constrained nodes at u_c0.
             let u0c = &self.u0[l + 1];
             for (a, mo) in c.sys.constraints.prescribed.iter_mut() {
                 let k = 3 * *a as usize;
@@ -434,26 +546,23 @@ impl Fas {
             c.state.u.copy_from_slice(u0c);
             c.state.v.iter_mut().for_each(|x| *x = 0.0);
             c.state.t = t;
-            f.sys
-                .residual(&f.state.u, &mut self.r[l])
-                .map_err(|e| diverged(step_no, t, e))?;
-            f.evaluations += 1;
-            // F_c = R_c(u_c0) + Pᵀ r_f. The restricted state can invert a coarse element where
-            // boundary nodes extrapolate (eq. 7 weights beyond [0, 1]): then this cycle has no
-            // coarse correction on this level, only smoothing.
-            let fc = &mut c.sys.f_ext;
-            c.evaluations += 1;
-            if c.sys.force.internal_forces(u0c, fc).is_err() {
-                self.skipped_coarse += 1;
-                return self.smooth(l, self.params.post_smooth, t);
-            }
-            link.down
+            self.prolong[l]
                 .transpose_add(&self.r[l], 3, fc)
                 .expect("sizes match");
         }
-        self.visit(l + 1, t)?;
-        // Carry the coarse change up as a variation, u += s P (u_c − u_c0), halving s while it
-        // would invert a fine element (a coarse solve far from converged on a large residual).
+        if let Err(d) = self.visit(l + 1, t) {
+            // A coarse level that inverts an element cannot divergence the run: that cycle has
+            // no coarse correction on this level (the fine level is untouched so far).
+            self.failed_coarse += 1;
+            self.last_coarse_failure = Some(d.to_string());
+            let c = &mut self.levels[l + 1];
+            c.state.u.copy_from_slice(&self.u0[l + 1]);
+        }
+        // Carry the coarse change up as a variation, u += s P (u_c − u_c0), with s from a
+        // secant line search on the fine potential energy Π along p = P e: Π'(s) = −r(u + s p)·p,
+        // so s* = g0 / (g0 − g1) with g0 = r(u)·p, g1 = r(u + p)·p (exact for a quadratic Π;
+        // free, since r(u + p) is evaluated anyway to check for inversion). A correction that
+        // does not descend (g0 ≤ 0) is dropped; s is halved while it would invert an element.
         {
             let (fine, coarse) = self.levels.split_at_mut(l + 1);
             let (f, c) = (&mut fine[l], &coarse[0]);
@@ -463,27 +572,44 @@ impl Fas {
             }
             // P e into the fine direction scratch, with constrained nodes left alone.
             let pe = &mut self.d[l];
-            self.links[l]
-                .down
-                .interpolate(e, 3, pe)
-                .expect("sizes match");
+            self.prolong[l].interpolate(e, 3, pe).expect("sizes match");
             f.sys.constraints.zero_constrained(pe);
+            // self.r[l] still holds the fine residual at u (computed for the restriction).
+            let g0: f64 = self.r[l].iter().zip(pe.iter()).map(|(a, b)| a * b).sum();
             self.saved[l].copy_from_slice(&f.state.u);
-            let mut s = 1.0;
-            for _ in 0..6 {
+            let mut s = if g0 > 0.0 { 1.0 } else { 0.0 };
+            let mut searched = false;
+            while s > 0.0 {
                 for k in 0..pe.len() {
                     f.state.u[k] = self.saved[l][k] + s * pe[k];
                 }
                 f.evaluations += 1;
                 if f.sys.residual(&f.state.u, &mut self.r[l]).is_ok() {
-                    break;
+                    if searched {
+                        break;
+                    }
+                    searched = true;
+                    let gs: f64 = self.r[l].iter().zip(pe.iter()).map(|(a, b)| a * b).sum();
+                    // Π'(0) = −g0 < 0, Π'(s) = −gs: the secant's zero, kept in (0, s].
+                    let s_opt = if g0 - gs > 0.0 {
+                        s * (g0 / (g0 - gs)).min(1.0)
+                    } else {
+                        s
+                    };
+                    if s_opt >= 0.8 * s {
+                        break;
+                    }
+                    s = s_opt;
+                    continue;
                 }
                 s *= 0.5;
                 if s < 0.04 {
-                    f.state.u.copy_from_slice(&self.saved[l]);
-                    self.dropped_corrections += 1;
-                    break;
+                    s = 0.0;
                 }
+            }
+            if s == 0.0 {
+                f.state.u.copy_from_slice(&self.saved[l]);
+                self.dropped_corrections += 1;
             }
         }
         self.smooth(l, self.params.post_smooth, t)
@@ -491,6 +617,10 @@ impl Fas {
 }
 
 impl Stepper for Fas {
+    /// Level 0 only: coarse levels hold their constrained nodes at the restricted values.
+    fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
+        super::hold_on_levels(&mut self.levels, values, false);
+    }
     fn advance(&mut self) -> Result<(), Divergence> {
         let t0 = self.levels[0].state.t;
         let t1 = t0 + self.dt();
@@ -531,6 +661,30 @@ impl Stepper for Fas {
     }
     fn report(&self) -> String {
         super::hierarchy_report(&self.levels, &self.links)
+    }
+    fn diagnostics(&self) -> Option<String> {
+        Some(
+            format!(
+                "{} coarse visits from the coarse level's last solution (R u_f inverted a coarse \
+             element), {} skipped, {} coarse corrections dropped (would invert a fine element), \
+             {} smoothing sweeps fell back to Jacobi steps, {} coarse visits failed{}",
+                self.own_base,
+                self.skipped_coarse,
+                self.dropped_corrections,
+                self.fallbacks,
+                self.failed_coarse,
+                match &self.last_coarse_failure {
+                    Some(d) => format!(" (last: {d})"),
+                    None => String::new(),
+                }
+            ) + &match self.last_skip {
+                Some((l, e)) => format!(
+                    "; last inverting restriction: level {l}, element {} (det F = {:.3e})",
+                    e.element, e.det_f
+                ),
+                None => String::new(),
+            },
+        )
     }
     fn describe(&self) -> String {
         let nodes: Vec<String> = self

@@ -82,6 +82,34 @@ pub fn finest_equivalent_evaluations(levels: &[Level]) -> f64 {
         .sum()
 }
 
+/// Hold level 0's `k`-th prescribed node at `values[k]`; with `coarse`, also the node of each
+/// coarser level that carries it (the nearest node to its reference position, section 3.1).
+pub(crate) fn hold_on_levels(levels: &mut [Level], values: &[[f64; 3]], coarse: bool) {
+    crate::integrate::hold(&mut levels[0].sys.constraints, values);
+    if !coarse {
+        return;
+    }
+    let points: Vec<[f64; 3]> = levels[0]
+        .sys
+        .constraints
+        .prescribed
+        .iter()
+        .map(|(a, _)| levels[0].mesh.nodes[*a as usize])
+        .collect();
+    for lv in levels.iter_mut().skip(1) {
+        for (p, &d) in points.iter().zip(values) {
+            let Some(n) = lv.mesh.nearest_node(*p) else {
+                continue;
+            };
+            for (a, m) in lv.sys.constraints.prescribed.iter_mut() {
+                if *a as usize == n {
+                    *m = crate::integrate::Motion::Held { d };
+                }
+            }
+        }
+    }
+}
+
 /// Links between consecutive levels: `links[i]` joins level i (fine) and i+1 (coarse).
 pub type Links = Vec<Correspondence>;
 

@@ -185,6 +185,9 @@ impl Raisov {
 }
 
 impl Stepper for Raisov {
+    fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
+        super::hold_on_levels(&mut self.levels, values, true);
+    }
     fn advance(&mut self) -> Result<(), Divergence> {
         self.cycle()?;
         self.steps += 1;

@@ -11,7 +11,7 @@ use crate::error::Result;
 use crate::hierarchy::Correspondence;
 use crate::integrate::{energy_limit_for, Method, Motion, SingleLevel, Stepper, StepperParams};
 use crate::mesh::Mesh;
-use crate::multigrid::fas::{CoarseSolve, Fas, FasParams, Smoother};
+use crate::multigrid::fas::{CoarseSolve, Fas, FasParams, Scaling, Smoother, TransferWeights};
 use crate::multigrid::raisov::{Raisov, RaisovParams, Reading};
 use crate::multigrid::Level;
 use std::path::Path;
@@ -108,6 +108,16 @@ pub(super) fn validate(mg: &MultigridSpec, mesh: &MeshSpec, path: &Path) -> Resu
             "smoother",
             mg.smoother.as_deref(),
             &["chebyshev", "dynamics"][..],
+        ),
+        (
+            "scaling",
+            mg.scaling.as_deref(),
+            &["fictitious", "mass"][..],
+        ),
+        (
+            "transfer",
+            mg.transfer.as_deref(),
+            &["convex", "exact", "convex-restriction"][..],
         ),
     ] {
         if let Some(v) = value {
@@ -381,9 +391,25 @@ impl Scenario {
                     },
                     _ => FasParams::default().coarse,
                 };
-                let smoother = match mg.smoother.as_deref() {
-                    Some("dynamics") => Smoother::Dynamics,
-                    _ => FasParams::default().smoother,
+                let smoother = match (mg.smoother.as_deref(), FasParams::default().smoother) {
+                    (Some("dynamics"), _) => Smoother::Dynamics,
+                    (
+                        _,
+                        Smoother::Chebyshev {
+                            ratio,
+                            stretch,
+                            scaling,
+                        },
+                    ) => Smoother::Chebyshev {
+                        ratio,
+                        stretch,
+                        scaling: match mg.scaling.as_deref() {
+                            Some("mass") => Scaling::Mass,
+                            Some(_) => Scaling::Fictitious,
+                            None => scaling,
+                        },
+                    },
+                    (_, s) => s,
                 };
                 Box::new(Fas::new(
                     levels,
@@ -393,6 +419,11 @@ impl Scenario {
                         post_smooth: mg.post_smooth.unwrap_or(FasParams::default().post_smooth),
                         coarse,
                         smoother,
+                        weights: match mg.transfer.as_deref() {
+                            Some("exact") => TransferWeights::Exact,
+                            Some("convex-restriction") => TransferWeights::ConvexRestriction,
+                            _ => TransferWeights::Convex,
+                        },
                         kinetic_limit: limit,
                     },
                 ))

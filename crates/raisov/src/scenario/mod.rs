@@ -3,6 +3,7 @@
 //!
 //! Units are SI throughout. Paths inside a scenario are relative to the scenario file.
 
+pub mod interactive;
 mod levels;
 pub mod run;
 pub mod spec;
@@ -74,6 +75,8 @@ pub struct Scenario {
     pub frame_interval: f64,
     pub csv_every: u64,
     pub reference: Reference,
+    /// `[interactive]`: a budget per frame along the displacement paths; `None` for a plain run.
+    pub interactive: Option<interactive::Interactive>,
     /// The parsed file, for what is re-resolved per multigrid level.
     pub spec: ScenarioSpec,
 }
@@ -249,6 +252,11 @@ impl Scenario {
                 format!("`output.frame_interval` = {frame_interval}: must be >= 0 (s)"),
             ));
         }
+        let interactive = spec
+            .interactive
+            .as_ref()
+            .map(|i| interactive::Interactive::from_spec(path, i))
+            .transpose()?;
         let csv_every = spec.output.csv_every.unwrap_or(1);
         if csv_every == 0 {
             return Err(err(
@@ -289,6 +297,7 @@ impl Scenario {
             frame_interval,
             csv_every,
             reference,
+            interactive,
             spec,
         })
     }
@@ -368,32 +377,37 @@ pub fn critical_step_estimate(
 
 /// `max_e npe Σ_a |∇N_a|²` over the elements (1/m²).
 pub fn max_gradient_sum(mesh: &Mesh) -> f64 {
+    gradient_sums(mesh).into_iter().fold(0.0, f64::max)
+}
+
+/// Per element `G_e = npe Σ_a |∇N_a|²` (1/m²; 0 for a degenerate element): the element's
+/// small-strain stiffness is bounded by `c² G_e` times its lumped mass, `K_e ≤ c² G_e M_e`.
+pub fn gradient_sums(mesh: &Mesh) -> Vec<f64> {
     use crate::fem::{membrane_frame, tet_dm_inverse};
-    let mut worst: f64 = 0.0;
-    for e in 0..mesh.num_elements() {
-        let p = mesh.element_points(e);
-        // Rows of Dm⁻¹ are ∇N_1.. ; ∇N_0 = −Σ.
-        let sum = match mesh.kind {
-            ElementKind::Tet4 => match tet_dm_inverse(&p) {
-                Some((inv, _)) => {
-                    let g0 = -(inv.row(0) + inv.row(1) + inv.row(2));
-                    4.0 * (g0.norm_squared()
-                        + (0..3).map(|i| inv.row(i).norm_squared()).sum::<f64>())
-                }
-                None => continue,
-            },
-            ElementKind::Tri3 => match membrane_frame(&p) {
-                Some((inv, _, _)) => {
-                    let g0 = -(inv.row(0) + inv.row(1));
-                    3.0 * (g0.norm_squared()
-                        + (0..2).map(|i| inv.row(i).norm_squared()).sum::<f64>())
-                }
-                None => continue,
-            },
-        };
-        worst = worst.max(sum);
-    }
-    worst
+    (0..mesh.num_elements())
+        .map(|e| {
+            let p = mesh.element_points(e);
+            // Rows of Dm⁻¹ are ∇N_1.. ; ∇N_0 = −Σ.
+            match mesh.kind {
+                ElementKind::Tet4 => match tet_dm_inverse(&p) {
+                    Some((inv, _)) => {
+                        let g0 = -(inv.row(0) + inv.row(1) + inv.row(2));
+                        4.0 * (g0.norm_squared()
+                            + (0..3).map(|i| inv.row(i).norm_squared()).sum::<f64>())
+                    }
+                    None => 0.0,
+                },
+                ElementKind::Tri3 => match membrane_frame(&p) {
+                    Some((inv, _, _)) => {
+                        let g0 = -(inv.row(0) + inv.row(1));
+                        3.0 * (g0.norm_squared()
+                            + (0..2).map(|i| inv.row(i).norm_squared()).sum::<f64>())
+                    }
+                    None => 0.0,
+                },
+            }
+        })
+        .collect()
 }
 
 /// Smallest element altitude: tets `3V / max face area`, triangles `2A / max edge`.

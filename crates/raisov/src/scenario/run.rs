@@ -70,6 +70,8 @@ pub struct RunSummary {
     pub out_dir: PathBuf,
     pub files: Vec<PathBuf>,
     pub reference_note: Option<String>,
+    /// The stepper's closing counters ([`Stepper::diagnostics`]).
+    pub diagnostics: Option<String>,
 }
 
 impl std::fmt::Display for RunSummary {
@@ -106,6 +108,9 @@ impl std::fmt::Display for RunSummary {
         }
         if let Some(n) = &self.reference_note {
             writeln!(f, "reference       {n}")?;
+        }
+        if let Some(d) = &self.diagnostics {
+            writeln!(f, "multigrid       {d}")?;
         }
         write!(f, "output          {}", self.out_dir.display())
     }
@@ -414,6 +419,7 @@ pub fn run_with(
         out_dir: out.clone(),
         files: vec![csv, frames.pvd.path().to_path_buf(), stress_path],
         reference_note,
+        diagnostics: stepper.diagnostics(),
     };
     let text = summary.to_string();
     write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;

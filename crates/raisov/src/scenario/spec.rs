@@ -81,10 +81,25 @@
 //! smoother = "chebyshev"          # fas: "chebyshev" (default) | "dynamics" (damped explicit steps)
 //! coarse = "chebyshev"            # fas: coarsest solve, "chebyshev" (60 iterations, default) |
 //!                                 #      "explicit" (damped steps) | "newton" (Newton-Krylov)
+//! scaling = "fictitious"          # fas chebyshev: preconditioner, "fictitious" (per-node fictitious
+//!                                 #      masses, default) | "mass" (lumped mass)
+//! transfer = "convex"            # fas: weights of R, P: "convex" (default; eq. 7 extrapolating
+//!                                 #      weights clamped into the host) | "exact" (eq. 6/7 as they
+//!                                 #      are) | "convex-restriction" (only R clamped)
 //! coarse_time = 0.1               # fas explicit coarsest: simulated time per visit (s), default 0.1
 //! level_methods = ["rk4", "rk4"]  # per level integrator, default [integrator] method on all
 //! level_dt = [1e-3, 2e-3]         # per level step (s); default: raisov-paper the level-0 step
 //!                                 # on every level (the paper), fas each level's own estimate
+//!
+//! [interactive]                   # optional: a fixed budget per frame while the [[displace]]
+//!                                 # paths move (surgical interaction); `raisov run` then writes
+//!                                 # frames.csv with the lag to the static solution per frame
+//! fps = 30.0                      # frames per second of the path's time, default 30
+//! cycles = 4                      # steps (single level) or V-cycles (multigrid) per frame,
+//!                                 # default 4; or instead
+//! budget_ms = 33.0                # wall-time budget per frame (ms): as many as fit
+//! reference = "newton"            # static solution per frame: "newton" (default) | "none"
+//! reference_tol = 1e-6            # its relative residual, default 1e-6
 //! ```
 
 use serde::Deserialize;
@@ -111,6 +126,7 @@ pub struct ScenarioSpec {
     #[serde(default)]
     pub output: OutputSpec,
     pub multigrid: Option<MultigridSpec>,
+    pub interactive: Option<InteractiveSpec>,
 }
 
 /// `[multigrid]`: integrate over a hierarchy of independent meshes of the same object.
@@ -130,8 +146,22 @@ pub struct MultigridSpec {
     pub coarse: Option<String>,
     pub coarse_time: Option<f64>,
     pub smoother: Option<String>,
+    pub transfer: Option<String>,
+    pub scaling: Option<String>,
     pub level_methods: Option<Vec<String>>,
     pub level_dt: Option<Vec<f64>>,
+}
+
+/// `[interactive]`: a fixed budget per frame while the prescribed displacements move along
+/// their paths; see [`super::interactive`].
+#[derive(Clone, Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct InteractiveSpec {
+    pub fps: Option<f64>,
+    pub cycles: Option<usize>,
+    pub budget_ms: Option<f64>,
+    pub reference: Option<String>,
+    pub reference_tol: Option<f64>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]

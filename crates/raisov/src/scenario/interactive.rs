@@ -1,0 +1,501 @@
+//! Interactive mode: a fixed budget per frame while the grasp moves (surgical interaction is
+//! quasi-static: the instrument moves, the tissue follows).
+//!
+//! Frame `k = 1..N` stands for path time `t_k = k / fps`, `N = ⌈duration · fps⌉`. At each frame
+//! every `[[displace]]` node is set to its path position `d(t_k)` and held there (the
+//! instrument is sampled once per frame, as a haptic or visual loop does), then the stepper
+//! gets its budget: `cycles` steps (single level) or V-cycles (multigrid), or as many as fit in
+//! `budget_ms` of wall time. The *lag* of the frame is the distance to the static solution
+//! `u*_k` with the same constraints, `R(u*_k) = V` (Newton-Krylov, warm-started from `u*_{k−1}`):
+//!
+//! ```text
+//! lag_max = max_a |u_a − u*_a|,   lag_rms = sqrt(mean_a |u_a − u*_a|²),   a free nodes,
+//! lag_rel = lag_max / max_a |u*_a|.
+//! ```
+//!
+//! The frame rate counts the stepper's own wall time only (not the reference solve nor the
+//! output): `fps = frames / Σ frame wall`. Written atomically under the output directory:
+//! `frames.csv` (one row per frame), `NAME.pvd` + `frames/*.vtu` (fields `displacement`,
+//! `static` and `lag`), `summary.txt`.
+
+use super::run::RunOptions;
+use super::spec::InteractiveSpec;
+use super::{err, positive, Scenario, StopRule};
+use crate::error::{Error, Result};
+use crate::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
+use crate::integrate::{hold, Stepper};
+use crate::io::{write_atomic, write_vtu, Field, FieldData, PvdWriter};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Work per frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Budget {
+    /// This many steps (single level) or V-cycles (multigrid) per frame.
+    Cycles(usize),
+    /// As many as fit in this wall time (s) per frame, at least one.
+    Wall(f64),
+}
+
+/// The resolved `[interactive]` section.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interactive {
+    /// Frames per second of path time. Default 30.
+    pub fps: f64,
+    /// Default 4 cycles.
+    pub budget: Budget,
+    /// Solve for the static solution of each frame (default true).
+    pub reference: bool,
+    /// Relative residual of the reference solve. Default 1e-6.
+    pub reference_tol: f64,
+}
+
+impl Interactive {
+    pub(crate) fn from_spec(path: &Path, s: &InteractiveSpec) -> Result<Interactive> {
+        let fps = positive(path, "interactive.fps", s.fps.unwrap_or(30.0))?;
+        let budget = match (s.cycles, s.budget_ms) {
+            (Some(_), Some(_)) => {
+                return Err(err(
+                    path,
+                    "[interactive]: give either `cycles` or `budget_ms`, not both",
+                ))
+            }
+            (_, Some(ms)) => Budget::Wall(positive(path, "interactive.budget_ms", ms)? * 1e-3),
+            (Some(0), None) => {
+                return Err(err(path, "`interactive.cycles` = 0: must be at least 1"))
+            }
+            (c, None) => Budget::Cycles(c.unwrap_or(4)),
+        };
+        let reference = match s.reference.as_deref() {
+            None | Some("newton") => true,
+            Some("none") => false,
+            Some(other) => {
+                return Err(err(
+                    path,
+                    format!(
+                        "`interactive.reference` = \"{other}\": valid are \"newton\", \"none\""
+                    ),
+                ))
+            }
+        };
+        let reference_tol = positive(
+            path,
+            "interactive.reference_tol",
+            s.reference_tol.unwrap_or(1e-6),
+        )?;
+        Ok(Interactive {
+            fps,
+            budget,
+            reference,
+            reference_tol,
+        })
+    }
+}
+
+/// One frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameRow {
+    pub frame: usize,
+    /// Path time `t_k` (s).
+    pub time: f64,
+    /// Steps or cycles run in this frame.
+    pub steps: u64,
+    /// Wall time of those steps (s).
+    pub wall: f64,
+    /// Residual norm `|V − R(u)|` after the frame (N).
+    pub residual: f64,
+    /// Largest |u| (m).
+    pub max_u: f64,
+    /// Lag to the static solution: largest and RMS nodal distance (m); NaN without reference.
+    pub lag_max: f64,
+    pub lag_rms: f64,
+    /// Largest |u*| of the static solution (m).
+    pub static_max_u: f64,
+}
+
+impl FrameRow {
+    /// `lag_max / max|u*|`.
+    pub fn lag_rel(&self) -> f64 {
+        self.lag_max / self.static_max_u.max(f64::MIN_POSITIVE)
+    }
+}
+
+/// What an interactive run reports.
+#[derive(Clone, Debug)]
+pub struct InteractiveSummary {
+    pub name: String,
+    pub stepper: String,
+    pub nodes: usize,
+    pub settings: Interactive,
+    pub frames: Vec<FrameRow>,
+    pub out_dir: PathBuf,
+}
+
+impl InteractiveSummary {
+    /// Frames per second of stepper wall time.
+    pub fn fps(&self) -> f64 {
+        let wall: f64 = self.frames.iter().map(|f| f.wall).sum();
+        self.frames.len() as f64 / wall.max(1e-12)
+    }
+    /// Mean and largest `lag_max` over the frames (m), and the largest relative lag.
+    pub fn lag(&self) -> (f64, f64, f64) {
+        let n = self.frames.len().max(1) as f64;
+        let mean = self.frames.iter().map(|f| f.lag_max).sum::<f64>() / n;
+        let max = self.frames.iter().map(|f| f.lag_max).fold(0.0, f64::max);
+        let rel = self.frames.iter().map(|f| f.lag_rel()).fold(0.0, f64::max);
+        (mean, max, rel)
+    }
+}
+
+impl std::fmt::Display for InteractiveSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = &self.settings;
+        writeln!(f, "scenario        {} (interactive)", self.name)?;
+        writeln!(f, "mesh            {} nodes", self.nodes)?;
+        writeln!(f, "integration     {}", self.stepper)?;
+        let budget = match s.budget {
+            Budget::Cycles(c) => format!("{c} steps/cycles per frame"),
+            Budget::Wall(w) => format!("{:.1} ms of wall time per frame", w * 1e3),
+        };
+        writeln!(
+            f,
+            "frames          {} at {} fps of path time, {budget}",
+            self.frames.len(),
+            s.fps
+        )?;
+        let fps = self.fps();
+        writeln!(
+            f,
+            "frame rate      {fps:.1} fps of stepper wall time ({})",
+            if fps >= s.fps {
+                "keeps up with real time"
+            } else {
+                "slower than real time"
+            }
+        )?;
+        if s.reference {
+            let (mean, max, rel) = self.lag();
+            writeln!(
+                f,
+                "lag             mean {:.3e} m, max {:.3e} m over frames; worst {:.2} % of max |u*|",
+                mean,
+                max,
+                100.0 * rel
+            )?;
+            if let Some(last) = self.frames.last() {
+                writeln!(
+                    f,
+                    "last frame      lag {:.3e} m ({:.2} % of max |u*| = {:.3e} m)",
+                    last.lag_max,
+                    100.0 * last.lag_rel(),
+                    last.static_max_u
+                )?;
+            }
+        }
+        write!(f, "output          {}", self.out_dir.display())
+    }
+}
+
+/// The path duration: `[run] duration` (or the `steady` cap).
+fn duration(sc: &Scenario) -> f64 {
+    match sc.stop {
+        StopRule::Duration(d) => d,
+        StopRule::Steady { max, .. } => max,
+    }
+}
+
+/// Run the scenario interactively with `stepper` (whose finest level is the scenario's mesh).
+/// Errors: the scenario has no `[interactive]` section, a diverging stepper (with step and
+/// element), a reference solve that inverts an element, or an output file that cannot be
+/// written.
+pub fn run_interactive(
+    sc: &Scenario,
+    stepper: &mut dyn Stepper,
+    mut opts: RunOptions,
+) -> Result<InteractiveSummary> {
+    let Some(settings) = sc.interactive else {
+        return Err(err(&sc.path, "no [interactive] section"));
+    };
+    let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
+    std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
+    let n = sc.mesh.num_nodes();
+    let frames_n = (duration(sc) * settings.fps).ceil().max(1.0) as usize;
+    // The reference system, its solver and solution.
+    let mut ref_sys = sc.build_system()?;
+    let diag = fictitious_mass(&sc.mesh, &ref_sys.mass, 1.0);
+    let mut newton = NewtonSolver::with_diagonal(&ref_sys, &diag);
+    let mut u_star = vec![0.0; 3 * n];
+    let mut r = vec![0.0; 3 * n];
+    let mut values = vec![[0.0; 3]; sc.prescribed.len()];
+    let free: Vec<bool> = (0..n)
+        .map(|a| !ref_sys.constraints.is_constrained(a))
+        .collect();
+    let mut rows = Vec::with_capacity(frames_n);
+    let frames_dir = out.join("frames");
+    std::fs::create_dir_all(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
+    let mut pvd = PvdWriter::new(out.join(format!("{}.pvd", sc.name)));
+    let mut positions = vec![[0.0; 3]; n];
+    let mut lag = vec![0.0; 3 * n];
+    let mut diverged = None;
+    for k in 1..=frames_n {
+        let t = k as f64 / settings.fps;
+        for (v, (_, m)) in values.iter_mut().zip(&sc.prescribed) {
+            *v = m.displacement(t);
+        }
+        stepper.hold_prescribed(&values);
+        let start = Instant::now();
+        let before = stepper.steps();
+        loop {
+            if let Err(d) = stepper.advance() {
+                diverged = Some(d);
+                break;
+            }
+            let done = stepper.steps() - before;
+            let more = match settings.budget {
+                Budget::Cycles(c) => done < c as u64,
+                Budget::Wall(w) => start.elapsed().as_secs_f64() < w,
+            };
+            if !more {
+                break;
+            }
+        }
+        let wall = start.elapsed().as_secs_f64();
+        if let Some(d) = diverged {
+            write_rows(&out.join("frames.csv"), &rows)?;
+            return Err(Error::Diverged(d));
+        }
+        let total_steps = stepper.steps();
+        if settings.reference {
+            hold(&mut ref_sys.constraints, &values);
+            let p = NewtonParams {
+                rel_tol: settings.reference_tol,
+                ..Default::default()
+            };
+            newton.solve(&mut ref_sys, t, &mut u_star, p).map_err(|f| {
+                err(
+                    &sc.path,
+                    format!(
+                        "interactive frame {k} (t = {t:.4} s): the reference static solve \
+                             inverted element {} (det F = {:.3e}); give `reference = \"none\"` \
+                             or a gentler path",
+                        f.element, f.det_f
+                    ),
+                )
+            })?;
+        }
+        let (sys, s) = stepper.finest();
+        let residual = sys.residual(&s.u, &mut r).unwrap_or(f64::NAN);
+        let (mut lag_max, mut lag_sq, mut count, mut max_u, mut static_max_u) =
+            (0.0f64, 0.0, 0usize, 0.0f64, 0.0f64);
+        for a in 0..n {
+            let u = [s.u[3 * a], s.u[3 * a + 1], s.u[3 * a + 2]];
+            max_u = max_u.max(crate::mesh::norm(u));
+            let p = sc.mesh.nodes[a];
+            positions[a] = [p[0] + u[0], p[1] + u[1], p[2] + u[2]];
+            let us = [u_star[3 * a], u_star[3 * a + 1], u_star[3 * a + 2]];
+            static_max_u = static_max_u.max(crate::mesh::norm(us));
+            let d = crate::mesh::sub(u, us);
+            lag[3 * a..3 * a + 3].copy_from_slice(&d);
+            if free[a] {
+                let dn = crate::mesh::norm(d);
+                lag_max = lag_max.max(dn);
+                lag_sq += dn * dn;
+                count += 1;
+            }
+        }
+        let (lag_max, lag_rms) = if settings.reference {
+            (lag_max, (lag_sq / count.max(1) as f64).sqrt())
+        } else {
+            (f64::NAN, f64::NAN)
+        };
+        let row = FrameRow {
+            frame: k,
+            time: t,
+            steps: total_steps - before,
+            wall,
+            residual,
+            max_u,
+            lag_max,
+            lag_rms,
+            static_max_u: if settings.reference {
+                static_max_u
+            } else {
+                f64::NAN
+            },
+        };
+        rows.push(row);
+        let file = format!("{}_{:06}.vtu", sc.name, k);
+        let mut fields = vec![Field {
+            name: "displacement",
+            data: FieldData::Vector(&s.u),
+        }];
+        if settings.reference {
+            fields.push(Field {
+                name: "static",
+                data: FieldData::Vector(&u_star),
+            });
+            fields.push(Field {
+                name: "lag",
+                data: FieldData::Vector(&lag),
+            });
+        }
+        write_vtu(&frames_dir.join(&file), &sc.mesh, &positions, &fields, &[])?;
+        pvd.add(t, &format!("frames/{file}"))?;
+        if let Some(p) = opts.progress.as_mut() {
+            let sample = crate::metrics::Sample {
+                step: total_steps,
+                time: t,
+                kinetic: 0.0,
+                residual,
+                max_u,
+                stress_err_max: f64::NAN,
+                stress_err_mean: f64::NAN,
+                force_evals: stepper.force_evaluations(),
+                wall,
+            };
+            p(k as f64 / frames_n as f64, &sample);
+        }
+    }
+    write_rows(&out.join("frames.csv"), &rows)?;
+    let summary = InteractiveSummary {
+        name: sc.name.clone(),
+        stepper: stepper.describe(),
+        nodes: n,
+        settings,
+        frames: rows,
+        out_dir: out.clone(),
+    };
+    let text = summary.to_string();
+    write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;
+    Ok(summary)
+}
+
+/// `frames.csv`: one row per frame.
+pub const FRAMES_HEADER: &str =
+    "frame,time_s,steps,wall_s,residual_N,max_u_m,lag_max_m,lag_rms_m,static_max_u_m,lag_rel";
+
+fn write_rows(path: &Path, rows: &[FrameRow]) -> Result<()> {
+    write_atomic(path, |w| {
+        writeln!(w, "{FRAMES_HEADER}")?;
+        for r in rows {
+            writeln!(
+                w,
+                "{},{:.6},{},{:.6e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.6e}",
+                r.frame,
+                r.time,
+                r.steps,
+                r.wall,
+                r.residual,
+                r.max_u,
+                r.lag_max,
+                r.lag_rms,
+                r.static_max_u,
+                r.lag_rel()
+            )?;
+        }
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The paper's membrane, centre node pulled 1 cm along a path over 0.2 s, 6 frames.
+    fn scenario(multigrid: &str, interactive: &str) -> Scenario {
+        let text = format!(
+            r#"
+[mesh]
+generate = "rectangle"
+size = [0.1, 0.1]
+nodes = 120
+[material]
+law = "mooney-rivlin"
+c1 = 1000.0
+c2 = 1000.0
+[damping]
+ratio = 1.0
+omega = 177.7
+[[fix]]
+boundary = true
+[[displace]]
+point = [0.0, 0.0, 0.0]
+mode = "table"
+table = [[0.0, 0.0, 0.0, 0.0], [0.2, 0.0, 0.0, 0.01]]
+[run]
+duration = 0.2
+{multigrid}
+[interactive]
+fps = 30.0
+{interactive}
+"#
+        );
+        Scenario::from_toml(&text, Path::new("interactive-test.toml")).unwrap()
+    }
+
+    fn lags(multigrid: &str, cycles: usize) -> InteractiveSummary {
+        let sc = scenario(multigrid, &format!("cycles = {cycles}"));
+        let dir = std::env::temp_dir().join(format!(
+            "raisov-interactive-{}-{cycles}-{}",
+            multigrid.len(),
+            std::process::id()
+        ));
+        let mut st = sc.stepper().unwrap();
+        let s = run_interactive(
+            &sc,
+            st.as_mut(),
+            RunOptions {
+                out_dir: Some(dir.clone()),
+                progress: None,
+            },
+        )
+        .unwrap();
+        let csv = std::fs::read_to_string(dir.join("frames.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 1 + s.frames.len());
+        let _ = std::fs::remove_dir_all(&dir);
+        s
+    }
+
+    /// More work per frame, less lag; with enough, the multigrid sits on the static solution
+    /// of every frame (the lag is the reference solve's own tolerance).
+    #[test]
+    fn lag_shrinks_with_budget_and_vanishes_for_fas() {
+        let fas = "[multigrid]\nscheme = \"fas\"\nlevels = 3";
+        let few = lags(fas, 1);
+        let many = lags(fas, 60);
+        assert_eq!(few.frames.len(), 6);
+        for (a, b) in few.frames.iter().zip(&many.frames) {
+            assert!(b.lag_max < a.lag_max, "frame {}: {b:?} vs {a:?}", a.frame);
+            assert_eq!(a.static_max_u, b.static_max_u);
+        }
+        let last = many.frames.last().unwrap();
+        // The grasp itself is 1 cm; the static solution moves it exactly.
+        assert!((last.static_max_u - 0.01).abs() < 1e-12);
+        assert!(last.lag_rel() < 1e-4, "{last:?}");
+        // Single level: damped dynamics lags far behind with a few steps per frame.
+        let slim = lags("", 4);
+        assert!(slim.frames.last().unwrap().lag_rel() > 0.1);
+    }
+
+    #[test]
+    fn bad_interactive_keys_are_named() {
+        for (extra, want) in [
+            (
+                "cycles = 2\nbudget_ms = 10.0",
+                "either `cycles` or `budget_ms`",
+            ),
+            ("cycles = 0", "`interactive.cycles` = 0"),
+            ("fps = -1.0", "interactive.fps"),
+            ("reference = \"exact\"", "valid are \"newton\", \"none\""),
+        ] {
+            let text = format!(
+                "[mesh]\ngenerate = \"rectangle\"\nsize = [0.1, 0.1]\nnodes = 40\n[material]\nlaw = \"stvk\"\nyoung = 1e4\npoisson = 0.3\n[[fix]]\nboundary = true\n[run]\nduration = 0.1\n[interactive]\n{extra}\n"
+            );
+            let e = Scenario::from_toml(&text, Path::new("bad.toml"))
+                .err()
+                .unwrap_or_else(|| panic!("{extra}: accepted"))
+                .to_string();
+            assert!(e.contains(want), "{extra}: {e}");
+        }
+    }
+}

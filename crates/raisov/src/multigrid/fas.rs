@@ -7,21 +7,39 @@
 //! `R_l(u) = F_l` (`F_0 = V`, the real loads):
 //!
 //! ```text
-//! 1. ν1 explicit damped steps on level l                        (pre-smoothing)
+//! 1. ν1 smoothing sweeps on level l                              (pre-smoothing)
 //! 2. u_c0 = R u_l          each coarse node interpolated from its fine host (state restriction)
 //! 3. r_l = F_l − R_l(u_l);  F_c = R_c(u_c0) + Pᵀ r_l            (τ-correction: the coarse level
 //!                                                              works on the fine level's error)
-//! 4. level l+1: recurse; the coarsest level takes k explicit steps at its own larger stable
-//!    step from rest, or a Newton-Krylov solve (the paper's section 4 suggestion)
-//! 5. u_l += P (u_c − u_c0)                                       (variation carried up)
-//! 6. ν2 explicit damped steps on level l                        (post-smoothing)
+//! 4. level l+1: recurse; the coarsest level takes Chebyshev sweeps, explicit damped steps at
+//!    its own larger stable step from rest, or a Newton-Krylov solve (the paper's section 4)
+//! 5. u_l += s P (u_c − u_c0)                                     (variation carried up)
+//! 6. ν2 smoothing sweeps on level l                              (post-smoothing)
 //! ```
 //!
-//! Coarse levels hold their constrained nodes at the restricted values (the correction is zero
-//! there); level 0 keeps its real constraints. At a fixed point `r_0 = 0`, so `F_c = R_c(u_c0)`,
-//! the coarse solution is `u_c0` and the correction vanishes: level 0 sits exactly on SLIM's
-//! equilibrium (a test). The fine velocity is kept across the correction; coarse levels start
-//! each visit at rest. Per-cycle work is O(n): each level's work is proportional to its nodes.
+//! The smoother is a Chebyshev iteration on `D⁻¹(F − R(u))` (default; `D` per-node fictitious
+//! masses, [`Scaling`]) or the level's explicit damped dynamics (the paper's G).
+//!
+//! What makes it hold on real meshes (the liver levels; see the regression test
+//! `fas_liver_grasp_inverts_elements`):
+//! - step 2 uses convex weights ([`TransferWeights`]): eq. 7's extrapolating weights (up to
+//!   2–3 on the liver) can invert coarse elements; where `R u_l` still inverts one (a boundary
+//!   layer that the two meshes resolve differently), `u_c0` is the coarse level's own last
+//!   solution instead: any valid `u_c0` keeps the fixed point below;
+//! - step 5 takes `s` from a secant line search on the fine potential energy along `P e`,
+//!   `s = g0 / (g0 − g1)`, `g0 = r(u)·Pe`, `g1 = r(u + Pe)·Pe`, at most 1, halved while an
+//!   element would invert; a correction that does not descend (`g0 ≤ 0`) is dropped;
+//! - a coarse level that fails (an inverted element) gives no correction that cycle, and the
+//!   run goes on; [`Stepper::diagnostics`] counts each of these events.
+//!
+//! Coarse levels hold their *fixed* nodes at the restricted values (the correction is zero
+//! there) and leave prescribed points free: a grasp is a fine-level feature, and pinning the
+//! nearest coarse node would zero the correction where the error is largest; level 0 keeps its
+//! real constraints (`P e` is zeroed on them). At a fixed point `r_0 = 0`, so
+//! `F_c = R_c(u_c0)`, the coarse solution is `u_c0` and the correction vanishes: level 0 sits
+//! exactly on SLIM's equilibrium (a test). The fine velocity is kept across the correction;
+//! coarse levels start each visit at rest. Per-cycle work is O(n): each level's work is
+//! proportional to its nodes.
 
 use super::{Level, Links};
 use crate::error::{Divergence, DivergenceCause};
@@ -35,9 +53,10 @@ use crate::integrate::{check_state, Constraints, Motion, Stepper};
 pub enum Smoother {
     /// Explicit damped dynamics: the level's integrator at its own step (the paper's G).
     Dynamics,
-    /// Chebyshev polynomial iteration on `M⁻¹ (F − R(u))` over the upper part
-    /// `[λ_max / ratio, λ_max]` of the spectrum of `M⁻¹K`, with `λ_max` the level's rigorous
-    /// small-strain bound scaled by `stretch` (> 1 leaves room for stiffening). Each iteration
+    /// Chebyshev polynomial iteration on `D⁻¹ (F − R(u))` ([`Scaling`] picks `D`) over the
+    /// upper part `[b / ratio, b]` of the spectrum of `D⁻¹K`, `b = stretch λ_max` with `λ_max`
+    /// from power iteration (> 1 leaves room for stiffening and for the estimate, which
+    /// approaches from below). Each iteration
     /// costs one force evaluation and damps every mode in the interval; this is the smoother
     /// multigrid needs (dynamics damps all modes alike at α/2).
     Chebyshev {
@@ -93,9 +112,10 @@ pub struct FasParams {
     pub post_smooth: usize,
     /// Coarsest-level solve. Default Chebyshev, 60 iterations over [λ_max/1000, λ_max].
     pub coarse: CoarseSolve,
-    /// Smoother. Default Chebyshev over [1.2 λ_max / 100, 1.2 λ_max] (measured on the drape:
-    /// 186 nodes 895 force evaluations to steady state against 6500 for single-level symplectic
-    /// Euler; 3000 nodes 2334 against 30730).
+    /// Smoother. Default Chebyshev on `D⁻¹(F − R(u))`, `D` the per-node fictitious masses,
+    /// over [1.2 λ_max / 100, 1.2 λ_max] with λ_max(D⁻¹K) from power iteration (drape of
+    /// `examples/membrane_drape_multigrid.toml`, 1000 nodes: 1301 force evaluations to steady
+    /// state, against 1730 with `D = M`).
     pub smoother: Smoother,
     /// Transfer weights. Default [`TransferWeights::Convex`].
     pub weights: TransferWeights,
@@ -342,7 +362,7 @@ impl Fas {
         }
     }
 
-    /// Chebyshev iteration for `R_l(u) = F_l` preconditioned by `M⁻¹` (Saad, Alg. 12.1),
+    /// Chebyshev iteration for `R_l(u) = F_l` preconditioned by `D⁻¹` (Saad, Alg. 12.1),
     /// eigenvalue interval `[b/ratio, b]`, `b = stretch λ_max`. Velocities are left at zero.
     fn chebyshev(
         &mut self,
@@ -398,8 +418,8 @@ impl Fas {
     }
 }
 
-/// `iterations` Chebyshev sweeps for `R(u) = F` with preconditioner `M⁻¹` over `[b/ratio, b]`
-/// (Saad, Alg. 12.1); `ratio = 1` is damped Jacobi `u += r / (M b)`. Uses `r`, `d` as scratch.
+/// `iterations` Chebyshev sweeps for `R(u) = F` with preconditioner `D⁻¹` (`diag`, per node)
+/// over `[b/ratio, b]` (Saad, Alg. 12.1); `ratio = 1` is damped Jacobi `u += r / (D b)`. Uses `r`, `d` as scratch.
 fn chebyshev_sweeps(
     lv: &mut Level,
     diag: &[f64],

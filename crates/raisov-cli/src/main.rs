@@ -61,7 +61,7 @@ enum Cmd {
         /// Only the correctness check: STEPS steps on the boxes of --sizes, then exit.
         #[arg(long)]
         check: Option<usize>,
-        /// Only the standard-work rows (no integrator, membrane, hierarchy, memory rows).
+        /// Only the standard-work rows (no integrator, V-cycle, membrane, hierarchy, memory rows).
         #[arg(long)]
         standard_only: bool,
     },

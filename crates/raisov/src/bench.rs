@@ -15,19 +15,31 @@
 //! spread over the tetrahedra. Achieved bandwidth = bytes × tets × steps/s. The roofline is a
 //! triad `a = b + s c` (24 B per entry, STREAM counting) on arrays of the same total size as
 //! the model's data, on the same number of threads, best of 3.
+//!
+//! Further rows: the integrators through the generic [`System`] path (symplectic Euler,
+//! central difference, RK4), one RaISoV V-cycle over [`VCYCLE_LEVELS`] levels at node
+//! ratio [`VCYCLE_RATIO`] against one single-level step (cost ratio; the node-count ratio
+//! `Σ rⁱ` is the ideal), the membrane, the correspondence build of one level pair
+//! (≥ 1M-node fine level); and peak memory per node of the largest box, read right after the
+//! standard-work rows so that the larger hierarchy rows do not count.
 
 use crate::fem::{fast::BYTES_PER_TET, FemModel, FemParams};
 use crate::hierarchy::Correspondence;
-use crate::integrate::{Constraints, Method, State, System};
+use crate::integrate::{Constraints, Method, SingleLevel, State, Stepper, StepperParams, System};
 use crate::material::{Material, NeoHookean};
 use crate::mesh::generate::{box_tets_target, rectangle_membrane, BoxPattern};
 use crate::mesh::Mesh;
+use crate::multigrid::raisov::{Raisov, RaisovParams, Reading};
+use crate::multigrid::Level;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::time::Instant;
 
 /// Box size of the standard work (m).
 pub const BOX: [f64; 3] = [0.1, 0.04, 0.04];
+/// Levels and node ratio of the V-cycle cost row.
+pub const VCYCLE_LEVELS: usize = 4;
+pub const VCYCLE_RATIO: f64 = 0.5;
 /// Node-side bytes per node-step of the fused step, by design (see the module docs).
 pub const BYTES_PER_NODE_STEP: usize = 249;
 
@@ -367,6 +379,22 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
     if opts.standard_only {
         return Ok(rows);
     }
+    if let Some(hwm) = peak_memory() {
+        push(
+            Row {
+                case: "peak memory (VmHWM) per node of the largest box".into(),
+                nodes: largest,
+                value: Some(hwm as f64 / largest.max(1) as f64),
+                unit: "B/node",
+                note: format!(
+                    "VmHWM {:.1} MiB after the standard boxes, before the other rows",
+                    hwm as f64 / 1048576.0
+                ),
+                ..Default::default()
+            },
+            &mut rows,
+        );
+    }
     // Integrators through the generic System path, on the size nearest 100k.
     let isize = *opts
         .sizes
@@ -418,6 +446,91 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
                 );
             }
         }
+    }
+    // Multigrid: one RaISoV V-cycle against one single-level step (both symplectic Euler
+    // through System), 4 levels of the standard box at node ratio r = 0.5.
+    {
+        let mut meshes = Vec::with_capacity(VCYCLE_LEVELS);
+        for i in 0..VCYCLE_LEVELS {
+            meshes.push(standard_box(
+                (isize as f64 * VCYCLE_RATIO.powi(i as i32)).round() as usize,
+            )?);
+        }
+        let mut links = Vec::with_capacity(VCYCLE_LEVELS - 1);
+        for i in 0..VCYCLE_LEVELS - 1 {
+            links.push(Correspondence::build(&meshes[i], &meshes[i + 1])?);
+        }
+        let fine = StandardWork::new(&meshes[0])?;
+        let (nodes, tets) = (meshes[0].num_nodes(), meshes[0].num_elements());
+        let sizes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
+        let mut single = SingleLevel::new(
+            fine.system(&meshes[0])?,
+            Method::SymplecticEuler,
+            StepperParams {
+                dt: fine.dt,
+                kinetic_limit: f64::INFINITY,
+            },
+        );
+        let mut levels = Vec::with_capacity(VCYCLE_LEVELS);
+        for mesh in meshes {
+            let w = StandardWork::new(&mesh)?;
+            let sys = w.system(&mesh)?;
+            let m = standard_material();
+            let lambda_max = Material::NeoHookean(m).stability_modulus(mesh.kind) / 1000.0
+                * crate::scenario::max_gradient_sum(&mesh);
+            levels.push(Level::new(
+                mesh,
+                sys,
+                Method::SymplecticEuler,
+                fine.dt,
+                lambda_max,
+            ));
+        }
+        let h = levels[0].mesh.edge_range().0;
+        let mut cycle = Raisov::new(
+            levels,
+            links,
+            RaisovParams {
+                epsilon: 1e-3 * h,
+                reading: Reading::Correction,
+                kinetic_limit: f64::INFINITY,
+            },
+        );
+        let steps = steps_for(nodes, work / 4.0, 3);
+        let t = opts.threads.iter().copied().max().unwrap_or(1);
+        let (s1, sv) = pool(t)?.install(|| -> Result<(f64, f64)> {
+            let diverged = |d: crate::error::Divergence| Error::param("bench", d.to_string());
+            let go = |st: &mut dyn Stepper, k: usize| -> Result<()> {
+                for _ in 0..k {
+                    st.advance().map_err(diverged)?;
+                }
+                Ok(())
+            };
+            go(&mut single, steps.div_ceil(4))?;
+            go(&mut cycle, steps.div_ceil(4))?;
+            let s1 = best_of_3(|| go(&mut single, steps))?;
+            let sv = best_of_3(|| go(&mut cycle, steps))?;
+            Ok((s1, sv))
+        })?;
+        let ideal: f64 = sizes.iter().map(|&n| n as f64).sum::<f64>() / sizes[0] as f64;
+        push(
+            Row {
+                case: format!(
+                    "RaISoV V-cycle / single step ({VCYCLE_LEVELS} levels, r = {VCYCLE_RATIO})"
+                ),
+                nodes,
+                elements: tets,
+                threads: t,
+                precision: "f64",
+                value: Some(sv / s1),
+                unit: "x",
+                note: format!(
+                    "levels {sizes:?} nodes, node-count ratio {ideal:.3}; symplectic Euler (System)"
+                ),
+                ..Default::default()
+            },
+            &mut rows,
+        );
     }
     // Membrane, ~100k nodes (generic element path), same fused step.
     {
@@ -500,19 +613,6 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
                 value: Some(secs),
                 unit: "s",
                 note: format!("coarse {} nodes, single run", coarse.num_nodes()),
-                ..Default::default()
-            },
-            &mut rows,
-        );
-    }
-    if let Some(hwm) = peak_memory() {
-        push(
-            Row {
-                case: "peak memory (VmHWM) per node of the largest box".into(),
-                nodes: largest,
-                value: Some(hwm as f64 / largest.max(1) as f64),
-                unit: "B/node",
-                note: format!("VmHWM {:.1} MiB over the whole run", hwm as f64 / 1048576.0),
                 ..Default::default()
             },
             &mut rows,

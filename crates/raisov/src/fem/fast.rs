@@ -12,12 +12,17 @@
 //! `P = F S(C)` path (tested against [`super::FemModel::internal_forces_reference`]).
 //! `ln` is a branch-free `2 atanh` series (error below 2 ulp) so that the lane loop vectorises.
 //!
+//! Kernels (same operations, same bits): portable (`run_groups`, lane loops) and AVX2 + FMA
+//! intrinsics (`run_groups_avx2`), which splits the work over a block of `BLK` = 4 groups into
+//! three stages, (A) gather, `F`, `cof F`, `J`, (B) `b` (`ln J`, `1/J`), (C) `V0 P`, `H`,
+//! scatter, so that the independent groups of a block overlap in the core.
+//!
 //! Layout: elements packed in groups of [`LANES`] (structure of arrays inside a group:
-//! `Dm⁻¹` entries, volumes and corner ids lane-contiguous, 96 bytes per tetrahedron), sorted
-//! into slabs of equal element counts (by mean node id when the node numbering is banded,
-//! as for the structured boxes, so that a slab touches one contiguous stretch of `u` and
-//! `r`; else along the longest axis of the mesh) and, inside a slab, by the Morton key of
-//! the element centroid. Slabs are coloured greedily so that slabs of
+//! `Dm⁻¹` entries, volumes and corner offsets `3 × node id` lane-contiguous, 96 bytes per
+//! tetrahedron), sorted into slabs of equal element counts (by mean node id when the node
+//! numbering is banded, as for the structured boxes, so that a slab touches one contiguous
+//! stretch of `u` and `r`; else along the longest axis of the mesh) and, inside a slab, by
+//! the Morton key of the element centroid. Slabs are coloured greedily so that slabs of
 //! one colour share no node; the force pass runs colour by colour, the slabs of a colour in
 //! parallel, each slab scattering serially into `r`. Every node thus receives its element
 //! contributions in one fixed order (colour, then slab order, then element order) whatever
@@ -36,7 +41,7 @@ pub const BYTES_PER_TET: usize = std::mem::size_of::<Group>() / LANES;
 #[derive(Clone, Copy)]
 #[repr(C, align(64))]
 pub(crate) struct Group {
-    /// Corner node ids, `idx[corner][lane]`.
+    /// Offsets `3 × node id` of the corners into `u` and `r`, `idx[corner][lane]`.
     idx: [[u32; LANES]; 4],
     /// `Dm⁻¹` row-major, `dminv[3 r + c][lane]`.
     dminv: [L; 9],
@@ -83,6 +88,10 @@ impl TetPack {
     ) -> TetPack {
         let ne = vol.len();
         let n_nodes = x0.len() / 3;
+        assert!(
+            3 * n_nodes <= u32::MAX as usize,
+            "too many nodes for u32 offsets"
+        );
         // Centroids, bounding box, mean element extent per axis.
         let mut cen = vec![[0.0f64; 3]; ne];
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
@@ -242,7 +251,7 @@ impl TetPack {
                         None => (chunk[0] as usize, 0.0),
                     };
                     for k in 0..4 {
-                        g.idx[k][l] = cells[4 * e + k];
+                        g.idx[k][l] = 3 * cells[4 * e + k];
                     }
                     for r in 0..3 {
                         for c in 0..3 {
@@ -326,8 +335,10 @@ impl TetPack {
     }
 }
 
-/// 1 with AVX2 + FMA, else 0; `RAISOV_ISA=portable` forces 0 (for comparisons). An AVX-512
-/// variant (8 lanes, same bits) was measured no faster on Zen 4 and left out.
+/// 1 with AVX2 + FMA, else 0; `RAISOV_ISA=portable` forces 0 (for comparisons). AVX-512
+/// variants (8 lanes for all the arithmetic, or for stage B only; same bits) were measured
+/// no faster on Zen 4 and left out: the extra shuffles joining and splitting 4-lane halves
+/// cost what the halved arithmetic saves.
 fn detect_isa() -> u8 {
     #[cfg(target_arch = "x86_64")]
     let found =
@@ -347,218 +358,266 @@ struct SyncPtr(*mut f64);
 unsafe impl Send for SyncPtr {}
 unsafe impl Sync for SyncPtr {}
 
-/// The kernel written with AVX2 + FMA intrinsics, 4 lanes per group. Every floating-point
-/// operation is the one of [`run_groups`] in the same order (fused multiply-adds where it
-/// uses `mul_add`), so the bits are equal.
+/// Gather the 4 corners of one group as `[x; y; z]` vectors over its 4 lanes:
+/// `(cx, cy, cz)`, each `[__m256d; 4]` indexed by corner.
+#[cfg(target_arch = "x86_64")]
+macro_rules! gather4 {
+    ($up:expr, $g:expr) => {{
+        let zero = _mm256_setzero_pd();
+        let mut cx = [zero; 4];
+        let mut cy = [zero; 4];
+        let mut cz = [zero; 4];
+        for k in 0..4 {
+            let p = |l: usize| $up.add($g.idx[k][l] as usize);
+            let a = _mm256_insertf128_pd(
+                _mm256_castpd128_pd256(_mm_loadu_pd(p(0))),
+                _mm_loadu_pd(p(2)),
+                1,
+            );
+            let b = _mm256_insertf128_pd(
+                _mm256_castpd128_pd256(_mm_loadu_pd(p(1))),
+                _mm_loadu_pd(p(3)),
+                1,
+            );
+            cx[k] = _mm256_unpacklo_pd(a, b);
+            cy[k] = _mm256_unpackhi_pd(a, b);
+            let z01 = _mm_loadh_pd(_mm_load_sd(p(0).add(2)), p(1).add(2));
+            let z23 = _mm_loadh_pd(_mm_load_sd(p(2).add(2)), p(3).add(2));
+            cz[k] = _mm256_insertf128_pd(_mm256_castpd128_pd256(z01), z23, 1);
+        }
+        (cx, cy, cz)
+    }};
+}
+
+/// Scatter-add `h[corner][component]` (vectors over the 4 lanes of group `g`) into `r`,
+/// corner by corner, lane by lane (the order of [`run_groups`]).
+#[cfg(target_arch = "x86_64")]
+macro_rules! scatter4 {
+    ($r:expr, $g:expr, $h:expr) => {{
+        let h: [[__m256d; 3]; 4] = $h;
+        for k in 0..4 {
+            let lo = _mm256_unpacklo_pd(h[k][0], h[k][1]); // x0 y0 x2 y2
+            let hi = _mm256_unpackhi_pd(h[k][0], h[k][1]); // x1 y1 x3 y3
+            let xy = [
+                _mm256_castpd256_pd128(lo),
+                _mm256_castpd256_pd128(hi),
+                _mm256_extractf128_pd(lo, 1),
+                _mm256_extractf128_pd(hi, 1),
+            ];
+            let zl = _mm256_castpd256_pd128(h[k][2]);
+            let zh = _mm256_extractf128_pd(h[k][2], 1);
+            let zz = [zl, _mm_unpackhi_pd(zl, zl), zh, _mm_unpackhi_pd(zh, zh)];
+            for l in 0..LANES {
+                let q = $r.add($g.idx[k][l] as usize);
+                _mm_storeu_pd(q, _mm_add_pd(_mm_loadu_pd(q), xy[l]));
+                _mm_store_sd(q.add(2), _mm_add_sd(_mm_load_sd(q.add(2)), zz[l]));
+            }
+        }
+    }};
+}
+
+#[cfg(target_arch = "x86_64")]
+mod v4 {
+    use std::arch::x86_64::*;
+
+    /// `F` (row-major, 9) from `w[k][i] = Du_ik` and `Dm⁻¹` (row-major, 9).
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(super) unsafe fn def_grad(w: &[[__m256d; 3]; 3], d: &[__m256d; 9]) -> [__m256d; 9] {
+        let one = _mm256_set1_pd(1.0);
+        let fm = |i: usize, j: usize| {
+            _mm256_fmadd_pd(
+                w[2][i],
+                d[6 + j],
+                _mm256_fmadd_pd(w[1][i], d[3 + j], _mm256_mul_pd(w[0][i], d[j])),
+            )
+        };
+        [
+            _mm256_add_pd(one, fm(0, 0)),
+            fm(0, 1),
+            fm(0, 2),
+            fm(1, 0),
+            _mm256_add_pd(one, fm(1, 1)),
+            fm(1, 2),
+            fm(2, 0),
+            fm(2, 1),
+            _mm256_add_pd(one, fm(2, 2)),
+        ]
+    }
+
+    /// `cof F` (row-major) and `J = det F`.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(super) unsafe fn cof_det(f: &[__m256d; 9]) -> ([__m256d; 9], __m256d) {
+        let [f00, f01, f02, f10, f11, f12, f20, f21, f22] = *f;
+        let c = [
+            _mm256_fmsub_pd(f11, f22, _mm256_mul_pd(f12, f21)),
+            _mm256_fmsub_pd(f12, f20, _mm256_mul_pd(f10, f22)),
+            _mm256_fmsub_pd(f10, f21, _mm256_mul_pd(f11, f20)),
+            _mm256_fmsub_pd(f02, f21, _mm256_mul_pd(f01, f22)),
+            _mm256_fmsub_pd(f00, f22, _mm256_mul_pd(f02, f20)),
+            _mm256_fmsub_pd(f01, f20, _mm256_mul_pd(f00, f21)),
+            _mm256_fmsub_pd(f01, f12, _mm256_mul_pd(f02, f11)),
+            _mm256_fmsub_pd(f02, f10, _mm256_mul_pd(f00, f12)),
+            _mm256_fmsub_pd(f00, f11, _mm256_mul_pd(f01, f10)),
+        ];
+        let j = _mm256_fmadd_pd(
+            f02,
+            c[2],
+            _mm256_fmadd_pd(f01, c[1], _mm256_mul_pd(f00, c[0])),
+        );
+        (c, j)
+    }
+
+    /// `ln_series` without the exponent/mantissa split: `2 s + 2 s z p(z) + e ln 2`.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(super) unsafe fn ln_tail(s: __m256d, e: __m256d) -> __m256d {
+        let z = _mm256_mul_pd(s, s);
+        let cc = |i: usize| _mm256_set1_pd(super::LN_COEF[i]);
+        let z2 = _mm256_mul_pd(z, z);
+        let z4 = _mm256_mul_pd(z2, z2);
+        let z8 = _mm256_mul_pd(z4, z4);
+        let q0 = _mm256_fmadd_pd(cc(8), z, cc(9));
+        let q1 = _mm256_fmadd_pd(cc(6), z, cc(7));
+        let q2 = _mm256_fmadd_pd(cc(4), z, cc(5));
+        let q3 = _mm256_fmadd_pd(cc(2), z, cc(3));
+        let q4 = _mm256_fmadd_pd(cc(0), z, cc(1));
+        let r0 = _mm256_fmadd_pd(q1, z2, q0);
+        let r1 = _mm256_fmadd_pd(q3, z2, q2);
+        let pp = _mm256_fmadd_pd(q4, z8, _mm256_fmadd_pd(r1, z4, r0));
+        let two = _mm256_set1_pd(2.0);
+        let t = _mm256_mul_pd(_mm256_mul_pd(two, s), _mm256_mul_pd(pp, z));
+        _mm256_add_pd(
+            _mm256_mul_pd(e, _mm256_set1_pd(super::LN2_HI)),
+            _mm256_add_pd(
+                _mm256_mul_pd(two, s),
+                _mm256_add_pd(t, _mm256_mul_pd(e, _mm256_set1_pd(super::LN2_LO))),
+            ),
+        )
+    }
+
+    /// `H[corner][component]` from `V0 P = a F + b cof F` and `Dm⁻¹`.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(super) unsafe fn corner_forces(
+        f: &[__m256d; 9],
+        c: &[__m256d; 9],
+        a: __m256d,
+        b: __m256d,
+        d: &[__m256d; 9],
+    ) -> [[__m256d; 3]; 4] {
+        let mut p = [[_mm256_set1_pd(0.0); 3]; 3];
+        for i in 0..3 {
+            for jj in 0..3 {
+                p[i][jj] = _mm256_fmadd_pd(a, f[3 * i + jj], _mm256_mul_pd(b, c[3 * i + jj]));
+            }
+        }
+        let mut h = [[_mm256_set1_pd(0.0); 3]; 4];
+        for i in 0..3 {
+            let mut acc = _mm256_set1_pd(0.0);
+            for jj in 0..3 {
+                let hv = _mm256_fmadd_pd(
+                    p[i][2],
+                    d[3 * jj + 2],
+                    _mm256_fmadd_pd(p[i][1], d[3 * jj + 1], _mm256_mul_pd(p[i][0], d[3 * jj])),
+                );
+                h[jj + 1][i] = hv;
+                acc = _mm256_add_pd(acc, hv);
+            }
+            h[0][i] = _mm256_xor_pd(acc, _mm256_set1_pd(-0.0));
+        }
+        h
+    }
+
+    /// `(b, mask)`: `b = V0 (λ ln J − μ) / J` with `ln` as [`super::ln_series`], and the
+    /// lanes where `J > 0` as a bit mask.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(super) unsafe fn stress_factor(
+        j: __m256d,
+        v0: __m256d,
+        mu: f64,
+        lambda: f64,
+    ) -> (__m256d, i32) {
+        let one = _mm256_set1_pd(1.0);
+        let ok = _mm256_movemask_pd(_mm256_cmp_pd(j, _mm256_setzero_pd(), _CMP_GT_OQ));
+        let invj = _mm256_div_pd(one, j);
+        let bits = _mm256_castpd_si256(j);
+        let eb = _mm256_and_si256(_mm256_srli_epi64(bits, 52), _mm256_set1_epi64x(0x7ff));
+        let magic = _mm256_set1_pd(4503599627370496.0); // 2^52
+        let ef = _mm256_sub_pd(
+            _mm256_castsi256_pd(_mm256_or_si256(eb, _mm256_castpd_si256(magic))),
+            magic,
+        );
+        let m = _mm256_castsi256_pd(_mm256_or_si256(
+            _mm256_and_si256(bits, _mm256_set1_epi64x(0x000f_ffff_ffff_ffff)),
+            _mm256_set1_epi64x(0x3ff0_0000_0000_0000),
+        ));
+        let big = _mm256_cmp_pd(m, _mm256_set1_pd(std::f64::consts::SQRT_2), _CMP_GT_OQ);
+        let m = _mm256_blendv_pd(m, _mm256_mul_pd(_mm256_set1_pd(0.5), m), big);
+        let e = _mm256_add_pd(
+            _mm256_sub_pd(ef, _mm256_set1_pd(1023.0)),
+            _mm256_and_pd(big, one),
+        );
+        let s = _mm256_div_pd(_mm256_sub_pd(m, one), _mm256_add_pd(m, one));
+        let lnj = ln_tail(s, e);
+        let t = _mm256_sub_pd(
+            _mm256_mul_pd(_mm256_set1_pd(lambda), lnj),
+            _mm256_set1_pd(mu),
+        );
+        (_mm256_mul_pd(_mm256_mul_pd(v0, t), invj), ok)
+    }
+}
+
+/// Groups per block of the AVX2 kernel's loop fission.
+const BLK: usize = 4;
+
+/// The kernel with AVX2 + FMA intrinsics, 4 lanes per group, in three stages over a block
+/// of [`BLK`] groups (loop fission: each stage's dependency chain is long, the groups of a
+/// block are independent, so the core overlaps them): (A) gather, `F`, `cof F`, `J`;
+/// (B) `b = V0 (λ ln J − μ)/J`; (C) `V0 P`, `H`, scatter. Same operations as [`run_groups`],
+/// same bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: f64) -> bool {
     use std::arch::x86_64::*;
     let up = u.as_ptr();
-    macro_rules! add {
-        ($a:expr, $b:expr) => {
-            _mm256_add_pd($a, $b)
-        };
-    }
-    macro_rules! sub {
-        ($a:expr, $b:expr) => {
-            _mm256_sub_pd($a, $b)
-        };
-    }
-    macro_rules! mul {
-        ($a:expr, $b:expr) => {
-            _mm256_mul_pd($a, $b)
-        };
-    }
-    macro_rules! fma {
-        ($a:expr, $b:expr, $c:expr) => {
-            _mm256_fmadd_pd($a, $b, $c)
-        };
-    }
-    macro_rules! fms {
-        ($a:expr, $b:expr, $c:expr) => {
-            _mm256_fmsub_pd($a, $b, $c)
-        };
-    }
-    let one = _mm256_set1_pd(1.0);
     let zero = _mm256_setzero_pd();
     let vmu = _mm256_set1_pd(mu);
-    let vlam = _mm256_set1_pd(lambda);
-    let sign = _mm256_set1_pd(-0.0);
     let mut good = 0xf;
-    // Loop fission: the per-group dependency chain (gather → F → J → ln J → P → H → scatter)
-    // is longer than the out-of-order window covers, so stage 1 (through a, b) runs over a
-    // block of groups, then stage 2 (P, H, scatter): independent work for the core to overlap.
-    const BLK: usize = 8;
-    let mut stage = [[zero; 20]; BLK];
+    let mut fbuf = [[zero; 9]; BLK];
+    let mut cbuf = [[zero; 9]; BLK];
+    let mut jbuf = [zero; BLK];
+    let load9 = |g: &Group| -> [__m256d; 9] {
+        std::array::from_fn(|q| _mm256_loadu_pd(g.dminv[q].as_ptr()))
+    };
     for chunk in groups.chunks(BLK) {
-        for (qq, g) in chunk.iter().enumerate() {
-            // Gather corner displacements as [x; y; z] vectors over lanes.
-            let mut cx = [zero; 4];
-            let mut cy = [zero; 4];
-            let mut cz = [zero; 4];
-            for k in 0..4 {
-                let p = |l: usize| up.add(g.idx[k][l] as usize * 3);
-                let a = _mm256_insertf128_pd(
-                    _mm256_castpd128_pd256(_mm_loadu_pd(p(0))),
-                    _mm_loadu_pd(p(2)),
-                    1,
-                );
-                let b = _mm256_insertf128_pd(
-                    _mm256_castpd128_pd256(_mm_loadu_pd(p(1))),
-                    _mm_loadu_pd(p(3)),
-                    1,
-                );
-                cx[k] = _mm256_unpacklo_pd(a, b);
-                cy[k] = _mm256_unpackhi_pd(a, b);
-                let z01 = _mm_loadh_pd(_mm_load_sd(p(0).add(2)), p(1).add(2));
-                let z23 = _mm_loadh_pd(_mm_load_sd(p(2).add(2)), p(3).add(2));
-                cz[k] = _mm256_insertf128_pd(_mm256_castpd128_pd256(z01), z23, 1);
-            }
+        for (q, g) in chunk.iter().enumerate() {
+            let (cx, cy, cz) = gather4!(up, g);
             // w[k][i] = Du_ik = u_{k+1,i} − u_{0,i}
-            let w = [
-                [sub!(cx[1], cx[0]), sub!(cy[1], cy[0]), sub!(cz[1], cz[0])],
-                [sub!(cx[2], cx[0]), sub!(cy[2], cy[0]), sub!(cz[2], cz[0])],
-                [sub!(cx[3], cx[0]), sub!(cy[3], cy[0]), sub!(cz[3], cz[0])],
-            ];
-            let mut d = [zero; 9];
-            for q in 0..9 {
-                d[q] = _mm256_loadu_pd(g.dminv[q].as_ptr());
-            }
-            macro_rules! fm {
-                ($i:expr, $j:expr) => {
-                    fma!(
-                        w[2][$i],
-                        d[6 + $j],
-                        fma!(w[1][$i], d[3 + $j], mul!(w[0][$i], d[$j]))
-                    )
-                };
-            }
-            let f00 = add!(one, fm!(0, 0));
-            let f01 = fm!(0, 1);
-            let f02 = fm!(0, 2);
-            let f10 = fm!(1, 0);
-            let f11 = add!(one, fm!(1, 1));
-            let f12 = fm!(1, 2);
-            let f20 = fm!(2, 0);
-            let f21 = fm!(2, 1);
-            let f22 = add!(one, fm!(2, 2));
-            let c00 = fms!(f11, f22, mul!(f12, f21));
-            let c01 = fms!(f12, f20, mul!(f10, f22));
-            let c02 = fms!(f10, f21, mul!(f11, f20));
-            let c10 = fms!(f02, f21, mul!(f01, f22));
-            let c11 = fms!(f00, f22, mul!(f02, f20));
-            let c12 = fms!(f01, f20, mul!(f00, f21));
-            let c20 = fms!(f01, f12, mul!(f02, f11));
-            let c21 = fms!(f02, f10, mul!(f00, f12));
-            let c22 = fms!(f00, f11, mul!(f01, f10));
-            let j = fma!(f02, c02, fma!(f01, c01, mul!(f00, c00)));
-            good &= _mm256_movemask_pd(_mm256_cmp_pd(j, zero, _CMP_GT_OQ));
-            // 1/J off the critical path (overlaps ln J).
-            let invj = _mm256_div_pd(one, j);
-            // ln J, as ln_series.
-            let bits = _mm256_castpd_si256(j);
-            let eb = _mm256_and_si256(_mm256_srli_epi64(bits, 52), _mm256_set1_epi64x(0x7ff));
-            let magic = _mm256_set1_pd(4503599627370496.0); // 2^52
-            let ef = _mm256_sub_pd(
-                _mm256_castsi256_pd(_mm256_or_si256(eb, _mm256_castpd_si256(magic))),
-                magic,
-            );
-            let m = _mm256_castsi256_pd(_mm256_or_si256(
-                _mm256_and_si256(bits, _mm256_set1_epi64x(0x000f_ffff_ffff_ffff)),
-                _mm256_set1_epi64x(0x3ff0_0000_0000_0000),
-            ));
-            let big = _mm256_cmp_pd(m, _mm256_set1_pd(std::f64::consts::SQRT_2), _CMP_GT_OQ);
-            let m = _mm256_blendv_pd(m, mul!(_mm256_set1_pd(0.5), m), big);
-            let e = add!(sub!(ef, _mm256_set1_pd(1023.0)), _mm256_and_pd(big, one));
-            let s = _mm256_div_pd(sub!(m, one), add!(m, one));
-            let z = mul!(s, s);
-            // Estrin, as ln_series.
-            let cc = |i: usize| _mm256_set1_pd(LN_COEF[i]);
-            let z2 = mul!(z, z);
-            let z4 = mul!(z2, z2);
-            let z8 = mul!(z4, z4);
-            let q0 = fma!(cc(8), z, cc(9));
-            let q1 = fma!(cc(6), z, cc(7));
-            let q2 = fma!(cc(4), z, cc(5));
-            let q3 = fma!(cc(2), z, cc(3));
-            let q4 = fma!(cc(0), z, cc(1));
-            let r0 = fma!(q1, z2, q0);
-            let r1 = fma!(q3, z2, q2);
-            let pp = fma!(q4, z8, fma!(r1, z4, r0));
-            let two = _mm256_set1_pd(2.0);
-            let t = mul!(mul!(two, s), mul!(pp, z));
-            let lnj = add!(
-                mul!(e, _mm256_set1_pd(LN2_HI)),
-                add!(mul!(two, s), add!(t, mul!(e, _mm256_set1_pd(LN2_LO))))
-            );
-            let v0 = _mm256_loadu_pd(g.vol.as_ptr());
-            let a = mul!(vmu, v0);
-            let b = mul!(mul!(v0, sub!(mul!(vlam, lnj), vmu)), invj);
-            stage[qq] = [
-                f00, f01, f02, f10, f11, f12, f20, f21, f22, c00, c01, c02, c10, c11, c12, c20,
-                c21, c22, a, b,
-            ];
+            let w: [[__m256d; 3]; 3] = std::array::from_fn(|k| {
+                [
+                    _mm256_sub_pd(cx[k + 1], cx[0]),
+                    _mm256_sub_pd(cy[k + 1], cy[0]),
+                    _mm256_sub_pd(cz[k + 1], cz[0]),
+                ]
+            });
+            let f = v4::def_grad(&w, &load9(g));
+            let (c, j) = v4::cof_det(&f);
+            fbuf[q] = f;
+            cbuf[q] = c;
+            jbuf[q] = j;
         }
-        for (qq, g) in chunk.iter().enumerate() {
-            let [f00, f01, f02, f10, f11, f12, f20, f21, f22, c00, c01, c02, c10, c11, c12, c20, c21, c22, a, b] =
-                stage[qq];
-            let mut d = [zero; 9];
-            for q in 0..9 {
-                d[q] = _mm256_loadu_pd(g.dminv[q].as_ptr());
-            }
-            let p = [
-                [
-                    fma!(a, f00, mul!(b, c00)),
-                    fma!(a, f01, mul!(b, c01)),
-                    fma!(a, f02, mul!(b, c02)),
-                ],
-                [
-                    fma!(a, f10, mul!(b, c10)),
-                    fma!(a, f11, mul!(b, c11)),
-                    fma!(a, f12, mul!(b, c12)),
-                ],
-                [
-                    fma!(a, f20, mul!(b, c20)),
-                    fma!(a, f21, mul!(b, c21)),
-                    fma!(a, f22, mul!(b, c22)),
-                ],
-            ];
-            // h[corner][component]
-            let mut h = [[zero; 3]; 4];
-            for i in 0..3 {
-                let mut acc = zero;
-                for jj in 0..3 {
-                    let hv = fma!(
-                        p[i][2],
-                        d[3 * jj + 2],
-                        fma!(p[i][1], d[3 * jj + 1], mul!(p[i][0], d[3 * jj]))
-                    );
-                    h[jj + 1][i] = hv;
-                    acc = add!(acc, hv);
-                }
-                h[0][i] = _mm256_xor_pd(acc, sign);
-            }
-            // Transpose each corner to per-lane (x, y) pairs and z and scatter it, corner by
-            // corner, lane by lane (the order of run_groups).
-            for k in 0..4 {
-                let lo = _mm256_unpacklo_pd(h[k][0], h[k][1]); // x0 y0 x2 y2
-                let hi = _mm256_unpackhi_pd(h[k][0], h[k][1]); // x1 y1 x3 y3
-                let xy = [
-                    _mm256_castpd256_pd128(lo),
-                    _mm256_castpd256_pd128(hi),
-                    _mm256_extractf128_pd(lo, 1),
-                    _mm256_extractf128_pd(hi, 1),
-                ];
-                let zl = _mm256_castpd256_pd128(h[k][2]);
-                let zh = _mm256_extractf128_pd(h[k][2], 1);
-                let zz = [zl, _mm_unpackhi_pd(zl, zl), zh, _mm_unpackhi_pd(zh, zh)];
-                for l in 0..LANES {
-                    let q = r.add(g.idx[k][l] as usize * 3);
-                    _mm_storeu_pd(q, _mm_add_pd(_mm_loadu_pd(q), xy[l]));
-                    _mm_store_sd(q.add(2), _mm_add_sd(_mm_load_sd(q.add(2)), zz[l]));
-                }
-            }
+        for (q, g) in chunk.iter().enumerate() {
+            let (b, ok) = v4::stress_factor(jbuf[q], _mm256_loadu_pd(g.vol.as_ptr()), mu, lambda);
+            good &= ok;
+            jbuf[q] = b;
+        }
+        for (q, g) in chunk.iter().enumerate() {
+            let a = _mm256_mul_pd(vmu, _mm256_loadu_pd(g.vol.as_ptr()));
+            let h = v4::corner_forces(&fbuf[q], &cbuf[q], a, jbuf[q], &load9(g));
+            scatter4!(r, g, h);
         }
     }
     good == 0xf
@@ -618,14 +677,14 @@ unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: 
         // Gather Du[corner-1][component][lane].
         let mut du = [[[0.0f64; LANES]; 3]; 3];
         for l in 0..LANES {
-            let n0 = g.idx[0][l] as usize * 3;
+            let n0 = g.idx[0][l] as usize;
             let (a0, b0, c0) = (
                 *u.get_unchecked(n0),
                 *u.get_unchecked(n0 + 1),
                 *u.get_unchecked(n0 + 2),
             );
             for k in 0..3 {
-                let n = g.idx[k + 1][l] as usize * 3;
+                let n = g.idx[k + 1][l] as usize;
                 du[k][0][l] = *u.get_unchecked(n) - a0;
                 du[k][1][l] = *u.get_unchecked(n + 1) - b0;
                 du[k][2][l] = *u.get_unchecked(n + 2) - c0;
@@ -698,7 +757,7 @@ unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: 
         }
         for k in 0..4 {
             for l in 0..LANES {
-                let n = g.idx[k][l] as usize * 3;
+                let n = g.idx[k][l] as usize;
                 *r.add(n) += h[k][0][l];
                 *r.add(n + 1) += h[k][1][l];
                 *r.add(n + 2) += h[k][2][l];

@@ -213,28 +213,17 @@ fn cmd_run(scenario: Option<PathBuf>, out: Option<PathBuf>, quiet: bool) -> Resu
     };
     let mut stepper = sc.stepper()?;
     eprint!("{}", stepper.report());
-    if sc.interactive.is_some() {
-        let res = raisov::scenario::interactive::run_interactive(
-            &sc,
-            stepper.as_mut(),
-            RunOptions {
-                out_dir: out,
-                progress: Some(&mut progress),
-            },
-        );
-        bar.finish_and_clear();
-        let summary = res.with_context(|| format!("interactive run of {} stopped", sc.name))?;
-        println!("{summary}");
-        return Ok(());
-    }
-    let res = run_with(
-        &sc,
-        stepper.as_mut(),
-        RunOptions {
-            out_dir: out,
-            progress: Some(&mut progress),
-        },
-    );
+    let opts = RunOptions {
+        out_dir: out,
+        progress: Some(&mut progress),
+    };
+    // An [interactive] scenario plays its paths frame by frame; any other runs in time.
+    let res = if sc.interactive.is_some() {
+        raisov::scenario::interactive::run_interactive(&sc, stepper.as_mut(), opts)
+            .map(|s| s.to_string())
+    } else {
+        run_with(&sc, stepper.as_mut(), opts).map(|s| s.to_string())
+    };
     bar.finish_and_clear();
     let summary = res.with_context(|| format!("run of {} stopped", sc.name))?;
     println!("{summary}");

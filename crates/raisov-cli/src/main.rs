@@ -320,6 +320,9 @@ fn cmd_check(path: &Path) -> Result<()> {
         sc.dt_critical_estimate
     );
     println!("stop          {:?}", sc.stop);
+    if let Some(i) = &sc.interactive {
+        println!("interactive   {i:?}");
+    }
     let stepper = sc.stepper()?;
     println!("stepping      {}", stepper.describe());
     print!("{}", stepper.report());

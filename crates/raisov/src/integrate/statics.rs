@@ -55,12 +55,12 @@ fn potential(sys: &System, u: &[f64]) -> f64 {
 }
 
 /// Per-node fictitious masses `D_a = Σ_{e∋a} c² G_e ρ|e|/npe` (dynamic relaxation's, Underwood
-/// 1983): the element bound `K_e ≤ c² G_e M_e` ([`crate::scenario::gradient_sums`]) summed at
+/// 1983): the element bound `K_e ≤ c² G_e M_e` ([`crate::fem::gradient_sums`]) summed at
 /// the node, so `λ_max(D⁻¹K) ≤ 1` at small strain; `c² = λ_max / max_e G_e`, `ρ` the mass over
 /// the measure (one material). A node in no element keeps `λ_max m_a`. As a diagonal
 /// preconditioner it equilibrates meshes with slivers, where `M` alone does not.
 pub fn fictitious_mass(mesh: &crate::mesh::Mesh, mass: &[f64], lambda_max: f64) -> Vec<f64> {
-    let g = crate::scenario::gradient_sums(mesh);
+    let g = crate::fem::gradient_sums(mesh);
     let gmax = g.iter().fold(0.0f64, |a, &b| a.max(b));
     let c2 = if gmax > 0.0 { lambda_max / gmax } else { 0.0 };
     let npe = mesh.kind.nodes_per_element();

@@ -74,7 +74,7 @@ pub enum Scaling {
     /// high-frequency modes fall below the smoothing interval.
     Mass,
     /// Per-node fictitious masses (dynamic relaxation's, Underwood 1983): `D_a = Σ_{e∋a} c² G_e
-    /// M_e,a`, the element-wise bound `K_e ≤ c² G_e M_e` ([`crate::scenario::gradient_sums`])
+    /// M_e,a`, the element-wise bound `K_e ≤ c² G_e M_e` ([`crate::fem::gradient_sums`])
     /// summed at the node, so that `λ_max(D⁻¹K) ≤ 1` at small strain and every node smooths at
     /// its own stable step (a Jacobi-type smoother). Equal to `λ_max M` on uniform meshes.
     Fictitious,
@@ -162,7 +162,7 @@ pub struct Fas {
     bound: Vec<f64>,
     /// Chebyshev direction per level.
     d: Vec<Vec<f64>>,
-    /// Power-iteration estimate of λ_max(M⁻¹K) per level (0 = not yet estimated).
+    /// Power-iteration estimate of λ_max(D⁻¹K) per level (0 = not yet estimated).
     lambda: Vec<f64>,
     /// State saved before smoothing, to fall back from an inverting Chebyshev sweep.
     saved: Vec<Vec<f64>>,
@@ -172,7 +172,8 @@ pub struct Fas {
     visits: Vec<u64>,
     /// Coarse corrections dropped because even 1/32 of them would invert a fine element.
     pub dropped_corrections: u64,
-    /// Coarse visits skipped because the restricted state inverted a coarse element.
+    /// Coarse visits skipped because both `R u_f` and the coarse level's last solution
+    /// inverted a coarse element.
     pub skipped_coarse: u64,
     /// Coarse visits that failed (an element inverted on a coarser level): no correction.
     pub failed_coarse: u64,
@@ -181,7 +182,7 @@ pub struct Fas {
     /// inverted a coarse element.
     pub own_base: u64,
     /// The coarse level and element of the last restriction that inverted.
-    last_skip: Option<(usize, ElementFailure)>,
+    last_inverting_restriction: Option<(usize, ElementFailure)>,
     newton: Option<NewtonSolver>,
     steps: u64,
 }
@@ -242,7 +243,7 @@ fn estimate_lambda_max(
         let xkx: f64 = x.iter().zip(y.iter()).map(|(a, b)| a * b).sum();
         let xmx: f64 = (0..n).map(|i| diag[i / 3] * x[i] * x[i]).sum();
         lambda = xkx / xmx;
-        // x <- M⁻¹ K x, normalised
+        // x <- D⁻¹ K x, normalised
         let mut norm = 0.0f64;
         for i in 0..n {
             x[i] = y[i] / diag[i / 3];
@@ -257,11 +258,6 @@ fn estimate_lambda_max(
     } else {
         bound
     })
-}
-
-/// Per-node fictitious masses of a level (see [`Scaling::Fictitious`]).
-fn fictitious_mass(lv: &Level) -> Vec<f64> {
-    crate::integrate::statics::fictitious_mass(&lv.mesh, &lv.sys.mass, lv.lambda_max)
 }
 
 fn diverged(step: u64, time: f64, f: ElementFailure) -> Divergence {
@@ -312,7 +308,10 @@ impl Fas {
             .iter()
             .map(|l| match scaling {
                 Scaling::Mass => (l.sys.mass.clone(), l.lambda_max),
-                Scaling::Fictitious => (fictitious_mass(l), 1.0),
+                Scaling::Fictitious => (
+                    crate::integrate::statics::fictitious_mass(&l.mesh, &l.sys.mass, l.lambda_max),
+                    1.0,
+                ),
             })
             .unzip();
         Fas {
@@ -341,7 +340,7 @@ impl Fas {
             visits: vec![u64::MAX; levels.len()],
             dropped_corrections: 0,
             skipped_coarse: 0,
-            last_skip: None,
+            last_inverting_restriction: None,
             own_base: 0,
             failed_coarse: 0,
             last_coarse_failure: None,
@@ -390,7 +389,7 @@ impl Fas {
             Ok(()) => {}
             Err(_) => {
                 // Large residuals (a sudden lift) can make the long Chebyshev steps invert an
-                // element: restore and take the conservative damped-Jacobi steps u += r/(M b).
+                // element: restore and take the conservative damped-Jacobi steps u += r/(D b).
                 self.fallbacks += 1;
                 lv.state.u.copy_from_slice(&self.saved[l]);
                 let mut b_safe = 4.0 * b.max(stretch * self.bound[l]);
@@ -419,7 +418,8 @@ impl Fas {
 }
 
 /// `iterations` Chebyshev sweeps for `R(u) = F` with preconditioner `D⁻¹` (`diag`, per node)
-/// over `[b/ratio, b]` (Saad, Alg. 12.1); `ratio = 1` is damped Jacobi `u += r / (D b)`. Uses `r`, `d` as scratch.
+/// over `[b/ratio, b]` (Saad, Alg. 12.1); `ratio = 1` is damped Jacobi `u += r / (D b)`.
+/// Uses `r`, `d` as scratch.
 fn chebyshev_sweeps(
     lv: &mut Level,
     diag: &[f64],
@@ -546,7 +546,7 @@ impl Fas {
             let fc = &mut c.sys.f_ext;
             c.evaluations += 1;
             if let Err(e) = c.sys.force.internal_forces(&self.u0[l + 1], fc) {
-                self.last_skip = Some((l + 1, e));
+                self.last_inverting_restriction = Some((l + 1, e));
                 self.u0[l + 1].copy_from_slice(&c.state.u);
                 c.evaluations += 1;
                 if c.sys.force.internal_forces(&self.u0[l + 1], fc).is_err() {
@@ -571,7 +571,7 @@ impl Fas {
                 .expect("sizes match");
         }
         if let Err(d) = self.visit(l + 1, t) {
-            // A coarse level that inverts an element cannot divergence the run: that cycle has
+            // A coarse level that inverts an element must not stop the run: that cycle has
             // no coarse correction on this level (the fine level is untouched so far).
             self.failed_coarse += 1;
             self.last_coarse_failure = Some(d.to_string());
@@ -637,9 +637,9 @@ impl Fas {
 }
 
 impl Stepper for Fas {
-    /// Level 0 only: coarse levels hold their constrained nodes at the restricted values.
+    /// Level 0 only: coarse levels carry no prescribed points (see the module docs).
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
-        super::hold_on_levels(&mut self.levels, values, false);
+        crate::integrate::hold(&mut self.levels[0].sys.constraints, values);
     }
     fn advance(&mut self) -> Result<(), Divergence> {
         let t0 = self.levels[0].state.t;
@@ -686,7 +686,7 @@ impl Stepper for Fas {
         Some(
             format!(
                 "{} coarse visits from the coarse level's last solution (R u_f inverted a coarse \
-             element), {} skipped, {} coarse corrections dropped (would invert a fine element), \
+             element), {} skipped, {} coarse corrections dropped (no descent, or inverting a fine element), \
              {} smoothing sweeps fell back to Jacobi steps, {} coarse visits failed{}",
                 self.own_base,
                 self.skipped_coarse,
@@ -697,7 +697,7 @@ impl Stepper for Fas {
                     Some(d) => format!(" (last: {d})"),
                     None => String::new(),
                 }
-            ) + &match self.last_skip {
+            ) + &match self.last_inverting_restriction {
                 Some((l, e)) => format!(
                     "; last inverting restriction: level {l}, element {} (det F = {:.3e})",
                     e.element, e.det_f

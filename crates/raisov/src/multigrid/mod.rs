@@ -82,13 +82,10 @@ pub fn finest_equivalent_evaluations(levels: &[Level]) -> f64 {
         .sum()
 }
 
-/// Hold level 0's `k`-th prescribed node at `values[k]`; with `coarse`, also the node of each
-/// coarser level that carries it (the nearest node to its reference position, section 3.1).
-pub(crate) fn hold_on_levels(levels: &mut [Level], values: &[[f64; 3]], coarse: bool) {
+/// Hold level 0's `k`-th prescribed node at `values[k]`, and the node of each coarser level
+/// that carries it (the nearest node to its reference position, section 3.1).
+pub(crate) fn hold_on_levels(levels: &mut [Level], values: &[[f64; 3]]) {
     crate::integrate::hold(&mut levels[0].sys.constraints, values);
-    if !coarse {
-        return;
-    }
     let points: Vec<[f64; 3]> = levels[0]
         .sys
         .constraints

@@ -186,7 +186,7 @@ impl Raisov {
 
 impl Stepper for Raisov {
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
-        super::hold_on_levels(&mut self.levels, values, true);
+        super::hold_on_levels(&mut self.levels, values);
     }
     fn advance(&mut self) -> Result<(), Divergence> {
         self.cycle()?;

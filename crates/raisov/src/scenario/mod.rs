@@ -377,37 +377,9 @@ pub fn critical_step_estimate(
 
 /// `max_e npe Σ_a |∇N_a|²` over the elements (1/m²).
 pub fn max_gradient_sum(mesh: &Mesh) -> f64 {
-    gradient_sums(mesh).into_iter().fold(0.0, f64::max)
-}
-
-/// Per element `G_e = npe Σ_a |∇N_a|²` (1/m²; 0 for a degenerate element): the element's
-/// small-strain stiffness is bounded by `c² G_e` times its lumped mass, `K_e ≤ c² G_e M_e`.
-pub fn gradient_sums(mesh: &Mesh) -> Vec<f64> {
-    use crate::fem::{membrane_frame, tet_dm_inverse};
-    (0..mesh.num_elements())
-        .map(|e| {
-            let p = mesh.element_points(e);
-            // Rows of Dm⁻¹ are ∇N_1.. ; ∇N_0 = −Σ.
-            match mesh.kind {
-                ElementKind::Tet4 => match tet_dm_inverse(&p) {
-                    Some((inv, _)) => {
-                        let g0 = -(inv.row(0) + inv.row(1) + inv.row(2));
-                        4.0 * (g0.norm_squared()
-                            + (0..3).map(|i| inv.row(i).norm_squared()).sum::<f64>())
-                    }
-                    None => 0.0,
-                },
-                ElementKind::Tri3 => match membrane_frame(&p) {
-                    Some((inv, _, _)) => {
-                        let g0 = -(inv.row(0) + inv.row(1));
-                        3.0 * (g0.norm_squared()
-                            + (0..2).map(|i| inv.row(i).norm_squared()).sum::<f64>())
-                    }
-                    None => 0.0,
-                },
-            }
-        })
-        .collect()
+    crate::fem::gradient_sums(mesh)
+        .into_iter()
+        .fold(0.0, f64::max)
 }
 
 /// Smallest element altitude: tets `3V / max face area`, triangles `2A / max edge`.

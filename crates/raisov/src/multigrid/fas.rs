@@ -32,6 +32,28 @@
 //! - a coarse level that fails (an inverted element) gives no correction that cycle, and the
 //!   run goes on; [`Stepper::diagnostics`] counts each of these events.
 //!
+//! **Krylov acceleration** (`FasParams::krylov`, default; Chebyshev smoother only). On
+//! independent, non-nested meshes the coarse levels do not reproduce the fine operator (their
+//! boundaries differ by an element, coarser linear tetrahedra lock more, the coarsest solve is
+//! partial): on the liver levels the line search wanted 3–4 times each coarse correction, and
+//! plain V-cycles reduced the residual by about 1.2x per thousands of cycles. So each cycle is
+//! used as the preconditioner of a nonlinear conjugate-gradient step (Polak–Ribière) on the fine
+//! potential energy `Π`, whose gradient is `−r`:
+//!
+//! ```text
+//! z_k = V(u_k) − u_k                          (one V-cycle: the preconditioned residual)
+//! β_k = max(0, z_k·(r_k − r_{k−1}) / (z_{k−1}·r_{k−1})),   p_k = z_k + β_k p_{k−1}
+//! u_{k+1} = u_k + s p_k,   s from the secant line search on Π along p_k (at most 10)
+//! ```
+//!
+//! With `β = 0` and `s = 1` this is the plain cycle. A direction that does not descend
+//! (`r_k·p_k ≤ 0`) restarts the recurrence from the plain cycle's result; a new prescribed
+//! value ([`Stepper::hold_prescribed`]) restarts it too. The fixed point is unchanged (at
+//! `r = 0`, `z = 0`). Cost: one fine residual and one or two line-search evaluations more per
+//! cycle. Liver L1/L2/L3 under gravity: residual 4e-7 N after 16k fine force evaluations; the
+//! plain cycles were at 0.11 N after 2.5k and single-level symplectic Euler at 6e-4 N after
+//! 53k.
+//!
 //! Coarse levels hold their *fixed* nodes at the restricted values (the correction is zero
 //! there) and leave prescribed points free: a grasp is a fine-level feature, and pinning the
 //! nearest coarse node would zero the correction where the error is largest; level 0 keeps its
@@ -103,6 +125,11 @@ pub enum TransferWeights {
     Convex,
 }
 
+/// Longest step `s` of the line searches along a coarse correction `P e` (in units of `P e`)
+/// and along a conjugate direction. Coarse levels are stiffer than the fine one, so the best
+/// step along `P e` is often 2–4.
+const MAX_CORRECTION_STEP: f64 = 10.0;
+
 /// Parameters of the FAS cycle.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FasParams {
@@ -119,6 +146,11 @@ pub struct FasParams {
     pub smoother: Smoother,
     /// Transfer weights. Default [`TransferWeights::Convex`].
     pub weights: TransferWeights,
+    /// Use each V-cycle as the preconditioner of a nonlinear conjugate-gradient step on the
+    /// fine potential energy ([`Fas`] docs, "Krylov acceleration"); Chebyshev smoother only.
+    /// Default true (liver L1/L2/L3 under gravity: residual 4e-7 N in 16k force evaluations,
+    /// against 0.11 N after 2.5k and a rate of about 1.2x per 3.5k cycles without).
+    pub krylov: bool,
     /// Kinetic-energy ceiling of the finest level (J), for divergence detection.
     pub kinetic_limit: f64,
 }
@@ -138,6 +170,7 @@ impl Default for FasParams {
                 scaling: Scaling::Fictitious,
             },
             weights: TransferWeights::Convex,
+            krylov: true,
             kinetic_limit: f64::INFINITY,
         }
     }
@@ -185,6 +218,12 @@ pub struct Fas {
     last_inverting_restriction: Option<(usize, ElementFailure)>,
     newton: Option<NewtonSolver>,
     steps: u64,
+    /// Nonlinear-CG acceleration state: u_k, r_k, previous direction, z·r of the last cycle.
+    kry_u: Vec<f64>,
+    kry_r: Vec<f64>,
+    kry_p: Vec<f64>,
+    kry_rprev: Vec<f64>,
+    kry_zr: f64,
 }
 
 /// Cycles between re-estimates of the finest level's λ_max.
@@ -288,6 +327,7 @@ impl Fas {
             l.sys.constraints = Constraints::new(vec![], held).with_nodes(l.num_nodes());
         }
         let m = levels.len();
+        let n0 = 3 * levels[0].num_nodes();
         let newton = match params.coarse {
             CoarseSolve::Newton { .. } => Some(NewtonSolver::new(&levels[m - 1].sys)),
             _ => None,
@@ -349,6 +389,11 @@ impl Fas {
             params,
             newton,
             steps: 0,
+            kry_u: vec![0.0; n0],
+            kry_r: vec![0.0; n0],
+            kry_p: vec![0.0; n0],
+            kry_rprev: vec![0.0; n0],
+            kry_zr: 0.0,
         }
     }
 
@@ -599,6 +644,8 @@ impl Fas {
             self.saved[l].copy_from_slice(&f.state.u);
             let mut s = if g0 > 0.0 { 1.0 } else { 0.0 };
             let mut searched = false;
+            // The last valid step when trying a longer one.
+            let mut fallback: Option<f64> = None;
             while s > 0.0 {
                 for k in 0..pe.len() {
                     f.state.u[k] = self.saved[l][k] + s * pe[k];
@@ -610,17 +657,30 @@ impl Fas {
                     }
                     searched = true;
                     let gs: f64 = self.r[l].iter().zip(pe.iter()).map(|(a, b)| a * b).sum();
-                    // Π'(0) = −g0 < 0, Π'(s) = −gs: the secant's zero, kept in (0, s].
+                    // Π'(0) = −g0 < 0, Π'(s) = −gs: the secant's zero, in (0, S_MAX]. Coarse
+                    // levels are stiffer than the fine one (coarser linear tetrahedra lock, and
+                    // their coarsest solve is partial), so the best step is often well above 1.
                     let s_opt = if g0 - gs > 0.0 {
-                        s * (g0 / (g0 - gs)).min(1.0)
+                        (s * g0 / (g0 - gs)).min(MAX_CORRECTION_STEP)
                     } else {
                         s
                     };
-                    if s_opt >= 0.8 * s {
+                    if (s_opt - s).abs() <= 0.2 * s {
                         break;
+                    }
+                    if s_opt > s {
+                        fallback = Some(s);
                     }
                     s = s_opt;
                     continue;
+                }
+                if let Some(good) = fallback.take() {
+                    // The longer step inverts an element: take the last valid one.
+                    s = good;
+                    for k in 0..pe.len() {
+                        f.state.u[k] = self.saved[l][k] + s * pe[k];
+                    }
+                    break;
                 }
                 s *= 0.5;
                 if s < 0.04 {
@@ -636,10 +696,113 @@ impl Fas {
     }
 }
 
+impl Fas {
+    /// One V-cycle used as the preconditioner of a nonlinear conjugate-gradient step on the
+    /// fine potential energy (Polak-Ribière): `z = V(u) − u`, `p = z + β p_prev`,
+    /// `β = max(0, z·(r − r_prev) / (z_prev·r_prev))`, then a secant line search along `p`.
+    fn krylov_cycle(&mut self, t: f64) -> Result<(), Divergence> {
+        let step_no = self.steps + 1;
+        let n = self.levels[0].state.u.len();
+        {
+            let f = &mut self.levels[0];
+            self.kry_u.copy_from_slice(&f.state.u);
+            f.sys
+                .residual(&f.state.u, &mut self.kry_r)
+                .map_err(|e| diverged(step_no, t, e))?;
+            f.evaluations += 1;
+        }
+        self.visit(0, t)?;
+        let f = &mut self.levels[0];
+        // z = V(u) − u into the scratch d[0].
+        let z = &mut self.d[0];
+        for k in 0..n {
+            z[k] = f.state.u[k] - self.kry_u[k];
+        }
+        f.sys.constraints.zero_constrained(z);
+        let zr: f64 = z.iter().zip(&self.kry_r).map(|(a, b)| a * b).sum();
+        let mut beta = 0.0;
+        if self.kry_zr > 0.0 {
+            let num: f64 = (0..n)
+                .map(|k| z[k] * (self.kry_r[k] - self.kry_rprev[k]))
+                .sum();
+            beta = (num / self.kry_zr).max(0.0);
+        }
+        for k in 0..n {
+            self.kry_p[k] = z[k] + beta * self.kry_p[k];
+        }
+        let p = &self.kry_p;
+        let mut g0: f64 = p.iter().zip(&self.kry_r).map(|(a, b)| a * b).sum();
+        if g0 <= 0.0 || zr <= 0.0 {
+            // Not a descent direction: restart from the plain cycle's result.
+            self.kry_zr = 0.0;
+            self.kry_p.iter_mut().for_each(|x| *x = 0.0);
+            return Ok(());
+        }
+        if beta == 0.0 {
+            g0 = zr;
+        }
+        self.kry_rprev.copy_from_slice(&self.kry_r);
+        self.kry_zr = zr;
+        // Secant line search from u_k along p; s = 1 with β = 0 is the plain cycle.
+        let r = &mut self.r[0];
+        let mut s = 1.0;
+        let mut tried_long = false;
+        let mut ok_at: Option<f64> = None;
+        loop {
+            for k in 0..n {
+                f.state.u[k] = self.kry_u[k] + s * p[k];
+            }
+            f.evaluations += 1;
+            match f.sys.residual(&f.state.u, r) {
+                Ok(_) => {
+                    if ok_at.is_some() || tried_long {
+                        break;
+                    }
+                    ok_at = Some(s);
+                    let gs: f64 = r.iter().zip(p).map(|(a, b)| a * b).sum();
+                    let s_opt = if g0 - gs > 0.0 {
+                        (s * g0 / (g0 - gs)).min(MAX_CORRECTION_STEP)
+                    } else {
+                        s
+                    };
+                    if (s_opt - s).abs() <= 0.2 * s {
+                        break;
+                    }
+                    tried_long = s_opt > s;
+                    s = s_opt;
+                }
+                Err(_) => {
+                    if let (Some(good), true) = (ok_at, tried_long) {
+                        s = good;
+                        for k in 0..n {
+                            f.state.u[k] = self.kry_u[k] + s * p[k];
+                        }
+                        break;
+                    }
+                    s *= 0.5;
+                    if s < 1e-3 {
+                        // Give up the acceleration this cycle: back to u_k plus z.
+                        for k in 0..n {
+                            f.state.u[k] = self.kry_u[k] + self.d[0][k];
+                        }
+                        self.kry_zr = 0.0;
+                        self.kry_p.iter_mut().for_each(|x| *x = 0.0);
+                        break;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Stepper for Fas {
     /// Level 0 only: coarse levels carry no prescribed points (see the module docs).
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
         crate::integrate::hold(&mut self.levels[0].sys.constraints, values);
+        // A new problem: restart the conjugate directions.
+        self.kry_zr = 0.0;
+        self.kry_p.iter_mut().for_each(|x| *x = 0.0);
     }
     fn advance(&mut self) -> Result<(), Divergence> {
         let t0 = self.levels[0].state.t;
@@ -658,6 +821,8 @@ impl Stepper for Fas {
         };
         if self.levels.len() == 1 {
             self.coarsest(0, t)?;
+        } else if self.params.krylov && matches!(self.params.smoother, Smoother::Chebyshev { .. }) {
+            self.krylov_cycle(t)?;
         } else {
             self.visit(0, t)?;
         }

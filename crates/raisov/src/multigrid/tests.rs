@@ -157,3 +157,83 @@ fn fas_converges_to_slim_equilibrium() {
         );
     }
 }
+
+/// A soft tetrahedral beam clamped at x = 0 and sagging under gravity, over three independent
+/// generated levels, solved by FAS with `accelerate`.
+fn sagging_beam_fas(accelerate: &str) -> Scenario {
+    let text = format!(
+        r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "box"
+size = [0.1, 0.03, 0.03]
+nodes = 400
+[material]
+law = "neo-hookean"
+young = 5000.0
+poisson = 0.45
+density = 1060.0
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
+[integrator]
+method = "symplectic-euler"
+[run]
+duration = 1.0
+[multigrid]
+scheme = "fas"
+levels = 3
+accelerate = "{accelerate}"
+"#
+    );
+    Scenario::from_toml(&text, Path::new("beam-fas.toml")).unwrap()
+}
+
+/// The V-cycle as the preconditioner of nonlinear CG (`accelerate = "cg"`, the default) needs
+/// at most 3/4 of the cycles of plain V-cycles to bring the residual of a large-deflection sag
+/// (soft beam, ν = 0.45) below 1e-8 of its start (measured 44 against 74), and both reach the
+/// same equilibrium. The gain is larger on non-nested levels (the liver: a slow test).
+#[test]
+fn cg_acceleration_saves_fas_cycles_on_a_sagging_beam() {
+    let mut cycles = Vec::new();
+    let mut finals = Vec::new();
+    for acc in ["cg", "none"] {
+        let sc = sagging_beam_fas(acc);
+        let mut st = sc.stepper().unwrap();
+        let r0 = {
+            let (sys, s) = st.finest();
+            let mut r = vec![0.0; s.u.len()];
+            let u = s.u.clone();
+            sys.residual(&u, &mut r).unwrap()
+        };
+        let mut k = 0;
+        loop {
+            st.advance().unwrap();
+            k += 1;
+            let (sys, s) = st.finest();
+            let mut r = vec![0.0; s.u.len()];
+            let u = s.u.clone();
+            if sys.residual(&u, &mut r).unwrap() < 1e-8 * r0 || k == 2000 {
+                finals.push(u);
+                break;
+            }
+        }
+        cycles.push(k);
+    }
+    assert!(cycles[0] < 2000, "cg: no convergence in 2000 cycles");
+    assert!(
+        4 * cycles[0] <= 3 * cycles[1],
+        "cg {} cycles, plain {} cycles",
+        cycles[0],
+        cycles[1]
+    );
+    let scale = finals[1].iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    let diff = finals[0]
+        .iter()
+        .zip(&finals[1])
+        .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+    assert!(scale > 1e-3, "the beam should sag by millimetres: {scale}");
+    assert!(
+        diff < 1e-6 * scale,
+        "cg and plain cycles differ by {diff:e}"
+    );
+}

@@ -41,6 +41,13 @@ poisson = 0.45
 density = 1060.0
 "#;
 
+/// How the liver is held: the cap of its top, z ≥ 195 mm in the mesh's millimetres (249 / 127 /
+/// 72 / 43 nodes on L0 / L1 / L2 / L3, a patch about 100 × 60 mm). A plane at z ≥ 199.5 mm held
+/// only 10 / 4 / 3 / 1 nodes, so the organ hung from points, differently on every level, and
+/// single-level integration inverted an element near them under gravity.
+pub const LIVER_FIX: &str =
+    "[[fix]]\nplane = { point = [0.0, 0.0, 0.195], normal = [0.0, 0.0, -1.0] }\n";
+
 /// Damping ratio 1 at the frequency of the lowest shear mode of a body of size `l` (m),
 /// `ω = π √2 c_s / l` with `c_s = √(μ/ρ)` for [`TISSUE_MATERIAL`], the same rule as the
 /// membrane's ω.

@@ -634,7 +634,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
                     },
                     top: "gravity = [0.0, 0.0, -9.81]\n".into(),
                     physics: format!(
-                        "{TISSUE_MATERIAL}\n[damping]\nratio = 1.0\nomega = {:.2}\n\n[[fix]]\nplane = {{ point = [0.0, 0.0, 0.1995], normal = [0.0, 0.0, -1.0] }}\n",
+                        "{TISSUE_MATERIAL}\n[damping]\nratio = 1.0\nomega = {:.2}\n\n{LIVER_FIX}",
                         tissue_omega(0.15)
                     ),
                     duration: 10.0,

@@ -132,9 +132,12 @@ fn probe_references() {
             .collect();
         let case = Case {
             name: "liver".into(),
-            mesh: MeshDesc::Files { files, scale: 0.001 },
+            mesh: MeshDesc::Files {
+                files,
+                scale: 0.001,
+            },
             top: "gravity = [0.0, 0.0, -9.81]\n".into(),
-            physics: format!("{TISSUE_MATERIAL}\n[[fix]]\nplane = {{ point = [0.0, 0.0, 0.1995], normal = [0.0, 0.0, -1.0] }}\n"),
+            physics: format!("{TISSUE_MATERIAL}\n{LIVER_FIX}"),
             duration: 1.0,
         };
         let sc = scenario(&case, &Meth::Fas, Step::Safety(0.5)).unwrap();

@@ -119,6 +119,7 @@ pub(super) fn validate(mg: &MultigridSpec, mesh: &MeshSpec, path: &Path) -> Resu
             mg.transfer.as_deref(),
             &["convex", "exact", "convex-restriction"][..],
         ),
+        ("accelerate", mg.accelerate.as_deref(), &["cg", "none"][..]),
     ] {
         if let Some(v) = value {
             if !valid.contains(&v) {
@@ -423,6 +424,11 @@ impl Scenario {
                             Some("exact") => TransferWeights::Exact,
                             Some("convex-restriction") => TransferWeights::ConvexRestriction,
                             _ => TransferWeights::Convex,
+                        },
+                        krylov: match mg.accelerate.as_deref() {
+                            Some("none") => false,
+                            Some(_) => true,
+                            None => FasParams::default().krylov,
                         },
                         kinetic_limit: limit,
                     },

@@ -86,6 +86,9 @@
 //! transfer = "convex"            # fas: weights of R, P: "convex" (default; eq. 7 extrapolating
 //!                                 #      weights clamped into the host) | "exact" (eq. 6/7 as they
 //!                                 #      are) | "convex-restriction" (only R clamped)
+//! accelerate = "cg"               # fas chebyshev: each V-cycle preconditions a nonlinear
+//!                                 #      conjugate-gradient step with a line search on the
+//!                                 #      energy, "cg" (default) | "none" (plain V-cycles)
 //! coarse_time = 0.1               # fas explicit coarsest: simulated time per visit (s), default 0.1
 //! level_methods = ["rk4", "rk4"]  # per level integrator, default [integrator] method on all
 //! level_dt = [1e-3, 2e-3]         # per level step (s); default: raisov-paper the level-0 step
@@ -148,6 +151,7 @@ pub struct MultigridSpec {
     pub smoother: Option<String>,
     pub transfer: Option<String>,
     pub scaling: Option<String>,
+    pub accelerate: Option<String>,
     pub level_methods: Option<Vec<String>>,
     pub level_dt: Option<Vec<f64>>,
 }

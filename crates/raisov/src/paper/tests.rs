@@ -126,7 +126,7 @@ fn probe_references() {
         eprintln!("{n}: {r:?} in {:.1} s", t.elapsed().as_secs_f64());
     }
     if let Ok(d) = std::env::var("LIVER_DIR") {
-        let files: Vec<String> = ["liver_L2.msh", "liver_L3.msh"]
+        let files: Vec<String> = ["liver_L0.msh", "liver_L1.msh"]
             .iter()
             .map(|f| format!("{d}/{f}"))
             .collect();
@@ -142,7 +142,7 @@ fn probe_references() {
         };
         let sc = scenario(&case, &Meth::Fas, Step::Safety(0.5)).unwrap();
         let t = std::time::Instant::now();
-        let r = reference(&sc, 1000).map(|x| x.1);
+        let r = newton_reference(&sc, 1e-8, 8).map(|x| x.1);
         eprintln!("liver: {r:?} in {:.1} s", t.elapsed().as_secs_f64());
     }
 }

@@ -260,8 +260,11 @@ pub fn run_interactive(
             }
         }
         let wall = start.elapsed().as_secs_f64();
-        if let Some(d) = diverged {
+        if let Some(mut d) = diverged {
             write_rows(&out.join("frames.csv"), &rows)?;
+            // The stepper's own clock counts its pseudo-time steps; the user's clock is the
+            // path time of the frame.
+            d.time = t;
             return Err(Error::Diverged(d));
         }
         let total_steps = stepper.steps();

@@ -104,7 +104,10 @@ fn the_builtin_and_example_scenarios_resolve() {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
     for f in [
         "membrane_lift.toml",
+        "membrane_lift_multigrid.toml",
         "membrane_drape.toml",
+        "membrane_drape_multigrid.toml",
+        "liver_interactive.toml",
         "cantilever.toml",
         "liver_grasp.toml",
     ] {

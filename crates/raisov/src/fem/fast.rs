@@ -120,6 +120,10 @@ pub(crate) trait Store: Copy + Send + Sync + 'static {
     /// Alignment marker of a [`Group`] of this type.
     type Align: Copy + Send + Sync;
     const ZERO: Self;
+    /// Whether the AVX2 kernel keeps the widened `Dm⁻¹` of stage A for stage C (f32: one
+    /// conversion per entry instead of two) or loads it again (f64: a memory operand of the
+    /// FMAs costs nothing extra).
+    const KEEP_WIDENED: bool;
     fn from_f64(x: f64) -> Self;
     /// Exact widening to f64.
     fn get(self) -> f64;
@@ -134,6 +138,7 @@ pub(crate) trait Store: Copy + Send + Sync + 'static {
 impl Store for f64 {
     type Align = Align64;
     const ZERO: f64 = 0.0;
+    const KEEP_WIDENED: bool = false;
     #[inline(always)]
     fn from_f64(x: f64) -> f64 {
         x
@@ -153,6 +158,7 @@ impl Store for f64 {
 impl Store for f32 {
     type Align = Align32;
     const ZERO: f32 = 0.0;
+    const KEEP_WIDENED: bool = true;
     #[inline(always)]
     fn from_f64(x: f64) -> f32 {
         x as f32
@@ -787,6 +793,8 @@ unsafe fn run_groups_avx2<S: Store>(
     let mut fbuf = [[zero; 9]; BLK];
     let mut cbuf = [[zero; 9]; BLK];
     let mut jbuf = [zero; BLK];
+    let mut dbuf = [[zero; 9]; BLK];
+    let mut vbuf = [zero; BLK];
     let load9 = |g: &Group<S>| -> [__m256d; 9] { std::array::from_fn(|q| S::load4(&g.dminv[q])) };
     for chunk in groups.chunks(BLK) {
         for (q, g) in chunk.iter().enumerate() {
@@ -799,20 +807,33 @@ unsafe fn run_groups_avx2<S: Store>(
                     _mm256_sub_pd(cz[k + 1], cz[0]),
                 ]
             });
-            let f = v4::def_grad(&w, &load9(g));
+            let d = load9(g);
+            if S::KEEP_WIDENED {
+                dbuf[q] = d;
+            }
+            let f = v4::def_grad(&w, &d);
             let (c, j) = v4::cof_det(&f);
             fbuf[q] = f;
             cbuf[q] = c;
             jbuf[q] = j;
         }
         for (q, g) in chunk.iter().enumerate() {
-            let (b, ok) = v4::stress_factor(jbuf[q], S::load4(&g.vol), mu, lambda);
+            let v0 = S::load4(&g.vol);
+            if S::KEEP_WIDENED {
+                vbuf[q] = v0;
+            }
+            let (b, ok) = v4::stress_factor(jbuf[q], v0, mu, lambda);
             good &= ok;
             jbuf[q] = b;
         }
         for (q, g) in chunk.iter().enumerate() {
-            let a = _mm256_mul_pd(vmu, S::load4(&g.vol));
-            let h = v4::corner_forces(&fbuf[q], &cbuf[q], a, jbuf[q], &load9(g));
+            let (v0, d) = if S::KEEP_WIDENED {
+                (vbuf[q], dbuf[q])
+            } else {
+                (S::load4(&g.vol), load9(g))
+            };
+            let a = _mm256_mul_pd(vmu, v0);
+            let h = v4::corner_forces(&fbuf[q], &cbuf[q], a, jbuf[q], &d);
             scatter4!(r, g, h);
         }
     }

@@ -45,8 +45,12 @@
 //! 500-step standard work of [`crate::bench`] on the 1k box agrees with f64 to better than 5
 //! significant digits (tested < 5e-6 relative; measured 3e-9 on both values). The lumped
 //! masses, the strain energy, the stresses and the generic path keep the f64 `Dm⁻¹` and
-//! volumes. Worth it where the pass is memory-bound (large meshes): 40 fewer bytes per
-//! tet-step of the ~150 the fused step moves by design.
+//! volumes. Cost and gain: 40 fewer bytes per tet-step of the ~150 the fused step moves by
+//! design, against 10 `cvtps2pd` per group (the AVX2 kernel widens once and keeps the values
+//! for stage C). It can pay only where the pass is bandwidth-bound; on the 2-vCPU Zen 4
+//! development VM it is not (0.3-0.5 of the triad) and f32 storage measured within the noise
+//! of f64 there (1M nodes, 1 thread: 3-4 % faster in three runs; 100k: 0-4 % slower; 2
+//! threads: ±6 %, contended machine).
 
 use rayon::prelude::*;
 

@@ -297,7 +297,8 @@ def best_of_3(fn, k):
 
 
 def raisov_check(raisov, steps):
-    out = subprocess.run([raisov, "bench", "--check", str(steps), "--sizes", "1k,10k"],
+    out = subprocess.run([raisov, "bench", "--check", str(steps), "--sizes", "1k,10k",
+                          "--precision", "f64"],
                          check=True, capture_output=True, text=True).stdout
     res = {}
     for line in out.splitlines():
@@ -311,7 +312,8 @@ def raisov_throughput(raisov, sizes):
     with tempfile.TemporaryDirectory() as d:
         path = os.path.join(d, "r.csv")
         subprocess.run([raisov, "bench", "--standard-only", "--sizes",
-                        ",".join(label(s) for s in sizes), "--threads", "1,2", "--out", path],
+                        ",".join(label(s) for s in sizes), "--threads", "1,2",
+                        "--precision", "f64", "--out", path],
                        check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         res = {}
         with open(path) as f:

@@ -65,6 +65,11 @@ enum Cmd {
         /// Only the standard-work rows (no integrator, V-cycle, membrane, hierarchy, memory rows).
         #[arg(long)]
         standard_only: bool,
+        /// Storage precisions of the element data for the standard-work rows and the
+        /// correctness check: f64 and/or f32-storage (`f32` for short: Dm⁻¹ and volumes in
+        /// f32, arithmetic and state in f64). The other rows are f64.
+        #[arg(long, default_value = "f64,f32")]
+        precision: String,
     },
     /// Reproduce the paper's experiments (Wu & Tendick 2004): CSV, PNG/SVG plots, report.md.
     Paper {
@@ -142,6 +147,7 @@ fn real_main(cli: Cli) -> Result<()> {
             write_mesh,
             check,
             standard_only,
+            precision,
         } => cmd_bench(
             &sizes,
             threads,
@@ -150,6 +156,7 @@ fn real_main(cli: Cli) -> Result<()> {
             write_mesh,
             check,
             standard_only,
+            &precision,
         ),
         Cmd::Paper {
             out,
@@ -318,10 +325,11 @@ fn cmd_check(path: &Path) -> Result<()> {
         );
     }
     println!(
-        "integrator    {}, dt = {:.4e} s (estimated critical {:.4e} s)",
+        "integrator    {}, dt = {:.4e} s (estimated critical {:.4e} s), precision {}",
         sc.method.name(),
         sc.dt,
-        sc.dt_critical_estimate
+        sc.dt_critical_estimate,
+        sc.precision.name()
     );
     println!("stop          {:?}", sc.stop);
     if let Some(i) = &sc.interactive {
@@ -344,8 +352,10 @@ fn cmd_bench(
     write_mesh: Option<PathBuf>,
     check: Option<usize>,
     standard_only: bool,
+    precision: &str,
 ) -> Result<()> {
     use raisov::bench;
+    let precisions = bench::parse_precisions(precision).context("--precision")?;
     let sizes = if quick && sizes == "1k,10k,100k,1M" {
         vec![1000, 10_000]
     } else {
@@ -371,8 +381,10 @@ fn cmd_bench(
     }
     if let Some(steps) = check {
         for &n in &sizes {
-            let c = bench::check(n, steps)?;
-            print_check(n, &c);
+            for &p in &precisions {
+                let c = bench::check(n, steps, p)?;
+                print_check(n, &c);
+            }
         }
         return Ok(());
     }
@@ -383,9 +395,14 @@ fn cmd_bench(
         }
     }
     eprintln!(
-        "raisov bench: sizes {:?}, threads {:?}{}",
+        "raisov bench: sizes {:?}, threads {:?}, precision {}{}",
         sizes,
         threads,
+        precisions
+            .iter()
+            .map(|p| p.name())
+            .collect::<Vec<_>>()
+            .join(","),
         if quick { ", quick" } else { "" }
     );
     let rows = bench::run(
@@ -394,13 +411,15 @@ fn cmd_bench(
             threads,
             quick,
             standard_only,
+            precisions: precisions.clone(),
         },
         &mut |r| {
             eprintln!(
-                "  {} | {} nodes | {} threads | {}",
+                "  {} | {} nodes | {} threads | {} | {}",
                 r.case,
                 r.nodes,
                 r.threads,
+                r.precision,
                 r.node_updates_per_s
                     .map(|x| format!("{:.2}M node-updates/s", x / 1e6))
                     .or(r.value.map(|v| format!("{v:.4} {}", r.unit)))
@@ -411,8 +430,10 @@ fn cmd_bench(
     println!("{}", bench::to_text(&rows));
     let steps = if quick { 50 } else { 500 };
     for &n in sizes.iter().filter(|&&n| n <= 10_000) {
-        let c = bench::check(n, steps)?;
-        print_check(n, &c);
+        for &p in &precisions {
+            let c = bench::check(n, steps, p)?;
+            print_check(n, &c);
+        }
     }
     if let Some(o) = out {
         let text = if o.extension().and_then(|e| e.to_str()) == Some("md") {
@@ -522,10 +543,11 @@ fn cmd_generate(
 /// One line of the standard-work correctness check (the numbers the peers must match).
 fn print_check(n: usize, c: &raisov::bench::Check) {
     println!(
-        "check size={} nodes={} steps={} mean_uy_free_end={:.9e} max_abs_u={:.9e}",
+        "check size={} nodes={} steps={} precision={} mean_uy_free_end={:.9e} max_abs_u={:.9e}",
         raisov::bench::size_label(n),
         c.nodes,
         c.steps,
+        c.precision.name(),
         c.mean_uy_free_end,
         c.max_abs_u
     );

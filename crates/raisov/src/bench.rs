@@ -7,9 +7,13 @@
 //! gravity (0, −9.81, 0), no damping, lumped mass, symplectic Euler,
 //! `Δ = 0.2 h_min / c`, `c = √((λ + 2μ)/ρ)`. A node-update is one node advanced one step.
 //!
+//! Precision: the standard-work rows are measured for each [`Precision`] asked for
+//! ([`BenchOptions::precisions`]): `f64` (everything f64) and `f32-storage` (`Dm⁻¹` and
+//! volumes stored in f32, arithmetic and state f64; tolerance in [`crate::fem::fast`]).
+//!
 //! Bytes moved per tet-step *by design* (compulsory traffic if every array is streamed once
-//! per step): the packed element data ([`crate::fem::fast::BYTES_PER_TET`] = 96 B: 4 ids,
-//! 9 `Dm⁻¹` entries, the volume) plus, per node, the force pass reading `u` (24 B) and
+//! per step): the packed element data ([`Precision::bytes_per_tet`]: 96 B in f64, 56 B with
+//! f32 storage: 4 ids, 9 `Dm⁻¹` entries, the volume) plus, per node, the force pass reading `u` (24 B) and
 //! reading and writing the accumulator (48 B), and the node pass reading `u, v, acc, V`
 //! (96 B), `1/m` (8 B), the fixed flag (1 B) and writing `u, v, acc` (72 B): 249 B per node,
 //! spread over the tetrahedra. Achieved bandwidth = bytes × tets × steps/s. The roofline is a
@@ -23,7 +27,7 @@
 //! (≥ 1M-node fine level); and peak memory per node of the largest box, read right after the
 //! standard-work rows so that the larger hierarchy rows do not count.
 
-use crate::fem::{fast::BYTES_PER_TET, FemModel, FemParams};
+use crate::fem::{FemModel, FemParams, Precision};
 use crate::hierarchy::Correspondence;
 use crate::integrate::{Constraints, Method, SingleLevel, State, Stepper, StepperParams, System};
 use crate::material::{Material, NeoHookean};
@@ -73,16 +77,23 @@ pub struct StandardWork {
 pub struct Check {
     pub nodes: usize,
     pub steps: usize,
+    pub precision: Precision,
     pub mean_uy_free_end: f64,
     pub max_abs_u: f64,
 }
 
 impl StandardWork {
-    /// Fixed nodes: x = min; free end: x = max; gravity (0, −9.81, 0).
+    /// Fixed nodes: x = min; free end: x = max; gravity (0, −9.81, 0). Element data in f64.
     pub fn new(mesh: &Mesh) -> Result<StandardWork> {
+        Self::with_precision(mesh, Precision::F64)
+    }
+
+    /// As [`StandardWork::new`], the element data stored in `precision`.
+    pub fn with_precision(mesh: &Mesh, precision: Precision) -> Result<StandardWork> {
         let m = standard_material();
         let mut p = FemParams::new(Material::NeoHookean(m));
         p.density = 1000.0;
+        p.precision = precision;
         let model = FemModel::new(mesh, p)?;
         let mass = model.lumped_mass();
         let inv_mass: Vec<f64> = mass
@@ -177,15 +188,18 @@ impl StandardWork {
         Check {
             nodes: self.num_nodes(),
             steps: self.steps,
+            precision: self.model.params.precision,
             mean_uy_free_end: mean,
             max_abs_u: max,
         }
     }
 }
 
-/// Bytes moved per tet-step by design for a mesh of `nodes` nodes and `tets` tetrahedra.
-pub fn bytes_per_tet_step(nodes: usize, tets: usize) -> f64 {
-    BYTES_PER_TET as f64 + BYTES_PER_NODE_STEP as f64 * nodes as f64 / tets.max(1) as f64
+/// Bytes moved per tet-step by design for a mesh of `nodes` nodes and `tets` tetrahedra,
+/// the element data stored in `precision`.
+pub fn bytes_per_tet_step(nodes: usize, tets: usize, precision: Precision) -> f64 {
+    precision.bytes_per_tet() as f64
+        + BYTES_PER_NODE_STEP as f64 * nodes as f64 / tets.max(1) as f64
 }
 
 /// STREAM-like triad `a = b + s c` on three arrays of `footprint` bytes in all, on the
@@ -260,6 +274,24 @@ pub struct BenchOptions {
     pub quick: bool,
     /// Only the standard-work rows.
     pub standard_only: bool,
+    /// Storage precisions of the standard-work rows (the other rows are f64).
+    pub precisions: Vec<Precision>,
+}
+
+/// Parse `f64,f32-storage` (`f32` is short for `f32-storage`).
+pub fn parse_precisions(s: &str) -> Result<Vec<Precision>> {
+    s.split(',')
+        .map(|t| {
+            let t = t.trim();
+            let t = if t == "f32" { "f32-storage" } else { t };
+            Precision::from_name(t).ok_or_else(|| {
+                Error::param(
+                    "precision",
+                    format!("cannot read `{t}`: valid are f64, f32-storage (or f32)"),
+                )
+            })
+        })
+        .collect()
 }
 
 /// Parse `1k,10k,100k,1M` (also plain numbers).
@@ -315,10 +347,11 @@ fn best_of_3(mut f: impl FnMut() -> Result<()>) -> Result<f64> {
     Ok(best)
 }
 
-/// The correctness check: 500 fused steps of the standard work on a box of `nodes` nodes.
-pub fn check(nodes: usize, steps: usize) -> Result<Check> {
+/// The correctness check: `steps` (500 by convention) fused steps of the standard work on
+/// a box of `nodes` nodes, element data in `precision`.
+pub fn check(nodes: usize, steps: usize, precision: Precision) -> Result<Check> {
     let mesh = standard_box(nodes)?;
-    let mut w = StandardWork::new(&mesh)?;
+    let mut w = StandardWork::with_precision(&mesh, precision)?;
     w.advance(steps)?;
     Ok(w.check())
 }
@@ -337,43 +370,46 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
         let mesh = standard_box(size)?;
         let (nodes, tets) = (mesh.num_nodes(), mesh.num_elements());
         largest = largest.max(nodes);
-        let mut w = StandardWork::new(&mesh)?;
-        let bpt = bytes_per_tet_step(nodes, tets);
-        let footprint = tets * BYTES_PER_TET + nodes * BYTES_PER_NODE_STEP / 2;
         let steps = steps_for(nodes, work, 3);
-        for &t in &opts.threads {
-            let p = pool(t)?;
-            let (secs, roof) = p.install(|| -> Result<(f64, f64)> {
-                w.advance(steps.div_ceil(4))?; // warm-up
-                let s = best_of_3(|| w.advance(steps))?;
-                Ok((s, triad(footprint)))
-            })?;
-            let sps = steps as f64 / secs;
-            let gbs = bpt * tets as f64 * sps / 1e9;
-            push(
-                Row {
-                    case: "box tet NH symplectic-euler (fused)".into(),
-                    nodes,
-                    elements: tets,
-                    threads: t,
-                    precision: "f64",
-                    steps_per_s: Some(sps),
-                    node_updates_per_s: Some(nodes as f64 * sps),
-                    bytes_per_tet_step: Some(bpt),
-                    gb_per_s: Some(gbs),
-                    roofline_gb_per_s: Some(roof),
-                    roofline_fraction: Some(gbs / roof),
-                    unit: "",
-                    note: match (w.model.fast_kernel_isa(), w.model.fast_path()) {
-                        (Some(isa), Some((slabs, colours, _))) => {
-                            format!("{isa} kernel, {slabs} slabs, {colours} colours")
-                        }
-                        _ => String::new(),
+        // One precision at a time (one model in memory), its thread counts in turn.
+        for &precision in &opts.precisions {
+            let mut w = StandardWork::with_precision(&mesh, precision)?;
+            let bpt = bytes_per_tet_step(nodes, tets, precision);
+            let footprint = tets * precision.bytes_per_tet() + nodes * BYTES_PER_NODE_STEP / 2;
+            for &t in &opts.threads {
+                let p = pool(t)?;
+                let (secs, roof) = p.install(|| -> Result<(f64, f64)> {
+                    w.advance(steps.div_ceil(4))?; // warm-up
+                    let s = best_of_3(|| w.advance(steps))?;
+                    Ok((s, triad(footprint)))
+                })?;
+                let sps = steps as f64 / secs;
+                let gbs = bpt * tets as f64 * sps / 1e9;
+                push(
+                    Row {
+                        case: "box tet NH symplectic-euler (fused)".into(),
+                        nodes,
+                        elements: tets,
+                        threads: t,
+                        precision: precision.name(),
+                        steps_per_s: Some(sps),
+                        node_updates_per_s: Some(nodes as f64 * sps),
+                        bytes_per_tet_step: Some(bpt),
+                        gb_per_s: Some(gbs),
+                        roofline_gb_per_s: Some(roof),
+                        roofline_fraction: Some(gbs / roof),
+                        unit: "",
+                        note: match (w.model.fast_kernel_isa(), w.model.fast_path()) {
+                            (Some(isa), Some((slabs, colours, _))) => {
+                                format!("{isa} kernel, {slabs} slabs, {colours} colours")
+                            }
+                            _ => String::new(),
+                        },
+                        ..Default::default()
                     },
-                    ..Default::default()
-                },
-                &mut rows,
-            );
+                    &mut rows,
+                );
+            }
         }
     }
     if opts.standard_only {
@@ -741,6 +777,34 @@ mod tests {
         );
         assert_eq!(size_label(100_000), "100k");
         assert!(parse_sizes("x").is_err());
+        assert_eq!(
+            parse_precisions("f64,f32").unwrap(),
+            vec![Precision::F64, Precision::F32Storage]
+        );
+        assert_eq!(
+            parse_precisions("f32-storage").unwrap(),
+            vec![Precision::F32Storage]
+        );
+        let e = parse_precisions("f16").unwrap_err().to_string();
+        assert!(e.contains("precision") && e.contains("f32-storage"), "{e}");
+    }
+
+    /// The correctness values of the standard work (500 steps, 1k box) with f32 storage of the
+    /// element data agree with f64 to 5 significant digits (relative difference < 5e-6, the
+    /// peers' criterion; measured about 1e-8).
+    #[test]
+    fn f32_storage_standard_work_agrees_with_f64() {
+        let a = check(1000, 500, Precision::F64).unwrap();
+        let b = check(1000, 500, Precision::F32Storage).unwrap();
+        assert_eq!(b.precision, Precision::F32Storage);
+        let rel = |x: f64, y: f64| (x - y).abs() / x.abs();
+        let (d1, d2) = (
+            rel(a.mean_uy_free_end, b.mean_uy_free_end),
+            rel(a.max_abs_u, b.max_abs_u),
+        );
+        eprintln!("500 steps, 1k box: f32 storage vs f64: mean_uy {d1:.2e}, max|u| {d2:.2e}");
+        assert!(d1 > 0.0 || d2 > 0.0, "f32 storage changed nothing");
+        assert!(d1 < 5e-6 && d2 < 5e-6, "{a:?} vs {b:?}");
     }
 
     /// The fused step and System + SymplecticEuler give the same bits.
@@ -770,11 +834,21 @@ mod tests {
                 threads: vec![1],
                 quick: true,
                 standard_only: false,
+                precisions: Precision::ALL.to_vec(),
             },
             &mut |_| {},
         )
         .unwrap();
-        assert!(rows.len() >= 5);
+        assert!(rows.len() >= 6);
+        let std_rows: Vec<&Row> = rows
+            .iter()
+            .filter(|r| r.case.contains("fused") && r.case.starts_with("box"))
+            .collect();
+        assert_eq!(std_rows.len(), 2);
+        assert_eq!(std_rows[0].precision, "f64");
+        assert_eq!(std_rows[1].precision, "f32-storage");
+        let b = |r: &Row| r.bytes_per_tet_step.unwrap();
+        assert!((b(std_rows[0]) - b(std_rows[1]) - 40.0).abs() < 1e-9);
         assert!(to_csv(&rows).lines().count() == rows.len() + 1);
         assert!(to_markdown(&rows).contains("node-updates/s"));
     }

@@ -27,33 +27,186 @@
 //! parallel, each slab scattering serially into `r`. Every node thus receives its element
 //! contributions in one fixed order (colour, then slab order, then element order) whatever
 //! the number of threads: the same bits on 1 and 2 threads, no atomics.
+//!
+//! Precision ([`Precision`], chosen per model by [`super::FemParams::precision`]): the
+//! element data are stored either in f64 (`Precision::F64`, the default, 96 bytes per
+//! tetrahedron) or with `Dm⁻¹` and the reference volume in f32 (`Precision::F32Storage`:
+//! 4 × u32 offsets + 9 × f32 + 1 × f32, 56 bytes per tetrahedron). Only the storage changes:
+//! the f32 values are widened exactly to f64 on load (`_mm256_cvtps_pd`, `f32 as f64`) and
+//! every operation, `u`, `r`, the state and the masses stay f64, so both kernels and both
+//! thread counts still give the same bits within each precision. What differs from f64 is
+//! the rounding of `Dm⁻¹` and `V0` to f32 once, at packing (relative error ≤ 2⁻²⁴ ≈ 6e-8
+//! per entry), which perturbs the forces by about that much times the conditioning of the
+//! element. Stated tolerance (tested in `fem::tests`): on a jittered mesh,
+//! `‖R_f32 − R_f64‖₂ ≤ 1e-6 ‖R_f64‖₂` and every entry within `1e-6 max|R_f64|`. Measured:
+//! 2e-8 (2-norm) and 3e-8 to 5e-8 (max entry) under random deformations of 1 % to 30 % of
+//! the shortest edge; 1.2e-7 and 1.6e-7 under an affine stretch, where the f64 interior
+//! forces cancel exactly (patch test) and f32 storage leaves a residue of that size. The
+//! 500-step standard work of [`crate::bench`] on the 1k box agrees with f64 to better than 5
+//! significant digits (tested < 5e-6 relative; measured 3e-9 on both values). The lumped
+//! masses, the strain energy, the stresses and the generic path keep the f64 `Dm⁻¹` and
+//! volumes. Cost and gain: 40 fewer bytes per tet-step of the ~150 the fused step moves by
+//! design, against 10 `cvtps2pd` per group (the AVX2 kernel widens once and keeps the values
+//! for stage C). It can pay only where the pass is bandwidth-bound; on the 2-vCPU Zen 4
+//! development VM it is not (0.3-0.5 of the triad) and f32 storage measured within the noise
+//! of f64 there (1M nodes, 1 thread: 3-4 % faster in three runs; 100k: 0-4 % slower; 2
+//! threads: ±6 %, contended machine).
 
 use rayon::prelude::*;
 
 /// Elements per SIMD group.
 pub const LANES: usize = 4;
-type L = [f64; LANES];
 
-/// Bytes of element data the force pass streams per tetrahedron (ids, `Dm⁻¹`, volume).
-pub const BYTES_PER_TET: usize = std::mem::size_of::<Group>() / LANES;
+/// Bytes of element data the force pass streams per tetrahedron with f64 storage (ids,
+/// `Dm⁻¹`, volume): 96. See [`Precision::bytes_per_tet`].
+pub const BYTES_PER_TET: usize = std::mem::size_of::<Group<f64>>() / LANES;
 
-/// One group of `LANES` tetrahedra.
+/// Storage precision of the packed element data (`Dm⁻¹` and reference volume). Arithmetic,
+/// displacements, forces, velocities and masses are f64 in both; see the module docs for
+/// what changes and the tolerance against f64.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Precision {
+    /// Everything in f64 (96 bytes of element data per tetrahedron). The default.
+    #[default]
+    F64,
+    /// `Dm⁻¹` and the reference volume stored in f32, widened to f64 on load (56 bytes per
+    /// tetrahedron); arithmetic and state in f64.
+    F32Storage,
+}
+
+impl Precision {
+    /// Both, f64 first.
+    pub const ALL: [Precision; 2] = [Precision::F64, Precision::F32Storage];
+
+    /// The name used in scenarios, on the command line and in the benchmark table:
+    /// `"f64"` or `"f32-storage"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F64 => "f64",
+            Precision::F32Storage => "f32-storage",
+        }
+    }
+
+    /// Inverse of [`Precision::name`].
+    pub fn from_name(s: &str) -> Option<Precision> {
+        Precision::ALL.into_iter().find(|p| p.name() == s)
+    }
+
+    /// Bytes of packed element data per tetrahedron: 96 (f64) or 56 (f32 storage).
+    pub fn bytes_per_tet(self) -> usize {
+        match self {
+            Precision::F64 => std::mem::size_of::<Group<f64>>() / LANES,
+            Precision::F32Storage => std::mem::size_of::<Group<f32>>() / LANES,
+        }
+    }
+
+    /// `x` as the packed path sees it: unchanged (f64) or rounded to f32.
+    #[inline]
+    pub fn round(self, x: f64) -> f64 {
+        match self {
+            Precision::F64 => x,
+            Precision::F32Storage => x as f32 as f64,
+        }
+    }
+}
+
+/// Zero-sized alignment markers (a group is a whole number of its alignment, so that no
+/// group straddles more cache lines than it must).
 #[derive(Clone, Copy)]
 #[repr(C, align(64))]
-pub(crate) struct Group {
+pub(crate) struct Align64;
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+pub(crate) struct Align32;
+
+/// A scalar type the element data are stored in; the kernels load it as f64.
+pub(crate) trait Store: Copy + Send + Sync + 'static {
+    /// Alignment marker of a [`Group`] of this type.
+    type Align: Copy + Send + Sync;
+    const ZERO: Self;
+    /// Whether the AVX2 kernel keeps the widened `Dm⁻¹` of stage A for stage C (f32: one
+    /// conversion per entry instead of two) or loads it again (f64: a memory operand of the
+    /// FMAs costs nothing extra).
+    const KEEP_WIDENED: bool;
+    fn from_f64(x: f64) -> Self;
+    /// Exact widening to f64.
+    fn get(self) -> f64;
+    /// The 4 lanes widened to f64 (exactly as [`Store::get`]).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn load4(p: &[Self; LANES]) -> std::arch::x86_64::__m256d;
+}
+
+impl Store for f64 {
+    type Align = Align64;
+    const ZERO: f64 = 0.0;
+    const KEEP_WIDENED: bool = false;
+    #[inline(always)]
+    fn from_f64(x: f64) -> f64 {
+        x
+    }
+    #[inline(always)]
+    fn get(self) -> f64 {
+        self
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn load4(p: &[f64; LANES]) -> std::arch::x86_64::__m256d {
+        std::arch::x86_64::_mm256_loadu_pd(p.as_ptr())
+    }
+}
+
+impl Store for f32 {
+    type Align = Align32;
+    const ZERO: f32 = 0.0;
+    const KEEP_WIDENED: bool = true;
+    #[inline(always)]
+    fn from_f64(x: f64) -> f32 {
+        x as f32
+    }
+    #[inline(always)]
+    fn get(self) -> f64 {
+        self as f64
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn load4(p: &[f32; LANES]) -> std::arch::x86_64::__m256d {
+        use std::arch::x86_64::*;
+        _mm256_cvtps_pd(_mm_loadu_ps(p.as_ptr()))
+    }
+}
+
+/// One group of `LANES` tetrahedra, element data stored as `S`.
+#[derive(Clone, Copy)]
+#[repr(C)]
+pub(crate) struct Group<S: Store> {
+    _align: [S::Align; 0],
     /// Offsets `3 × node id` of the corners into `u` and `r`, `idx[corner][lane]`.
     idx: [[u32; LANES]; 4],
     /// `Dm⁻¹` row-major, `dminv[3 r + c][lane]`.
-    dminv: [L; 9],
+    dminv: [[S; LANES]; 9],
     /// Reference volume (0 for padding lanes).
-    vol: L,
+    vol: [S; LANES],
+}
+
+const _: () = assert!(std::mem::size_of::<Group<f64>>() == 4 * 96);
+const _: () = assert!(std::mem::size_of::<Group<f32>>() == 4 * 56);
+
+/// The packed groups in one of the storage precisions.
+enum Groups {
+    F64(Vec<Group<f64>>),
+    F32(Vec<Group<f32>>),
 }
 
 /// Packed neo-Hookean tetrahedra in force-pass order.
 pub(crate) struct TetPack {
     mu: f64,
     lambda: f64,
-    groups: Vec<Group>,
+    groups: Groups,
     /// Groups of slab s: `slab_ptr[s]..slab_ptr[s + 1]`, slabs stored colour by colour.
     slab_ptr: Vec<usize>,
     /// Slabs of colour c: `colour_ptr[c]..colour_ptr[c + 1]`.
@@ -76,7 +229,9 @@ fn spread3(x: u64) -> u64 {
 
 impl TetPack {
     /// Pack the elements. `cells` 4 per element, `dminv` 9 per element column-major,
-    /// `target_block` the wanted elements per slab.
+    /// `target_block` the wanted elements per slab, `precision` that of the stored `dminv`
+    /// and `vol`.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         mu: f64,
         lambda: f64,
@@ -85,6 +240,7 @@ impl TetPack {
         dminv: &[f64],
         vol: &[f64],
         target_block: usize,
+        precision: Precision,
     ) -> TetPack {
         let ne = vol.len();
         let n_nodes = x0.len() / 3;
@@ -234,37 +390,20 @@ impl TetPack {
             colour_ptr[c + 1] += colour_ptr[c];
         }
         // Pack groups slab by slab (padding the last group of each slab).
-        let mut groups = Vec::with_capacity(ne / LANES + slab_range.len());
-        let mut slab_ptr = vec![0usize];
-        for &s in &slab_order {
-            let (a, b) = slab_range[s];
-            for chunk in order[a..b].chunks(LANES) {
-                let mut g = Group {
-                    idx: [[0; LANES]; 4],
-                    dminv: [[0.0; LANES]; 9],
-                    vol: [0.0; LANES],
-                };
-                for l in 0..LANES {
-                    // Padding lanes repeat the first element with zero volume: zero force.
-                    let (e, v) = match chunk.get(l) {
-                        Some(&e) => (e as usize, vol[e as usize]),
-                        None => (chunk[0] as usize, 0.0),
-                    };
-                    for k in 0..4 {
-                        g.idx[k][l] = 3 * cells[4 * e + k];
-                    }
-                    for r in 0..3 {
-                        for c in 0..3 {
-                            // Column-major source.
-                            g.dminv[3 * r + c][l] = dminv[9 * e + 3 * c + r];
-                        }
-                    }
-                    g.vol[l] = v;
-                }
-                groups.push(g);
+        let slabs_in_order: Vec<&[u32]> = slab_order
+            .iter()
+            .map(|&s| &order[slab_range[s].0..slab_range[s].1])
+            .collect();
+        let (groups, slab_ptr) = match precision {
+            Precision::F64 => {
+                let (g, p) = pack_groups::<f64>(&slabs_in_order, cells, dminv, vol);
+                (Groups::F64(g), p)
             }
-            slab_ptr.push(groups.len());
-        }
+            Precision::F32Storage => {
+                let (g, p) = pack_groups::<f32>(&slabs_in_order, cells, dminv, vol);
+                (Groups::F32(g), p)
+            }
+        };
         TetPack {
             mu,
             lambda,
@@ -283,7 +422,18 @@ impl TetPack {
 
     /// Bytes of the packed element data.
     pub(crate) fn bytes(&self) -> usize {
-        self.groups.len() * std::mem::size_of::<Group>()
+        match &self.groups {
+            Groups::F64(g) => std::mem::size_of_val(&g[..]),
+            Groups::F32(g) => std::mem::size_of_val(&g[..]),
+        }
+    }
+
+    /// Storage precision of the element data.
+    pub(crate) fn precision(&self) -> Precision {
+        match self.groups {
+            Groups::F64(_) => Precision::F64,
+            Groups::F32(_) => Precision::F32Storage,
+        }
     }
 
     /// `r += R(u)` (r must hold what is to be accumulated onto, usually zeros). Returns false
@@ -296,11 +446,10 @@ impl TetPack {
         for c in 0..self.colour_ptr.len() - 1 {
             let (s0, s1) = (self.colour_ptr[c], self.colour_ptr[c + 1]);
             let run = |s: usize| -> bool {
-                let g = &self.groups[self.slab_ptr[s]..self.slab_ptr[s + 1]];
                 // SAFETY: node ids were checked < n_nodes at construction, u and r have
                 // 3 n_nodes entries (asserted above), and slabs of one colour share no node, so
                 // concurrent slabs write disjoint entries of r.
-                unsafe { self.run_slab(g, u, rp) }
+                unsafe { self.run_slab(s, u, rp) }
             };
             good &= if n_slabs >= 2 && s1 - s0 >= 2 {
                 (s0..s1)
@@ -325,14 +474,67 @@ impl TetPack {
         ["portable", "avx2"][self.isa as usize]
     }
 
+    /// The groups of slab `s`.
     #[inline]
-    unsafe fn run_slab(&self, g: &[Group], u: &[f64], r: SyncPtr) -> bool {
+    unsafe fn run_slab(&self, s: usize, u: &[f64], r: SyncPtr) -> bool {
+        let (a, b) = (self.slab_ptr[s], self.slab_ptr[s + 1]);
+        match &self.groups {
+            Groups::F64(g) => self.run_with(&g[a..b], u, r),
+            Groups::F32(g) => self.run_with(&g[a..b], u, r),
+        }
+    }
+
+    #[inline]
+    unsafe fn run_with<S: Store>(&self, g: &[Group<S>], u: &[f64], r: SyncPtr) -> bool {
         #[cfg(target_arch = "x86_64")]
         if self.isa == 1 {
             return run_groups_avx2(g, u, r.0, self.mu, self.lambda);
         }
         run_groups(g, u, r.0, self.mu, self.lambda)
     }
+}
+
+/// Pack the elements of each slab (element ids in force-pass order) into groups of
+/// [`LANES`], padding the last group of each slab; returns the groups and the slab pointers.
+fn pack_groups<S: Store>(
+    slabs: &[&[u32]],
+    cells: &[u32],
+    dminv: &[f64],
+    vol: &[f64],
+) -> (Vec<Group<S>>, Vec<usize>) {
+    let ne: usize = slabs.iter().map(|s| s.len()).sum();
+    let mut groups = Vec::with_capacity(ne / LANES + slabs.len());
+    let mut slab_ptr = vec![0usize];
+    for slab in slabs {
+        for chunk in slab.chunks(LANES) {
+            let mut g = Group::<S> {
+                _align: [],
+                idx: [[0; LANES]; 4],
+                dminv: [[S::ZERO; LANES]; 9],
+                vol: [S::ZERO; LANES],
+            };
+            for l in 0..LANES {
+                // Padding lanes repeat the first element with zero volume: zero force.
+                let (e, v) = match chunk.get(l) {
+                    Some(&e) => (e as usize, vol[e as usize]),
+                    None => (chunk[0] as usize, 0.0),
+                };
+                for k in 0..4 {
+                    g.idx[k][l] = 3 * cells[4 * e + k];
+                }
+                for r in 0..3 {
+                    for c in 0..3 {
+                        // Column-major source.
+                        g.dminv[3 * r + c][l] = S::from_f64(dminv[9 * e + 3 * c + r]);
+                    }
+                }
+                g.vol[l] = S::from_f64(v);
+            }
+            groups.push(g);
+        }
+        slab_ptr.push(groups.len());
+    }
+    (groups, slab_ptr)
 }
 
 /// 1 with AVX2 + FMA, else 0; `RAISOV_ISA=portable` forces 0 (for comparisons). AVX-512
@@ -580,7 +782,13 @@ const BLK: usize = 4;
 /// same bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: f64) -> bool {
+unsafe fn run_groups_avx2<S: Store>(
+    groups: &[Group<S>],
+    u: &[f64],
+    r: *mut f64,
+    mu: f64,
+    lambda: f64,
+) -> bool {
     use std::arch::x86_64::*;
     let up = u.as_ptr();
     let zero = _mm256_setzero_pd();
@@ -589,9 +797,9 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
     let mut fbuf = [[zero; 9]; BLK];
     let mut cbuf = [[zero; 9]; BLK];
     let mut jbuf = [zero; BLK];
-    let load9 = |g: &Group| -> [__m256d; 9] {
-        std::array::from_fn(|q| _mm256_loadu_pd(g.dminv[q].as_ptr()))
-    };
+    let mut dbuf = [[zero; 9]; BLK];
+    let mut vbuf = [zero; BLK];
+    let load9 = |g: &Group<S>| -> [__m256d; 9] { std::array::from_fn(|q| S::load4(&g.dminv[q])) };
     for chunk in groups.chunks(BLK) {
         for (q, g) in chunk.iter().enumerate() {
             let (cx, cy, cz) = gather4!(up, g);
@@ -603,20 +811,33 @@ unsafe fn run_groups_avx2(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lam
                     _mm256_sub_pd(cz[k + 1], cz[0]),
                 ]
             });
-            let f = v4::def_grad(&w, &load9(g));
+            let d = load9(g);
+            if S::KEEP_WIDENED {
+                dbuf[q] = d;
+            }
+            let f = v4::def_grad(&w, &d);
             let (c, j) = v4::cof_det(&f);
             fbuf[q] = f;
             cbuf[q] = c;
             jbuf[q] = j;
         }
         for (q, g) in chunk.iter().enumerate() {
-            let (b, ok) = v4::stress_factor(jbuf[q], _mm256_loadu_pd(g.vol.as_ptr()), mu, lambda);
+            let v0 = S::load4(&g.vol);
+            if S::KEEP_WIDENED {
+                vbuf[q] = v0;
+            }
+            let (b, ok) = v4::stress_factor(jbuf[q], v0, mu, lambda);
             good &= ok;
             jbuf[q] = b;
         }
         for (q, g) in chunk.iter().enumerate() {
-            let a = _mm256_mul_pd(vmu, _mm256_loadu_pd(g.vol.as_ptr()));
-            let h = v4::corner_forces(&fbuf[q], &cbuf[q], a, jbuf[q], &load9(g));
+            let (v0, d) = if S::KEEP_WIDENED {
+                (vbuf[q], dbuf[q])
+            } else {
+                (S::load4(&g.vol), load9(g))
+            };
+            let a = _mm256_mul_pd(vmu, v0);
+            let h = v4::corner_forces(&fbuf[q], &cbuf[q], a, jbuf[q], &d);
             scatter4!(r, g, h);
         }
     }
@@ -671,7 +892,13 @@ pub(crate) fn ln_series(x: f64) -> f64 {
 }
 
 #[inline(always)]
-unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: f64) -> bool {
+unsafe fn run_groups<S: Store>(
+    groups: &[Group<S>],
+    u: &[f64],
+    r: *mut f64,
+    mu: f64,
+    lambda: f64,
+) -> bool {
     let mut bad = false;
     for g in groups {
         // Gather Du[corner-1][component][lane].
@@ -693,7 +920,7 @@ unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: 
         let mut h = [[[0.0f64; LANES]; 3]; 4]; // h[corner][component][lane]
         let mut neg = [false; LANES];
         for l in 0..LANES {
-            let d = |i: usize, j: usize| g.dminv[3 * i + j][l];
+            let d = |i: usize, j: usize| g.dminv[3 * i + j][l].get();
             let w = |k: usize, i: usize| du[k][i][l];
             // F_ij = δ_ij + Σ_k Du_ik Dm⁻¹_kj, Du_ik = w(k, i).
             let fm = |i: usize, j: usize| {
@@ -719,7 +946,7 @@ unsafe fn run_groups(groups: &[Group], u: &[f64], r: *mut f64, mu: f64, lambda: 
             let c22 = f00.mul_add(f11, -(f01 * f10));
             let j = f02.mul_add(c02, f01.mul_add(c01, f00 * c00));
             neg[l] = !(j > 0.0);
-            let v0 = g.vol[l];
+            let v0 = g.vol[l].get();
             let a = mu * v0;
             let inv_j = 1.0 / j;
             let b = v0 * (lambda * ln_series(j) - mu) * inv_j;

@@ -25,7 +25,9 @@
 //! scatter into `r` concurrently without sharing a node (fixed summation order per node).
 //! Every other material and the membranes write element forces into per-element slots in
 //! parallel and then gather them per node in a fixed order. Either way the result has the
-//! same bits on any number of threads and no atomics are needed. Element ids in
+//! same bits on any number of threads and no atomics are needed. The packed path can store
+//! its element data (`Dm⁻¹`, volumes) in f32 ([`FemParams::precision`], [`Precision`]; tolerance
+//! against f64 in [`fast`]); arithmetic and state stay f64. Element ids in
 //! [`ElementFailure`] and every public method are the mesh's original ids.
 //!
 //! Fused explicit step ([`FemModel::step_symplectic_euler`]): one force pass accumulating into
@@ -40,6 +42,7 @@ use crate::material::{Material, MembraneMaterial, SolidMaterial};
 use crate::mesh::{ElementKind, Mesh};
 use crate::{Error, Result};
 pub use element::{membrane_frame, tet_dm_inverse};
+pub use fast::Precision;
 use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector3};
 use rayon::prelude::*;
 
@@ -76,6 +79,11 @@ pub struct FemParams {
     /// Elements per parallel task; below 2 tasks' worth the force pass runs serially.
     /// Default 2048.
     pub chunk: usize,
+    /// Storage precision of the packed neo-Hookean tetrahedron data (`Dm⁻¹` and volumes in
+    /// f64, or in f32 widened to f64 on load; see [`fast`] for the tolerance). Other
+    /// materials and membranes, the masses, the strain energy and the stresses are f64
+    /// whatever this says. Default [`Precision::F64`].
+    pub precision: Precision,
 }
 
 impl FemParams {
@@ -85,6 +93,7 @@ impl FemParams {
             density: 1000.0,
             thickness: 1e-3,
             chunk: 2048,
+            precision: Precision::F64,
         }
     }
 }
@@ -186,6 +195,7 @@ impl FemModel {
                 &dminv,
                 &measure,
                 params.chunk.max(1),
+                params.precision,
             )),
             _ => None,
         };
@@ -229,11 +239,18 @@ impl FemModel {
         self.pack.as_ref().map(|p| p.isa())
     }
 
-    /// `det F` of tet e as the fast kernel computes it (`F = I + Du Dm⁻¹`, same operations,
-    /// same bits), for reporting failures of the fast path.
+    /// Storage precision of the fast path's element data, if the fast path is in use
+    /// ([`FemParams::precision`] has no effect otherwise).
+    pub fn fast_precision(&self) -> Option<Precision> {
+        self.pack.as_ref().map(|p| p.precision())
+    }
+
+    /// `det F` of tet e as the fast kernel computes it (`F = I + Du Dm⁻¹` with `Dm⁻¹` in the
+    /// pack's precision, same operations, same bits), for reporting failures of the fast path.
     fn fast_det(&self, e: usize, u: &[f64]) -> f64 {
         let el = &self.cells[e * 4..e * 4 + 4];
-        let d = |i: usize, j: usize| self.dminv[9 * e + 3 * j + i];
+        let prec = self.fast_precision().unwrap_or_default();
+        let d = |i: usize, j: usize| prec.round(self.dminv[9 * e + 3 * j + i]);
         let a0 = el[0] as usize * 3;
         let w = |k: usize, i: usize| u[el[k + 1] as usize * 3 + i] - u[a0 + i];
         let fm = |i: usize, j: usize| {

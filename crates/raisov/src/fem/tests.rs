@@ -337,48 +337,66 @@ fn inverted_element_is_reported() {
     assert_eq!(err.element, 0);
 }
 
-/// The packed neo-Hookean path on a larger box with several slabs and colours: AVX2 and
-/// portable kernels give the same bits, equal to the reference within rounding, 1 and 2
-/// threads agree, and the series logarithm is accurate.
+/// The packed neo-Hookean path on a larger box with several slabs and colours, in both
+/// storage precisions: AVX2 and portable kernels give the same bits, 1 and 2 threads agree;
+/// f64 storage equals the reference within rounding, f32 storage is within the tolerance of
+/// `f32_storage_forces_within_stated_tolerance` of f64; the series logarithm is accurate.
 #[test]
 fn packed_kernel_paths_agree() {
     use crate::mesh::generate::{box_tets, BoxPattern};
     let mesh = box_tets([0.1, 0.04, 0.04], [20, 8, 8], BoxPattern::Five).unwrap();
-    let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
-    p.chunk = 128;
-    let mut model = FemModel::new(&mesh, p).unwrap();
-    let (slabs, colours, _) = model.fast_path().unwrap();
-    assert!(
-        slabs >= 4 && colours >= 2,
-        "{slabs} slabs, {colours} colours"
-    );
     let n = mesh.num_nodes();
     let u = random_u(n, 0.2 * mesh.edge_range().0, 5);
     let mut r_ref = vec![0.0; 3 * n];
-    model.internal_forces_reference(&u, &mut r_ref).unwrap();
-    let mut runs = Vec::new();
-    for threads in [1, 2] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        let mut r = vec![0.0; 3 * n];
-        pool.install(|| model.internal_forces(&u, &mut r)).unwrap();
-        runs.push(r);
-    }
-    for isa in [1, 0] {
-        // Widest detected first (runs[0..2]), then AVX2, then portable.
-        model.pack.as_mut().unwrap().force_isa(isa);
-        let mut r = vec![0.0; 3 * n];
-        model.internal_forces(&u, &mut r).unwrap();
-        runs.push(r);
-    }
-    assert_eq!(runs[0], runs[1]);
-    assert_eq!(runs[0], runs[2], "widest and AVX2 kernels differ");
-    assert_eq!(runs[0], runs[3], "SIMD and portable kernels differ");
-    let scale = r_ref.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-    for (a, b) in runs[0].iter().zip(&r_ref) {
-        assert!((a - b).abs() <= 1e-12 * scale, "{a} vs {b}");
+    let mut r_f64 = Vec::new();
+    for precision in Precision::ALL {
+        let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
+        p.chunk = 128;
+        p.precision = precision;
+        let mut model = FemModel::new(&mesh, p).unwrap();
+        assert_eq!(model.fast_precision(), Some(precision));
+        let (slabs, colours, bytes) = model.fast_path().unwrap();
+        assert!(
+            slabs >= 4 && colours >= 2,
+            "{slabs} slabs, {colours} colours"
+        );
+        assert!(bytes >= precision.bytes_per_tet() * model.num_elements());
+        if precision == Precision::F64 {
+            model.internal_forces_reference(&u, &mut r_ref).unwrap();
+        }
+        let mut runs = Vec::new();
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut r = vec![0.0; 3 * n];
+            pool.install(|| model.internal_forces(&u, &mut r)).unwrap();
+            runs.push(r);
+        }
+        for isa in [1, 0] {
+            // Widest detected first (runs[0..2]), then AVX2, then portable.
+            model.pack.as_mut().unwrap().force_isa(isa);
+            let mut r = vec![0.0; 3 * n];
+            model.internal_forces(&u, &mut r).unwrap();
+            runs.push(r);
+        }
+        let name = precision.name();
+        assert_eq!(runs[0], runs[1], "{name}: 1 and 2 threads differ");
+        assert_eq!(runs[0], runs[2], "{name}: widest and AVX2 kernels differ");
+        assert_eq!(runs[0], runs[3], "{name}: SIMD and portable kernels differ");
+        let scale = r_ref.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        let tol = match precision {
+            Precision::F64 => 1e-12,
+            Precision::F32Storage => F32_STORAGE_TOL,
+        };
+        for (a, b) in runs[0].iter().zip(&r_ref) {
+            assert!((a - b).abs() <= tol * scale, "{name}: {a} vs {b}");
+        }
+        match precision {
+            Precision::F64 => r_f64 = runs.swap_remove(0),
+            Precision::F32Storage => assert_ne!(runs[0], r_f64, "f32 storage changed nothing"),
+        }
     }
     for x in [
         1e-3, 0.3, 0.7072, 1.4141, 1.4143, 0.9999999, 1.0, 1.0000001, 1.5, 2.0, 7.3, 1e5,
@@ -391,15 +409,76 @@ fn packed_kernel_paths_agree() {
     }
 }
 
+/// The stated tolerance of f32 storage against f64 (see [`fast`]): relative in the 2-norm of
+/// the force vector, and per entry relative to the largest entry.
+pub(crate) const F32_STORAGE_TOL: f64 = 1e-6;
+
+/// f32 storage of `Dm⁻¹` and volumes against f64 storage on a jittered (irregular) mesh,
+/// at small, moderate and large random deformations and an affine stretch: the force
+/// vectors agree within [`F32_STORAGE_TOL`] in the relative 2-norm and per entry (relative to
+/// the largest entry). Rounding one `Dm⁻¹` entry to f32 is a relative error ≤ 2⁻²⁴ ≈ 6e-8.
+#[test]
+fn f32_storage_forces_within_stated_tolerance() {
+    let mesh = jittered_box(8, 0.4);
+    let n = mesh.num_nodes();
+    let h0 = mesh.edge_range().0;
+    let model = |precision| {
+        let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
+        p.chunk = 64;
+        p.precision = precision;
+        FemModel::new(&mesh, p).unwrap()
+    };
+    let (mut m64, mut m32) = (model(Precision::F64), model(Precision::F32Storage));
+    let mut stretch = vec![0.0; 3 * n];
+    for a in 0..n {
+        let x = mesh.nodes[a];
+        stretch[3 * a] = 0.3 * x[0] + 0.05 * x[1];
+        stretch[3 * a + 1] = -0.1 * x[1];
+        stretch[3 * a + 2] = 0.02 * x[0] - 0.1 * x[2];
+    }
+    let cases = [
+        ("small", random_u(n, 0.01 * h0, 21)),
+        ("moderate", random_u(n, 0.1 * h0, 22)),
+        ("large", random_u(n, 0.3 * h0, 23)),
+        ("affine", stretch),
+    ];
+    for (name, u) in cases {
+        let (mut a, mut b) = (vec![0.0; 3 * n], vec![0.0; 3 * n]);
+        m64.internal_forces(&u, &mut a).unwrap();
+        m32.internal_forces(&u, &mut b).unwrap();
+        let norm = |v: &mut dyn Iterator<Item = f64>| v.map(|x| x * x).sum::<f64>().sqrt();
+        let rel2 = norm(&mut a.iter().zip(&b).map(|(x, y)| x - y)) / norm(&mut a.iter().copied());
+        let amax = a.iter().fold(0.0f64, |m, &x| m.max(x.abs()));
+        let relmax = a
+            .iter()
+            .zip(&b)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+            / amax;
+        eprintln!("f32 storage, {name}: relative 2-norm {rel2:.2e}, max entry {relmax:.2e}");
+        assert!(rel2 > 0.0, "{name}: f32 storage changed nothing");
+        assert!(
+            rel2 <= F32_STORAGE_TOL && relmax <= F32_STORAGE_TOL,
+            "{name}: f32 storage off by {rel2:.2e} (2-norm), {relmax:.2e} (max entry)"
+        );
+    }
+}
+
 /// A failure in the packed path reports the original (unsorted) id of the lowest failing
 /// element.
 #[test]
 fn packed_failure_reports_original_element() {
     use crate::mesh::generate::{box_tets, BoxPattern};
     let mesh = box_tets([0.1, 0.04, 0.04], [10, 4, 4], BoxPattern::Five).unwrap();
-    let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
-    p.chunk = 32;
-    let mut model = FemModel::new(&mesh, p).unwrap();
+    for precision in Precision::ALL {
+        let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
+        p.chunk = 32;
+        p.precision = precision;
+        let model = FemModel::new(&mesh, p).unwrap();
+        check_failure_report(&mesh, model);
+    }
+}
+
+fn check_failure_report(mesh: &Mesh, mut model: FemModel) {
     let n = mesh.num_nodes();
     // Push one node of element 37 through its opposite face.
     let target = 37;

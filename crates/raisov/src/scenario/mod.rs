@@ -9,7 +9,7 @@ pub mod run;
 pub mod spec;
 
 use crate::error::{Error, Result};
-use crate::fem::{FemModel, FemParams};
+use crate::fem::{FemModel, FemParams, Precision};
 use crate::integrate::{Constraints, Method, Motion, System};
 use crate::io::load_mesh;
 use crate::material::{
@@ -69,6 +69,8 @@ pub struct Scenario {
     pub dt: f64,
     /// The estimated critical step (s) the default `dt` derives from.
     pub dt_critical_estimate: f64,
+    /// `[integrator] precision`: storage precision of the packed tetrahedron data.
+    pub precision: Precision,
     pub stop: StopRule,
     pub blowup_factor: f64,
     pub out_dir: PathBuf,
@@ -128,7 +130,7 @@ impl Scenario {
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "scenario".into())
         });
-        let (mesh, notes) = resolve_mesh(&spec.mesh, path, base)?;
+        let (mesh, mut notes) = resolve_mesh(&spec.mesh, path, base)?;
         if let Some(mg) = &spec.multigrid {
             levels::validate(mg, &spec.mesh, path)?;
         }
@@ -192,6 +194,23 @@ impl Scenario {
                 .find(|x| x.name() == m)
                 .ok_or_else(|| err(path, format!("`integrator.method` = \"{m}\": valid are forward-euler, symplectic-euler, rk4, central-difference")))?,
         };
+        let precision = match spec.integrator.precision.as_deref() {
+            None => Precision::F64,
+            Some(p) => Precision::from_name(p).ok_or_else(|| {
+                err(
+                    path,
+                    format!("`integrator.precision` = \"{p}\": valid are \"f64\", \"f32-storage\""),
+                )
+            })?,
+        };
+        if precision != Precision::F64
+            && !(mesh.kind == ElementKind::Tet4 && matches!(material, Material::NeoHookean(_)))
+        {
+            notes.push(format!(
+                "integrator.precision = \"{}\" applies to neo-Hookean tetrahedra only; this model runs in f64",
+                precision.name()
+            ));
+        }
         let dt_crit = critical_step_estimate(&mesh, &material, density, method);
         let safety = positive(
             path,
@@ -291,6 +310,7 @@ impl Scenario {
             method,
             dt,
             dt_critical_estimate: dt_crit,
+            precision,
             stop,
             blowup_factor,
             out_dir,
@@ -307,6 +327,7 @@ impl Scenario {
         let mut p = FemParams::new(self.material.clone());
         p.density = self.density;
         p.thickness = self.thickness;
+        p.precision = self.precision;
         p
     }
 

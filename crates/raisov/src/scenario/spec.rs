@@ -53,6 +53,11 @@
 //! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" | "central-difference"
 //! dt = 1e-4                       # s; default: safety × estimated critical step
 //! safety = 0.5                    # fraction of the estimated critical step, default 0.5
+//! precision = "f64"               # element data of the force pass: "f64" (default) | "f32-storage"
+//!                                 # (Dm⁻¹ and volumes stored in f32, arithmetic and state f64;
+//!                                 # fewer bytes per step on large meshes, forces within 1e-6
+//!                                 # relative of f64, see fem::fast). Applies to neo-Hookean
+//!                                 # tetrahedra (the packed path); elsewhere f64 with a note
 //!
 //! [run]
 //! stop = "duration"               # "duration" | "steady"
@@ -254,6 +259,7 @@ pub struct IntegratorSpec {
     pub method: Option<String>,
     pub dt: Option<f64>,
     pub safety: Option<f64>,
+    pub precision: Option<String>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]

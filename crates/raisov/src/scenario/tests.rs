@@ -49,6 +49,59 @@ fn base_scenario_resolves_with_documented_defaults() {
     assert_eq!(sc.stop, StopRule::Duration(0.01));
 }
 
+/// `[integrator] precision`: default f64; "f32-storage" reaches the force model of a
+/// neo-Hookean tetrahedral scenario, and a membrane scenario says it has no effect.
+#[test]
+fn precision_key_selects_the_storage_of_the_packed_path() {
+    assert_eq!(parse(BASE).unwrap().precision, Precision::F64);
+    let membrane = parse(&format!(
+        "{BASE}\n[integrator]\nprecision = \"f32-storage\""
+    ))
+    .unwrap();
+    assert_eq!(membrane.precision, Precision::F32Storage);
+    assert!(
+        membrane.notes.iter().any(|n| n.contains("runs in f64")),
+        "{:?}",
+        membrane.notes
+    );
+    let tets = BASE
+        .replace(
+            "generate = \"rectangle\"\nsize = [0.1, 0.1]\nnodes = 60",
+            "generate = \"box\"\nsize = [0.1, 0.04, 0.04]\ndivisions = [5, 2, 2]",
+        )
+        .replace(
+            "law = \"mooney-rivlin\"\nc1 = 1000.0\nc2 = 1000.0",
+            "law = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4",
+        );
+    // The setting reaches the system's force model: different bits, within the tolerance.
+    let mut forces = Vec::new();
+    for (key, want) in [
+        ("f64", Precision::F64),
+        ("f32-storage", Precision::F32Storage),
+    ] {
+        let sc = parse(&format!("{tets}\n[integrator]\nprecision = \"{key}\"")).unwrap();
+        assert_eq!(sc.precision, want);
+        assert_eq!(sc.fem_params().precision, want);
+        assert!(sc.notes.is_empty(), "{:?}", sc.notes);
+        let mut sys = sc.build_system().unwrap();
+        let n = sc.mesh.num_nodes();
+        let u: Vec<f64> = (0..3 * n)
+            .map(|i| 1e-4 * ((i * 7919 % 101) as f64 / 101.0 - 0.5))
+            .collect();
+        let mut r = vec![0.0; 3 * n];
+        sys.force.internal_forces(&u, &mut r).unwrap();
+        forces.push(r);
+    }
+    assert_ne!(
+        forces[0], forces[1],
+        "the precision did not reach the force model"
+    );
+    let scale = forces[0].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for (a, b) in forces[0].iter().zip(&forces[1]) {
+        assert!((a - b).abs() <= 1e-6 * scale);
+    }
+}
+
 #[test]
 fn every_error_path_names_the_problem() {
     let cases: Vec<(String, &str)> = vec![
@@ -69,6 +122,7 @@ fn every_error_path_names_the_problem() {
         (BASE.replace("boundary = true", "box = { min = [1.0, 1.0, 1.0], max = [2.0, 2.0, 2.0] }"), "contains no node"),
         (format!("{BASE}\n[integrator]\nmethod = \"leapfrog\""), "valid are forward-euler"),
         (format!("{BASE}\n[integrator]\ndt = 0.0"), "`integrator.dt`"),
+        (format!("{BASE}\n[integrator]\nprecision = \"f16\""), "`integrator.precision` = \"f16\": valid are \"f64\", \"f32-storage\""),
         (format!("{BASE}\n[damping]\nalpha = 1.0\nratio = 1.0"), "not a mix"),
         (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\nmode = \"ramp\"\ndisplacement = [0.0, 0.0, 0.01]"), "needs `duration`"),
         (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ntable = [[1.0, 0, 0, 0], [0.5, 0, 0, 1]]"), "times must increase"),

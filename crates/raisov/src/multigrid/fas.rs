@@ -642,52 +642,12 @@ impl Fas {
             // self.r[l] still holds the fine residual at u (computed for the restriction).
             let g0: f64 = self.r[l].iter().zip(pe.iter()).map(|(a, b)| a * b).sum();
             self.saved[l].copy_from_slice(&f.state.u);
-            let mut s = if g0 > 0.0 { 1.0 } else { 0.0 };
-            let mut searched = false;
-            // The last valid step when trying a longer one.
-            let mut fallback: Option<f64> = None;
-            while s > 0.0 {
-                for k in 0..pe.len() {
-                    f.state.u[k] = self.saved[l][k] + s * pe[k];
-                }
-                f.evaluations += 1;
-                if f.sys.residual(&f.state.u, &mut self.r[l]).is_ok() {
-                    if searched {
-                        break;
-                    }
-                    searched = true;
-                    let gs: f64 = self.r[l].iter().zip(pe.iter()).map(|(a, b)| a * b).sum();
-                    // Π'(0) = −g0 < 0, Π'(s) = −gs: the secant's zero, in (0, S_MAX]. Coarse
-                    // levels are stiffer than the fine one (coarser linear tetrahedra lock, and
-                    // their coarsest solve is partial), so the best step is often well above 1.
-                    let s_opt = if g0 - gs > 0.0 {
-                        (s * g0 / (g0 - gs)).min(MAX_CORRECTION_STEP)
-                    } else {
-                        s
-                    };
-                    if (s_opt - s).abs() <= 0.2 * s {
-                        break;
-                    }
-                    if s_opt > s {
-                        fallback = Some(s);
-                    }
-                    s = s_opt;
-                    continue;
-                }
-                if let Some(good) = fallback.take() {
-                    // The longer step inverts an element: take the last valid one.
-                    s = good;
-                    for k in 0..pe.len() {
-                        f.state.u[k] = self.saved[l][k] + s * pe[k];
-                    }
-                    break;
-                }
-                s *= 0.5;
-                if s < 0.04 {
-                    s = 0.0;
-                }
-            }
-            if s == 0.0 {
+            let step = if g0 > 0.0 {
+                secant_search(f, &self.saved[l], pe, g0, &mut self.r[l], 0.04)
+            } else {
+                None
+            };
+            if step.is_none() {
                 f.state.u.copy_from_slice(&self.saved[l]);
                 self.dropped_corrections += 1;
             }
@@ -744,55 +704,76 @@ impl Fas {
         self.kry_rprev.copy_from_slice(&self.kry_r);
         self.kry_zr = zr;
         // Secant line search from u_k along p; s = 1 with β = 0 is the plain cycle.
-        let r = &mut self.r[0];
-        let mut s = 1.0;
-        let mut tried_long = false;
-        let mut ok_at: Option<f64> = None;
-        loop {
+        if secant_search(f, &self.kry_u, &self.kry_p, g0, &mut self.r[0], 1e-3).is_none() {
+            // Give up the acceleration this cycle: back to u_k plus z.
             for k in 0..n {
-                f.state.u[k] = self.kry_u[k] + s * p[k];
+                f.state.u[k] = self.kry_u[k] + self.d[0][k];
             }
-            f.evaluations += 1;
-            match f.sys.residual(&f.state.u, r) {
-                Ok(_) => {
-                    if ok_at.is_some() || tried_long {
-                        break;
-                    }
-                    ok_at = Some(s);
-                    let gs: f64 = r.iter().zip(p).map(|(a, b)| a * b).sum();
-                    let s_opt = if g0 - gs > 0.0 {
-                        (s * g0 / (g0 - gs)).min(MAX_CORRECTION_STEP)
-                    } else {
-                        s
-                    };
-                    if (s_opt - s).abs() <= 0.2 * s {
-                        break;
-                    }
-                    tried_long = s_opt > s;
-                    s = s_opt;
-                }
-                Err(_) => {
-                    if let (Some(good), true) = (ok_at, tried_long) {
-                        s = good;
-                        for k in 0..n {
-                            f.state.u[k] = self.kry_u[k] + s * p[k];
-                        }
-                        break;
-                    }
-                    s *= 0.5;
-                    if s < 1e-3 {
-                        // Give up the acceleration this cycle: back to u_k plus z.
-                        for k in 0..n {
-                            f.state.u[k] = self.kry_u[k] + self.d[0][k];
-                        }
-                        self.kry_zr = 0.0;
-                        self.kry_p.iter_mut().for_each(|x| *x = 0.0);
-                        break;
-                    }
-                }
-            }
+            self.kry_zr = 0.0;
+            self.kry_p.iter_mut().for_each(|x| *x = 0.0);
         }
         Ok(())
+    }
+}
+
+/// Secant line search on the fine potential energy `Π` along `p` from `base`, with
+/// `Π'(s) = −r(base + s p)·p` and `g0 = r(base)·p > 0`: tries `s = 1`, then the secant's zero
+/// `s* = s g0 / (g0 − g_s)` (at most [`MAX_CORRECTION_STEP`]) unless it is within 20 % of `s`;
+/// a longer step that inverts an element falls back to the last valid one, a shorter one is
+/// halved until it is valid. Leaves `lv.state.u = base + s p` and returns `s`, or `None` (state
+/// undefined) once `s` falls below `min_step`. Uses `r` as scratch.
+fn secant_search(
+    lv: &mut Level,
+    base: &[f64],
+    p: &[f64],
+    g0: f64,
+    r: &mut [f64],
+    min_step: f64,
+) -> Option<f64> {
+    let set = |u: &mut [f64], s: f64| {
+        for k in 0..p.len() {
+            u[k] = base[k] + s * p[k];
+        }
+    };
+    let mut s = 1.0;
+    let mut searched = false;
+    // The last valid step when trying a longer one.
+    let mut fallback: Option<f64> = None;
+    loop {
+        set(&mut lv.state.u, s);
+        lv.evaluations += 1;
+        if lv.sys.residual(&lv.state.u, r).is_ok() {
+            if searched {
+                return Some(s);
+            }
+            searched = true;
+            let gs: f64 = r.iter().zip(p).map(|(a, b)| a * b).sum();
+            // Π'(0) = −g0 < 0, Π'(s) = −gs: the secant's zero. Coarse levels are stiffer than
+            // the fine one (coarser linear tetrahedra lock, their coarsest solve is partial),
+            // so the best step along a coarse correction is often well above 1.
+            let s_opt = if g0 - gs > 0.0 {
+                (s * g0 / (g0 - gs)).min(MAX_CORRECTION_STEP)
+            } else {
+                s
+            };
+            if (s_opt - s).abs() <= 0.2 * s {
+                return Some(s);
+            }
+            if s_opt > s {
+                fallback = Some(s);
+            }
+            s = s_opt;
+            continue;
+        }
+        if let Some(good) = fallback.take() {
+            // The longer step inverts an element: take the last valid one.
+            set(&mut lv.state.u, good);
+            return Some(good);
+        }
+        s *= 0.5;
+        if s < min_step {
+            return None;
+        }
     }
 }
 

@@ -1,7 +1,8 @@
 //! Regression: on the liver levels (L1, L2, L3 of `../shared/meshes`), held on the cap of its
 //! top and sagging under gravity, plain FAS V-cycles hardly converged: the residual fell from
-//! 2.4 N to 0.11 N in 44 cycles and then by about 1.2x per 3500 cycles (0.38 N... 3.8e-4 N after
-//! 290k force evaluations), worse than single-level symplectic Euler (6e-4 N after 53k). The
+//! 2.4 N to 0.11 N in 44 cycles and then by about 1.2x per 3500 cycles (3.8e-4 N after
+//! 290k force evaluations), slower per evaluation than single-level symplectic Euler (6e-4 N
+//! after 53k). The
 //! levels are independent meshes whose boundaries differ by about an element and whose coarse
 //! tetrahedra are stiffer, so each coarse correction was 3-4 times too short and off in
 //! direction. Fixed by using each V-cycle as the preconditioner of a nonlinear

@@ -691,15 +691,12 @@ impl Fas {
             self.kry_p[k] = z[k] + beta * self.kry_p[k];
         }
         let p = &self.kry_p;
-        let mut g0: f64 = p.iter().zip(&self.kry_r).map(|(a, b)| a * b).sum();
+        let g0: f64 = p.iter().zip(&self.kry_r).map(|(a, b)| a * b).sum();
         if g0 <= 0.0 || zr <= 0.0 {
             // Not a descent direction: restart from the plain cycle's result.
             self.kry_zr = 0.0;
             self.kry_p.iter_mut().for_each(|x| *x = 0.0);
             return Ok(());
-        }
-        if beta == 0.0 {
-            g0 = zr;
         }
         self.kry_rprev.copy_from_slice(&self.kry_r);
         self.kry_zr = zr;

@@ -22,7 +22,8 @@
 //! tetrahedron), sorted into slabs of equal element counts (by mean node id when the node
 //! numbering is banded, as for the structured boxes, so that a slab touches one contiguous
 //! stretch of `u` and `r`; else along the longest axis of the mesh) and, inside a slab, by
-//! the Morton key of the element centroid. Slabs are coloured greedily so that slabs of
+//! the Morton key of the element centroid, the lanes of a group 16 groups apart in that
+//! order ([`INTERLEAVE`]: lanes of one group then rarely share a node). Slabs are coloured greedily so that slabs of
 //! one colour share no node; the force pass runs colour by colour, the slabs of a colour in
 //! parallel, each slab scattering serially into `r`. Every node thus receives its element
 //! contributions in one fixed order (colour, then slab order, then element order) whatever
@@ -494,8 +495,22 @@ impl TetPack {
     }
 }
 
+/// Groups per lane-interleave window: inside a slab, the elements (in Morton order) are
+/// taken in windows of `INTERLEAVE × LANES`, and lane `l` of the window's `q`-th group holds
+/// the window's element `l · INTERLEAVE + q` (for a full window). Neighbouring elements in
+/// Morton order share nodes; were they lanes of one group, the group's scatter-adds to a
+/// shared node would be a chain of read-after-write through memory (store-to-load
+/// forwarding) that the core cannot overlap. 16 apart, the lanes of a group rarely share a
+/// node while a window (64 elements) still touches a compact set of nodes. Measured on the
+/// standard 100k box: 16.6-16.9 M node-updates/s on 1 thread and 33.6-34.6 M on 2, against
+/// 14.5-14.7 M and 29.7-30.5 M with consecutive lanes (back to back, same build); at 1M
+/// nodes 5 % faster. Windows of 8 or 32 groups measured between the two; separating the
+/// lanes by a quarter of the slab lost locality at 1M (19 M instead of 25 M on 2 threads).
+const INTERLEAVE: usize = 16;
+
 /// Pack the elements of each slab (element ids in force-pass order) into groups of
-/// [`LANES`], padding the last group of each slab; returns the groups and the slab pointers.
+/// [`LANES`], lanes interleaved by [`INTERLEAVE`], padding the last group of each slab;
+/// returns the groups and the slab pointers.
 fn pack_groups<S: Store>(
     slabs: &[&[u32]],
     cells: &[u32],
@@ -506,31 +521,37 @@ fn pack_groups<S: Store>(
     let mut groups = Vec::with_capacity(ne / LANES + slabs.len());
     let mut slab_ptr = vec![0usize];
     for slab in slabs {
-        for chunk in slab.chunks(LANES) {
-            let mut g = Group::<S> {
-                _align: [],
-                idx: [[0; LANES]; 4],
-                dminv: [[S::ZERO; LANES]; 9],
-                vol: [S::ZERO; LANES],
-            };
-            for l in 0..LANES {
-                // Padding lanes repeat the first element with zero volume: zero force.
-                let (e, v) = match chunk.get(l) {
-                    Some(&e) => (e as usize, vol[e as usize]),
-                    None => (chunk[0] as usize, 0.0),
+        for window in slab.chunks(INTERLEAVE * LANES) {
+            // Lane l of the window's group q holds element l·wg + q of the window.
+            let wg = window.len().div_ceil(LANES);
+            for q in 0..wg {
+                let lane = |l: usize| window.get(l * wg + q).copied();
+                let first = lane(0).expect("lane 0 of every group holds an element") as usize;
+                let mut g = Group::<S> {
+                    _align: [],
+                    idx: [[0; LANES]; 4],
+                    dminv: [[S::ZERO; LANES]; 9],
+                    vol: [S::ZERO; LANES],
                 };
-                for k in 0..4 {
-                    g.idx[k][l] = 3 * cells[4 * e + k];
-                }
-                for r in 0..3 {
-                    for c in 0..3 {
-                        // Column-major source.
-                        g.dminv[3 * r + c][l] = S::from_f64(dminv[9 * e + 3 * c + r]);
+                for l in 0..LANES {
+                    // Padding lanes repeat the first element with zero volume: zero force.
+                    let (e, v) = match lane(l) {
+                        Some(e) => (e as usize, vol[e as usize]),
+                        None => (first, 0.0),
+                    };
+                    for k in 0..4 {
+                        g.idx[k][l] = 3 * cells[4 * e + k];
                     }
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            // Column-major source.
+                            g.dminv[3 * r + c][l] = S::from_f64(dminv[9 * e + 3 * c + r]);
+                        }
+                    }
+                    g.vol[l] = S::from_f64(v);
                 }
-                g.vol[l] = S::from_f64(v);
+                groups.push(g);
             }
-            groups.push(g);
         }
         slab_ptr.push(groups.len());
     }

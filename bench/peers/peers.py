@@ -332,6 +332,11 @@ def main():
                     help="node-updates per timing (steps = work / nodes)")
     a = ap.parse_args()
     sizes = parse_sizes(a.sizes)
+    # raisov's throughput first, before any peer loads: a loaded Taichi or Warp runtime keeps
+    # threads in this process that took up to a quarter of raisov's two-thread rate when
+    # raisov was timed after the correctness checks.
+    print("\n== timing raisov (before loading the peers)")
+    rs = raisov_throughput(a.raisov, sizes)
     peers = make_peers()
     if not peers:
         print("no peer could be loaded")
@@ -358,7 +363,6 @@ def main():
 
     # --- throughput -------------------------------------------------------------------------
     print("\n== throughput (node-updates/s = nodes x steps / s, best of 3)")
-    rs = raisov_throughput(a.raisov, sizes)
     rows = []
     for s in sizes:
         lab = label(s)

@@ -316,7 +316,16 @@ pub struct SimCfg {
     pub target: Option<f64>,
     /// Stop when steady (see [`Outcome::Steady`]).
     pub stop_steady: bool,
+    /// The wall cap stops the run only once it has done at least this many force
+    /// evaluations (finest-level units), and at the latest at [`HARD_CAP_FACTOR`] × the cap:
+    /// a run that a comparison bounds from below needs both its wall time and its force
+    /// evaluations past the other's. 0: the wall cap alone.
+    pub min_evals: f64,
 }
+
+/// The hard wall-time limit of a run held past its cap by [`SimCfg::min_evals`], as a
+/// multiple of the cap.
+pub const HARD_CAP_FACTOR: f64 = 3.0;
 
 /// Run `stepper` (whose finest level is `sc`'s mesh) and measure |T − T∞| against `t_inf`
 /// (when given). Nothing non-finite is kept: a diverged run's series ends at its last finite
@@ -334,6 +343,9 @@ pub fn simulate(
     let total = (cfg.t_end / dt).ceil().max(1.0) as u64;
     let every = (total / cfg.samples.max(1)).max(1);
     let start = Instant::now();
+    // Seconds spent measuring (stress and residual samples), kept out of the wall time: a
+    // method that takes many cheap steps is sampled more often and must not pay for it.
+    let mut measuring = 0.0;
     let take = |stepper: &mut dyn Stepper, meter: &mut Meter, wall: f64| -> Pt {
         let evals = stepper.force_evaluations();
         let steps = stepper.steps();
@@ -375,12 +387,14 @@ pub fn simulate(
             break;
         }
         let k = stepper.steps();
-        let wall = start.elapsed().as_secs_f64();
+        let wall = start.elapsed().as_secs_f64() - measuring;
         if k.is_multiple_of(every)
             || k == total
             || target.is_some() && k.is_multiple_of(every.min(10))
         {
+            let t0 = Instant::now();
             let p = take(stepper, &mut meter, wall);
+            measuring += t0.elapsed().as_secs_f64();
             if !finite(&p) {
                 outcome = Outcome::Diverged {
                     time: p.t,
@@ -412,7 +426,10 @@ pub fn simulate(
                 break;
             }
         }
-        if wall > cfg.wall_cap {
+        if wall > cfg.wall_cap
+            && (stepper.force_evaluations() >= cfg.min_evals
+                || wall > HARD_CAP_FACTOR * cfg.wall_cap)
+        {
             let p = take(stepper, &mut meter, wall);
             if finite(&p) {
                 points.push(p);
@@ -654,4 +671,78 @@ pub fn relax_reference(
         ),
         rr.converged,
     ))
+}
+
+/// T∞ by FAS V-cycles on the scenario's own hierarchy (the scenario must use the FAS
+/// multigrid), until the finest residual `‖f_ext − R(u)‖₂` (free nodes) falls below
+/// `rel_tol` of the load `‖f_ext‖₂`, within `wall_cap` seconds. Used where the Newton-Krylov
+/// ladder of [`reference`] costs more than `raisov paper`'s budget (membranes above
+/// [`super::REFERENCE_MAX_NODES`] nodes). The equilibrium is that of the finest mesh's
+/// discrete equations, the one every method converges to (FAS reaches SLIM's equilibrium to
+/// 1e-8, `multigrid::tests`); how FAS gets there does not enter T∞. Returns T∞, a note, and
+/// whether the tolerance was met.
+pub fn fas_reference(
+    sc: &Scenario,
+    rel_tol: f64,
+    wall_cap: f64,
+) -> Result<(Vec<f64>, String, bool)> {
+    let start = Instant::now();
+    let mut st = sc.stepper()?;
+    let fail = |what: String| Error::param("reference", what);
+    let (n, load) = {
+        let (sys, _) = st.finest();
+        let load = sys.f_ext.iter().map(|x| x * x).sum::<f64>().sqrt();
+        (sys.num_nodes(), load.max(f64::MIN_POSITIVE))
+    };
+    let mut r = vec![0.0; 3 * n];
+    let mut res;
+    loop {
+        st.advance()
+            .map_err(|d| fail(format!("FAS cycle diverged: {d}")))?;
+        let (sys, s) = st.finest();
+        res = sys
+            .residual(&s.u, &mut r)
+            .map_err(|f| fail(format!("inverted element {}", f.element)))?;
+        if !res.is_finite() {
+            return Err(fail("non-finite residual".into()));
+        }
+        if res <= rel_tol * load || start.elapsed().as_secs_f64() > wall_cap {
+            break;
+        }
+    }
+    let converged = res <= rel_tol * load;
+    let cycles = st.steps();
+    let (sys, s) = st.finest();
+    let mut tt = vec![0.0; 9 * n];
+    sys.force.nodal_stress(&s.u, &mut tt);
+    Ok((
+        tt,
+        format!(
+            "T_inf by FAS V-cycles on the same hierarchy: residual {res:.2e} N ({:.1e} of the load) after {cycles} cycles, {:.1} s{}",
+            res / load,
+            start.elapsed().as_secs_f64(),
+            if converged {
+                String::new()
+            } else {
+                format!(" (NOT converged to {rel_tol:.0e} within {wall_cap:.0} s)")
+            }
+        ),
+        converged,
+    ))
+}
+
+/// Mean over nodes of the Frobenius norm of `a − b` (nodal 3 × 3 tensors, 9 entries each).
+pub fn mean_norm_diff(a: &[f64], b: &[f64]) -> f64 {
+    let n = (a.len() / 9).max(1) as f64;
+    a.chunks_exact(9)
+        .zip(b.chunks_exact(9))
+        .map(|(x, y)| {
+            x.iter()
+                .zip(y)
+                .map(|(p, q)| (p - q) * (p - q))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .sum::<f64>()
+        / n
 }

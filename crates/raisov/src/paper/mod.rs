@@ -137,6 +137,10 @@ pub const LIVER_WALL_FACTOR: f64 = 3.0;
 pub const REFERENCE_MAX_NODES: usize = 50_000;
 /// Residual of the FAS reference, relative to the load.
 pub const FAS_REFERENCE_TOL: f64 = 1e-8;
+/// A FAS reference stopped by its time budget is still used when its residual is below this
+/// fraction of the load (a full run once stopped at 3.2e-8 after 45 cycles in 40 s on a busy
+/// machine; another took 49 cycles and 22 s to 6.8e-9).
+pub const FAS_REFERENCE_ACCEPT: f64 = 1e-6;
 /// In the time-to-steady runs the strongest single-level integrator (symplectic Euler) runs
 /// until steady or at least this many times FAS's wall time and force evaluations to
 /// steady state (at most [`experiments::HARD_CAP_FACTOR`] x its cap), so that "FAS at
@@ -694,9 +698,11 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             // The Newton-Krylov ladder below costs minutes here; FAS cycles on the case's own
             // hierarchy reach the same discrete equilibrium in seconds (cross-checked against
             // the ladder on the 10k membrane, see the note there).
-            fas_reference(&sc_f, FAS_REFERENCE_TOL, sz.ref_cap).and_then(|(t, note, ok)| {
-                if ok {
+            fas_reference(&sc_f, FAS_REFERENCE_TOL, 2.0 * sz.ref_cap).and_then(|(t, note, rel)| {
+                if rel <= FAS_REFERENCE_TOL {
                     Ok((t, note))
+                } else if rel <= FAS_REFERENCE_ACCEPT {
+                    Ok((t, format!("{note}; accepted: below {FAS_REFERENCE_ACCEPT:.0e} of the load, far below what a 1e-3 stress target can see")))
                 } else {
                     Err(Error::param("reference", note))
                 }
@@ -726,11 +732,11 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             // above REFERENCE_MAX_NODES.
             reference(&sc_f, 1000).map(|(t, note)| {
                 let check = match fas_reference(&sc_f, FAS_REFERENCE_TOL, sz.ref_cap) {
-                    Ok((tf, _, true)) => format!(
+                    Ok((tf, _, rel)) if rel <= FAS_REFERENCE_TOL => format!(
                         "; the FAS reference (as used above {REFERENCE_MAX_NODES} nodes) differs from it by {:.1e} of its mean abs(T_inf) (mean over nodes of abs(T_FAS - T_inf))",
                         mean_norm_diff(&tf, &t) / mean_norm_diff(&t, &vec![0.0; t.len()]).max(f64::MIN_POSITIVE)
                     ),
-                    Ok((_, n, false)) => format!("; FAS reference cross-check: {n}"),
+                    Ok((_, n, _)) => format!("; FAS reference cross-check: {n}"),
                     Err(e) => format!("; FAS reference cross-check failed: {e}"),
                 };
                 (t, format!("{note}{check}"))

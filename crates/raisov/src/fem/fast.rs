@@ -23,8 +23,8 @@
 //! numbering is banded, as for the structured boxes, so that a slab touches one contiguous
 //! stretch of `u` and `r`; else along the longest axis of the mesh) and, inside a slab, by
 //! the Morton key of the element centroid, the lanes of a group 16 groups apart in that
-//! order ([`INTERLEAVE`]: lanes of one group then rarely share a node). Slabs are coloured greedily so that slabs of
-//! one colour share no node; the force pass runs colour by colour, the slabs of a colour in
+//! order ([`INTERLEAVE`]: lanes of one group then rarely share a node). Slabs are coloured
+//! greedily so that slabs of one colour share no node; the force pass runs colour by colour, the slabs of a colour in
 //! parallel, each slab scattering serially into `r`. Every node thus receives its element
 //! contributions in one fixed order (colour, then slab order, then element order) whatever
 //! the number of threads: the same bits on 1 and 2 threads, no atomics.
@@ -509,8 +509,8 @@ impl TetPack {
 const INTERLEAVE: usize = 16;
 
 /// Pack the elements of each slab (element ids in force-pass order) into groups of
-/// [`LANES`], lanes interleaved by [`INTERLEAVE`], padding the last group of each slab;
-/// returns the groups and the slab pointers.
+/// [`LANES`], lanes interleaved by [`INTERLEAVE`], padding lanes only in the last window
+/// of each slab; returns the groups and the slab pointers.
 fn pack_groups<S: Store>(
     slabs: &[&[u32]],
     cells: &[u32],

@@ -752,6 +752,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
                 None
             }
         };
+        // The liver's slow sag needs longer than the membranes.
         let base_cap = if case.name == "liver" {
             sz.wall_cap * LIVER_WALL_FACTOR
         } else {
@@ -787,7 +788,6 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
                     t_inf.as_deref(),
                     SimCfg {
                         t_end: case.duration,
-                        // The liver's slow sag needs longer than the membranes.
                         wall_cap,
                         samples: if t_inf.is_some() { 2000 } else { 200 },
                         target: t_inf.as_ref().map(|_| STEADY_TARGET),

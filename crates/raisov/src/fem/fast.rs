@@ -24,8 +24,8 @@
 //! stretch of `u` and `r`; else along the longest axis of the mesh) and, inside a slab, by
 //! the Morton key of the element centroid, the lanes of a group 16 groups apart in that
 //! order ([`INTERLEAVE`]: lanes of one group then rarely share a node). Slabs are coloured
-//! greedily so that slabs of one colour share no node; the force pass runs colour by colour, the slabs of a colour in
-//! parallel, each slab scattering serially into `r`. Every node thus receives its element
+//! greedily so that slabs of one colour share no node; the force pass runs colour by
+//! colour, the slabs of a colour in parallel, each slab scattering serially into `r`. Every node thus receives its element
 //! contributions in one fixed order (colour, then slab order, then element order) whatever
 //! the number of threads: the same bits on 1 and 2 threads, no atomics.
 //!

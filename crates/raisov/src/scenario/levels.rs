@@ -27,6 +27,18 @@ pub(super) fn validate(mg: &MultigridSpec, mesh: &MeshSpec, path: &Path) -> Resu
             ))
         }
     }
+    if mg.coarse_iterations == Some(0) {
+        return Err(err(
+            path,
+            "`multigrid.coarse_iterations` = 0: give at least 1 (Chebyshev iterations per coarsest visit, default 60)",
+        ));
+    }
+    if mg.coarse_iterations.is_some() && !matches!(mg.coarse.as_deref(), None | Some("chebyshev")) {
+        return Err(err(
+            path,
+            "`multigrid.coarse_iterations` applies to coarse = \"chebyshev\" only",
+        ));
+    }
     if let Some(ln) = &mg.level_nodes {
         if mg.files.is_some() || mg.ratio.is_some() {
             return Err(err(path, "[multigrid]: `level_nodes` gives every generated level's node count; do not combine it with `files` or `ratio`"));
@@ -390,7 +402,12 @@ impl Scenario {
                             mg.coarse_time.unwrap_or(0.1),
                         )?,
                     },
-                    _ => FasParams::default().coarse,
+                    _ => match (mg.coarse_iterations, FasParams::default().coarse) {
+                        (Some(iterations), CoarseSolve::Chebyshev { ratio, .. }) => {
+                            CoarseSolve::Chebyshev { iterations, ratio }
+                        }
+                        (_, c) => c,
+                    },
                 };
                 let smoother = match (mg.smoother.as_deref(), FasParams::default().smoother) {
                     (Some("dynamics"), _) => Smoother::Dynamics,
@@ -431,6 +448,7 @@ impl Scenario {
                             None => FasParams::default().krylov,
                         },
                         kinetic_limit: limit,
+                        ..FasParams::default()
                     },
                 ))
             }

@@ -95,6 +95,7 @@
 //!                                 #      conjugate-gradient step with a line search on the
 //!                                 #      energy, "cg" (default) | "none" (plain V-cycles)
 //! coarse_time = 0.1               # fas explicit coarsest: simulated time per visit (s), default 0.1
+//! coarse_iterations = 60          # fas chebyshev coarsest: iterations per visit, default 60
 //! level_methods = ["rk4", "rk4"]  # per level integrator, default [integrator] method on all
 //! level_dt = [1e-3, 2e-3]         # per level step (s); default: raisov-paper the level-0 step
 //!                                 # on every level (the paper), fas each level's own estimate
@@ -153,6 +154,7 @@ pub struct MultigridSpec {
     pub post_smooth: Option<usize>,
     pub coarse: Option<String>,
     pub coarse_time: Option<f64>,
+    pub coarse_iterations: Option<usize>,
     pub smoother: Option<String>,
     pub transfer: Option<String>,
     pub scaling: Option<String>,

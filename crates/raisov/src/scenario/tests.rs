@@ -136,6 +136,8 @@ fn every_error_path_names_the_problem() {
         (format!("{BASE}\n[multigrid]\nscheme = \"fas\""), "give `levels`"),
         (format!("{BASE}\n[multigrid]\nlevels = 2\nratio = 2.0"), "must be in (0, 1)"),
         (format!("{BASE}\n[multigrid]\nlevels = 2\nsmoother = \"gauss\""), "valid are \"chebyshev\""),
+        (format!("{BASE}\n[multigrid]\nlevels = 2\ncoarse_iterations = 0"), "`multigrid.coarse_iterations` = 0: give at least 1"),
+        (format!("{BASE}\n[multigrid]\nlevels = 2\ncoarse = \"newton\"\ncoarse_iterations = 9"), "coarse = \"chebyshev\" only"),
     ];
     for (text, want) in cases {
         let msg = error_of(&text);

@@ -267,11 +267,13 @@ impl FemModel {
         f[0][2].mul_add(c02, f[0][1].mul_add(c01, f[0][0] * c00))
     }
 
-    /// The lowest-numbered element the fast kernel rejects.
+    /// The lowest-numbered element the fast kernel rejects (a parallel search; the same
+    /// element on any thread count).
     fn fast_failure(&self, u: &[f64]) -> ElementFailure {
         (0..self.num_elements())
+            .into_par_iter()
             .map(|e| (e, self.fast_det(e, u)))
-            .find(|&(_, d)| !(d > 0.0))
+            .find_first(|&(_, d)| !(d > 0.0))
             .map(|(element, det_f)| ElementFailure { element, det_f })
             .unwrap_or(ElementFailure {
                 element: 0,

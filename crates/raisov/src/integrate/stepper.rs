@@ -29,7 +29,7 @@ pub fn energy_limit(f_ext: &[f64], size: f64, e_prescribed: f64, factor: f64) ->
 
 /// Something that advances a simulation by one step of size `dt` and exposes its finest
 /// level. Single-level integration and every multigrid cycle implement it.
-pub trait Stepper {
+pub trait Stepper: Send {
     /// Advance one step (one integrator step, or one V-cycle).
     fn advance(&mut self) -> Result<(), Divergence>;
     /// The finest level's system and state.

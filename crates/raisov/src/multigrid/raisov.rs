@@ -23,6 +23,7 @@
 use super::{norm3, weighted, Level, Links};
 use crate::error::{Divergence, DivergenceCause};
 use crate::integrate::{check_state, Stepper};
+use rayon::prelude::*;
 
 /// How the up stroke reads δX^(i+1) (design note, step 2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
@@ -90,40 +91,58 @@ impl Raisov {
     fn cycle(&mut self) -> Result<(), Divergence> {
         let m = self.levels.len();
         let eps = self.params.epsilon;
-        // X_n and ΔX = X_n − X_(n−1) for every level.
+        // X_n and ΔX = X_n − X_(n−1) for every level (the coarsest's ΔX is never read).
         for i in 0..m {
             let l = &self.levels[i];
             self.start_u[i].copy_from_slice(&l.state.u);
             self.start_v[i].copy_from_slice(&l.state.v);
-            for k in 0..l.state.u.len() {
-                self.du[i][k] = l.state.u[k] - self.prev_u[i][k];
-                self.dv[i][k] = l.state.v[k] - self.prev_v[i][k];
+            if i + 1 < m {
+                difference(&mut self.du[i], &l.state.u, &self.prev_u[i]);
+                difference(&mut self.dv[i], &l.state.v, &self.prev_v[i]);
             }
         }
         let mut sw = [(0usize, 0usize); 2];
-        // Down stroke (eqs. 9, 10).
+        // Down stroke (eqs. 9, 10). Every node is independent: chunks in parallel, the same
+        // bits on any thread count.
         for i in 1..m {
             let t = &self.links[i - 1].up; // level-i nodes hosted on level i−1
             let (fine, coarse) = self.levels.split_at_mut(i);
             let (f, c) = (&fine[i - 1], &mut coarse[0]);
-            for th in 0..c.num_nodes() {
-                let d_u = weighted(t, th, &self.du[i - 1]);
-                let a = 3 * th;
-                if norm3(d_u) > eps {
-                    let su = weighted(t, th, &f.state.u);
-                    let sv = weighted(t, th, &f.state.v);
-                    c.state.u[a..a + 3].copy_from_slice(&su);
-                    c.state.v[a..a + 3].copy_from_slice(&sv);
-                    sw[0].0 += 1;
-                } else {
-                    let d_v = weighted(t, th, &self.dv[i - 1]);
-                    for k in 0..3 {
-                        c.state.u[a + k] += d_u[k];
-                        c.state.v[a + k] += d_v[k];
+            let (du, dv) = (&self.du[i - 1], &self.dv[i - 1]);
+            let (src_u, src_v) = (&f.state.u, &f.state.v);
+            let counts = c
+                .state
+                .u
+                .par_chunks_mut(3 * CHUNK)
+                .zip(c.state.v.par_chunks_mut(3 * CHUNK))
+                .enumerate()
+                .map(|(k, (cu, cv))| {
+                    let mut n = (0usize, 0usize);
+                    for (j, (u3, v3)) in cu
+                        .chunks_exact_mut(3)
+                        .zip(cv.chunks_exact_mut(3))
+                        .enumerate()
+                    {
+                        let th = k * CHUNK + j;
+                        let d_u = weighted(t, th, du);
+                        if norm3(d_u) > eps {
+                            u3.copy_from_slice(&weighted(t, th, src_u));
+                            v3.copy_from_slice(&weighted(t, th, src_v));
+                            n.0 += 1;
+                        } else {
+                            let d_v = weighted(t, th, dv);
+                            for q in 0..3 {
+                                u3[q] += d_u[q];
+                                v3[q] += d_v[q];
+                            }
+                            n.1 += 1;
+                        }
                     }
-                    sw[0].1 += 1;
-                }
-            }
+                    n
+                })
+                .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+            sw[0].0 += counts.0;
+            sw[0].1 += counts.1;
             let tt = c.state.t;
             c.sys.impose(tt, &mut c.state.u, &mut c.state.v);
         }
@@ -137,33 +156,55 @@ impl Raisov {
                     Reading::Paper => (&self.start_u[i + 1], &self.start_v[i + 1]),
                     Reading::Correction => (&self.up_u[i + 1], &self.up_v[i + 1]),
                 };
-                for th in 0..f.num_nodes() {
-                    let a = 3 * th;
-                    let own = [self.du[i][a], self.du[i][a + 1], self.du[i][a + 2]];
-                    if norm3(own) > eps {
-                        let su = weighted(t, th, &c.state.u);
-                        let sv = weighted(t, th, &c.state.v);
-                        f.state.u[a..a + 3].copy_from_slice(&su);
-                        f.state.v[a..a + 3].copy_from_slice(&sv);
-                        sw[1].0 += 1;
-                    } else {
-                        let cu = weighted(t, th, &c.state.u);
-                        let cv = weighted(t, th, &c.state.v);
-                        let bu = weighted(t, th, base_u);
-                        let bv = weighted(t, th, base_v);
-                        for k in 0..3 {
-                            f.state.u[a + k] += cu[k] - bu[k];
-                            f.state.v[a + k] += cv[k] - bv[k];
+                let own_du = &self.du[i];
+                let (src_u, src_v) = (&c.state.u, &c.state.v);
+                let counts = f
+                    .state
+                    .u
+                    .par_chunks_mut(3 * CHUNK)
+                    .zip(f.state.v.par_chunks_mut(3 * CHUNK))
+                    .enumerate()
+                    .map(|(k, (fu, fv))| {
+                        let mut n = (0usize, 0usize);
+                        for (j, (u3, v3)) in fu
+                            .chunks_exact_mut(3)
+                            .zip(fv.chunks_exact_mut(3))
+                            .enumerate()
+                        {
+                            let th = k * CHUNK + j;
+                            let a = 3 * th;
+                            let own = [own_du[a], own_du[a + 1], own_du[a + 2]];
+                            let cu = weighted(t, th, src_u);
+                            let cv = weighted(t, th, src_v);
+                            if norm3(own) > eps {
+                                u3.copy_from_slice(&cu);
+                                v3.copy_from_slice(&cv);
+                                n.0 += 1;
+                            } else {
+                                let bu = weighted(t, th, base_u);
+                                let bv = weighted(t, th, base_v);
+                                for q in 0..3 {
+                                    u3[q] += cu[q] - bu[q];
+                                    v3[q] += cv[q] - bv[q];
+                                }
+                                n.1 += 1;
+                            }
                         }
-                        sw[1].1 += 1;
-                    }
-                }
+                        n
+                    })
+                    .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                sw[1].0 += counts.0;
+                sw[1].1 += counts.1;
                 let tt = f.state.t;
                 f.sys.impose(tt, &mut f.state.u, &mut f.state.v);
             }
             let l = &mut self.levels[i];
-            self.up_u[i].copy_from_slice(&l.state.u);
-            self.up_v[i].copy_from_slice(&l.state.v);
+            // Only the Correction reading reads a level's up-stroke start, and only on coarse
+            // levels (as δX^(i+1) for level i).
+            if i > 0 && self.params.reading == Reading::Correction {
+                self.up_u[i].copy_from_slice(&l.state.u);
+                self.up_v[i].copy_from_slice(&l.state.v);
+            }
             let t0 = l.state.t;
             l.integrator
                 .step(&mut l.sys, &mut l.state, l.dt)
@@ -175,13 +216,26 @@ impl Raisov {
                 })?;
             l.evaluations += l.integrator.method().evaluations();
         }
-        for i in 0..m {
-            self.prev_u[i].copy_from_slice(&self.start_u[i]);
-            self.prev_v[i].copy_from_slice(&self.start_v[i]);
-        }
+        // X_(n−1) ← X_n; the old X_(n−1) buffers become next cycle's X_n scratch.
+        std::mem::swap(&mut self.prev_u, &mut self.start_u);
+        std::mem::swap(&mut self.prev_v, &mut self.start_v);
         self.last_switches = sw;
         Ok(())
     }
+}
+
+/// Nodes per parallel chunk of the transfers.
+const CHUNK: usize = 4096;
+
+/// `out = a − b`, in parallel chunks.
+fn difference(out: &mut [f64], a: &[f64], b: &[f64]) {
+    out.par_chunks_mut(3 * CHUNK)
+        .zip(a.par_chunks(3 * CHUNK).zip(b.par_chunks(3 * CHUNK)))
+        .for_each(|(o, (a, b))| {
+            for k in 0..o.len() {
+                o[k] = a[k] - b[k];
+            }
+        });
 }
 
 impl Stepper for Raisov {

@@ -285,3 +285,33 @@ fn fas_residual_reuse_changes_no_bit_and_saves_evaluations() {
         );
     }
 }
+
+/// The literal cycle's transfers run in parallel chunks of nodes: on a mesh of several chunks
+/// the states after some cycles are the same bits on one and on two threads.
+#[test]
+fn raisov_cycle_same_bits_on_one_and_two_threads() {
+    let sc = drape(
+        9000,
+        "[multigrid]\nscheme = \"raisov-paper\"\nlevels = 3",
+        "rk4",
+    );
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let mut st = sc.stepper().unwrap();
+                for _ in 0..5 {
+                    st.advance().unwrap();
+                }
+                let (_, s) = st.finest();
+                (s.u.clone(), s.v.clone())
+            })
+    };
+    let (u1, v1) = run(1);
+    let (u2, v2) = run(2);
+    assert!(u1.iter().any(|&x| x != 0.0));
+    assert_eq!(u1, u2, "displacements differ between 1 and 2 threads");
+    assert_eq!(v1, v2, "velocities differ between 1 and 2 threads");
+}

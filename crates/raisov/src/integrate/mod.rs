@@ -33,6 +33,57 @@ pub use stepper::{
 };
 
 use crate::fem::{ElementFailure, ForceModel};
+use rayon::prelude::*;
+
+/// Vector length (dofs) below which the integrators' vector loops run on the calling thread.
+const PAR_MIN: usize = 3 * 16_384;
+/// Dofs per parallel chunk of those loops.
+const PAR_CHUNK: usize = 3 * 4_096;
+
+/// `body(offset, x)` over chunks of `x` (all of it when short), in parallel. Each element is
+/// computed alone, so the bits do not depend on the thread count.
+fn chunks1(x: &mut [f64], body: impl Fn(usize, &mut [f64]) + Sync) {
+    if x.len() < PAR_MIN {
+        body(0, x)
+    } else {
+        x.par_chunks_mut(PAR_CHUNK)
+            .enumerate()
+            .for_each(|(k, x)| body(k * PAR_CHUNK, x));
+    }
+}
+
+/// [`chunks1`] over matching chunks of two vectors.
+fn chunks2(x: &mut [f64], y: &mut [f64], body: impl Fn(usize, &mut [f64], &mut [f64]) + Sync) {
+    if x.len() < PAR_MIN {
+        body(0, x, y)
+    } else {
+        (x.par_chunks_mut(PAR_CHUNK), y.par_chunks_mut(PAR_CHUNK))
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(k, (x, y))| body(k * PAR_CHUNK, x, y));
+    }
+}
+
+/// [`chunks1`] over matching chunks of four vectors.
+fn chunks4(
+    x: [&mut [f64]; 4],
+    body: impl Fn(usize, &mut [f64], &mut [f64], &mut [f64], &mut [f64]) + Sync,
+) {
+    let [a, b, c, d] = x;
+    if a.len() < PAR_MIN {
+        body(0, a, b, c, d)
+    } else {
+        (
+            a.par_chunks_mut(PAR_CHUNK),
+            b.par_chunks_mut(PAR_CHUNK),
+            c.par_chunks_mut(PAR_CHUNK),
+            d.par_chunks_mut(PAR_CHUNK),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(k, (a, b, c, d))| body(k * PAR_CHUNK, a, b, c, d));
+    }
+}
 
 /// Which explicit integrator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Deserialize, serde::Serialize)]
@@ -181,18 +232,16 @@ impl System {
         a: &mut [f64],
     ) -> Result<(), ElementFailure> {
         self.force.internal_forces(u, &mut self.r)?;
-        for (n, im) in self.inv_mass.iter().enumerate() {
-            for k in 0..3 {
-                let i = 3 * n + k;
-                a[i] = (self.f_ext[i] - self.r[i]) * im;
+        let (f, r, inv_mass, alpha) = (&self.f_ext, &self.r, &self.inv_mass, self.alpha);
+        chunks1(a, |off, a| {
+            for (j, aj) in a.iter_mut().enumerate() {
+                let i = off + j;
+                *aj = (f[i] - r[i]) * inv_mass[i / 3];
+                if let Some(v) = v {
+                    *aj -= alpha * v[i];
+                }
             }
-        }
-        if let Some(v) = v {
-            let alpha = self.alpha;
-            for (ai, vi) in a.iter_mut().zip(v) {
-                *ai -= alpha * vi;
-            }
-        }
+        });
         self.constraints.zero_constrained(a);
         Ok(())
     }
@@ -252,10 +301,13 @@ impl Integrator for ForwardEuler {
     }
     fn step(&mut self, sys: &mut System, s: &mut State, dt: f64) -> Result<(), ElementFailure> {
         sys.acceleration(&s.u, &s.v, &mut self.a)?;
-        for i in 0..s.u.len() {
-            s.u[i] += dt * s.v[i];
-            s.v[i] += dt * self.a[i];
-        }
+        let a = &self.a;
+        chunks2(&mut s.u, &mut s.v, |off, u, v| {
+            for j in 0..u.len() {
+                u[j] += dt * v[j];
+                v[j] += dt * a[off + j];
+            }
+        });
         s.t += dt;
         sys.impose(s.t, &mut s.u, &mut s.v);
         Ok(())
@@ -279,10 +331,13 @@ impl Integrator for SymplecticEuler {
     }
     fn step(&mut self, sys: &mut System, s: &mut State, dt: f64) -> Result<(), ElementFailure> {
         sys.acceleration(&s.u, &s.v, &mut self.a)?;
-        for i in 0..s.u.len() {
-            s.v[i] += dt * self.a[i];
-            s.u[i] += dt * s.v[i];
-        }
+        let a = &self.a;
+        chunks2(&mut s.u, &mut s.v, |off, u, v| {
+            for j in 0..u.len() {
+                v[j] += dt * a[off + j];
+                u[j] += dt * v[j];
+            }
+        });
         s.t += dt;
         sys.impose(s.t, &mut s.u, &mut s.v);
         Ok(())
@@ -314,36 +369,49 @@ impl Integrator for Rk4 {
         Method::Rk4
     }
     fn step(&mut self, sys: &mut System, s: &mut State, dt: f64) -> Result<(), ElementFailure> {
-        let n = s.u.len();
+        let Rk4 { us, vs, a, du, dv } = self;
         // Stage 1 at (t, u, v).
-        sys.acceleration(&s.u, &s.v, &mut self.a)?;
-        for i in 0..n {
-            self.du[i] = s.v[i];
-            self.dv[i] = self.a[i];
-            self.us[i] = s.u[i] + 0.5 * dt * s.v[i];
-            self.vs[i] = s.v[i] + 0.5 * dt * self.a[i];
+        sys.acceleration(&s.u, &s.v, a)?;
+        {
+            let (u, v, a) = (&s.u, &s.v, &*a);
+            chunks4([du, dv, us, vs], |off, du, dv, us, vs| {
+                for j in 0..du.len() {
+                    let i = off + j;
+                    du[j] = v[i];
+                    dv[j] = a[i];
+                    us[j] = u[i] + 0.5 * dt * v[i];
+                    vs[j] = v[i] + 0.5 * dt * a[i];
+                }
+            });
         }
-        sys.impose(s.t + 0.5 * dt, &mut self.us, &mut self.vs);
+        sys.impose(s.t + 0.5 * dt, us, vs);
         // Stages 2 and 3 at t + dt/2, stage 4 at t + dt.
         for (stage, (w, c)) in [(2.0, 0.5), (2.0, 1.0), (1.0, 0.0)].into_iter().enumerate() {
-            sys.acceleration(&self.us, &self.vs, &mut self.a)?;
-            for i in 0..n {
-                let (ki_u, ki_v) = (self.vs[i], self.a[i]);
-                self.du[i] += w * ki_u;
-                self.dv[i] += w * ki_v;
-                if stage < 2 {
-                    self.us[i] = s.u[i] + c * dt * ki_u;
-                    self.vs[i] = s.v[i] + c * dt * ki_v;
+            sys.acceleration(us, vs, a)?;
+            let (u, v, a) = (&s.u, &s.v, &*a);
+            chunks4([du, dv, us, vs], |off, du, dv, us, vs| {
+                for j in 0..du.len() {
+                    let i = off + j;
+                    let (ki_u, ki_v) = (vs[j], a[i]);
+                    du[j] += w * ki_u;
+                    dv[j] += w * ki_v;
+                    if stage < 2 {
+                        us[j] = u[i] + c * dt * ki_u;
+                        vs[j] = v[i] + c * dt * ki_v;
+                    }
                 }
-            }
+            });
             if stage < 2 {
-                sys.impose(s.t + c * dt, &mut self.us, &mut self.vs);
+                sys.impose(s.t + c * dt, us, vs);
             }
         }
-        for i in 0..n {
-            s.u[i] += dt / 6.0 * self.du[i];
-            s.v[i] += dt / 6.0 * self.dv[i];
-        }
+        let (du, dv) = (&*du, &*dv);
+        chunks2(&mut s.u, &mut s.v, |off, u, v| {
+            for j in 0..u.len() {
+                u[j] += dt / 6.0 * du[off + j];
+                v[j] += dt / 6.0 * dv[off + j];
+            }
+        });
         s.t += dt;
         sys.impose(s.t, &mut s.u, &mut s.v);
         Ok(())
@@ -369,10 +437,13 @@ impl Integrator for CentralDifference {
         sys.elastic_acceleration(&s.u, &mut self.a)?;
         let h = 0.5 * sys.alpha * dt;
         let (c0, c1) = ((1.0 - h) / (1.0 + h), dt / (1.0 + h));
-        for i in 0..s.u.len() {
-            s.v[i] = c0 * s.v[i] + c1 * self.a[i];
-            s.u[i] += dt * s.v[i];
-        }
+        let a = &self.a;
+        chunks2(&mut s.u, &mut s.v, |off, u, v| {
+            for j in 0..u.len() {
+                v[j] = c0 * v[j] + c1 * a[off + j];
+                u[j] += dt * v[j];
+            }
+        });
         s.t += dt;
         sys.impose(s.t, &mut s.u, &mut s.v);
         Ok(())

@@ -91,15 +91,19 @@ impl Raisov {
     fn cycle(&mut self) -> Result<(), Divergence> {
         let m = self.levels.len();
         let eps = self.params.epsilon;
-        // X_n and ΔX = X_n − X_(n−1) for every level (the coarsest's ΔX is never read).
+        // X_n and ΔX = X_n − X_(n−1) for every level.
         for i in 0..m {
             let l = &self.levels[i];
-            self.start_u[i].copy_from_slice(&l.state.u);
-            self.start_v[i].copy_from_slice(&l.state.v);
-            if i + 1 < m {
-                difference(&mut self.du[i], &l.state.u, &self.prev_u[i]);
-                difference(&mut self.dv[i], &l.state.v, &self.prev_v[i]);
-            }
+            start_and_change(
+                (&l.state.u, &self.prev_u[i]),
+                &mut self.start_u[i],
+                &mut self.du[i],
+            );
+            start_and_change(
+                (&l.state.v, &self.prev_v[i]),
+                &mut self.start_v[i],
+                &mut self.dv[i],
+            );
         }
         let mut sw = [(0usize, 0usize); 2];
         // Down stroke (eqs. 9, 10). Every node is independent: chunks in parallel, the same
@@ -202,8 +206,8 @@ impl Raisov {
             // Only the Correction reading reads a level's up-stroke start, and only on coarse
             // levels (as δX^(i+1) for level i).
             if i > 0 && self.params.reading == Reading::Correction {
-                self.up_u[i].copy_from_slice(&l.state.u);
-                self.up_v[i].copy_from_slice(&l.state.v);
+                par_copy(&mut self.up_u[i], &l.state.u);
+                par_copy(&mut self.up_v[i], &l.state.v);
             }
             let t0 = l.state.t;
             l.integrator
@@ -224,16 +228,29 @@ impl Raisov {
     }
 }
 
+/// `dst = src`, in parallel chunks.
+fn par_copy(dst: &mut [f64], src: &[f64]) {
+    dst.par_chunks_mut(3 * CHUNK)
+        .zip(src.par_chunks(3 * CHUNK))
+        .for_each(|(d, s)| d.copy_from_slice(s));
+}
+
 /// Nodes per parallel chunk of the transfers.
 const CHUNK: usize = 4096;
 
-/// `out = a − b`, in parallel chunks.
-fn difference(out: &mut [f64], a: &[f64], b: &[f64]) {
-    out.par_chunks_mut(3 * CHUNK)
-        .zip(a.par_chunks(3 * CHUNK).zip(b.par_chunks(3 * CHUNK)))
-        .for_each(|(o, (a, b))| {
-            for k in 0..o.len() {
-                o[k] = a[k] - b[k];
+/// `start = x`, `change = x − prev` in one pass, in parallel chunks.
+fn start_and_change((x, prev): (&[f64], &[f64]), start: &mut [f64], change: &mut [f64]) {
+    (
+        start.par_chunks_mut(3 * CHUNK),
+        change.par_chunks_mut(3 * CHUNK),
+        x.par_chunks(3 * CHUNK),
+        prev.par_chunks(3 * CHUNK),
+    )
+        .into_par_iter()
+        .for_each(|(s, c, x, p)| {
+            for k in 0..s.len() {
+                s[k] = x[k];
+                c[k] = x[k] - p[k];
             }
         });
 }

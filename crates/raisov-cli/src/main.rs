@@ -86,6 +86,11 @@ enum Cmd {
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
+        /// Let single-level symplectic Euler run up to SECONDS of wall time in the
+        /// time-to-steady runs (default: until 6x FAS's time and evaluations), so that it
+        /// reaches steady state on the 100k membrane too (about 6 minutes there).
+        #[arg(long, value_name = "SECONDS")]
+        slim_cap: Option<f64>,
     },
     /// Mesh tools.
     Mesh {
@@ -177,7 +182,8 @@ fn real_main(cli: Cli) -> Result<()> {
             quick,
             meshes,
             quiet,
-        } => on_pool(|| cmd_paper(out, quick, meshes, quiet)),
+            slim_cap,
+        } => on_pool(|| cmd_paper(out, quick, meshes, quiet, slim_cap)),
         Cmd::Mesh {
             cmd: MeshCmd::Info { file },
         } => cmd_mesh_info(&file),
@@ -255,14 +261,26 @@ fn cmd_run(scenario: Option<PathBuf>, out: Option<PathBuf>, quiet: bool) -> Resu
     Ok(())
 }
 
-fn cmd_paper(out: PathBuf, quick: bool, meshes: Option<PathBuf>, quiet: bool) -> Result<()> {
+fn cmd_paper(
+    out: PathBuf,
+    quick: bool,
+    meshes: Option<PathBuf>,
+    quiet: bool,
+    slim_cap: Option<f64>,
+) -> Result<()> {
     use raisov::paper::{run_paper, PaperOptions, Progress};
+    if let Some(c) = slim_cap {
+        if !(c.is_finite() && c > 0.0) {
+            anyhow::bail!("--slim-cap {c}: give a positive number of seconds");
+        }
+    }
     let meshes = meshes.unwrap_or_else(|| PathBuf::from("../shared/meshes"));
     let opts = PaperOptions {
         out_dir: out.clone(),
         quick,
         tiny: false,
         meshes_dir: Some(meshes),
+        slim_cap,
     };
     let show = !quiet && std::io::stderr().is_terminal();
     let bar = if show {

@@ -55,6 +55,7 @@ fn tiny_paper_run_writes_report_plots_and_csv() {
         quick: true,
         tiny: true,
         meshes_dir: None,
+        slim_cap: None,
     };
     let mut planned = 0;
     let mut done = 0;

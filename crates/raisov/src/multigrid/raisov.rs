@@ -114,37 +114,21 @@ impl Raisov {
             let (f, c) = (&fine[i - 1], &mut coarse[0]);
             let (du, dv) = (&self.du[i - 1], &self.dv[i - 1]);
             let (src_u, src_v) = (&f.state.u, &f.state.v);
-            let counts = c
-                .state
-                .u
-                .par_chunks_mut(3 * CHUNK)
-                .zip(c.state.v.par_chunks_mut(3 * CHUNK))
-                .enumerate()
-                .map(|(k, (cu, cv))| {
-                    let mut n = (0usize, 0usize);
-                    for (j, (u3, v3)) in cu
-                        .chunks_exact_mut(3)
-                        .zip(cv.chunks_exact_mut(3))
-                        .enumerate()
-                    {
-                        let th = k * CHUNK + j;
-                        let d_u = weighted(t, th, du);
-                        if norm3(d_u) > eps {
-                            u3.copy_from_slice(&weighted(t, th, src_u));
-                            v3.copy_from_slice(&weighted(t, th, src_v));
-                            n.0 += 1;
-                        } else {
-                            let d_v = weighted(t, th, dv);
-                            for q in 0..3 {
-                                u3[q] += d_u[q];
-                                v3[q] += d_v[q];
-                            }
-                            n.1 += 1;
-                        }
+            let counts = per_node(&mut c.state.u, &mut c.state.v, |th, u3, v3| {
+                let d_u = weighted(t, th, du);
+                if norm3(d_u) > eps {
+                    u3.copy_from_slice(&weighted(t, th, src_u));
+                    v3.copy_from_slice(&weighted(t, th, src_v));
+                    true
+                } else {
+                    let d_v = weighted(t, th, dv);
+                    for q in 0..3 {
+                        u3[q] += d_u[q];
+                        v3[q] += d_v[q];
                     }
-                    n
-                })
-                .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                    false
+                }
+            });
             sw[0].0 += counts.0;
             sw[0].1 += counts.1;
             let tt = c.state.t;
@@ -162,41 +146,25 @@ impl Raisov {
                 };
                 let own_du = &self.du[i];
                 let (src_u, src_v) = (&c.state.u, &c.state.v);
-                let counts = f
-                    .state
-                    .u
-                    .par_chunks_mut(3 * CHUNK)
-                    .zip(f.state.v.par_chunks_mut(3 * CHUNK))
-                    .enumerate()
-                    .map(|(k, (fu, fv))| {
-                        let mut n = (0usize, 0usize);
-                        for (j, (u3, v3)) in fu
-                            .chunks_exact_mut(3)
-                            .zip(fv.chunks_exact_mut(3))
-                            .enumerate()
-                        {
-                            let th = k * CHUNK + j;
-                            let a = 3 * th;
-                            let own = [own_du[a], own_du[a + 1], own_du[a + 2]];
-                            let cu = weighted(t, th, src_u);
-                            let cv = weighted(t, th, src_v);
-                            if norm3(own) > eps {
-                                u3.copy_from_slice(&cu);
-                                v3.copy_from_slice(&cv);
-                                n.0 += 1;
-                            } else {
-                                let bu = weighted(t, th, base_u);
-                                let bv = weighted(t, th, base_v);
-                                for q in 0..3 {
-                                    u3[q] += cu[q] - bu[q];
-                                    v3[q] += cv[q] - bv[q];
-                                }
-                                n.1 += 1;
-                            }
+                let counts = per_node(&mut f.state.u, &mut f.state.v, |th, u3, v3| {
+                    let a = 3 * th;
+                    let own = [own_du[a], own_du[a + 1], own_du[a + 2]];
+                    let cu = weighted(t, th, src_u);
+                    let cv = weighted(t, th, src_v);
+                    if norm3(own) > eps {
+                        u3.copy_from_slice(&cu);
+                        v3.copy_from_slice(&cv);
+                        true
+                    } else {
+                        let bu = weighted(t, th, base_u);
+                        let bv = weighted(t, th, base_v);
+                        for q in 0..3 {
+                            u3[q] += cu[q] - bu[q];
+                            v3[q] += cv[q] - bv[q];
                         }
-                        n
-                    })
-                    .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                        false
+                    }
+                });
                 sw[1].0 += counts.0;
                 sw[1].1 += counts.1;
                 let tt = f.state.t;
@@ -226,6 +194,31 @@ impl Raisov {
         self.last_switches = sw;
         Ok(())
     }
+}
+
+/// `f(node, u, v)` on every node's 3-vectors of a level's state, in parallel chunks of
+/// [`CHUNK`] nodes (each node alone: the same bits on any thread count). `f` says whether it
+/// transferred the node's state (true) or a variation; returns the two counts.
+fn per_node(
+    u: &mut [f64],
+    v: &mut [f64],
+    f: impl Fn(usize, &mut [f64], &mut [f64]) -> bool + Sync,
+) -> (usize, usize) {
+    u.par_chunks_mut(3 * CHUNK)
+        .zip(v.par_chunks_mut(3 * CHUNK))
+        .enumerate()
+        .map(|(k, (u, v))| {
+            let mut n = (0usize, 0usize);
+            for (j, (u3, v3)) in u.chunks_exact_mut(3).zip(v.chunks_exact_mut(3)).enumerate() {
+                if f(k * CHUNK + j, u3, v3) {
+                    n.0 += 1;
+                } else {
+                    n.1 += 1;
+                }
+            }
+            n
+        })
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1))
 }
 
 /// `dst = src`, in parallel chunks.

@@ -460,6 +460,14 @@ fn cmd_bench(
         },
     )?;
     println!("{}", bench::to_text(&rows));
+    let goals = bench::goals(&rows);
+    if !goals.is_empty() {
+        println!("Goals judged from this run (5x the best peer: bash bench/peers/run.sh):");
+        for line in goals {
+            println!("  {line}");
+        }
+        println!();
+    }
     let steps = if quick { 50 } else { 500 };
     for &n in sizes.iter().filter(|&&n| n <= 10_000) {
         for &p in &precisions {
@@ -473,7 +481,8 @@ fn cmd_bench(
         } else {
             bench::to_csv(&rows)
         };
-        std::fs::write(&o, text).with_context(|| format!("writing {}", o.display()))?;
+        raisov::io::write_atomic(&o, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", o.display()))?;
         eprintln!("wrote {}", o.display());
     }
     Ok(())

@@ -387,7 +387,7 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
                 let gbs = bpt * tets as f64 * sps / 1e9;
                 push(
                     Row {
-                        case: "box tet NH symplectic-euler (fused)".into(),
+                        case: STANDARD_CASE.into(),
                         nodes,
                         elements: tets,
                         threads: t,
@@ -657,6 +657,70 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
     Ok(rows)
 }
 
+/// Case name of the standard-work rows.
+pub const STANDARD_CASE: &str = "box tet NH symplectic-euler (fused)";
+
+/// The performance goals that can be judged from one run's rows, one line each: per-node
+/// time from the smallest box of at least 5k nodes (the "10k" box) to the largest, per
+/// thread count and precision (goal: within 30 %), the fraction of the triad roofline per
+/// size from 50k nodes up, where the element data no longer fit in cache and the triad
+/// measures main memory (goal: at least 0.5; a cache-resident box is never bandwidth-bound,
+/// so the fraction says nothing there), and the V-cycle cost ratio (the paper's eq. 14: at
+/// most 2).
+/// The goal of 5x the best peer needs the peers' numbers: `bench/peers/run.sh` prints it.
+pub fn goals(rows: &[Row]) -> Vec<String> {
+    let verdict = |ok: bool| if ok { "holds" } else { "not met" };
+    let std_rows: Vec<&Row> = rows.iter().filter(|r| r.case == STANDARD_CASE).collect();
+    let mut keys: Vec<(usize, &str)> = std_rows.iter().map(|r| (r.threads, r.precision)).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let mut out = Vec::new();
+    for &(t, p) in &keys {
+        let mine: Vec<&&Row> = std_rows
+            .iter()
+            .filter(|r| r.threads == t && r.precision == p && r.node_updates_per_s.is_some())
+            .collect();
+        let small = mine
+            .iter()
+            .filter(|r| r.nodes >= 5000)
+            .min_by_key(|r| r.nodes);
+        let large = mine.iter().max_by_key(|r| r.nodes);
+        if let (Some(a), Some(b)) = (small, large) {
+            if b.nodes > a.nodes {
+                let ratio =
+                    a.node_updates_per_s.unwrap_or(0.0) / b.node_updates_per_s.unwrap_or(1.0);
+                out.push(format!(
+                    "per-node time, {} over {} nodes, {t} thread(s), {p}: {ratio:.2}x (goal <= 1.30: {})",
+                    b.nodes,
+                    a.nodes,
+                    verdict(ratio <= 1.3)
+                ));
+            }
+        }
+        let fr: Vec<String> = mine
+            .iter()
+            .filter(|r| r.nodes >= 50_000)
+            .filter_map(|r| r.roofline_fraction.map(|f| (r.nodes, f)))
+            .map(|(n, f)| format!("{} nodes {f:.2} ({})", n, verdict(f >= 0.5)))
+            .collect();
+        if !fr.is_empty() {
+            out.push(format!(
+                "fraction of the triad roofline, {t} thread(s), {p} (goal >= 0.5): {}",
+                fr.join(", ")
+            ));
+        }
+    }
+    for r in rows.iter().filter(|r| r.case.starts_with("RaISoV V-cycle")) {
+        if let Some(v) = r.value {
+            out.push(format!(
+                "V-cycle over single step: {v:.2} (eq. 14: <= 2: {})",
+                verdict(v <= 2.0)
+            ));
+        }
+    }
+    out
+}
+
 fn opt(x: Option<f64>, f: impl Fn(f64) -> String) -> String {
     x.map(f).unwrap_or_else(|| "-".into())
 }
@@ -726,12 +790,19 @@ pub fn to_text(rows: &[Row]) -> String {
     out
 }
 
-/// The table as Markdown.
+/// The table as Markdown, followed by the [`goals`] as a list.
 pub fn to_markdown(rows: &[Row]) -> String {
     let mut out = format!("| {} |\n", HEADER.join(" | "));
     out.push_str(&format!("|{}\n", "---|".repeat(HEADER.len())));
     for r in rows {
         out.push_str(&format!("| {} |\n", cells(r).join(" | ")));
+    }
+    let g = goals(rows);
+    if !g.is_empty() {
+        out.push_str("\nGoals judged from this run:\n\n");
+        for line in g {
+            out.push_str(&format!("- {line}\n"));
+        }
     }
     out
 }
@@ -824,6 +895,66 @@ mod tests {
         assert_eq!(w.v, s.v);
         let c = w.check();
         assert!(c.mean_uy_free_end < 0.0 && c.max_abs_u > 0.0);
+    }
+
+    /// The goal lines judge what the rows say: a per-node time ratio of 1.25 holds, 1.5 does
+    /// not; a roofline fraction of 0.45 is not half, and a 10k box is not judged on it; a
+    /// V-cycle ratio of 2.3 breaks eq. 14.
+    #[test]
+    fn goals_judge_the_rows() {
+        let row = |nodes: usize, t: usize, rate: f64, frac: f64| Row {
+            case: STANDARD_CASE.into(),
+            nodes,
+            threads: t,
+            precision: "f64",
+            node_updates_per_s: Some(rate),
+            roofline_fraction: Some(frac),
+            ..Default::default()
+        };
+        let mut rows = vec![
+            row(1000, 1, 40e6, 0.1),
+            row(10_000, 1, 20e6, 0.1),
+            row(100_000, 1, 18e6, 0.6),
+            row(1_000_000, 1, 16e6, 0.45),
+            row(10_000, 2, 30e6, 0.1),
+            row(1_000_000, 2, 20e6, 0.5),
+        ];
+        rows.push(Row {
+            case: "RaISoV V-cycle / single step".into(),
+            value: Some(2.3),
+            ..Default::default()
+        });
+        let g = goals(&rows);
+        assert_eq!(g.len(), 5, "{g:#?}");
+        assert!(
+            g[0].contains("1000000 over 10000 nodes, 1 thread(s)")
+                && g[0].contains("1.25x")
+                && g[0].ends_with("holds)"),
+            "{}",
+            g[0]
+        );
+        assert!(
+            g[1].contains("100000 nodes 0.60 (holds)")
+                && g[1].contains("1000000 nodes 0.45 (not met)"),
+            "{}",
+            g[1]
+        );
+        assert!(
+            !g[1].contains("0.10"),
+            "cache-resident boxes are not judged: {}",
+            g[1]
+        );
+        assert!(
+            g[2].contains("1.50x") && g[2].ends_with("not met)"),
+            "{}",
+            g[2]
+        );
+        assert!(g[3].contains("1000000 nodes 0.50 (holds)"), "{}", g[3]);
+        assert!(
+            g[4].contains("2.30") && g[4].ends_with("not met)"),
+            "{}",
+            g[4]
+        );
     }
 
     #[test]

@@ -20,7 +20,7 @@
 //!
 //! With one level this is single-level integration, bit for bit (a test).
 
-use super::{norm3, weighted, Level, Links};
+use super::{norm3, weighted, weighted2, Level, Links};
 use crate::error::{Divergence, DivergenceCause};
 use crate::integrate::{check_state, Stepper};
 use rayon::prelude::*;
@@ -117,8 +117,9 @@ impl Raisov {
             let counts = per_node(&mut c.state.u, &mut c.state.v, |th, u3, v3| {
                 let d_u = weighted(t, th, du);
                 if norm3(d_u) > eps {
-                    u3.copy_from_slice(&weighted(t, th, src_u));
-                    v3.copy_from_slice(&weighted(t, th, src_v));
+                    let [cu, cv] = weighted2(t, th, src_u, src_v);
+                    u3.copy_from_slice(&cu);
+                    v3.copy_from_slice(&cv);
                     true
                 } else {
                     let d_v = weighted(t, th, dv);
@@ -149,15 +150,13 @@ impl Raisov {
                 let counts = per_node(&mut f.state.u, &mut f.state.v, |th, u3, v3| {
                     let a = 3 * th;
                     let own = [own_du[a], own_du[a + 1], own_du[a + 2]];
-                    let cu = weighted(t, th, src_u);
-                    let cv = weighted(t, th, src_v);
+                    let [cu, cv] = weighted2(t, th, src_u, src_v);
                     if norm3(own) > eps {
                         u3.copy_from_slice(&cu);
                         v3.copy_from_slice(&cv);
                         true
                     } else {
-                        let bu = weighted(t, th, base_u);
-                        let bv = weighted(t, th, base_v);
+                        let [bu, bv] = weighted2(t, th, base_u, base_v);
                         for q in 0..3 {
                             u3[q] += cu[q] - bu[q];
                             v3[q] += cv[q] - bv[q];

@@ -462,6 +462,47 @@ impl Transfer {
     }
 
     fn gather(&self, src: &[f64], comps: usize, out: &mut [f64], add: bool) {
+        // Unrolled for the common cases (3-vectors on tets or triangles); the same
+        // operations in the same order as the general loop, so the same bits.
+        match (self.npe, comps, add) {
+            (4, 3, false) => self.gather_n::<4, 3, false>(src, out),
+            (4, 3, true) => self.gather_n::<4, 3, true>(src, out),
+            (3, 3, false) => self.gather_n::<3, 3, false>(src, out),
+            (3, 3, true) => self.gather_n::<3, 3, true>(src, out),
+            _ => self.gather_any(src, comps, out, add),
+        }
+    }
+
+    fn gather_n<const N: usize, const C: usize, const ADD: bool>(
+        &self,
+        src: &[f64],
+        out: &mut [f64],
+    ) {
+        let body = |(t, o): (usize, &mut [f64])| {
+            let nd = &self.nodes[t];
+            let w = &self.weights[t];
+            for (c, oc) in o.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for j in 0..N {
+                    acc += w[j] * src[nd[j] as usize * C + c];
+                }
+                if ADD {
+                    *oc += acc;
+                } else {
+                    *oc = acc;
+                }
+            }
+        };
+        if self.len() >= PAR_APPLY {
+            out.par_chunks_mut(C).enumerate().for_each(body);
+        } else {
+            out.chunks_mut(C).enumerate().for_each(body);
+        }
+    }
+
+    /// The general loop (any host count, any components): the reference the unrolled cases
+    /// are tested against.
+    pub(super) fn gather_any(&self, src: &[f64], comps: usize, out: &mut [f64], add: bool) {
         let npe = self.npe;
         let body = |(t, o): (usize, &mut [f64])| {
             let nd = &self.nodes[t];

@@ -465,46 +465,39 @@ impl Transfer {
         // Unrolled for the common cases (3-vectors on tets or triangles); the same
         // operations in the same order as the general loop, so the same bits.
         match (self.npe, comps, add) {
-            (4, 3, false) => self.gather_n::<4, 3, false>(src, out),
-            (4, 3, true) => self.gather_n::<4, 3, true>(src, out),
-            (3, 3, false) => self.gather_n::<3, 3, false>(src, out),
-            (3, 3, true) => self.gather_n::<3, 3, true>(src, out),
+            (4, 3, false) => self.gather_n::<4, 3, false>(src, 3, out),
+            (4, 3, true) => self.gather_n::<4, 3, true>(src, 3, out),
+            (3, 3, false) => self.gather_n::<3, 3, false>(src, 3, out),
+            (3, 3, true) => self.gather_n::<3, 3, true>(src, 3, out),
             _ => self.gather_any(src, comps, out, add),
-        }
-    }
-
-    fn gather_n<const N: usize, const C: usize, const ADD: bool>(
-        &self,
-        src: &[f64],
-        out: &mut [f64],
-    ) {
-        let body = |(t, o): (usize, &mut [f64])| {
-            let nd = &self.nodes[t];
-            let w = &self.weights[t];
-            for (c, oc) in o.iter_mut().enumerate() {
-                let mut acc = 0.0;
-                for j in 0..N {
-                    acc += w[j] * src[nd[j] as usize * C + c];
-                }
-                if ADD {
-                    *oc += acc;
-                } else {
-                    *oc = acc;
-                }
-            }
-        };
-        if self.len() >= PAR_APPLY {
-            out.par_chunks_mut(C).enumerate().for_each(body);
-        } else {
-            out.chunks_mut(C).enumerate().for_each(body);
         }
     }
 
     /// The general loop (any host count, any components): the reference the unrolled cases
     /// are tested against.
     pub(super) fn gather_any(&self, src: &[f64], comps: usize, out: &mut [f64], add: bool) {
-        let npe = self.npe;
+        if add {
+            self.gather_n::<0, 0, true>(src, comps, out)
+        } else {
+            self.gather_n::<0, 0, false>(src, comps, out)
+        }
+    }
+
+    /// `N` hosts and `C` components known at compile time (0: the run-time `self.npe` and
+    /// `comps`); `ADD`: add to `out` instead of setting it.
+    fn gather_n<const N: usize, const C: usize, const ADD: bool>(
+        &self,
+        src: &[f64],
+        comps: usize,
+        out: &mut [f64],
+    ) {
+        // Evaluated inside the closure, so that `N` and `C` stay compile-time constants in
+        // its body (captured values would not be, once rayon calls it).
+        let (rt_npe, rt_comps) = (self.npe, comps);
+        let comps = if C == 0 { rt_comps } else { C };
         let body = |(t, o): (usize, &mut [f64])| {
+            let npe = if N == 0 { rt_npe } else { N };
+            let comps = if C == 0 { rt_comps } else { C };
             let nd = &self.nodes[t];
             let w = &self.weights[t];
             for (c, oc) in o.iter_mut().enumerate() {
@@ -512,7 +505,7 @@ impl Transfer {
                 for j in 0..npe {
                     acc += w[j] * src[nd[j] as usize * comps + c];
                 }
-                if add {
+                if ADD {
                     *oc += acc;
                 } else {
                     *oc = acc;

@@ -315,3 +315,49 @@ fn raisov_cycle_same_bits_on_one_and_two_threads() {
     assert_eq!(u1, u2, "displacements differ between 1 and 2 threads");
     assert_eq!(v1, v2, "velocities differ between 1 and 2 threads");
 }
+
+/// The per-point host sums of the RaISoV strokes (`weighted`, unrolled for 4 or 3 hosts, and
+/// `weighted2`, two fields in one pass) give the same bits as `Transfer::interpolate`, which
+/// is itself tested against the general loop: on tets and on triangles, both directions.
+#[test]
+fn stroke_host_sums_equal_interpolate() {
+    use super::{weighted, weighted2};
+    use crate::hierarchy::Correspondence;
+    use crate::mesh::generate::{box_tets, rectangle_membrane, BoxPattern};
+    let pairs = [
+        (
+            box_tets([0.1, 0.04, 0.04], [12, 5, 5], BoxPattern::Five).unwrap(),
+            box_tets([0.1, 0.04, 0.04], [7, 3, 3], BoxPattern::Five).unwrap(),
+        ),
+        (
+            rectangle_membrane(0.1, 0.1, 400).unwrap(),
+            rectangle_membrane(0.1, 0.1, 150).unwrap(),
+        ),
+    ];
+    for (fine, coarse) in &pairs {
+        let c = Correspondence::build(fine, coarse).unwrap();
+        for (t, target) in [(&c.down, coarse), (&c.up, fine)] {
+            let field = |k: f64| -> Vec<f64> {
+                (0..3 * target.num_nodes())
+                    .map(|i| (k * i as f64 + 0.3).sin())
+                    .collect()
+            };
+            let (a, b) = (field(0.7), field(1.3));
+            let (mut ia, mut ib) = (vec![0.0; 3 * t.len()], vec![0.0; 3 * t.len()]);
+            t.interpolate(&a, 3, &mut ia).unwrap();
+            t.interpolate(&b, 3, &mut ib).unwrap();
+            let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            for p in 0..t.len() {
+                let [wa, wb] = weighted2(t, p, &a, &b);
+                assert_eq!(
+                    bits(&weighted(t, p, &a)),
+                    bits(&ia[3 * p..3 * p + 3]),
+                    "npe {}",
+                    t.npe
+                );
+                assert_eq!(bits(&wa), bits(&ia[3 * p..3 * p + 3]));
+                assert_eq!(bits(&wb), bits(&ib[3 * p..3 * p + 3]));
+            }
+        }
+    }
+}

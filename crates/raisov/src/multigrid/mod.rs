@@ -54,50 +54,119 @@ impl Level {
     }
 }
 
+/// A node field read by the host sums, one 3-vector per node: a stored vector, or the
+/// difference of two.
+pub(crate) trait Field: Copy {
+    fn at(self, node: usize) -> [f64; 3];
+}
+impl Field for &[[f64; 3]] {
+    #[inline(always)]
+    fn at(self, node: usize) -> [f64; 3] {
+        self[node]
+    }
+}
+/// `x − y`, node by node, never stored (the same bits as summing a stored `x − y`).
+#[derive(Clone, Copy)]
+pub(crate) struct Diff<'a>(pub &'a [[f64; 3]], pub &'a [[f64; 3]]);
+impl Field for Diff<'_> {
+    #[inline(always)]
+    fn at(self, node: usize) -> [f64; 3] {
+        let (x, y) = (self.0[node], self.1[node]);
+        [x[0] - y[0], x[1] - y[1], x[2] - y[2]]
+    }
+}
+
+/// A flat field (3 entries per node) as one 3-vector per node.
+pub(crate) fn rows(s: &[f64]) -> &[[f64; 3]] {
+    let (r, rest) = s.as_chunks::<3>();
+    debug_assert!(rest.is_empty());
+    r
+}
+
+/// [`rows`], mutable.
+pub(crate) fn rows_mut(s: &mut [f64]) -> &mut [[f64; 3]] {
+    let (r, rest) = s.as_chunks_mut::<3>();
+    debug_assert!(rest.is_empty());
+    r
+}
+
 /// Node-wise weighted sum `Σ_j ω_j src[host_j]` of one 3-vector field at point `p` of `t`
 /// (summed over the hosts in order, from zero).
 #[inline]
-pub(crate) fn weighted(t: &Transfer, p: usize, src: &[f64]) -> [f64; 3] {
+pub(crate) fn weighted<S: Field>(t: &Transfer, p: usize, src: S) -> [f64; 3] {
     if t.npe == 4 {
-        weighted_n::<4, 1>(t, p, [src])[0]
+        weighted_n::<4, 1, S>(t, p, [src])[0]
     } else {
-        weighted_n::<3, 1>(t, p, [src])[0]
+        weighted_n::<3, 1, S>(t, p, [src])[0]
     }
 }
 
 /// [`weighted`] of two fields at once (one pass over the hosts; the same bits as two calls).
 #[inline]
-pub(crate) fn weighted2(t: &Transfer, p: usize, a: &[f64], b: &[f64]) -> [[f64; 3]; 2] {
+pub(crate) fn weighted2<S: Field>(t: &Transfer, p: usize, a: S, b: S) -> [[f64; 3]; 2] {
     if t.npe == 4 {
-        weighted_n::<4, 2>(t, p, [a, b])
+        weighted_n::<4, 2, S>(t, p, [a, b])
     } else {
-        weighted_n::<3, 2>(t, p, [a, b])
+        weighted_n::<3, 2, S>(t, p, [a, b])
     }
 }
 
 /// `N` hosts (unrolled), `F` fields.
 #[inline(always)]
-fn weighted_n<const N: usize, const F: usize>(
+fn weighted_n<const N: usize, const F: usize, S: Field>(
     t: &Transfer,
     p: usize,
-    src: [&[f64]; F],
+    src: [S; F],
 ) -> [[f64; 3]; F] {
     let mut out = [[0.0; 3]; F];
     let (w, nodes) = (&t.weights[p], &t.nodes[p]);
     for j in 0..N {
-        let a = nodes[j] as usize * 3;
+        let a = nodes[j] as usize;
         for (o, s) in out.iter_mut().zip(src) {
-            o[0] += w[j] * s[a];
-            o[1] += w[j] * s[a + 1];
-            o[2] += w[j] * s[a + 2];
+            let x = s.at(a);
+            o[0] += w[j] * x[0];
+            o[1] += w[j] * x[1];
+            o[2] += w[j] * x[2];
         }
     }
     out
 }
 
-#[inline]
+/// `|x|`: the reference for [`Above`].
+#[cfg(test)]
 pub(crate) fn norm3(x: [f64; 3]) -> f64 {
     (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
+}
+
+/// `|x| > eps` as a comparison of `|x|²` against a threshold, without the square root: the
+/// same decision as `norm3(x) > eps` for every `x` (NaN included), since the rounded square
+/// root is monotone and [`Above::new`] finds the largest `s` with `√s ≤ eps`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Above(f64);
+impl Above {
+    pub(crate) fn new(eps: f64) -> Above {
+        if eps.is_nan() || eps < 0.0 {
+            // √s > eps for every s ≥ 0 (and for no NaN).
+            return Above(-1.0);
+        }
+        if eps == f64::INFINITY {
+            return Above(f64::INFINITY);
+        }
+        let up = |s: f64| f64::from_bits(s.to_bits() + 1);
+        let down = |s: f64| f64::from_bits(s.to_bits() - 1);
+        let mut s = eps * eps;
+        while s > 0.0 && s.sqrt() > eps {
+            s = down(s);
+        }
+        while s < f64::MAX && up(s).sqrt() <= eps {
+            s = up(s);
+        }
+        Above(s)
+    }
+    #[inline(always)]
+    pub(crate) fn test(self, x: [f64; 3]) -> bool {
+        x[0] * x[0] + x[1] * x[1] + x[2] * x[2] > self.0
+    }
 }
 
 /// Force evaluations over all levels in finest-level units: `Σ_i evals_i n_i / n_0`.

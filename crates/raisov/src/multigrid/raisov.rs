@@ -20,8 +20,9 @@
 //!
 //! With one level this is single-level integration, bit for bit (a test).
 
-use super::{norm3, weighted, weighted2, Level, Links};
+use super::{rows, rows_mut, weighted, weighted2, Above, Diff, Field, Level, Links};
 use crate::error::{Divergence, DivergenceCause};
+use crate::hierarchy::Transfer;
 use crate::integrate::{check_state, Stepper};
 use rayon::prelude::*;
 
@@ -44,20 +45,27 @@ pub struct RaisovParams {
 }
 
 /// The paper's multigrid time integrator.
+///
+/// The bookkeeping of eq. 8 rides on the strokes instead of whole-level passes: a node's
+/// `X_n` and `ΔX` are taken when the cycle first writes that node (the down stroke on levels
+/// 1 … m−1, the up stroke on level 0), and level 0's `ΔX`, read only before level 0 is
+/// written, is summed as `X_n − X_(n−1)` at its hosts without being stored. The same bits
+/// as the literal whole-level snapshots (test `fused_cycle_equals_the_literal_cycle`).
 pub struct Raisov {
     pub levels: Vec<Level>,
     pub links: Links,
     pub params: RaisovParams,
-    /// X_(n−1) per level (u then v, 6 per node packed as two vectors).
+    /// Per level: `X_(n−1)` at the start of a cycle; a node's entry becomes `X_n` when the
+    /// cycle first writes the node, so after the down stroke the coarse levels' entries are
+    /// `X_n` (the `Paper` reading's base).
     prev_u: Vec<Vec<f64>>,
     prev_v: Vec<Vec<f64>>,
-    /// X_n per level (start of this cycle).
-    start_u: Vec<Vec<f64>>,
-    start_v: Vec<Vec<f64>>,
-    /// ΔX per level.
+    /// ΔX on levels 1 … m−2, written by the down stroke (level 0's is summed on the fly, the
+    /// coarsest level's is never read).
     du: Vec<Vec<f64>>,
     dv: Vec<Vec<f64>>,
-    /// State at the start of each level's up-stroke (for the `Correction` reading).
+    /// `Correction` reading: each coarse level's state at the start of its up-stroke step,
+    /// written by the transfer into the level.
     up_u: Vec<Vec<f64>>,
     up_v: Vec<Vec<f64>>,
     steps: u64,
@@ -68,21 +76,23 @@ pub struct Raisov {
 impl Raisov {
     pub fn new(levels: Vec<Level>, links: Links, params: RaisovParams) -> Self {
         assert_eq!(links.len() + 1, levels.len());
-        let z = |l: &Level| vec![0.0; 3 * l.num_nodes()];
-        let prev_u: Vec<_> = levels.iter().map(|l| l.state.u.clone()).collect();
-        let prev_v: Vec<_> = levels.iter().map(|l| l.state.v.clone()).collect();
+        let m = levels.len();
+        let z = |l: &Level, used: bool| vec![0.0; if used { 3 * l.num_nodes() } else { 0 }];
+        let change = |i: usize| i >= 1 && i + 1 < m;
+        let snap = |i: usize| i >= 1 && params.reading == Reading::Correction;
+        let each = |f: &dyn Fn(usize) -> bool| -> Vec<Vec<f64>> {
+            levels.iter().enumerate().map(|(i, l)| z(l, f(i))).collect()
+        };
         Raisov {
-            start_u: prev_u.clone(),
-            start_v: prev_v.clone(),
-            du: levels.iter().map(z).collect(),
-            dv: levels.iter().map(z).collect(),
-            up_u: levels.iter().map(z).collect(),
-            up_v: levels.iter().map(z).collect(),
-            prev_u,
-            prev_v,
-            levels,
+            prev_u: levels.iter().map(|l| l.state.u.clone()).collect(),
+            prev_v: levels.iter().map(|l| l.state.v.clone()).collect(),
+            du: each(&change),
+            dv: each(&change),
+            up_u: each(&snap),
+            up_v: each(&snap),
             links,
             params,
+            levels,
             steps: 0,
             last_switches: [(0, 0); 2],
         }
@@ -90,92 +100,95 @@ impl Raisov {
 
     fn cycle(&mut self) -> Result<(), Divergence> {
         let m = self.levels.len();
-        let eps = self.params.epsilon;
-        // X_n and ΔX = X_n − X_(n−1) for every level.
-        for i in 0..m {
-            let l = &self.levels[i];
-            start_and_change(
-                (&l.state.u, &self.prev_u[i]),
-                &mut self.start_u[i],
-                &mut self.du[i],
-            );
-            start_and_change(
-                (&l.state.v, &self.prev_v[i]),
-                &mut self.start_v[i],
-                &mut self.dv[i],
-            );
-        }
+        let above = Above::new(self.params.epsilon);
+        let correction = self.params.reading == Reading::Correction;
         let mut sw = [(0usize, 0usize); 2];
-        // Down stroke (eqs. 9, 10). Every node is independent: chunks in parallel, the same
-        // bits on any thread count.
+        // Down stroke (eqs. 9, 10), i = 1 … m−1. Every node is independent: chunks in
+        // parallel, the same bits on any thread count.
         for i in 1..m {
             let t = &self.links[i - 1].up; // level-i nodes hosted on level i−1
             let (fine, coarse) = self.levels.split_at_mut(i);
             let (f, c) = (&fine[i - 1], &mut coarse[0]);
-            let (du, dv) = (&self.du[i - 1], &self.dv[i - 1]);
-            let (src_u, src_v) = (&f.state.u, &f.state.v);
-            let counts = per_node(&mut c.state.u, &mut c.state.v, |th, u3, v3| {
-                let d_u = weighted(t, th, du);
-                if norm3(d_u) > eps {
-                    let [cu, cv] = weighted2(t, th, src_u, src_v);
-                    u3.copy_from_slice(&cu);
-                    v3.copy_from_slice(&cv);
-                    true
-                } else {
-                    let d_v = weighted(t, th, dv);
-                    for q in 0..3 {
-                        u3[q] += d_u[q];
-                        v3[q] += d_v[q];
-                    }
-                    false
-                }
-            });
+            let (src_u, src_v) = (rows(&f.state.u), rows(&f.state.v));
+            let (pf_u, p_u) = lower_and(&mut self.prev_u, i);
+            let (pf_v, p_v) = lower_and(&mut self.prev_v, i);
+            let (df_u, d_u) = lower_and(&mut self.du, i);
+            let (df_v, d_v) = lower_and(&mut self.dv, i);
+            // The coarsest level's step follows its down-stroke transfer directly: its
+            // `Correction` snapshot is taken here (the others' by the up stroke).
+            let snapshot = correction && i + 1 == m;
+            let (s_u, s_v) = if snapshot {
+                (rows_mut(&mut self.up_u[i]), rows_mut(&mut self.up_v[i]))
+            } else {
+                (&mut [][..], &mut [][..])
+            };
+            let level = Rows {
+                u: rows_mut(&mut c.state.u),
+                v: rows_mut(&mut c.state.v),
+                pu: p_u,
+                pv: p_v,
+                du: d_u,
+                dv: d_v,
+                su: s_u,
+                sv: s_v,
+            };
+            // ΔX^(i−1) at the hosts: level 0 is unchanged so far (X_n − X_(n−1) summed on the
+            // fly); a coarse level's was kept when its own down-stroke transfer wrote it.
+            let counts = if i == 1 {
+                down(
+                    t,
+                    level,
+                    above,
+                    [Diff(src_u, pf_u), Diff(src_v, pf_v)],
+                    [src_u, src_v],
+                )
+            } else {
+                down(t, level, above, [df_u, df_v], [src_u, src_v])
+            };
             sw[0].0 += counts.0;
             sw[0].1 += counts.1;
             let tt = c.state.t;
             c.sys.impose(tt, &mut c.state.u, &mut c.state.v);
+            if snapshot {
+                c.sys.impose(tt, &mut self.up_u[i], &mut self.up_v[i]);
+            }
         }
-        // Up stroke (eqs. 11-13).
+        // Up stroke (eqs. 11-13), i = m−1 … 0.
         for i in (0..m).rev() {
             if i + 1 < m {
                 let t = &self.links[i].down; // level-i nodes hosted on level i+1
                 let (fine, coarse) = self.levels.split_at_mut(i + 1);
                 let (f, c) = (&mut fine[i], &coarse[0]);
-                let (base_u, base_v) = match self.params.reading {
-                    Reading::Paper => (&self.start_u[i + 1], &self.start_v[i + 1]),
-                    Reading::Correction => (&self.up_u[i + 1], &self.up_v[i + 1]),
+                let (p_u, pc_u) = and_upper(&mut self.prev_u, i);
+                let (p_v, pc_v) = and_upper(&mut self.prev_v, i);
+                let (s_u, sc_u) = and_upper(&mut self.up_u, i);
+                let (s_v, sc_v) = and_upper(&mut self.up_v, i);
+                let base = match self.params.reading {
+                    Reading::Paper => [pc_u, pc_v],
+                    Reading::Correction => [sc_u, sc_v],
                 };
-                let own_du = &self.du[i];
-                let (src_u, src_v) = (&c.state.u, &c.state.v);
-                let counts = per_node(&mut f.state.u, &mut f.state.v, |th, u3, v3| {
-                    let a = 3 * th;
-                    let own = [own_du[a], own_du[a + 1], own_du[a + 2]];
-                    let [cu, cv] = weighted2(t, th, src_u, src_v);
-                    if norm3(own) > eps {
-                        u3.copy_from_slice(&cu);
-                        v3.copy_from_slice(&cv);
-                        true
-                    } else {
-                        let [bu, bv] = weighted2(t, th, base_u, base_v);
-                        for q in 0..3 {
-                            u3[q] += cu[q] - bu[q];
-                            v3[q] += cv[q] - bv[q];
-                        }
-                        false
-                    }
-                });
+                let level = Rows {
+                    u: rows_mut(&mut f.state.u),
+                    v: rows_mut(&mut f.state.v),
+                    pu: p_u,
+                    pv: p_v,
+                    du: rows_mut(&mut self.du[i]),
+                    dv: rows_mut(&mut self.dv[i]),
+                    su: s_u,
+                    sv: s_v,
+                };
+                let snapshot = correction && i > 0;
+                let src = [rows(&c.state.u), rows(&c.state.v)];
+                let counts = up(t, level, above, i == 0, src, base);
                 sw[1].0 += counts.0;
                 sw[1].1 += counts.1;
                 let tt = f.state.t;
                 f.sys.impose(tt, &mut f.state.u, &mut f.state.v);
+                if snapshot {
+                    f.sys.impose(tt, &mut self.up_u[i], &mut self.up_v[i]);
+                }
             }
             let l = &mut self.levels[i];
-            // Only the Correction reading reads a level's up-stroke start, and only on coarse
-            // levels (as δX^(i+1) for level i).
-            if i > 0 && self.params.reading == Reading::Correction {
-                par_copy(&mut self.up_u[i], &l.state.u);
-                par_copy(&mut self.up_v[i], &l.state.v);
-            }
             let t0 = l.state.t;
             l.integrator
                 .step(&mut l.sys, &mut l.state, l.dt)
@@ -187,65 +200,216 @@ impl Raisov {
                 })?;
             l.evaluations += l.integrator.method().evaluations();
         }
-        // X_(n−1) ← X_n; the old X_(n−1) buffers become next cycle's X_n scratch.
-        std::mem::swap(&mut self.prev_u, &mut self.start_u);
-        std::mem::swap(&mut self.prev_v, &mut self.start_v);
         self.last_switches = sw;
         Ok(())
     }
 }
 
-/// `f(node, u, v)` on every node's 3-vectors of a level's state, in parallel chunks of
-/// [`CHUNK`] nodes (each node alone: the same bits on any thread count). `f` says whether it
-/// transferred the node's state (true) or a variation; returns the two counts.
-fn per_node(
-    u: &mut [f64],
-    v: &mut [f64],
-    f: impl Fn(usize, &mut [f64], &mut [f64]) -> bool + Sync,
+#[cfg(test)]
+impl Raisov {
+    /// Per level: `X_(n−1)` as it stands (u, v) and the `Correction` snapshot (u, v; empty on
+    /// level 0 and under the `Paper` reading).
+    pub(super) fn bookkeeping(&self) -> Vec<[&[f64]; 4]> {
+        (0..self.levels.len())
+            .map(|i| {
+                [
+                    &self.prev_u[i][..],
+                    &self.prev_v[i][..],
+                    &self.up_u[i][..],
+                    &self.up_v[i][..],
+                ]
+            })
+            .collect()
+    }
+}
+
+/// `(&v[i − 1], &mut v[i])`, one 3-vector per node.
+fn lower_and(v: &mut [Vec<f64>], i: usize) -> (&[[f64; 3]], &mut [[f64; 3]]) {
+    let (a, b) = v.split_at_mut(i);
+    (rows(&a[i - 1]), rows_mut(&mut b[0]))
+}
+
+/// `(&mut v[i], &v[i + 1])`, one 3-vector per node.
+fn and_upper(v: &mut [Vec<f64>], i: usize) -> (&mut [[f64; 3]], &[[f64; 3]]) {
+    let (a, b) = v.split_at_mut(i + 1);
+    (rows_mut(&mut a[i]), rows(&b[0]))
+}
+
+/// A level's buffers written by a stroke, one 3-vector per node: the state, `X_(n−1)`
+/// (becoming `X_n`), ΔX, and the up-stroke snapshot. ΔX and the snapshot are empty where the
+/// level does not keep them.
+struct Rows<'a> {
+    u: &'a mut [[f64; 3]],
+    v: &'a mut [[f64; 3]],
+    pu: &'a mut [[f64; 3]],
+    pv: &'a mut [[f64; 3]],
+    du: &'a mut [[f64; 3]],
+    dv: &'a mut [[f64; 3]],
+    su: &'a mut [[f64; 3]],
+    sv: &'a mut [[f64; 3]],
+}
+
+/// One node's entries of [`Rows`] (`None` where the buffer is not kept).
+struct Row<'a> {
+    u: &'a mut [f64; 3],
+    v: &'a mut [f64; 3],
+    pu: &'a mut [f64; 3],
+    pv: &'a mut [f64; 3],
+    du: Option<&'a mut [f64; 3]>,
+    dv: Option<&'a mut [f64; 3]>,
+    su: Option<&'a mut [f64; 3]>,
+    sv: Option<&'a mut [f64; 3]>,
+}
+
+/// Down-stroke transfer into one level (eqs. 9, 10): per node, keep `X_n` (and ΔX where the
+/// level keeps it), then `X = Σ ω X^(i−1)` if `|Σ ω ΔX_u^(i−1)| > ε`, else
+/// `X += Σ ω ΔX^(i−1)`; the snapshot, where kept, is the new state.
+fn down<C: Field + Sync>(
+    t: &Transfer,
+    level: Rows,
+    above: Above,
+    [dfu, dfv]: [C; 2],
+    [src_u, src_v]: [&[[f64; 3]]; 2],
 ) -> (usize, usize) {
-    u.par_chunks_mut(3 * CHUNK)
-        .zip(v.par_chunks_mut(3 * CHUNK))
+    per_node(level, |th, r| {
+        let (ou, ov) = (*r.u, *r.v);
+        if let (Some(du), Some(dv)) = (r.du, r.dv) {
+            *du = sub(ou, *r.pu);
+            *dv = sub(ov, *r.pv);
+        }
+        *r.pu = ou;
+        *r.pv = ov;
+        let d_u = weighted(t, th, dfu);
+        let state = above.test(d_u);
+        if state {
+            [*r.u, *r.v] = weighted2(t, th, src_u, src_v);
+        } else {
+            let d_v = weighted(t, th, dfv);
+            for q in 0..3 {
+                r.u[q] += d_u[q];
+                r.v[q] += d_v[q];
+            }
+        }
+        if let (Some(su), Some(sv)) = (r.su, r.sv) {
+            *su = *r.u;
+            *sv = *r.v;
+        }
+        state
+    })
+}
+
+/// Up-stroke transfer into one level (eqs. 11, 12): `X = Σ ω X^(i+1)` if the level's own
+/// `|ΔX_u| > ε`, else `X += Σ ω (X^(i+1) − base)`. `finest`: the level's ΔX is `X − X_(n−1)`
+/// now, and its `X_n` is kept here. The snapshot, where kept, is the new state.
+fn up(
+    t: &Transfer,
+    level: Rows,
+    above: Above,
+    finest: bool,
+    [src_u, src_v]: [&[[f64; 3]]; 2],
+    [base_u, base_v]: [&[[f64; 3]]; 2],
+) -> (usize, usize) {
+    per_node(level, |th, r| {
+        let own = if finest {
+            let own = sub(*r.u, *r.pu);
+            *r.pu = *r.u;
+            *r.pv = *r.v;
+            own
+        } else {
+            r.du.map_or([0.0; 3], |d| *d)
+        };
+        let [cu, cv] = weighted2(t, th, src_u, src_v);
+        let state = above.test(own);
+        if state {
+            *r.u = cu;
+            *r.v = cv;
+        } else {
+            let [bu, bv] = weighted2(t, th, base_u, base_v);
+            for q in 0..3 {
+                r.u[q] += cu[q] - bu[q];
+                r.v[q] += cv[q] - bv[q];
+            }
+        }
+        if let (Some(su), Some(sv)) = (r.su, r.sv) {
+            *su = *r.u;
+            *sv = *r.v;
+        }
+        state
+    })
+}
+
+#[inline(always)]
+fn sub(x: [f64; 3], y: [f64; 3]) -> [f64; 3] {
+    [x[0] - y[0], x[1] - y[1], x[2] - y[2]]
+}
+
+/// `f(node, row)` on every node of a level, in parallel chunks of [`CHUNK`] nodes (each
+/// node alone: the same bits on any thread count). `f` says whether it transferred the
+/// node's state (true) or a variation; returns the two counts.
+fn per_node(level: Rows, f: impl Fn(usize, Row) -> bool + Sync) -> (usize, usize) {
+    let n = level.u.len();
+    let Rows {
+        u,
+        v,
+        pu,
+        pv,
+        du,
+        dv,
+        su,
+        sv,
+    } = level;
+    (
+        u.par_chunks_mut(CHUNK),
+        v.par_chunks_mut(CHUNK),
+        pu.par_chunks_mut(CHUNK),
+        pv.par_chunks_mut(CHUNK),
+        padded(du, n),
+        padded(dv, n),
+        padded(su, n),
+        padded(sv, n),
+    )
+        .into_par_iter()
         .enumerate()
-        .map(|(k, (u, v))| {
-            let mut n = (0usize, 0usize);
-            for (j, (u3, v3)) in u.chunks_exact_mut(3).zip(v.chunks_exact_mut(3)).enumerate() {
-                if f(k * CHUNK + j, u3, v3) {
-                    n.0 += 1;
+        .map(|(k, (u, v, pu, pv, du, dv, su, sv))| {
+            let mut c = (0usize, 0usize);
+            let (u, v, pu, pv) = (u.iter_mut(), v.iter_mut(), pu.iter_mut(), pv.iter_mut());
+            for (j, (((u, v), pu), pv)) in u.zip(v).zip(pu).zip(pv).enumerate() {
+                let row = Row {
+                    u,
+                    v,
+                    pu,
+                    pv,
+                    du: du.get_mut(j),
+                    dv: dv.get_mut(j),
+                    su: su.get_mut(j),
+                    sv: sv.get_mut(j),
+                };
+                if f(k * CHUNK + j, row) {
+                    c.0 += 1;
                 } else {
-                    n.1 += 1;
+                    c.1 += 1;
                 }
             }
-            n
+            c
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1))
 }
 
-/// `dst = src`, in parallel chunks.
-fn par_copy(dst: &mut [f64], src: &[f64]) {
-    dst.par_chunks_mut(3 * CHUNK)
-        .zip(src.par_chunks(3 * CHUNK))
-        .for_each(|(d, s)| d.copy_from_slice(s));
+/// The chunks of a buffer for [`per_node`], or as many empty ones if the level does not keep
+/// the buffer.
+fn padded(
+    s: &mut [[f64; 3]],
+    n: usize,
+) -> impl IndexedParallelIterator<Item = &mut [[f64; 3]]> + '_ {
+    if s.is_empty() {
+        rayon::iter::Either::Right((0..n.div_ceil(CHUNK)).into_par_iter().map(|_| &mut [][..]))
+    } else {
+        rayon::iter::Either::Left(s.par_chunks_mut(CHUNK))
+    }
 }
 
 /// Nodes per parallel chunk of the transfers.
 const CHUNK: usize = 4096;
-
-/// `start = x`, `change = x − prev` in one pass, in parallel chunks.
-fn start_and_change((x, prev): (&[f64], &[f64]), start: &mut [f64], change: &mut [f64]) {
-    (
-        start.par_chunks_mut(3 * CHUNK),
-        change.par_chunks_mut(3 * CHUNK),
-        x.par_chunks(3 * CHUNK),
-        prev.par_chunks(3 * CHUNK),
-    )
-        .into_par_iter()
-        .for_each(|(s, c, x, p)| {
-            for k in 0..s.len() {
-                s[k] = x[k];
-                c[k] = x[k] - p[k];
-            }
-        });
-}
 
 impl Stepper for Raisov {
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {

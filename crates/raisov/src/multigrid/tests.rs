@@ -348,9 +348,10 @@ fn stroke_host_sums_equal_interpolate() {
             t.interpolate(&b, 3, &mut ib).unwrap();
             let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
             for p in 0..t.len() {
-                let [wa, wb] = weighted2(t, p, &a, &b);
+                let (ra, rb) = (super::rows(&a), super::rows(&b));
+                let [wa, wb] = weighted2(t, p, ra, rb);
                 assert_eq!(
-                    bits(&weighted(t, p, &a)),
+                    bits(&weighted(t, p, ra)),
                     bits(&ia[3 * p..3 * p + 3]),
                     "npe {}",
                     t.npe
@@ -358,6 +359,241 @@ fn stroke_host_sums_equal_interpolate() {
                 assert_eq!(bits(&wa), bits(&ia[3 * p..3 * p + 3]));
                 assert_eq!(bits(&wb), bits(&ib[3 * p..3 * p + 3]));
             }
+        }
+    }
+}
+
+/// The literal cycle, as the design note writes it: whole-level snapshots `X_n` and `ΔX` taken
+/// before the down stroke, serial loops, `|x| > ε` by the square root. The reference for the
+/// fused cycle of [`Raisov`]. `prev`: `X_(n−1)` (u, v) per level; returns the switch counts
+/// and each level's state at the start of its up-stroke step.
+#[allow(clippy::type_complexity)]
+fn literal_cycle(
+    levels: &mut [crate::multigrid::Level],
+    links: &crate::multigrid::Links,
+    params: RaisovParams,
+    prev: &mut [(Vec<f64>, Vec<f64>)],
+) -> ([(usize, usize); 2], Vec<(Vec<f64>, Vec<f64>)>) {
+    use super::{norm3, rows, weighted, weighted2};
+    let m = levels.len();
+    let eps = params.epsilon;
+    let start: Vec<(Vec<f64>, Vec<f64>)> = levels
+        .iter()
+        .map(|l| (l.state.u.clone(), l.state.v.clone()))
+        .collect();
+    let diff = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
+    let change: Vec<(Vec<f64>, Vec<f64>)> = start
+        .iter()
+        .zip(prev.iter())
+        .map(|(s, p)| (diff(&s.0, &p.0), diff(&s.1, &p.1)))
+        .collect();
+    let mut sw = [(0, 0); 2];
+    for i in 1..m {
+        let t = &links[i - 1].up;
+        let (su, sv) = (levels[i - 1].state.u.clone(), levels[i - 1].state.v.clone());
+        let (du, dv) = (rows(&change[i - 1].0), rows(&change[i - 1].1));
+        let c = &mut levels[i];
+        for th in 0..c.num_nodes() {
+            let d_u = weighted(t, th, du);
+            if norm3(d_u) > eps {
+                let [cu, cv] = weighted2(t, th, rows(&su), rows(&sv));
+                c.state.u[3 * th..3 * th + 3].copy_from_slice(&cu);
+                c.state.v[3 * th..3 * th + 3].copy_from_slice(&cv);
+                sw[0].0 += 1;
+            } else {
+                let d_v = weighted(t, th, dv);
+                for q in 0..3 {
+                    c.state.u[3 * th + q] += d_u[q];
+                    c.state.v[3 * th + q] += d_v[q];
+                }
+                sw[0].1 += 1;
+            }
+        }
+        let tt = c.state.t;
+        c.sys.impose(tt, &mut c.state.u, &mut c.state.v);
+    }
+    let mut snap: Vec<(Vec<f64>, Vec<f64>)> = vec![(Vec::new(), Vec::new()); m];
+    for i in (0..m).rev() {
+        if i + 1 < m {
+            let t = &links[i].down;
+            let (cu_all, cv_all) = (levels[i + 1].state.u.clone(), levels[i + 1].state.v.clone());
+            let (bu_all, bv_all) = match params.reading {
+                Reading::Paper => (&start[i + 1].0, &start[i + 1].1),
+                Reading::Correction => (&snap[i + 1].0, &snap[i + 1].1),
+            };
+            let f = &mut levels[i];
+            for th in 0..f.num_nodes() {
+                let own = [
+                    change[i].0[3 * th],
+                    change[i].0[3 * th + 1],
+                    change[i].0[3 * th + 2],
+                ];
+                let [cu, cv] = weighted2(t, th, rows(&cu_all), rows(&cv_all));
+                if norm3(own) > eps {
+                    f.state.u[3 * th..3 * th + 3].copy_from_slice(&cu);
+                    f.state.v[3 * th..3 * th + 3].copy_from_slice(&cv);
+                    sw[1].0 += 1;
+                } else {
+                    let [bu, bv] = weighted2(t, th, rows(bu_all), rows(bv_all));
+                    for q in 0..3 {
+                        f.state.u[3 * th + q] += cu[q] - bu[q];
+                        f.state.v[3 * th + q] += cv[q] - bv[q];
+                    }
+                    sw[1].1 += 1;
+                }
+            }
+            let tt = f.state.t;
+            f.sys.impose(tt, &mut f.state.u, &mut f.state.v);
+        }
+        let l = &mut levels[i];
+        snap[i] = (l.state.u.clone(), l.state.v.clone());
+        l.integrator.step(&mut l.sys, &mut l.state, l.dt).unwrap();
+        l.evaluations += 1;
+    }
+    prev.clone_from_slice(&start);
+    (sw, snap)
+}
+
+/// The fused cycle (ΔX and `X_n` taken by the strokes, level 0's change summed on the fly,
+/// snapshots written by the transfers, `|x| > ε` without the square root) gives the same bits
+/// as the literal whole-level cycle on every level, with the same switch counts: both
+/// readings, tets (a held displacement, 3 levels) and triangles (4 levels), at an ε where both
+/// branches of both strokes are taken.
+#[test]
+fn fused_cycle_equals_the_literal_cycle() {
+    let beam = |reading: &str| {
+        Scenario::from_toml(
+            &format!(
+                r#"
+gravity = [0.0, -9.81, 0.0]
+[mesh]
+generate = "box"
+size = [0.1, 0.04, 0.04]
+nodes = 600
+[material]
+law = "neo-hookean"
+young = 50000.0
+poisson = 0.4
+density = 1000.0
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
+[[displace]]
+point = [0.063, 0.017, 0.023]
+displacement = [0.0, 0.004, 0.0]
+mode = "ramp"
+duration = 0.002
+[integrator]
+method = "symplectic-euler"
+[run]
+duration = 1.0
+[multigrid]
+scheme = "raisov-paper"
+levels = 3
+reading = "{reading}"
+"#
+            ),
+            Path::new("beam-raisov.toml"),
+        )
+        .unwrap()
+    };
+    for reading in ["paper", "correction"] {
+        let membrane = drape(
+            900,
+            &format!("[multigrid]\nscheme = \"raisov-paper\"\nlevels = 4\nreading = \"{reading}\""),
+            "symplectic-euler",
+        );
+        for (name, sc, eps_rel) in [("tets", beam(reading), 2e-3), ("triangles", membrane, 1e-3)] {
+            let (levels, links) = sc.build_levels().unwrap();
+            let (mut ref_levels, ref_links) = sc.build_levels().unwrap();
+            let params = RaisovParams {
+                epsilon: eps_rel * levels[0].mesh.edge_range().0,
+                reading: if reading == "paper" {
+                    Reading::Paper
+                } else {
+                    Reading::Correction
+                },
+                kinetic_limit: f64::INFINITY,
+            };
+            let mut prev: Vec<_> = ref_levels
+                .iter()
+                .map(|l| (l.state.u.clone(), l.state.v.clone()))
+                .collect();
+            let mut fused = Raisov::new(levels, links, params);
+            let mut seen = [[false; 2]; 2];
+            for cycle in 0..40 {
+                fused.advance().unwrap();
+                let (sw, snap) = literal_cycle(&mut ref_levels, &ref_links, params, &mut prev);
+                assert_eq!(fused.last_switches, sw, "{name} {reading}: cycle {cycle}");
+                // The bookkeeping too: X_n, and the snapshots the next up stroke reads.
+                for (i, b) in fused.bookkeeping().into_iter().enumerate() {
+                    assert!(
+                        b[0] == prev[i].0 && b[1] == prev[i].1,
+                        "{name} {reading}: X_n of level {i} differs after cycle {cycle}"
+                    );
+                    if reading == "correction" && i > 0 {
+                        assert!(
+                            b[2] == snap[i].0 && b[3] == snap[i].1,
+                            "{name} {reading}: snapshot of level {i} differs after cycle {cycle}"
+                        );
+                    }
+                }
+                for (k, s) in sw.iter().enumerate() {
+                    seen[k][0] |= s.0 > 0;
+                    seen[k][1] |= s.1 > 0;
+                }
+                for (i, (a, b)) in fused.levels.iter().zip(&ref_levels).enumerate() {
+                    assert!(
+                        a.state.u == b.state.u && a.state.v == b.state.v,
+                        "{name} {reading}: level {i} differs after cycle {cycle}"
+                    );
+                }
+            }
+            assert_eq!(
+                seen, [[true; 2]; 2],
+                "{name} {reading}: not every branch taken"
+            );
+            assert!(fused.levels[0].state.u.iter().any(|&x| x != 0.0));
+        }
+    }
+}
+
+/// `Above` decides `|x| > ε` exactly as the square root does: at random sizes, at vectors
+/// whose norm is within a few ulps of ε, and for 0, NaN and infinite entries.
+#[test]
+fn above_decides_like_the_norm() {
+    use super::{norm3, Above};
+    let mut seed = 0x9e3779b97f4a7c15u64;
+    let mut rnd = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for e in [
+        0.0,
+        1e-300,
+        3.7e-7,
+        1e-3,
+        0.3,
+        1.0,
+        7.9e150,
+        1e200,
+        f64::INFINITY,
+    ] {
+        let a = Above::new(e);
+        let check = |x: [f64; 3]| {
+            assert_eq!(a.test(x), norm3(x) > e, "eps {e:e}, x {x:?}");
+        };
+        check([0.0; 3]);
+        check([f64::NAN, 0.0, 0.0]);
+        check([f64::INFINITY, 0.0, 0.0]);
+        for _ in 0..20_000 {
+            let d = [rnd() - 0.5, rnd() - 0.5, rnd() - 0.5];
+            let n = norm3(d);
+            // Scaled to |x| = ε (1 ± a few ulps), and at random sizes around ε.
+            let k = e / n * (1.0 + (rnd() - 0.5) * 8.0 * f64::EPSILON);
+            check(d.map(|x| x * k));
+            check(d.map(|x| x * e * 10f64.powf(4.0 * rnd() - 2.0)));
         }
     }
 }

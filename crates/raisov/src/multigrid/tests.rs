@@ -457,8 +457,8 @@ fn literal_cycle(
 /// The fused cycle (ΔX and `X_n` taken by the strokes, level 0's change summed on the fly,
 /// snapshots written by the transfers, `|x| > ε` without the square root) gives the same bits
 /// as the literal whole-level cycle on every level, with the same switch counts: both
-/// readings, tets (a held displacement, 3 levels) and triangles (4 levels), at an ε where both
-/// branches of both strokes are taken.
+/// readings, tets (a ramped displacement, 3 levels) and triangles (4 and 2 levels), at an ε
+/// where both branches of both strokes are taken.
 #[test]
 fn fused_cycle_equals_the_literal_cycle() {
     let beam = |reading: &str| {
@@ -497,12 +497,20 @@ reading = "{reading}"
         .unwrap()
     };
     for reading in ["paper", "correction"] {
-        let membrane = drape(
-            900,
-            &format!("[multigrid]\nscheme = \"raisov-paper\"\nlevels = 4\nreading = \"{reading}\""),
-            "symplectic-euler",
-        );
-        for (name, sc, eps_rel) in [("tets", beam(reading), 2e-3), ("triangles", membrane, 1e-3)] {
+        let membrane = |levels: usize| {
+            drape(
+                900,
+                &format!(
+                    "[multigrid]\nscheme = \"raisov-paper\"\nlevels = {levels}\nreading = \"{reading}\""
+                ),
+                "symplectic-euler",
+            )
+        };
+        for (name, sc, eps_rel) in [
+            ("tets", beam(reading), 2e-3),
+            ("triangles", membrane(4), 1e-3),
+            ("triangles, 2 levels", membrane(2), 1e-3),
+        ] {
             let (levels, links) = sc.build_levels().unwrap();
             let (mut ref_levels, ref_links) = sc.build_levels().unwrap();
             let params = RaisovParams {

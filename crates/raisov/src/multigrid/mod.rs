@@ -71,9 +71,14 @@ pub(crate) struct Diff<'a>(pub &'a [[f64; 3]], pub &'a [[f64; 3]]);
 impl Field for Diff<'_> {
     #[inline(always)]
     fn at(self, node: usize) -> [f64; 3] {
-        let (x, y) = (self.0[node], self.1[node]);
-        [x[0] - y[0], x[1] - y[1], x[2] - y[2]]
+        sub(self.0[node], self.1[node])
     }
+}
+
+/// `x − y`, entry by entry.
+#[inline(always)]
+pub(crate) fn sub(x: [f64; 3], y: [f64; 3]) -> [f64; 3] {
+    [x[0] - y[0], x[1] - y[1], x[2] - y[2]]
 }
 
 /// A flat field (3 entries per node) as one 3-vector per node.

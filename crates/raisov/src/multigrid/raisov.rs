@@ -20,7 +20,7 @@
 //!
 //! With one level this is single-level integration, bit for bit (a test).
 
-use super::{rows, rows_mut, weighted, weighted2, Above, Diff, Field, Level, Links};
+use super::{rows, rows_mut, sub, weighted, weighted2, Above, Diff, Field, Level, Links};
 use crate::error::{Divergence, DivergenceCause};
 use crate::hierarchy::Transfer;
 use crate::integrate::{check_state, Stepper};
@@ -336,11 +336,6 @@ fn up(
         }
         state
     })
-}
-
-#[inline(always)]
-fn sub(x: [f64; 3], y: [f64; 3]) -> [f64; 3] {
-    [x[0] - y[0], x[1] - y[1], x[2] - y[2]]
 }
 
 /// `f(node, row)` on every node of a level, in parallel chunks of [`CHUNK`] nodes (each

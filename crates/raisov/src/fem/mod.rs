@@ -76,9 +76,15 @@ pub struct FemParams {
     pub density: f64,
     /// Membrane thickness h (m); ignored for tetrahedra. Default 1e-3.
     pub thickness: f64,
-    /// Elements per parallel task; below 2 tasks' worth the force pass runs serially.
-    /// Default 2048.
+    /// Elements per parallel task of the generic force pass; below 2 tasks' worth it runs
+    /// serially. Default 2048.
     pub chunk: usize,
+    /// Wanted elements per slab of the packed neo-Hookean tetrahedron path (see [`fast`]):
+    /// one slab (serial) below 2 slabs' worth, else a multiple of 4 slabs (2 colours × an
+    /// even number of slabs per colour) and no more than the node numbering's band allows.
+    /// The layout, hence the bits, depend on this and the mesh only, never on the thread
+    /// count. Default 16384 (10k-node standard box: 4 slabs; 100k: 16; 1M: 36).
+    pub slab: usize,
     /// Storage precision of the packed neo-Hookean tetrahedron data (`Dm⁻¹` and volumes in
     /// f64, or in f32 widened to f64 on load; see [`fast`] for the tolerance). Other
     /// materials and membranes, the masses, the strain energy and the stresses are f64
@@ -93,6 +99,7 @@ impl FemParams {
             density: 1000.0,
             thickness: 1e-3,
             chunk: 2048,
+            slab: 16384,
             precision: Precision::F64,
         }
     }
@@ -194,7 +201,7 @@ impl FemModel {
                 &mesh.cells,
                 &dminv,
                 &measure,
-                params.chunk.max(1),
+                params.slab.max(1),
                 params.precision,
             )),
             _ => None,

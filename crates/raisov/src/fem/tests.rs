@@ -296,7 +296,9 @@ fn lumped_mass_sums_to_total_mass() {
 fn parallel_forces_match_reference_and_are_thread_count_independent() {
     for mesh in [jittered_box(6, 0.3), jittered_membrane(40, 0.3)] {
         let mut p = FemParams::new(materials()[1].clone());
-        p.chunk = 64; // force the parallel path on a small mesh
+        // Force the parallel paths (generic tasks, packed slabs) on a small mesh.
+        p.chunk = 64;
+        p.slab = 64;
         let mut model = FemModel::new(&mesh, p).unwrap();
         let n = mesh.num_nodes();
         let u = random_u(n, 0.1 * mesh.edge_range().0, 11);
@@ -351,7 +353,7 @@ fn packed_kernel_paths_agree() {
     let mut r_f64 = Vec::new();
     for precision in Precision::ALL {
         let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
-        p.chunk = 128;
+        p.slab = 128;
         p.precision = precision;
         let mut model = FemModel::new(&mesh, p).unwrap();
         assert_eq!(model.fast_precision(), Some(precision));
@@ -424,7 +426,7 @@ fn f32_storage_forces_within_stated_tolerance() {
     let h0 = mesh.edge_range().0;
     let model = |precision| {
         let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
-        p.chunk = 64;
+        p.slab = 64;
         p.precision = precision;
         FemModel::new(&mesh, p).unwrap()
     };
@@ -471,7 +473,7 @@ fn packed_failure_reports_original_element() {
     let mesh = box_tets([0.1, 0.04, 0.04], [10, 4, 4], BoxPattern::Five).unwrap();
     for precision in Precision::ALL {
         let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
-        p.chunk = 32;
+        p.slab = 32;
         p.precision = precision;
         let model = FemModel::new(&mesh, p).unwrap();
         check_failure_report(&mesh, model);
@@ -497,4 +499,26 @@ fn check_failure_report(mesh: &Mesh, mut model: FemModel) {
     let got = model.internal_forces(&u, &mut r).unwrap_err();
     assert_eq!(got.element, want.element);
     assert!(got.det_f < 0.0);
+}
+
+/// The slab rule: serial below two slabs' worth, else a multiple of 4 (an even number of
+/// slabs in each of the 2 colours) within what the band allows; on the standard 10k box the
+/// default parameters give 4 slabs in 2 colours, 2 of them per colour.
+#[test]
+fn slabs_come_in_fours_so_each_colour_splits_evenly() {
+    use super::fast::slab_count;
+    assert_eq!(slab_count(1, 36), 1);
+    assert_eq!(slab_count(0, 36), 1);
+    assert_eq!(slab_count(2, 36), 4);
+    assert_eq!(slab_count(3, 36), 4);
+    assert_eq!(slab_count(9, 36), 12);
+    assert_eq!(slab_count(298, 36), 36);
+    assert_eq!(slab_count(298, 18), 16);
+    assert_eq!(slab_count(5, 3), 3);
+    assert_eq!(slab_count(5, 1), 1);
+    let mesh = crate::bench::standard_box(10_000).unwrap();
+    let p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
+    let model = FemModel::new(&mesh, p).unwrap();
+    let (slabs, colours, _) = model.fast_path().unwrap();
+    assert_eq!((slabs, colours), (4, 2));
 }

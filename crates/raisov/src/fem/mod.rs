@@ -228,6 +228,12 @@ impl FemModel {
         })
     }
 
+    /// `Dm⁻¹` of every element, column-major (9 per tetrahedron, 4 per triangle).
+    #[cfg(test)]
+    pub(crate) fn dminv_column_major(&self) -> &[f64] {
+        &self.dminv
+    }
+
     pub fn num_elements(&self) -> usize {
         self.measure.len()
     }

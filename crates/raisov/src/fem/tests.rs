@@ -522,3 +522,48 @@ fn slabs_come_in_fours_so_each_colour_splits_evenly() {
     let (slabs, colours, _) = model.fast_path().unwrap();
     assert_eq!((slabs, colours), (4, 2));
 }
+
+/// The strip axis of the packed path is the axis along which node ids grow at the middle
+/// rate: `y` for the generator's numbering (x fastest, z slowest), and it follows the
+/// numbering when the nodes are renumbered with another axis order.
+#[test]
+fn strips_run_across_the_axis_of_middle_id_growth() {
+    use super::fast::strip_axis;
+    use crate::mesh::generate::{box_tets, BoxPattern};
+    let mesh = box_tets([0.1, 0.04, 0.04], [10, 4, 4], BoxPattern::Five).unwrap();
+    let model = |m: &Mesh| {
+        let p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
+        FemModel::new(m, p).unwrap()
+    };
+    let axis = |m: &Mesh| {
+        let fm = model(m);
+        let mut ext = [0.0; 3];
+        for el in m.cells.chunks_exact(4) {
+            for (d, e) in ext.iter_mut().enumerate() {
+                let xs = el.iter().map(|&c| m.nodes[c as usize][d]);
+                let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                    (a.min(x), b.max(x))
+                });
+                *e += hi - lo;
+            }
+        }
+        strip_axis(&m.cells, fm.dminv_column_major(), &ext, m.num_elements())
+    };
+    assert_eq!(axis(&mesh), Some(1));
+    // Renumber with y fastest, then z, then x slowest: the middle rate is now z's.
+    let n = mesh.num_nodes();
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    order.sort_by(|&a, &b| {
+        let (p, q) = (mesh.nodes[a as usize], mesh.nodes[b as usize]);
+        (p[0], p[2], p[1]).partial_cmp(&(q[0], q[2], q[1])).unwrap()
+    });
+    let mut new_of = vec![0u32; n];
+    for (k, &o) in order.iter().enumerate() {
+        new_of[o as usize] = k as u32;
+    }
+    let mut other = mesh.clone();
+    other.nodes = order.iter().map(|&o| mesh.nodes[o as usize]).collect();
+    other.cells = mesh.cells.iter().map(|&c| new_of[c as usize]).collect();
+    assert_eq!(axis(&other), Some(2));
+    assert_eq!(strip_axis(&[], &[], &[1.0; 3], 0), None);
+}

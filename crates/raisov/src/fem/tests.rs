@@ -567,3 +567,66 @@ fn strips_run_across_the_axis_of_middle_id_growth() {
     assert_eq!(axis(&other), Some(2));
     assert_eq!(strip_axis(&[], &[], &[1.0; 3], 0), None);
 }
+
+/// `ln J` as the kernels take it ([`fast::ln_j`]) is within 2 ulp of `f64::ln` on a sweep
+/// across `|J − 1| <` [`fast::LN_NEAR`] (the `ln(1 + f)` series), at and around the
+/// threshold, and beyond (the general series).
+#[test]
+fn kernel_log_is_within_two_ulp_near_and_far_from_one() {
+    let mut worst = 0.0f64;
+    let mut check = |x: f64| {
+        let (a, b) = (fast::ln_j(x), x.ln());
+        let ulp = (b.abs() * f64::EPSILON).max(f64::MIN_POSITIVE);
+        let e = (a - b).abs() / ulp;
+        worst = worst.max(e);
+        assert!(e <= 2.0, "ln {x}: {a} vs {b} ({e} ulp)");
+    };
+    let d = fast::LN_NEAR;
+    for k in 1..=20_000 {
+        let f = d * (k as f64 / 20_000.0);
+        for x in [1.0 + f, 1.0 - f, 1.0 + f * 1e-6, 1.0 - f * 1e-9] {
+            check(x);
+        }
+    }
+    for x in [
+        1.0 + d,
+        1.0 - d,
+        f64::from_bits((1.0 + d).to_bits() - 1),
+        0.5,
+        0.9,
+        1.2,
+        3.0,
+    ] {
+        check(x);
+    }
+    assert!(worst > 0.0, "the sweep compared nothing");
+}
+
+/// With every element's `|J − 1|` below [`fast::LN_NEAR`] the AVX2 kernel skips the general
+/// logarithm for whole groups; it still gives the bits of the portable kernel, and the
+/// forces of the reference path within rounding.
+#[test]
+fn near_unit_volume_change_takes_the_series_in_both_kernels() {
+    use crate::mesh::generate::{box_tets, BoxPattern};
+    let mesh = box_tets([0.1, 0.04, 0.04], [20, 8, 8], BoxPattern::Five).unwrap();
+    let n = mesh.num_nodes();
+    let u = random_u(n, 1e-3 * mesh.edge_range().0, 9);
+    let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
+    p.slab = 128;
+    let mut model = FemModel::new(&mesh, p).unwrap();
+    let mut r_ref = vec![0.0; 3 * n];
+    model.internal_forces_reference(&u, &mut r_ref).unwrap();
+    let mut runs = Vec::new();
+    for isa in [1, 0] {
+        model.pack.as_mut().unwrap().force_isa(isa);
+        let mut r = vec![0.0; 3 * n];
+        model.internal_forces(&u, &mut r).unwrap();
+        runs.push(r);
+    }
+    assert_eq!(runs[0], runs[1], "SIMD and portable kernels differ");
+    let scale = r_ref.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    assert!(scale > 0.0);
+    for (a, b) in runs[0].iter().zip(&r_ref) {
+        assert!((a - b).abs() <= 1e-9 * scale, "{a} vs {b}");
+    }
+}

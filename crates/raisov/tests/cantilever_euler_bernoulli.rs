@@ -4,6 +4,12 @@
 //! measured 49, 21, 11, 6.3 % on 20x2x2 .. 80x8x8, and the Richardson extrapolation lands
 //! within 1 % of the beam value; Timoshenko shear adds about 1 % at L/h = 10).
 //!
+//! Also the regression test of a Newton stall: after the packed force path's element order
+//! changed, the 40x4x4 solve stalled at 3e-6 of the load. Near equilibrium the potential
+//! energy moved by round-off (6e-12 of itself) more than the line search's 1e-12 allowance, so
+//! every step was refused; the line search now takes a step that lowers the residual norm
+//! where the energy cannot tell (`integrate::statics`).
+//!
 //! Static equilibrium by matrix-free Newton-Krylov to 1e-7 of the load. Slow in debug builds:
 //! `#[ignore]`d in the fast loop, run in CI by `cargo test --release -- --ignored`.
 

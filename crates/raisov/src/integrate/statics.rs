@@ -236,15 +236,23 @@ impl NewtonSolver {
                 }
                 let pi = potential(sys, &self.w);
                 // Near the solution Π changes by round-off only: tolerate that much.
-                if pi.is_finite() && pi <= pi0 + 1e-12 * pi0.abs() {
+                let descent = pi.is_finite() && pi <= pi0 + 1e-12 * pi0.abs();
+                // Π's terms cancel (at small strain `μ/2 (tr C − 3)` against `μ ln J`), so its
+                // round-off can exceed 1e-12 |Π|: measured 6e-12 on the 40x4x4 cantilever of
+                // `tests/cantilever_euler_bernoulli.rs`, where every step of the fourth Newton
+                // iteration was refused and the solve stalled at 3e-6 of the load. Where Π
+                // cannot tell (within 1e-9 |Π|), a step that lowers the residual norm is taken.
+                let flat = pi.is_finite() && (pi - pi0).abs() <= 1e-9 * pi0.abs();
+                if descent || flat {
                     evals += 1;
                     match sys.residual(&self.w, &mut self.f1) {
-                        Ok(rn) => {
+                        Ok(rn) if descent || rn < res => {
                             u.copy_from_slice(&self.w);
                             self.r.copy_from_slice(&self.f1);
                             res = rn;
                             break;
                         }
+                        Ok(_) => {}
                         Err(e) if step < 1e-3 => return Err(e),
                         Err(_) => {}
                     }

@@ -35,11 +35,13 @@
 //! standard box from 14.4 to 17.2 M node-updates/s on 1 thread and from 28.8 to 33.1 M on
 //! 2, the 100k box from 17.2 to 18.5 M and 35.1-35.4 to 35.8-36.8 M, the 10k box 21.1 to
 //! 21.7 M (1 thread; same on 2); strips half or twice as wide, or across `x`, measured
-//! slower. Slabs are coloured
-//! greedily so that slabs of one colour share no node; the force pass runs colour by
-//! colour, the slabs of a colour in parallel, each slab scattering serially into `r`. Every node thus receives its element
-//! contributions in one fixed order (colour, then slab order, then element order) whatever
-//! the number of threads: the same bits on 1 and 2 threads, no atomics.
+//! slower.
+//!
+//! Slabs are coloured greedily so that slabs of one colour share no node; the force pass
+//! runs colour by colour, the slabs of a colour in parallel, each slab scattering serially
+//! into `r`. Every node thus receives its element contributions in one fixed order
+//! (colour, then slab order, then element order) whatever the number of threads: the same
+//! bits on 1 and 2 threads, no atomics.
 //!
 //! Precision ([`Precision`], chosen per model by [`super::FemParams::precision`]): the
 //! element data are stored either in f64 (`Precision::F64`, the default, 96 bytes per
@@ -235,9 +237,9 @@ pub(crate) struct TetPack {
 /// multiple of 4 gives each colour an even number of slabs and the two threads of a
 /// 2-core machine equal shares in every colour. Measured on the standard boxes (f64,
 /// node-updates/s, 3 runs each): 10k nodes on 2 threads 33.1-36.3 M with 4 slabs against
-/// 13.2-28.1 M with the 18 (9 per colour) of one slab per 2048 elements; 1M on 1 thread
-/// 14.8-15.3 M with 12 slabs against 13.9-14.2 M with 36 (thicker slabs re-read fewer
-/// nodes at their borders); 100k flat from 4 to 16 slabs.
+/// 13.2-28.1 M with the 18 (9 per colour) of one slab per 2048 elements; 100k flat from 4
+/// to 16 slabs. At 1M, 8-16 slabs beat the default 36 by 3-6 % before the strips (below)
+/// and lose 2-7 % with them.
 pub(super) fn slab_count(wanted: usize, max: usize) -> usize {
     if wanted <= 1 || max <= 1 {
         return 1;

@@ -776,23 +776,30 @@ mod v4 {
         (c, j)
     }
 
+    /// [`super::estrin9`], the same operations.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(super) unsafe fn estrin9(c: &[f64; 10], x: __m256d) -> __m256d {
+        let cc = |i: usize| _mm256_set1_pd(c[i]);
+        let x2 = _mm256_mul_pd(x, x);
+        let x4 = _mm256_mul_pd(x2, x2);
+        let x8 = _mm256_mul_pd(x4, x4);
+        let q0 = _mm256_fmadd_pd(cc(1), x, cc(0));
+        let q1 = _mm256_fmadd_pd(cc(3), x, cc(2));
+        let q2 = _mm256_fmadd_pd(cc(5), x, cc(4));
+        let q3 = _mm256_fmadd_pd(cc(7), x, cc(6));
+        let q4 = _mm256_fmadd_pd(cc(9), x, cc(8));
+        let r0 = _mm256_fmadd_pd(q1, x2, q0);
+        let r1 = _mm256_fmadd_pd(q3, x2, q2);
+        _mm256_fmadd_pd(q4, x8, _mm256_fmadd_pd(r1, x4, r0))
+    }
+
     /// `ln_series` without the exponent/mantissa split: `2 s + 2 s z p(z) + e ln 2`.
     #[target_feature(enable = "avx2,fma")]
     #[inline]
     pub(super) unsafe fn ln_tail(s: __m256d, e: __m256d) -> __m256d {
         let z = _mm256_mul_pd(s, s);
-        let cc = |i: usize| _mm256_set1_pd(super::LN_COEF[i]);
-        let z2 = _mm256_mul_pd(z, z);
-        let z4 = _mm256_mul_pd(z2, z2);
-        let z8 = _mm256_mul_pd(z4, z4);
-        let q0 = _mm256_fmadd_pd(cc(8), z, cc(9));
-        let q1 = _mm256_fmadd_pd(cc(6), z, cc(7));
-        let q2 = _mm256_fmadd_pd(cc(4), z, cc(5));
-        let q3 = _mm256_fmadd_pd(cc(2), z, cc(3));
-        let q4 = _mm256_fmadd_pd(cc(0), z, cc(1));
-        let r0 = _mm256_fmadd_pd(q1, z2, q0);
-        let r1 = _mm256_fmadd_pd(q3, z2, q2);
-        let pp = _mm256_fmadd_pd(q4, z8, _mm256_fmadd_pd(r1, z4, r0));
+        let pp = estrin9(&super::LN_COEF, z);
         let two = _mm256_set1_pd(2.0);
         let t = _mm256_mul_pd(_mm256_mul_pd(two, s), _mm256_mul_pd(pp, z));
         _mm256_add_pd(
@@ -867,18 +874,8 @@ mod v4 {
     #[target_feature(enable = "avx2,fma")]
     #[inline]
     pub(super) unsafe fn ln_near1(f: __m256d) -> __m256d {
-        let cc = |i: usize| _mm256_set1_pd(super::LN1P_COEF[i]);
+        let p = estrin9(&super::LN1P_COEF, f);
         let f2 = _mm256_mul_pd(f, f);
-        let f4 = _mm256_mul_pd(f2, f2);
-        let f8 = _mm256_mul_pd(f4, f4);
-        let q0 = _mm256_fmadd_pd(cc(1), f, cc(0));
-        let q1 = _mm256_fmadd_pd(cc(3), f, cc(2));
-        let q2 = _mm256_fmadd_pd(cc(5), f, cc(4));
-        let q3 = _mm256_fmadd_pd(cc(7), f, cc(6));
-        let q4 = _mm256_fmadd_pd(cc(9), f, cc(8));
-        let r0 = _mm256_fmadd_pd(q1, f2, q0);
-        let r1 = _mm256_fmadd_pd(q3, f2, q2);
-        let p = _mm256_fmadd_pd(q4, f8, _mm256_fmadd_pd(r1, f4, r0));
         _mm256_fmadd_pd(f2, p, f)
     }
 
@@ -988,22 +985,39 @@ unsafe fn run_groups_avx2<S: Store>(
     good == 0xf
 }
 
-/// Coefficients `1/21, 1/19, ..., 1/3` of the atanh series (highest power first).
+/// Coefficients `1/3, 1/5, ..., 1/21` of the atanh series, `p(z) = Σ LN_COEF[i] zⁱ`.
 const LN_COEF: [f64; 10] = [
-    1.0 / 21.0,
-    1.0 / 19.0,
-    1.0 / 17.0,
-    1.0 / 15.0,
-    1.0 / 13.0,
-    1.0 / 11.0,
-    1.0 / 9.0,
-    1.0 / 7.0,
-    1.0 / 5.0,
     1.0 / 3.0,
+    1.0 / 5.0,
+    1.0 / 7.0,
+    1.0 / 9.0,
+    1.0 / 11.0,
+    1.0 / 13.0,
+    1.0 / 15.0,
+    1.0 / 17.0,
+    1.0 / 19.0,
+    1.0 / 21.0,
 ];
 /// ln 2 split hi + lo for an accurate `e ln 2`.
 const LN2_HI: f64 = 6.931_471_803_691_238e-1;
 const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+
+/// `Σ c[i] xⁱ`, i = 0..9, by Estrin's scheme (a short dependency chain); the AVX2 kernel's
+/// `v4::estrin9` does the same operations.
+#[inline(always)]
+fn estrin9(c: &[f64; 10], x: f64) -> f64 {
+    let x2 = x * x;
+    let x4 = x2 * x2;
+    let x8 = x4 * x4;
+    let q0 = c[1].mul_add(x, c[0]);
+    let q1 = c[3].mul_add(x, c[2]);
+    let q2 = c[5].mul_add(x, c[4]);
+    let q3 = c[7].mul_add(x, c[6]);
+    let q4 = c[9].mul_add(x, c[8]);
+    let r0 = q1.mul_add(x2, q0);
+    let r1 = q3.mul_add(x2, q2);
+    q4.mul_add(x8, r1.mul_add(x4, r0))
+}
 
 /// Below this `|J − 1|` the kernels take `ln J` from the series of `ln(1 + f)`,
 /// [`ln_near1`] (no exponent split, no division); above it from [`ln_series`]. Soft tissue
@@ -1032,18 +1046,8 @@ const LN1P_COEF: [f64; 10] = [
 /// the rounding of the last addition.
 #[inline(always)]
 pub(crate) fn ln_near1(f: f64) -> f64 {
-    let c = LN1P_COEF;
+    let p = estrin9(&LN1P_COEF, f);
     let f2 = f * f;
-    let f4 = f2 * f2;
-    let f8 = f4 * f4;
-    let q0 = c[1].mul_add(f, c[0]);
-    let q1 = c[3].mul_add(f, c[2]);
-    let q2 = c[5].mul_add(f, c[4]);
-    let q3 = c[7].mul_add(f, c[6]);
-    let q4 = c[9].mul_add(f, c[8]);
-    let r0 = q1.mul_add(f2, q0);
-    let r1 = q3.mul_add(f2, q2);
-    let p = q4.mul_add(f8, r1.mul_add(f4, r0));
     f2.mul_add(p, f)
 }
 
@@ -1072,19 +1076,7 @@ pub(crate) fn ln_series(x: f64) -> f64 {
     let e = e + if big { 1.0 } else { 0.0 };
     let s = (m - 1.0) / (m + 1.0);
     let z = s * s;
-    // Estrin's scheme (short dependency chain): p = Σ LN_COEF[i] z^(9−i).
-    let c = LN_COEF;
-    let z2 = z * z;
-    let z4 = z2 * z2;
-    let z8 = z4 * z4;
-    let q0 = c[8].mul_add(z, c[9]);
-    let q1 = c[6].mul_add(z, c[7]);
-    let q2 = c[4].mul_add(z, c[5]);
-    let q3 = c[2].mul_add(z, c[3]);
-    let q4 = c[0].mul_add(z, c[1]);
-    let r0 = q1.mul_add(z2, q0);
-    let r1 = q3.mul_add(z2, q2);
-    let p = q4.mul_add(z8, r1.mul_add(z4, r0));
+    let p = estrin9(&LN_COEF, z);
     let t = 2.0 * s * (p * z);
     e * LN2_HI + (2.0 * s + (t + e * LN2_LO))
 }

@@ -15,7 +15,9 @@
 pub mod fas;
 pub mod raisov;
 
-use crate::hierarchy::{Correspondence, Transfer};
+use crate::hierarchy::Correspondence;
+#[cfg(test)]
+use crate::hierarchy::Transfer;
 use crate::integrate::{Integrator, Method, State, System};
 use crate::mesh::Mesh;
 
@@ -97,34 +99,37 @@ pub(crate) fn rows_mut(s: &mut [f64]) -> &mut [[f64; 3]] {
 
 /// Node-wise weighted sum `Σ_j ω_j src[host_j]` of one 3-vector field at point `p` of `t`
 /// (summed over the hosts in order, from zero).
-#[inline]
+#[cfg(test)]
 pub(crate) fn weighted<S: Field>(t: &Transfer, p: usize, src: S) -> [f64; 3] {
+    let (w, h) = (&t.weights[p], &t.nodes[p]);
     if t.npe == 4 {
-        weighted_n::<4, 1, S>(t, p, [src])[0]
+        weighted_n::<4, 1, S>(w, h, [src])[0]
     } else {
-        weighted_n::<3, 1, S>(t, p, [src])[0]
+        weighted_n::<3, 1, S>(w, h, [src])[0]
     }
 }
 
 /// [`weighted`] of two fields at once (one pass over the hosts; the same bits as two calls).
-#[inline]
+#[cfg(test)]
 pub(crate) fn weighted2<S: Field>(t: &Transfer, p: usize, a: S, b: S) -> [[f64; 3]; 2] {
+    let (w, h) = (&t.weights[p], &t.nodes[p]);
     if t.npe == 4 {
-        weighted_n::<4, 2, S>(t, p, [a, b])
+        weighted_n::<4, 2, S>(w, h, [a, b])
     } else {
-        weighted_n::<3, 2, S>(t, p, [a, b])
+        weighted_n::<3, 2, S>(w, h, [a, b])
     }
 }
 
-/// `N` hosts (unrolled), `F` fields.
+/// `Σ_j w_j src[nodes_j]` over the first `N` hosts (unrolled) of `F` fields, summed from zero
+/// over the hosts in order: [`weighted`] and [`weighted2`] at one point, given its weights
+/// and hosts.
 #[inline(always)]
-fn weighted_n<const N: usize, const F: usize, S: Field>(
-    t: &Transfer,
-    p: usize,
+pub(crate) fn weighted_n<const N: usize, const F: usize, S: Field>(
+    w: &[f64; 4],
+    nodes: &[u32; 4],
     src: [S; F],
 ) -> [[f64; 3]; F] {
     let mut out = [[0.0; 3]; F];
-    let (w, nodes) = (&t.weights[p], &t.nodes[p]);
     for j in 0..N {
         let a = nodes[j] as usize;
         for (o, s) in out.iter_mut().zip(src) {

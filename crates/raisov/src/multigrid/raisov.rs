@@ -20,7 +20,7 @@
 //!
 //! With one level this is single-level integration, bit for bit (a test).
 
-use super::{rows, rows_mut, sub, weighted, weighted2, Above, Diff, Field, Level, Links};
+use super::{rows, rows_mut, sub, weighted_n, Above, Diff, Field, Level, Links};
 use crate::error::{Divergence, DivergenceCause};
 use crate::hierarchy::Transfer;
 use crate::integrate::{check_state, Stepper};
@@ -249,16 +249,18 @@ struct Rows<'a> {
     sv: &'a mut [[f64; 3]],
 }
 
-/// One node's entries of [`Rows`] (`None` where the buffer is not kept).
-struct Row<'a> {
-    u: &'a mut [f64; 3],
-    v: &'a mut [f64; 3],
-    pu: &'a mut [f64; 3],
-    pv: &'a mut [f64; 3],
-    du: Option<&'a mut [f64; 3]>,
-    dv: Option<&'a mut [f64; 3]>,
-    su: Option<&'a mut [f64; 3]>,
-    sv: Option<&'a mut [f64; 3]>,
+/// One chunk of [`Rows`]: its first node and its rows (empty where the level does not keep
+/// the buffer).
+struct Chunk<'a> {
+    first: usize,
+    u: &'a mut [[f64; 3]],
+    v: &'a mut [[f64; 3]],
+    pu: &'a mut [[f64; 3]],
+    pv: &'a mut [[f64; 3]],
+    du: &'a mut [[f64; 3]],
+    dv: &'a mut [[f64; 3]],
+    su: &'a mut [[f64; 3]],
+    sv: &'a mut [[f64; 3]],
 }
 
 /// Down-stroke transfer into one level (eqs. 9, 10): per node, keep `X_n` (and ΔX where the
@@ -268,34 +270,71 @@ fn down<C: Field + Sync>(
     t: &Transfer,
     level: Rows,
     above: Above,
+    d: [C; 2],
+    src: [&[[f64; 3]]; 2],
+) -> (usize, usize) {
+    // One loop per case, the case decided once per level (not per node).
+    let keep = (!level.du.is_empty(), !level.su.is_empty(), t.npe == 4);
+    per_chunk(level, |c| {
+        macro_rules! go {
+            ($n:literal, $d:literal, $s:literal) => {
+                down_chunk::<C, $n, $d, $s>(t, c, above, d, src)
+            };
+        }
+        match keep {
+            (false, false, true) => go!(4, false, false),
+            (false, true, true) => go!(4, false, true),
+            (true, false, true) => go!(4, true, false),
+            (true, true, true) => go!(4, true, true),
+            (false, false, false) => go!(3, false, false),
+            (false, true, false) => go!(3, false, true),
+            (true, false, false) => go!(3, true, false),
+            (true, true, false) => go!(3, true, true),
+        }
+    })
+}
+
+/// [`down`] on one chunk: `N` hosts per node, `D` the level keeps ΔX, `S` the snapshot.
+#[inline(always)]
+fn down_chunk<C: Field, const N: usize, const D: bool, const S: bool>(
+    t: &Transfer,
+    c: Chunk,
+    above: Above,
     [dfu, dfv]: [C; 2],
     [src_u, src_v]: [&[[f64; 3]]; 2],
 ) -> (usize, usize) {
-    per_node(level, |th, r| {
-        let (ou, ov) = (*r.u, *r.v);
-        if let (Some(du), Some(dv)) = (r.du, r.dv) {
-            *du = sub(ou, *r.pu);
-            *dv = sub(ov, *r.pv);
+    let n = c.u.len();
+    let (ws, hs) = (
+        &t.weights[c.first..c.first + n],
+        &t.nodes[c.first..c.first + n],
+    );
+    let mut states = 0;
+    for j in 0..n {
+        let (ou, ov) = (c.u[j], c.v[j]);
+        if D {
+            c.du[j] = sub(ou, c.pu[j]);
+            c.dv[j] = sub(ov, c.pv[j]);
         }
-        *r.pu = ou;
-        *r.pv = ov;
-        let d_u = weighted(t, th, dfu);
-        let state = above.test(d_u);
-        if state {
-            [*r.u, *r.v] = weighted2(t, th, src_u, src_v);
+        c.pu[j] = ou;
+        c.pv[j] = ov;
+        let (w, h) = (&ws[j], &hs[j]);
+        let [d_u] = weighted_n::<N, 1, C>(w, h, [dfu]);
+        if above.test(d_u) {
+            states += 1;
+            [c.u[j], c.v[j]] = weighted_n::<N, 2, _>(w, h, [src_u, src_v]);
         } else {
-            let d_v = weighted(t, th, dfv);
+            let [d_v] = weighted_n::<N, 1, C>(w, h, [dfv]);
             for q in 0..3 {
-                r.u[q] += d_u[q];
-                r.v[q] += d_v[q];
+                c.u[j][q] += d_u[q];
+                c.v[j][q] += d_v[q];
             }
         }
-        if let (Some(su), Some(sv)) = (r.su, r.sv) {
-            *su = *r.u;
-            *sv = *r.v;
+        if S {
+            c.su[j] = c.u[j];
+            c.sv[j] = c.v[j];
         }
-        state
-    })
+    }
+    (states, n - states)
 }
 
 /// Up-stroke transfer into one level (eqs. 11, 12): `X = Σ ω X^(i+1)` if the level's own
@@ -306,42 +345,81 @@ fn up(
     level: Rows,
     above: Above,
     finest: bool,
-    [src_u, src_v]: [&[[f64; 3]]; 2],
-    [base_u, base_v]: [&[[f64; 3]]; 2],
+    src: [&[[f64; 3]]; 2],
+    base: [&[[f64; 3]]; 2],
 ) -> (usize, usize) {
-    per_node(level, |th, r| {
-        let own = if finest {
-            let own = sub(*r.u, *r.pu);
-            *r.pu = *r.u;
-            *r.pv = *r.v;
-            own
-        } else {
-            r.du.map_or([0.0; 3], |d| *d)
-        };
-        let [cu, cv] = weighted2(t, th, src_u, src_v);
-        let state = above.test(own);
-        if state {
-            *r.u = cu;
-            *r.v = cv;
-        } else {
-            let [bu, bv] = weighted2(t, th, base_u, base_v);
-            for q in 0..3 {
-                r.u[q] += cu[q] - bu[q];
-                r.v[q] += cv[q] - bv[q];
-            }
+    // A coarse level that receives an up-stroke transfer (1 … m−2) always keeps its ΔX.
+    debug_assert!(finest || !level.du.is_empty());
+    let keep = (finest, !level.su.is_empty(), t.npe == 4);
+    per_chunk(level, |c| {
+        macro_rules! go {
+            ($n:literal, $f:literal, $s:literal) => {
+                up_chunk::<$n, $f, $s>(t, c, above, src, base)
+            };
         }
-        if let (Some(su), Some(sv)) = (r.su, r.sv) {
-            *su = *r.u;
-            *sv = *r.v;
+        match keep {
+            (true, false, true) => go!(4, true, false),
+            (true, true, true) => go!(4, true, true),
+            (false, false, true) => go!(4, false, false),
+            (false, true, true) => go!(4, false, true),
+            (true, false, false) => go!(3, true, false),
+            (true, true, false) => go!(3, true, true),
+            (false, false, false) => go!(3, false, false),
+            (false, true, false) => go!(3, false, true),
         }
-        state
     })
 }
 
-/// `f(node, row)` on every node of a level, in parallel chunks of [`CHUNK`] nodes (each
-/// node alone: the same bits on any thread count). `f` says whether it transferred the
-/// node's state (true) or a variation; returns the two counts.
-fn per_node(level: Rows, f: impl Fn(usize, Row) -> bool + Sync) -> (usize, usize) {
+/// [`up`] on one chunk: `N` hosts per node; the level's own ΔX is `X − X_(n−1)` now where
+/// `FINEST` (and its `X_n` is kept here), else the stored ΔX; `S` the snapshot.
+#[inline(always)]
+fn up_chunk<const N: usize, const FINEST: bool, const S: bool>(
+    t: &Transfer,
+    c: Chunk,
+    above: Above,
+    src: [&[[f64; 3]]; 2],
+    base: [&[[f64; 3]]; 2],
+) -> (usize, usize) {
+    let n = c.u.len();
+    let (ws, hs) = (
+        &t.weights[c.first..c.first + n],
+        &t.nodes[c.first..c.first + n],
+    );
+    let mut states = 0;
+    for j in 0..n {
+        let own = if FINEST {
+            let own = sub(c.u[j], c.pu[j]);
+            c.pu[j] = c.u[j];
+            c.pv[j] = c.v[j];
+            own
+        } else {
+            c.du[j]
+        };
+        let (w, h) = (&ws[j], &hs[j]);
+        let [cu, cv] = weighted_n::<N, 2, _>(w, h, src);
+        if above.test(own) {
+            states += 1;
+            c.u[j] = cu;
+            c.v[j] = cv;
+        } else {
+            let [bu, bv] = weighted_n::<N, 2, _>(w, h, base);
+            for q in 0..3 {
+                c.u[j][q] += cu[q] - bu[q];
+                c.v[j][q] += cv[q] - bv[q];
+            }
+        }
+        if S {
+            c.su[j] = c.u[j];
+            c.sv[j] = c.v[j];
+        }
+    }
+    (states, n - states)
+}
+
+/// `f(chunk)` on every chunk of [`CHUNK`] nodes of a level, in parallel (each node alone:
+/// the same bits on any thread count). `f` returns how many nodes of the chunk it
+/// transferred the state of and how many a variation; returns the sums.
+fn per_chunk(level: Rows, f: impl Fn(Chunk) -> (usize, usize) + Sync) -> (usize, usize) {
     let n = level.u.len();
     let Rows {
         u,
@@ -366,31 +444,22 @@ fn per_node(level: Rows, f: impl Fn(usize, Row) -> bool + Sync) -> (usize, usize
         .into_par_iter()
         .enumerate()
         .map(|(k, (u, v, pu, pv, du, dv, su, sv))| {
-            let mut c = (0usize, 0usize);
-            let (u, v, pu, pv) = (u.iter_mut(), v.iter_mut(), pu.iter_mut(), pv.iter_mut());
-            for (j, (((u, v), pu), pv)) in u.zip(v).zip(pu).zip(pv).enumerate() {
-                let row = Row {
-                    u,
-                    v,
-                    pu,
-                    pv,
-                    du: du.get_mut(j),
-                    dv: dv.get_mut(j),
-                    su: su.get_mut(j),
-                    sv: sv.get_mut(j),
-                };
-                if f(k * CHUNK + j, row) {
-                    c.0 += 1;
-                } else {
-                    c.1 += 1;
-                }
-            }
-            c
+            f(Chunk {
+                first: k * CHUNK,
+                u,
+                v,
+                pu,
+                pv,
+                du,
+                dv,
+                su,
+                sv,
+            })
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1))
 }
 
-/// The chunks of a buffer for [`per_node`], or as many empty ones if the level does not keep
+/// The chunks of a buffer for [`per_chunk`], or as many empty ones if the level does not keep
 /// the buffer.
 fn padded(
     s: &mut [[f64; 3]],

@@ -352,7 +352,8 @@ fn cmd_check(path: &Path) -> Result<()> {
     println!("loads         {} nodes", sc.loads.len());
     for (a, m) in &sc.prescribed {
         println!(
-            "prescribed    node {a} at {:?}: {m:?}",
+            "prescribed    node {} at {:?}: {m:?}",
+            sc.file_node(*a),
             sc.mesh.nodes[*a as usize]
         );
     }

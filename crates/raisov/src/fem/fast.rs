@@ -67,6 +67,7 @@
 //! of f64 there (1M nodes, 1 thread: 3-4 % faster in three runs; 100k: 0-4 % slower; 2
 //! threads: ±6 %, contended machine).
 
+use crate::mesh::morton3;
 use rayon::prelude::*;
 
 /// Elements per SIMD group.
@@ -281,17 +282,6 @@ pub(super) fn strip_axis(cells: &[u32], dminv: &[f64], ext: &[f64; 3], ne: usize
     Some(axes[1])
 }
 
-/// Spread the low 21 bits of x to every third bit.
-fn spread3(x: u64) -> u64 {
-    let mut x = x & 0x1f_ffff;
-    x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
-    x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
-    x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
-    x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
-    x = (x | (x << 2)) & 0x1249_2492_4924_9249;
-    x
-}
-
 impl TetPack {
     /// Pack the elements. `cells` 4 per element, `dminv` 9 per element column-major,
     /// `target_block` the wanted elements per slab, `precision` that of the stored `dminv`
@@ -399,7 +389,7 @@ impl TetPack {
         };
         let key: Vec<u64> = cen
             .iter()
-            .map(|c| spread3(q(0, c[0])) | (spread3(q(1, c[1])) << 1) | (spread3(q(2, c[2])) << 2))
+            .map(|c| morton3([q(0, c[0]), q(1, c[1]), q(2, c[2])]))
             .collect();
         // Strips inside a slab (banded numbering only): bands one mean element extent wide
         // across the axis along which the node id grows at the middle rate, so that a slab

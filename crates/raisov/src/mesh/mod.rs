@@ -11,6 +11,11 @@
 //! Groups: physical groups from Gmsh (or any named node set) map a name to the sorted,
 //! deduplicated node ids of every element of that group, including lower-dimensional
 //! boundary elements such as Gmsh surface triangles of a tet mesh.
+//!
+//! Node order: [`Mesh::spatial_order`] and [`Mesh::renumber`] put nodes that are near in
+//! space near in memory (Morton order of a grid one mean element size wide), which the force
+//! pass's gathers and scatters need. Scenarios apply it to meshes read from files, whose
+//! numbering from mesh generators often jumps across the mesh (see `crate::scenario`).
 
 use std::collections::BTreeMap;
 
@@ -445,6 +450,61 @@ impl Mesh {
         }
     }
 
+    /// A node order for memory locality: the nodes sorted by the Morton (Z-curve) key of
+    /// their cell on a grid whose spacing is the mean longest element edge, ties by id.
+    /// `order[k]` is the node that becomes node `k` under [`Mesh::renumber`]. Deterministic:
+    /// it depends on the coordinates and ids only.
+    pub fn spatial_order(&self) -> Vec<u32> {
+        let ne = self.num_elements();
+        let h = if ne > 0 {
+            (0..ne).map(|e| self.element_max_edge(e)).sum::<f64>() / ne as f64
+        } else {
+            0.0
+        };
+        let (lo, _) = self.bounding_box();
+        let cell = |x: f64, d: usize| -> u64 {
+            if h > 0.0 {
+                (((x - lo[d]) / h) as u64).min((1 << 21) - 1)
+            } else {
+                0
+            }
+        };
+        let mut order: Vec<u32> = (0..self.nodes.len() as u32).collect();
+        order.sort_by_key(|&a| {
+            let p = self.nodes[a as usize];
+            (morton3([cell(p[0], 0), cell(p[1], 1), cell(p[2], 2)]), a)
+        });
+        order
+    }
+
+    /// Renumber the nodes: node `order[k]` becomes node `k`. Connectivity and groups follow;
+    /// element order and each element's corner order are kept (so orientation too).
+    ///
+    /// # Panics
+    /// If `order` is not a permutation of `0..num_nodes()`.
+    pub fn renumber(&mut self, order: &[u32]) {
+        let n = self.nodes.len();
+        assert_eq!(order.len(), n, "renumber: order has the wrong length");
+        let mut new_of = vec![u32::MAX; n];
+        for (k, &a) in order.iter().enumerate() {
+            assert!(
+                (a as usize) < n && new_of[a as usize] == u32::MAX,
+                "renumber: not a permutation"
+            );
+            new_of[a as usize] = k as u32;
+        }
+        self.nodes = order.iter().map(|&a| self.nodes[a as usize]).collect();
+        for c in &mut self.cells {
+            *c = new_of[*c as usize];
+        }
+        for g in self.groups.values_mut() {
+            for a in g.iter_mut() {
+                *a = new_of[*a as usize];
+            }
+            g.sort_unstable();
+        }
+    }
+
     /// Index of the node nearest to `p` (lowest id on ties).
     pub fn nearest_node(&self, p: [f64; 3]) -> Option<usize> {
         let mut best = None;
@@ -458,6 +518,23 @@ impl Mesh {
         }
         best
     }
+}
+
+/// Morton (Z-curve) key of a 3-D cell: the low 21 bits of each coordinate interleaved,
+/// `x` in the lowest bit.
+pub(crate) fn morton3(c: [u64; 3]) -> u64 {
+    spread3(c[0]) | (spread3(c[1]) << 1) | (spread3(c[2]) << 2)
+}
+
+/// Spread the low 21 bits of x to every third bit.
+fn spread3(x: u64) -> u64 {
+    let mut x = x & 0x1f_ffff;
+    x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+    x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+    x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+    x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+    x = (x | (x << 2)) & 0x1249_2492_4924_9249;
+    x
 }
 
 /// Radius ratio `3 r_in / R_circ` of a tetrahedron (1 for a regular one, 0 if degenerate).
@@ -488,7 +565,7 @@ pub fn tet_radius_ratio(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn unit_tet() -> Mesh {
@@ -539,5 +616,95 @@ mod tests {
         let mut m = unit_tet();
         m.nodes[3] = [0.5, 0.5, 0.0];
         assert_eq!(m.degenerate_elements(), vec![0]);
+    }
+
+    /// A fixed pseudo-random permutation of `0..n` (LCG Fisher-Yates).
+    pub(crate) fn shuffled_order(n: usize) -> Vec<u32> {
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let mut st = 12345u64;
+        for i in (1..n).rev() {
+            st = st
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            order.swap(i, (st >> 33) as usize % (i + 1));
+        }
+        order
+    }
+
+    /// Mean over elements of the spread of their node ids (max − min).
+    fn mean_id_spread(m: &Mesh) -> f64 {
+        let npe = m.kind.nodes_per_element();
+        let s: u64 = m
+            .cells
+            .chunks_exact(npe)
+            .map(|el| (el.iter().max().unwrap() - el.iter().min().unwrap()) as u64)
+            .sum();
+        s as f64 / m.num_elements() as f64
+    }
+
+    /// `renumber` moves ids, never geometry: every element keeps its corners' positions (so
+    /// its measure and orientation), groups keep their nodes' positions; `spatial_order` is
+    /// a permutation, and on a mesh whose ids were shuffled it brings the nodes of an element
+    /// close in memory again: the mean id spread within an element falls below a fifth of
+    /// the shuffled one and below that of the generator's own axis-by-axis numbering
+    /// (measured: 1035 shuffled, 139 in Morton order).
+    #[test]
+    fn renumber_moves_ids_not_geometry_and_spatial_order_restores_locality() {
+        use crate::mesh::generate::{box_tets, BoxPattern};
+        let base = box_tets([0.1, 0.04, 0.04], [20, 8, 8], BoxPattern::Five).unwrap();
+        let n = base.num_nodes();
+        let mut shuffled = base.clone();
+        shuffled.groups.insert(
+            "end".into(),
+            (0..n as u32)
+                .filter(|&a| base.nodes[a as usize][0] == 0.1)
+                .collect(),
+        );
+        let groups_before = shuffled.groups.clone();
+        let pos_before = shuffled.clone();
+        shuffled.renumber(&shuffled_order(n));
+        let corners = |m: &Mesh, e: usize| -> Vec<[f64; 3]> {
+            m.element(e).iter().map(|&a| m.nodes[a as usize]).collect()
+        };
+        for e in 0..base.num_elements() {
+            assert_eq!(corners(&pos_before, e), corners(&shuffled, e));
+            assert!(shuffled.element_measure(e) > 0.0);
+        }
+        let pts = |m: &Mesh, g: &[u32]| -> Vec<[u64; 3]> {
+            let mut v: Vec<[u64; 3]> = g
+                .iter()
+                .map(|&a| m.nodes[a as usize].map(f64::to_bits))
+                .collect();
+            v.sort_unstable();
+            v
+        };
+        for (name, g) in &groups_before {
+            assert_eq!(
+                pts(&pos_before, g),
+                pts(&shuffled, &shuffled.groups[name]),
+                "{name}"
+            );
+            assert!(shuffled.groups[name].windows(2).all(|w| w[0] < w[1]));
+        }
+        let order = shuffled.spatial_order();
+        let mut seen = vec![false; n];
+        for &a in &order {
+            assert!(!seen[a as usize]);
+            seen[a as usize] = true;
+        }
+        let mut local = shuffled.clone();
+        local.renumber(&order);
+        let (before, after) = (mean_id_spread(&shuffled), mean_id_spread(&local));
+        assert!(after * 5.0 < before, "id spread {before} -> {after}");
+        assert!(
+            after < mean_id_spread(&base),
+            "{after} vs {}",
+            mean_id_spread(&base)
+        );
+        // The identity changes nothing.
+        let mut same = local.clone();
+        same.renumber(&(0..n as u32).collect::<Vec<_>>());
+        assert_eq!(same.nodes, local.nodes);
+        assert_eq!(same.cells, local.cells);
     }
 }

@@ -19,7 +19,8 @@
 //! The frame rate counts the stepper's own wall time only (not the reference solve nor the
 //! output): `fps = frames / Σ frame wall`. Written atomically under the output directory:
 //! `frames.csv` (one row per frame), `NAME.pvd` + `frames/*.vtu` (fields `displacement`,
-//! `static` and `lag`), `summary.txt`.
+//! `static` and `lag`, and `file_node_id` where `[mesh] renumber` reordered the nodes),
+//! `summary.txt`.
 
 use super::run::RunOptions;
 use super::spec::InteractiveSpec;
@@ -239,6 +240,10 @@ pub fn run_interactive(
     let mut pvd = PvdWriter::new(out.join(format!("{}.pvd", sc.name)));
     let mut positions = vec![[0.0; 3]; n];
     let mut lag = vec![0.0; 3 * n];
+    let file_node_id: Option<Vec<f64>> = sc
+        .file_ids
+        .as_ref()
+        .map(|f| f.iter().map(|&a| a as f64).collect());
     let mut diverged = None;
     for k in 1..=frames_n {
         let t = k as f64 / settings.fps;
@@ -350,6 +355,12 @@ pub fn run_interactive(
             fields.push(Field {
                 name: "lag",
                 data: FieldData::Vector(&lag),
+            });
+        }
+        if let Some(ids) = &file_node_id {
+            fields.push(Field {
+                name: "file_node_id",
+                data: FieldData::Scalar(ids),
             });
         }
         write_vtu(&frames_dir.join(&file), &sc.mesh, &positions, &fields, &[])?;

@@ -3,9 +3,11 @@
 //! Files written under the output directory, each atomically (temp file + rename):
 //! - `measures.csv`: one row per `csv_every` steps ([`crate::metrics::CSV_HEADER`]);
 //! - `NAME.pvd` + `frames/NAME_NNNNNN.vtu`: ParaView time series on the deformed mesh with
-//!   point fields `displacement` (m), `velocity` (m/s), `stress` (nodal Cauchy T, Pa);
-//! - `nodal_stress.csv`: the final nodal stress per node (usable as a later run's
-//!   `output.reference`);
+//!   point fields `displacement` (m), `velocity` (m/s), `stress` (nodal Cauchy T, Pa), and
+//!   `file_node_id` (each point's node id in the mesh file) where `[mesh] renumber` reordered
+//!   the nodes;
+//! - `nodal_stress.csv`: the final nodal stress per node, in file order, `node` the file's id
+//!   (usable as a later run's `output.reference`);
 //! - `summary.txt`: what the closing summary says.
 //!
 //! A diverging run writes what it measured up to the last finite state, then returns
@@ -163,8 +165,23 @@ impl Scenario {
     }
 }
 
-/// Read a `nodal_stress.csv` written by an earlier run.
-pub fn read_nodal_stress(path: &Path, n: usize) -> Result<Vec<f64>> {
+/// Mesh index of each file node id (the inverse of [`Scenario::file_ids`]; the identity
+/// where the mesh keeps the file's order).
+fn mesh_index_of_file(file_ids: Option<&[u32]>, n: usize) -> Vec<usize> {
+    let mut at = (0..n).collect::<Vec<usize>>();
+    if let Some(f) = file_ids {
+        for (k, &id) in f.iter().enumerate() {
+            at[id as usize] = k;
+        }
+    }
+    at
+}
+
+/// Read a `nodal_stress.csv` written by an earlier run on a mesh of `n` nodes; its `node`
+/// column holds file ids, mapped to the mesh's order by `file_ids` (see
+/// [`Scenario::file_ids`]).
+pub fn read_nodal_stress(path: &Path, n: usize, file_ids: Option<&[u32]>) -> Result<Vec<f64>> {
+    let at = mesh_index_of_file(file_ids, n);
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let bad = |line: usize, msg: String| Error::Scenario {
         path: path.to_path_buf(),
@@ -197,6 +214,7 @@ pub fn read_nodal_stress(path: &Path, n: usize) -> Result<Vec<f64>> {
                 format!("node {a} does not exist in this mesh of {n} nodes"),
             ));
         }
+        let a = at[a];
         for k in 0..9 {
             t[9 * a + k] = f[7 + k]
                 .trim()
@@ -214,13 +232,23 @@ pub fn read_nodal_stress(path: &Path, n: usize) -> Result<Vec<f64>> {
     Ok(t)
 }
 
-fn write_nodal_stress(path: &Path, x0: &[[f64; 3]], u: &[f64], t: &[f64]) -> Result<()> {
+/// One row per node in file order, the `node` column its file id (see
+/// [`Scenario::file_ids`]).
+fn write_nodal_stress(
+    path: &Path,
+    x0: &[[f64; 3]],
+    u: &[f64],
+    t: &[f64],
+    file_ids: Option<&[u32]>,
+) -> Result<()> {
+    let at = mesh_index_of_file(file_ids, x0.len());
     write_atomic(path, |w| {
         writeln!(w, "node,x,y,z,ux,uy,uz,T00,T01,T02,T10,T11,T12,T20,T21,T22")?;
-        for (a, p) in x0.iter().enumerate() {
+        for (id, &a) in at.iter().enumerate() {
+            let p = x0[a];
             write!(
                 w,
-                "{a},{:e},{:e},{:e},{:e},{:e},{:e}",
+                "{id},{:e},{:e},{:e},{:e},{:e},{:e}",
                 p[0],
                 p[1],
                 p[2],
@@ -245,10 +273,12 @@ struct Frames {
     count: usize,
     positions: Vec<[f64; 3]>,
     stress: Vec<f64>,
+    /// Each point's node id in the mesh file, where the scenario renumbered the nodes.
+    file_ids: Option<Vec<f64>>,
 }
 
 impl Frames {
-    fn new(out: &Path, name: &str, n: usize) -> Result<Self> {
+    fn new(out: &Path, name: &str, n: usize, file_ids: Option<&[u32]>) -> Result<Self> {
         let dir = out.join("frames");
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         Ok(Frames {
@@ -258,6 +288,7 @@ impl Frames {
             count: 0,
             positions: vec![[0.0; 3]; n],
             stress: vec![0.0; 9 * n],
+            file_ids: file_ids.map(|f| f.iter().map(|&a| a as f64).collect()),
         })
     }
     fn write(&mut self, sc: &Scenario, stepper: &mut dyn Stepper) -> Result<()> {
@@ -288,7 +319,11 @@ impl Frames {
                     name: "stress",
                     data: FieldData::Tensor(&self.stress),
                 },
-            ],
+                Field {
+                    name: "file_node_id",
+                    data: FieldData::Scalar(self.file_ids.as_deref().unwrap_or(&[])),
+                },
+            ][..if self.file_ids.is_some() { 4 } else { 3 }],
             &[],
         )?;
         self.pvd.add(s.t, &format!("frames/{file}"))?;
@@ -320,12 +355,12 @@ pub fn run_with(
             (Some(t), Some(note))
         }
         Reference::File(p) => (
-            Some(read_nodal_stress(p, n)?),
+            Some(read_nodal_stress(p, n, sc.file_ids.as_deref())?),
             Some(format!("T_inf from {}", p.display())),
         ),
     };
     let mut meter = Meter::new(n, t_inf);
-    let mut frames = Frames::new(&out, &sc.name, n)?;
+    let mut frames = Frames::new(&out, &sc.name, n, sc.file_ids.as_deref())?;
     let mut rows: Vec<Sample> = Vec::new();
     let start = Instant::now();
     let dt = stepper.dt();
@@ -401,7 +436,13 @@ pub fn run_with(
         let (sys, s) = stepper.finest();
         let mut t = vec![0.0; 9 * n];
         sys.force.nodal_stress(&s.u, &mut t);
-        write_nodal_stress(&stress_path, &sc.mesh.nodes, &s.u, &t)?;
+        write_nodal_stress(
+            &stress_path,
+            &sc.mesh.nodes,
+            &s.u,
+            &t,
+            sc.file_ids.as_deref(),
+        )?;
     }
     let last = *rows.last().expect("at least the initial sample");
     let summary = RunSummary {

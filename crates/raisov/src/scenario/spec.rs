@@ -13,6 +13,10 @@
 //! nodes = 186                     # target node count (rectangle, polygon, box)
 //! divisions = [10, 4, 4]          # box: cells per side instead of `nodes`
 //! pattern = 6                     # box: 5 or 6 tets per cube, default 6
+//! renumber = true                 # nodes in Morton order for the force pass's memory
+//!                                 # locality; default true for `file`, false for `generate`
+//!                                 # (generated meshes are numbered along the axes). Node ids
+//!                                 # that a scenario or output shows stay the file's.
 //!
 //! [material]
 //! law = "mooney-rivlin"           # "stvk" | "neo-hookean" | "mooney-rivlin" | "veronda-westmann"
@@ -36,6 +40,7 @@
 //! plane = { point = [..], normal = [..] }   # nodes with (x − point)·normal ≤ 0
 //! group = "boundary"              # a physical group of the mesh file
 //! nodes = [0, 5, 7]               # node ids, 0-based, in file order after unused nodes are dropped
+//!                                 # (whether or not [mesh] renumber reorders them in memory)
 //! point = [0.0, 0.0, 0.0]         # the node nearest this point
 //!
 //! [[load]]                        # constant nodal force
@@ -186,6 +191,7 @@ pub struct MeshSpec {
     pub nodes: Option<usize>,
     pub divisions: Option<[usize; 3]>,
     pub pattern: Option<u32>,
+    pub renumber: Option<bool>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]

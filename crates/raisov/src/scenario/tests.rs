@@ -254,3 +254,122 @@ fn level_nodes_gives_each_generated_level_its_node_count() {
     let bad = format!("{BASE}\n[multigrid]\nlevel_nodes = [60, 30]\nratio = 0.5\n");
     assert!(error_of(&bad).contains("level_nodes"));
 }
+
+/// `[mesh] renumber` (the default for files) reorders the nodes in memory and nothing a user
+/// sees. On a box whose node ids are shuffled, as mesh generators leave them: the same nodes
+/// are fixed and loaded by file id, every file node moves as in the run that keeps the file's
+/// order (to round-off: the force sums run in another order), `nodal_stress.csv` lists the
+/// nodes in file order with their file positions, and reads back to the same stress.
+#[test]
+fn renumbered_file_mesh_moves_like_the_file_order() {
+    use crate::mesh::generate::{box_tets, BoxPattern};
+    let dir = tempfile::tempdir().unwrap();
+    let mut m = box_tets([0.1, 0.04, 0.04], [10, 4, 4], BoxPattern::Five).unwrap();
+    let n = m.num_nodes();
+    m.renumber(&crate::mesh::tests::shuffled_order(n));
+    crate::io::write_msh22(&dir.path().join("shuffled.msh"), &m).unwrap();
+    let fixed: Vec<u32> = (0..n as u32)
+        .filter(|&a| m.nodes[a as usize][0] == 0.0)
+        .collect();
+    let tip = m.nearest_node([0.1, 0.0, 0.0]).unwrap();
+    let scenario = |renumber: bool| {
+        let text = format!(
+            "[mesh]\nfile = \"shuffled.msh\"\nrenumber = {renumber}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nnodes = {fixed:?}\n[[load]]\nat = {{ nodes = [{tip}] }}\nforce = [0.0, -0.05, 0.0]\n[run]\nduration = 0.003\n[output]\nframe_interval = 0.0\n"
+        );
+        Scenario::from_toml(&text, &dir.path().join(format!("r{renumber}.toml"))).unwrap()
+    };
+    let (sr, sf) = (scenario(true), scenario(false));
+    let ids = sr
+        .file_ids
+        .clone()
+        .expect("files are renumbered by default");
+    assert!(sf.file_ids.is_none());
+    assert_ne!(ids, (0..n as u32).collect::<Vec<_>>());
+    for (k, &a) in ids.iter().enumerate() {
+        assert_eq!(sr.mesh.nodes[k], m.nodes[a as usize]);
+    }
+    let mut fixed_r: Vec<u32> = sr.fixed.iter().map(|&a| sr.file_node(a)).collect();
+    fixed_r.sort_unstable();
+    assert_eq!(fixed_r, fixed);
+    assert_eq!(sr.loads.len(), 1);
+    assert_eq!(sr.file_node(sr.loads[0].0), tip as u32);
+    // The same motion, node by node in file order.
+    let state = |sc: &Scenario| {
+        let mut st = sc.stepper().unwrap();
+        for _ in 0..200 {
+            st.advance().unwrap();
+        }
+        st.finest().1.u.clone()
+    };
+    let (ur, uf) = (state(&sr), state(&sf));
+    let scale = uf.iter().fold(0.0f64, |a, &x| a.max(x.abs()));
+    assert!(scale > 1e-6, "the load moves the box: {scale}");
+    for (k, &a) in ids.iter().enumerate() {
+        for d in 0..3 {
+            let (x, y) = (ur[3 * k + d], uf[3 * a as usize + d]);
+            assert!((x - y).abs() <= 1e-9 * scale, "file node {a}: {x} vs {y}");
+        }
+    }
+    // nodal_stress.csv: file order, file positions, same stress as the file-order run.
+    let csv = |sc: &Scenario, sub: &str| {
+        let out = dir.path().join(sub);
+        run(
+            sc,
+            RunOptions {
+                out_dir: Some(out.clone()),
+                progress: None,
+            },
+        )
+        .unwrap();
+        out.join("nodal_stress.csv")
+    };
+    let (pr, pf) = (csv(&sr, "r"), csv(&sf, "f"));
+    let columns = |p: &Path| -> Vec<String> {
+        std::fs::read_to_string(p)
+            .unwrap()
+            .lines()
+            .map(|l| l.split(',').take(4).collect::<Vec<_>>().join(","))
+            .collect()
+    };
+    assert_eq!(columns(&pr), columns(&pf), "node ids and positions per row");
+    let tr = super::run::read_nodal_stress(&pr, n, sr.file_ids.as_deref()).unwrap();
+    let tf = super::run::read_nodal_stress(&pf, n, None).unwrap();
+    let tscale = tf.iter().fold(0.0f64, |a, &x| a.max(x.abs()));
+    assert!(tscale > 0.0);
+    for (k, &a) in ids.iter().enumerate() {
+        for q in 0..9 {
+            let (x, y) = (tr[9 * k + q], tf[9 * a as usize + q]);
+            assert!((x - y).abs() <= 1e-7 * tscale, "file node {a}: {x} vs {y}");
+        }
+    }
+}
+
+/// A `nodes = [..]` selector beyond the file's node count names the file's range, whether or
+/// not the mesh is renumbered.
+#[test]
+fn node_selector_out_of_range_names_the_file_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = crate::mesh::generate::box_tets(
+        [0.1, 0.04, 0.04],
+        [4, 2, 2],
+        crate::mesh::generate::BoxPattern::Five,
+    )
+    .unwrap();
+    let n = m.num_nodes();
+    crate::io::write_msh22(&dir.path().join("b.msh"), &m).unwrap();
+    for renumber in [true, false] {
+        let text = format!(
+            "[mesh]\nfile = \"b.msh\"\nrenumber = {renumber}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nnodes = [0, {n}]\n[run]\nduration = 0.01\n"
+        );
+        let e = Scenario::from_toml(&text, &dir.path().join("s.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&format!(
+                "fix[0].nodes: node {n} does not exist (valid: 0..{})",
+                n - 1
+            )),
+            "{e}"
+        );
+    }
+}

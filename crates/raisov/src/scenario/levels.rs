@@ -181,13 +181,29 @@ impl Scenario {
                     scale: self.spec.mesh.scale,
                     ..Default::default()
                 };
-                out.push(resolve_mesh(&ms, &self.path, base)?.0);
+                out.push(
+                    resolve_mesh(
+                        &ms,
+                        &self.path,
+                        base,
+                        super::renumber_by_default(&self.spec),
+                    )?
+                    .0,
+                );
             }
         } else if let Some(ln) = &mg.level_nodes {
             for &n in &ln[1..] {
                 let mut ms = self.spec.mesh.clone();
                 ms.nodes = Some(n);
-                out.push(resolve_mesh(&ms, &self.path, base)?.0);
+                out.push(
+                    resolve_mesh(
+                        &ms,
+                        &self.path,
+                        base,
+                        super::renumber_by_default(&self.spec),
+                    )?
+                    .0,
+                );
             }
         } else {
             for i in 1..mg.levels.unwrap_or(1) {
@@ -200,7 +216,15 @@ impl Scenario {
                     let g = f.cbrt();
                     ms.divisions = Some(d.map(|x| ((x as f64 * g).round() as usize).max(1)));
                 }
-                out.push(resolve_mesh(&ms, &self.path, base)?.0);
+                out.push(
+                    resolve_mesh(
+                        &ms,
+                        &self.path,
+                        base,
+                        super::renumber_by_default(&self.spec),
+                    )?
+                    .0,
+                );
             }
         }
         Ok(out)

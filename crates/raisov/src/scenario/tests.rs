@@ -373,3 +373,47 @@ fn node_selector_out_of_range_names_the_file_range() {
         );
     }
 }
+
+/// Which file meshes are renumbered when `[mesh] renumber` is not given: single-level and
+/// `raisov-paper` scenarios yes, FAS (the default multigrid scheme, whose cycles follow the
+/// node order through its `λ_max` start vector) no; `renumber = true` asks for it anyway.
+#[test]
+fn fas_keeps_the_file_order_unless_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = crate::mesh::generate::box_tets(
+        [0.1, 0.04, 0.04],
+        [6, 3, 3],
+        crate::mesh::generate::BoxPattern::Five,
+    )
+    .unwrap();
+    crate::io::write_msh22(&dir.path().join("b.msh"), &m).unwrap();
+    crate::io::write_msh22(&dir.path().join("c.msh"), &{
+        crate::mesh::generate::box_tets(
+            [0.1, 0.04, 0.04],
+            [3, 2, 2],
+            crate::mesh::generate::BoxPattern::Five,
+        )
+        .unwrap()
+    })
+    .unwrap();
+    let resolve = |mesh_extra: &str, mg: &str| {
+        let text = format!(
+            "[mesh]\nfile = \"b.msh\"\n{mesh_extra}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}\n[run]\nduration = 0.01\n{mg}\n"
+        );
+        Scenario::from_toml(&text, &dir.path().join("s.toml")).unwrap()
+    };
+    let files = "[multigrid]\nfiles = [\"c.msh\"]";
+    assert!(resolve("", "").file_ids.is_some(), "single level");
+    assert!(
+        resolve("", files).file_ids.is_none(),
+        "FAS (the default scheme)"
+    );
+    assert!(
+        resolve("", &format!("{files}\nscheme = \"raisov-paper\""))
+            .file_ids
+            .is_some(),
+        "raisov-paper"
+    );
+    assert!(resolve("renumber = true", files).file_ids.is_some());
+    assert!(resolve("renumber = false", "").file_ids.is_none());
+}

@@ -174,36 +174,22 @@ impl Scenario {
         };
         let base = self.path.parent().unwrap_or(Path::new("."));
         let ratio = mg.ratio.unwrap_or(0.5);
+        let renumber = super::renumber_by_default(&self.spec);
+        let level = |ms: &MeshSpec| resolve_mesh(ms, &self.path, base, renumber).map(|r| r.0);
         if let Some(files) = &mg.files {
             for f in files {
-                let ms = MeshSpec {
+                out.push(level(&MeshSpec {
                     file: Some(f.clone()),
                     scale: self.spec.mesh.scale,
+                    renumber: self.spec.mesh.renumber,
                     ..Default::default()
-                };
-                out.push(
-                    resolve_mesh(
-                        &ms,
-                        &self.path,
-                        base,
-                        super::renumber_by_default(&self.spec),
-                    )?
-                    .0,
-                );
+                })?);
             }
         } else if let Some(ln) = &mg.level_nodes {
             for &n in &ln[1..] {
                 let mut ms = self.spec.mesh.clone();
                 ms.nodes = Some(n);
-                out.push(
-                    resolve_mesh(
-                        &ms,
-                        &self.path,
-                        base,
-                        super::renumber_by_default(&self.spec),
-                    )?
-                    .0,
-                );
+                out.push(level(&ms)?);
             }
         } else {
             for i in 1..mg.levels.unwrap_or(1) {
@@ -216,15 +202,7 @@ impl Scenario {
                     let g = f.cbrt();
                     ms.divisions = Some(d.map(|x| ((x as f64 * g).round() as usize).max(1)));
                 }
-                out.push(
-                    resolve_mesh(
-                        &ms,
-                        &self.path,
-                        base,
-                        super::renumber_by_default(&self.spec),
-                    )?
-                    .0,
-                );
+                out.push(level(&ms)?);
             }
         }
         Ok(out)

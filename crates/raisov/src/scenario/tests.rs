@@ -414,6 +414,14 @@ fn fas_keeps_the_file_order_unless_asked() {
             .is_some(),
         "raisov-paper"
     );
-    assert!(resolve("renumber = true", files).file_ids.is_some());
+    let asked = resolve("renumber = true", files);
+    assert!(asked.file_ids.is_some());
     assert!(resolve("renumber = false", "").file_ids.is_none());
+    // The level files follow `[mesh] renumber` too.
+    let coarse = crate::io::load_mesh(&dir.path().join("c.msh"))
+        .unwrap()
+        .mesh;
+    let level1 = |sc: &Scenario| sc.level_meshes().unwrap()[1].nodes.clone();
+    assert_eq!(level1(&resolve("", files)), coarse.nodes);
+    assert_ne!(level1(&asked), coarse.nodes);
 }

@@ -263,6 +263,23 @@ struct Chunk<'a> {
     sv: &'a mut [[f64; 3]],
 }
 
+/// `$go!(N, A, B)` with the constants of the case `(a, b, four_hosts)`: `N` = 4 or 3 hosts
+/// per node, `A = a`, `B = b`. One loop per case, decided once per level, not per node.
+macro_rules! by_case {
+    ($case:expr, $go:ident) => {
+        match $case {
+            (false, false, true) => $go!(4, false, false),
+            (false, true, true) => $go!(4, false, true),
+            (true, false, true) => $go!(4, true, false),
+            (true, true, true) => $go!(4, true, true),
+            (false, false, false) => $go!(3, false, false),
+            (false, true, false) => $go!(3, false, true),
+            (true, false, false) => $go!(3, true, false),
+            (true, true, false) => $go!(3, true, true),
+        }
+    };
+}
+
 /// Down-stroke transfer into one level (eqs. 9, 10): per node, keep `X_n` (and ΔX where the
 /// level keeps it), then `X = Σ ω X^(i−1)` if `|Σ ω ΔX_u^(i−1)| > ε`, else
 /// `X += Σ ω ΔX^(i−1)`; the snapshot, where kept, is the new state.
@@ -273,7 +290,6 @@ fn down<C: Field + Sync>(
     d: [C; 2],
     src: [&[[f64; 3]]; 2],
 ) -> (usize, usize) {
-    // One loop per case, the case decided once per level (not per node).
     let keep = (!level.du.is_empty(), !level.su.is_empty(), t.npe == 4);
     per_chunk(level, |c| {
         macro_rules! go {
@@ -281,16 +297,7 @@ fn down<C: Field + Sync>(
                 down_chunk::<C, $n, $d, $s>(t, c, above, d, src)
             };
         }
-        match keep {
-            (false, false, true) => go!(4, false, false),
-            (false, true, true) => go!(4, false, true),
-            (true, false, true) => go!(4, true, false),
-            (true, true, true) => go!(4, true, true),
-            (false, false, false) => go!(3, false, false),
-            (false, true, false) => go!(3, false, true),
-            (true, false, false) => go!(3, true, false),
-            (true, true, false) => go!(3, true, true),
-        }
+        by_case!(keep, go)
     })
 }
 
@@ -357,16 +364,7 @@ fn up(
                 up_chunk::<$n, $f, $s>(t, c, above, src, base)
             };
         }
-        match keep {
-            (true, false, true) => go!(4, true, false),
-            (true, true, true) => go!(4, true, true),
-            (false, false, true) => go!(4, false, false),
-            (false, true, true) => go!(4, false, true),
-            (true, false, false) => go!(3, true, false),
-            (true, true, false) => go!(3, true, true),
-            (false, false, false) => go!(3, false, false),
-            (false, true, false) => go!(3, false, true),
-        }
+        by_case!(keep, go)
     })
 }
 

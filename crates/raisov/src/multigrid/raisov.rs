@@ -235,24 +235,10 @@ fn and_upper(v: &mut [Vec<f64>], i: usize) -> (&mut [[f64; 3]], &[[f64; 3]]) {
     (rows_mut(&mut a[i]), rows(&b[0]))
 }
 
-/// A level's buffers written by a stroke, one 3-vector per node: the state, `X_(n−1)`
-/// (becoming `X_n`), ΔX, and the up-stroke snapshot. ΔX and the snapshot are empty where the
-/// level does not keep them.
+/// A level's buffers written by a stroke (or one chunk of them), one 3-vector per node: the
+/// state, `X_(n−1)` (becoming `X_n`), ΔX, and the up-stroke snapshot. ΔX and the snapshot are
+/// empty where the level does not keep them.
 struct Rows<'a> {
-    u: &'a mut [[f64; 3]],
-    v: &'a mut [[f64; 3]],
-    pu: &'a mut [[f64; 3]],
-    pv: &'a mut [[f64; 3]],
-    du: &'a mut [[f64; 3]],
-    dv: &'a mut [[f64; 3]],
-    su: &'a mut [[f64; 3]],
-    sv: &'a mut [[f64; 3]],
-}
-
-/// One chunk of [`Rows`]: its first node and its rows (empty where the level does not keep
-/// the buffer).
-struct Chunk<'a> {
-    first: usize,
     u: &'a mut [[f64; 3]],
     v: &'a mut [[f64; 3]],
     pu: &'a mut [[f64; 3]],
@@ -291,10 +277,10 @@ fn down<C: Field + Sync>(
     src: [&[[f64; 3]]; 2],
 ) -> (usize, usize) {
     let keep = (!level.du.is_empty(), !level.su.is_empty(), t.npe == 4);
-    per_chunk(level, |c| {
+    per_chunk(level, |first, c| {
         macro_rules! go {
             ($n:literal, $d:literal, $s:literal) => {
-                down_chunk::<C, $n, $d, $s>(t, c, above, d, src)
+                down_chunk::<C, $n, $d, $s>(t, first, c, above, d, src)
             };
         }
         by_case!(keep, go)
@@ -305,16 +291,14 @@ fn down<C: Field + Sync>(
 #[inline(always)]
 fn down_chunk<C: Field, const N: usize, const D: bool, const S: bool>(
     t: &Transfer,
-    c: Chunk,
+    first: usize,
+    c: Rows,
     above: Above,
     [dfu, dfv]: [C; 2],
     [src_u, src_v]: [&[[f64; 3]]; 2],
 ) -> (usize, usize) {
     let n = c.u.len();
-    let (ws, hs) = (
-        &t.weights[c.first..c.first + n],
-        &t.nodes[c.first..c.first + n],
-    );
+    let (ws, hs) = (&t.weights[first..first + n], &t.nodes[first..first + n]);
     let mut states = 0;
     for j in 0..n {
         let (ou, ov) = (c.u[j], c.v[j]);
@@ -358,10 +342,10 @@ fn up(
     // A coarse level that receives an up-stroke transfer (1 … m−2) always keeps its ΔX.
     debug_assert!(finest || !level.du.is_empty());
     let keep = (finest, !level.su.is_empty(), t.npe == 4);
-    per_chunk(level, |c| {
+    per_chunk(level, |first, c| {
         macro_rules! go {
             ($n:literal, $f:literal, $s:literal) => {
-                up_chunk::<$n, $f, $s>(t, c, above, src, base)
+                up_chunk::<$n, $f, $s>(t, first, c, above, src, base)
             };
         }
         by_case!(keep, go)
@@ -373,16 +357,14 @@ fn up(
 #[inline(always)]
 fn up_chunk<const N: usize, const FINEST: bool, const S: bool>(
     t: &Transfer,
-    c: Chunk,
+    first: usize,
+    c: Rows,
     above: Above,
     src: [&[[f64; 3]]; 2],
     base: [&[[f64; 3]]; 2],
 ) -> (usize, usize) {
     let n = c.u.len();
-    let (ws, hs) = (
-        &t.weights[c.first..c.first + n],
-        &t.nodes[c.first..c.first + n],
-    );
+    let (ws, hs) = (&t.weights[first..first + n], &t.nodes[first..first + n]);
     let mut states = 0;
     for j in 0..n {
         let own = if FINEST {
@@ -414,10 +396,10 @@ fn up_chunk<const N: usize, const FINEST: bool, const S: bool>(
     (states, n - states)
 }
 
-/// `f(chunk)` on every chunk of [`CHUNK`] nodes of a level, in parallel (each node alone:
-/// the same bits on any thread count). `f` returns how many nodes of the chunk it
+/// `f(first node, chunk)` on every chunk of [`CHUNK`] nodes of a level, in parallel (each
+/// node alone: the same bits on any thread count). `f` returns how many nodes of the chunk it
 /// transferred the state of and how many a variation; returns the sums.
-fn per_chunk(level: Rows, f: impl Fn(Chunk) -> (usize, usize) + Sync) -> (usize, usize) {
+fn per_chunk(level: Rows, f: impl Fn(usize, Rows) -> (usize, usize) + Sync) -> (usize, usize) {
     let n = level.u.len();
     let Rows {
         u,
@@ -442,17 +424,19 @@ fn per_chunk(level: Rows, f: impl Fn(Chunk) -> (usize, usize) + Sync) -> (usize,
         .into_par_iter()
         .enumerate()
         .map(|(k, (u, v, pu, pv, du, dv, su, sv))| {
-            f(Chunk {
-                first: k * CHUNK,
-                u,
-                v,
-                pu,
-                pv,
-                du,
-                dv,
-                su,
-                sv,
-            })
+            f(
+                k * CHUNK,
+                Rows {
+                    u,
+                    v,
+                    pu,
+                    pv,
+                    du,
+                    dv,
+                    su,
+                    sv,
+                },
+            )
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1))
 }

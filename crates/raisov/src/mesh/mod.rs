@@ -483,16 +483,12 @@ impl Mesh {
     /// # Panics
     /// If `order` is not a permutation of `0..num_nodes()`.
     pub fn renumber(&mut self, order: &[u32]) {
-        let n = self.nodes.len();
-        assert_eq!(order.len(), n, "renumber: order has the wrong length");
-        let mut new_of = vec![u32::MAX; n];
-        for (k, &a) in order.iter().enumerate() {
-            assert!(
-                (a as usize) < n && new_of[a as usize] == u32::MAX,
-                "renumber: not a permutation"
-            );
-            new_of[a as usize] = k as u32;
-        }
+        assert_eq!(
+            order.len(),
+            self.nodes.len(),
+            "renumber: order has the wrong length"
+        );
+        let new_of = inverse_order(order);
         self.nodes = order.iter().map(|&a| self.nodes[a as usize]).collect();
         for c in &mut self.cells {
             *c = new_of[*c as usize];
@@ -518,6 +514,24 @@ impl Mesh {
         }
         best
     }
+}
+
+/// The inverse of a permutation: `inv[order[k]] = k`, the new id of each old node under
+/// [`Mesh::renumber`] (and the mesh index of each file node under a scenario's renumbering).
+///
+/// # Panics
+/// If `order` is not a permutation of `0..order.len()`.
+pub fn inverse_order(order: &[u32]) -> Vec<u32> {
+    let n = order.len();
+    let mut inv = vec![u32::MAX; n];
+    for (k, &a) in order.iter().enumerate() {
+        assert!(
+            (a as usize) < n && inv[a as usize] == u32::MAX,
+            "not a permutation"
+        );
+        inv[a as usize] = k as u32;
+    }
+    inv
 }
 
 /// Morton (Z-curve) key of a 3-D cell: the low 21 bits of each coordinate interleaved,

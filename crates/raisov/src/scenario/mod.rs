@@ -154,10 +154,7 @@ impl Scenario {
         // then names the mesh's nodes, as the per-level constraints expect).
         let mut spec = spec;
         if let Some(order) = &file_ids {
-            let mut new_of = vec![0u32; order.len()];
-            for (k, &a) in order.iter().enumerate() {
-                new_of[a as usize] = k as u32;
-            }
+            let new_of = crate::mesh::inverse_order(order);
             let map = |r: &mut spec::RegionSpec, key: &str| -> Result<()> {
                 if let Some(ns) = &mut r.nodes {
                     check_node_ids(ns, mesh.num_nodes(), path, key)?;

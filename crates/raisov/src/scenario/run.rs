@@ -168,13 +168,13 @@ impl Scenario {
 /// Mesh index of each file node id (the inverse of [`Scenario::file_ids`]; the identity
 /// where the mesh keeps the file's order).
 fn mesh_index_of_file(file_ids: Option<&[u32]>, n: usize) -> Vec<usize> {
-    let mut at = (0..n).collect::<Vec<usize>>();
-    if let Some(f) = file_ids {
-        for (k, &id) in f.iter().enumerate() {
-            at[id as usize] = k;
-        }
+    match file_ids {
+        Some(f) => crate::mesh::inverse_order(f)
+            .into_iter()
+            .map(|k| k as usize)
+            .collect(),
+        None => (0..n).collect(),
     }
-    at
 }
 
 /// Read a `nodal_stress.csv` written by an earlier run on a mesh of `n` nodes; its `node`

@@ -255,6 +255,19 @@ fn level_nodes_gives_each_generated_level_its_node_count() {
     assert!(error_of(&bad).contains("level_nodes"));
 }
 
+/// The 0.1 x 0.04 x 0.04 m box of `divisions` cells (5 tets per cube), written to `path` as
+/// Gmsh 2.2.
+fn write_box(path: &Path, divisions: [usize; 3]) -> Mesh {
+    let m = crate::mesh::generate::box_tets(
+        [0.1, 0.04, 0.04],
+        divisions,
+        crate::mesh::generate::BoxPattern::Five,
+    )
+    .unwrap();
+    crate::io::write_msh22(path, &m).unwrap();
+    m
+}
+
 /// `[mesh] renumber` (the default for files) reorders the nodes in memory and nothing a user
 /// sees. On a box whose node ids are shuffled, as mesh generators leave them: the same nodes
 /// are fixed and loaded by file id, every file node moves as in the run that keeps the file's
@@ -349,14 +362,7 @@ fn renumbered_file_mesh_moves_like_the_file_order() {
 #[test]
 fn node_selector_out_of_range_names_the_file_range() {
     let dir = tempfile::tempdir().unwrap();
-    let m = crate::mesh::generate::box_tets(
-        [0.1, 0.04, 0.04],
-        [4, 2, 2],
-        crate::mesh::generate::BoxPattern::Five,
-    )
-    .unwrap();
-    let n = m.num_nodes();
-    crate::io::write_msh22(&dir.path().join("b.msh"), &m).unwrap();
+    let n = write_box(&dir.path().join("b.msh"), [4, 2, 2]).num_nodes();
     for renumber in [true, false] {
         let text = format!(
             "[mesh]\nfile = \"b.msh\"\nrenumber = {renumber}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nnodes = [0, {n}]\n[run]\nduration = 0.01\n"
@@ -380,22 +386,8 @@ fn node_selector_out_of_range_names_the_file_range() {
 #[test]
 fn fas_keeps_the_file_order_unless_asked() {
     let dir = tempfile::tempdir().unwrap();
-    let m = crate::mesh::generate::box_tets(
-        [0.1, 0.04, 0.04],
-        [6, 3, 3],
-        crate::mesh::generate::BoxPattern::Five,
-    )
-    .unwrap();
-    crate::io::write_msh22(&dir.path().join("b.msh"), &m).unwrap();
-    crate::io::write_msh22(&dir.path().join("c.msh"), &{
-        crate::mesh::generate::box_tets(
-            [0.1, 0.04, 0.04],
-            [3, 2, 2],
-            crate::mesh::generate::BoxPattern::Five,
-        )
-        .unwrap()
-    })
-    .unwrap();
+    write_box(&dir.path().join("b.msh"), [6, 3, 3]);
+    write_box(&dir.path().join("c.msh"), [3, 2, 2]);
     let resolve = |mesh_extra: &str, mg: &str| {
         let text = format!(
             "[mesh]\nfile = \"b.msh\"\n{mesh_extra}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}\n[run]\nduration = 0.01\n{mg}\n"

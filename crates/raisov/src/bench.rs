@@ -12,18 +12,24 @@
 //! volumes stored in f32, arithmetic and state f64; tolerance in [`crate::fem::fast`]).
 //!
 //! Bytes moved per tet-step *by design* (compulsory traffic if every array is streamed once
-//! per step): the packed element data ([`Precision::bytes_per_tet`]: 96 B in f64, 56 B with
-//! f32 storage: 4 ids, 9 `Dm⁻¹` entries, the volume) plus, per node, the force pass reading `u` (24 B) and
-//! reading and writing the accumulator (48 B), and the node pass reading `u, v, acc, V`
-//! (96 B), `1/m` (8 B), the fixed flag (1 B) and writing `u, v, acc` (72 B): 249 B per node,
-//! spread over the tetrahedra. Achieved bandwidth = bytes × tets × steps/s. The memory roof
+//! per step): the packed element data ([`Precision::bytes_per_tet`]: 80 B in f64: 4 ids, the
+//! 6 entries of `G = μ V0 Dm⁻¹ Dm⁻ᵀ`, `det Dm⁻¹`, `V0 det Dm⁻¹`; 56 B with f32 storage: 4
+//! ids, 9 `Dm⁻¹` entries, the volume) plus, per node ([`bytes_per_node_step`]), the force pass
+//! reading the node row (32 B) and reading and writing the accumulator row (64 B), and the
+//! node pass reading `u, v, V` (72 B), the accumulator row (32 B), `X` (24 B, f64 only: the
+//! rows hold `X + u`), `1/m` (8 B), the fixed flag (1 B) and writing `u, v` (48 B), the
+//! accumulator row (32 B) and the next node row (32 B): 345 B per node in f64, 321 B with
+//! f32 storage, spread over the tetrahedra. Rows are 32 bytes (`[x, y, z, 0]`). Achieved bandwidth = bytes × tets × steps/s. The memory roof
 //! is a triad `a = b + s c` (24 B per entry, STREAM counting) on arrays of the same total size
 //! as the model's data, on the same number of threads, best of 3.
 //!
 //! Floating-point operations per tet-step *by design*, counted in the kernel's source (a fused
 //! multiply-add counts 2, a division 1; comparisons, blends, sign flips, shuffles and
-//! conversions 0): [`FLOPS_PER_TET`] = 213 for the force (`Ds` 9, `F` 48, `cof F` and `J` 32,
-//! `(λ ln J − μ)/J` with the near-1 series 30, `V0 P` and `H` 82, the scatter 12) plus
+//! conversions 0), [`flops_per_tet`]: in f64 (the positions kernel) 156 for the force (`Ds`
+//! 9, `cof Ds` and `det Ds` 32, `J` 1, `w (λ ln J − μ)/J` with the near-1 series 30,
+//! `H = Ds G + c cof Ds` 63, `R_0` 9, the scatter 12); with f32 storage (the displacements
+//! kernel) 213 (`Du` 9, `F` 48, `cof F` and `J` 32, `V0 (λ ln J − μ)/J` 30, `V0 P` and `H`
+//! 82, the scatter 12); plus
 //! [`FLOPS_PER_NODE_STEP`] = 24 per node for the update (8 per component), spread over the
 //! tetrahedra. The compute roof is the f64 fused-multiply-add peak of the same threads,
 //! measured in the same run ([`fma_peak`]). The roofline fraction is the achieved rate over
@@ -40,7 +46,7 @@
 //! (≥ 1M-node fine level); and peak memory per node of the largest box, read right after the
 //! standard-work rows so that the larger hierarchy rows do not count.
 
-use crate::fem::{FemModel, FemParams, Precision};
+use crate::fem::{FemModel, FemParams, FusedState, Precision};
 use crate::hierarchy::Correspondence;
 use crate::integrate::{Constraints, Method, SingleLevel, State, Stepper, StepperParams, System};
 use crate::material::{Material, NeoHookean};
@@ -57,11 +63,24 @@ pub const BOX: [f64; 3] = [0.1, 0.04, 0.04];
 /// Levels and node ratio of the V-cycle cost row.
 pub const VCYCLE_LEVELS: usize = 4;
 pub const VCYCLE_RATIO: f64 = 0.5;
-/// Node-side bytes per node-step of the fused step, by design (see the module docs).
-pub const BYTES_PER_NODE_STEP: usize = 249;
+/// Node-side bytes per node-step of the fused step, by design (see the module docs): 345
+/// in f64, 321 with f32 storage (no `X` read: its rows hold `u`).
+pub fn bytes_per_node_step(precision: Precision) -> usize {
+    match precision {
+        Precision::F64 => 345,
+        Precision::F32Storage => 321,
+    }
+}
+
 /// Floating-point operations per tetrahedron of one force pass of the packed neo-Hookean
-/// kernel, by design (see the module docs; the near-1 logarithm series).
-pub const FLOPS_PER_TET: usize = 213;
+/// kernels, by design (see the module docs; the near-1 logarithm series): 156 for the
+/// positions kernel (f64), 213 for the displacements kernel (f32 storage).
+pub fn flops_per_tet(precision: Precision) -> usize {
+    match precision {
+        Precision::F64 => 156,
+        Precision::F32Storage => 213,
+    }
+}
 /// Floating-point operations per node of the fused step's node update, by design:
 /// `v += Δ ((V − R)/m − α v)`, `u += Δ v`, 8 per component.
 pub const FLOPS_PER_NODE_STEP: usize = 24;
@@ -86,8 +105,8 @@ pub struct StandardWork {
     /// Nodes at x = max (the free end).
     pub free_end: Vec<u32>,
     pub dt: f64,
-    pub u: Vec<f64>,
-    pub v: Vec<f64>,
+    /// Displacements and velocities.
+    pub state: FusedState,
     pub steps: usize,
 }
 
@@ -140,8 +159,7 @@ impl StandardWork {
             fixed,
             free_end,
             dt,
-            u: vec![0.0; 3 * n],
-            v: vec![0.0; 3 * n],
+            state: FusedState::zeros(n),
             steps: 0,
         })
     }
@@ -155,8 +173,7 @@ impl StandardWork {
         for _ in 0..k {
             self.model
                 .step_symplectic_euler(
-                    &mut self.u,
-                    &mut self.v,
+                    &mut self.state,
                     &self.f_ext,
                     &self.inv_mass,
                     &self.fixed,
@@ -196,11 +213,12 @@ impl StandardWork {
         let mean = self
             .free_end
             .iter()
-            .map(|&a| self.u[3 * a as usize + 1])
+            .map(|&a| self.state.u()[3 * a as usize + 1])
             .sum::<f64>()
             / n;
         let max = self
-            .u
+            .state
+            .u()
             .chunks_exact(3)
             .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
             .fold(0.0, f64::max);
@@ -218,13 +236,13 @@ impl StandardWork {
 /// the element data stored in `precision`.
 pub fn bytes_per_tet_step(nodes: usize, tets: usize, precision: Precision) -> f64 {
     precision.bytes_per_tet() as f64
-        + BYTES_PER_NODE_STEP as f64 * nodes as f64 / tets.max(1) as f64
+        + bytes_per_node_step(precision) as f64 * nodes as f64 / tets.max(1) as f64
 }
 
 /// Floating-point operations per tet-step by design for a mesh of `nodes` nodes and `tets`
-/// tetrahedra (module docs).
-pub fn flops_per_tet_step(nodes: usize, tets: usize) -> f64 {
-    FLOPS_PER_TET as f64 + FLOPS_PER_NODE_STEP as f64 * nodes as f64 / tets.max(1) as f64
+/// tetrahedra, the element data stored in `precision` (module docs).
+pub fn flops_per_tet_step(nodes: usize, tets: usize, precision: Precision) -> f64 {
+    flops_per_tet(precision) as f64 + FLOPS_PER_NODE_STEP as f64 * nodes as f64 / tets.max(1) as f64
 }
 
 /// The f64 fused-multiply-add peak of the current rayon pool (GFLOP/s, 2 flops per lane per
@@ -469,7 +487,8 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
         for &precision in &opts.precisions {
             let mut w = StandardWork::with_precision(&mesh, precision)?;
             let bpt = bytes_per_tet_step(nodes, tets, precision);
-            let footprint = tets * precision.bytes_per_tet() + nodes * BYTES_PER_NODE_STEP / 2;
+            let footprint =
+                tets * precision.bytes_per_tet() + nodes * bytes_per_node_step(precision) / 2;
             for &t in &opts.threads {
                 let p = pool(t)?;
                 let (secs, roof, peak) = p.install(|| -> Result<(f64, f64, f64)> {
@@ -479,7 +498,7 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
                 })?;
                 let sps = steps as f64 / secs;
                 let gbs = bpt * tets as f64 * sps / 1e9;
-                let gflops = flops_per_tet_step(nodes, tets) * tets as f64 * sps / 1e9;
+                let gflops = flops_per_tet_step(nodes, tets, precision) * tets as f64 * sps / 1e9;
                 let (tf, pf) = (gbs / roof, gflops / peak);
                 push(
                     Row {
@@ -721,7 +740,7 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
         let fixed: Vec<bool> = mesh.nodes.iter().map(|p| p[0] == lo[0]).collect();
         let c = (4.0 * m.mu / 1000.0).sqrt();
         let dt = 0.2 * mesh.edge_range().0 / c;
-        let (mut u, mut v) = (vec![0.0; 3 * nodes], vec![0.0; 3 * nodes]);
+        let mut state = FusedState::zeros(nodes);
         let steps = steps_for(nodes, work, 3);
         for &t in &opts.threads {
             let pl = pool(t)?;
@@ -729,9 +748,7 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
                 let mut go = |k: usize| -> Result<()> {
                     for _ in 0..k {
                         model
-                            .step_symplectic_euler(
-                                &mut u, &mut v, &f_ext, &inv_mass, &fixed, 0.0, dt,
-                            )
+                            .step_symplectic_euler(&mut state, &f_ext, &inv_mass, &fixed, 0.0, dt)
                             .map_err(|f| {
                                 Error::param("bench", format!("triangle {} collapsed", f.element))
                             })?;
@@ -1062,8 +1079,8 @@ mod tests {
             integ.step(&mut sys, &mut s, w.dt).unwrap();
         }
         w.advance(20).unwrap();
-        assert_eq!(w.u, s.u);
-        assert_eq!(w.v, s.v);
+        assert_eq!(w.state.u(), &s.u[..]);
+        assert_eq!(w.state.v(), &s.v[..]);
         let c = w.check();
         assert!(c.mean_uy_free_end < 0.0 && c.max_abs_u > 0.0);
     }
@@ -1166,7 +1183,8 @@ mod tests {
         assert_eq!(std_rows[0].precision, "f64");
         assert_eq!(std_rows[1].precision, "f32-storage");
         let b = |r: &Row| r.bytes_per_tet_step.unwrap();
-        assert!((b(std_rows[0]) - b(std_rows[1]) - 40.0).abs() < 1e-9);
+        let (n, t) = (std_rows[0].nodes as f64, std_rows[0].elements as f64);
+        assert!((b(std_rows[0]) - b(std_rows[1]) - (24.0 + 24.0 * n / t)).abs() < 1e-9);
         // The flops by design at the measured rate stay under the measured FMA peak: a flop
         // count too high for the work done would show here.
         for r in &std_rows {

@@ -1,30 +1,62 @@
 //! Fast path of the force pass: compressible neo-Hookean tetrahedra.
 //!
-//! Kernel (specialised, no `C`, no `S`): with `Du = [u1−u0, u2−u0, u3−u0]`
+//! `P = μ (F − F⁻ᵀ) + λ ln J F⁻ᵀ`, the corner forces `R_j = V0 P Dm⁻ᵀ e_j` (j = 1..3),
+//! `R_0 = −Σ R_j`: the same `R = ∂E/∂u` as the generic `P = F S(C)` path (tested against
+//! [`super::FemModel::internal_forces_reference`]). Two kernels compute it.
+//!
+//! **Positions kernel** (f64 storage, the default). With `Ds = [x1−x0, x2−x0, x3−x0]` from
+//! the current positions `x = X + u`, `F = Ds Dm⁻¹`, and since `cof(A B) = cof A cof B` and
+//! `cof(Dm⁻¹) Dm⁻ᵀ = det Dm⁻¹ I`:
 //!
 //! ```text
-//! F = I + Du Dm⁻¹,   J = det F,   cof F = J F⁻ᵀ,
-//! V0 P = a F + b cof F,   a = μ V0,   b = V0 (λ ln J − μ) / J,
-//! H = V0 P Dm⁻ᵀ,   R_j = H e_j (j = 1..3),   R_0 = −Σ R_j
+//! H = V0 P Dm⁻ᵀ = Ds G + c cof Ds,   G = μ V0 Dm⁻¹ Dm⁻ᵀ,
+//! J = det Ds · det Dm⁻¹,   c = w (λ ln J − μ) / J,   w = V0 det Dm⁻¹ (= ±1/6)
 //! ```
 //!
-//! which is `P = μ (F − F⁻ᵀ) + λ ln J F⁻ᵀ`, the same `R = ∂E/∂u` as the generic
-//! `P = F S(C)` path (tested against [`super::FemModel::internal_forces_reference`]).
+//! `G` (6 entries, symmetric), `det Dm⁻¹` and `w` are precomputed: 80 bytes per tetrahedron
+//! with the 4 node offsets, 156 flops, against 96 bytes and 213 flops for `F = I + Du Dm⁻¹`,
+//! `cof F`, `V0 P`, `P Dm⁻ᵀ`. The node rows the kernel reads hold `X + u`, built by the
+//! force model from `u` (or kept by the fused step's node update). The rounding differs from
+//! the displacement form: `Ds` carries the rounding of `X + u` (an ulp of the coordinates,
+//! relative `ulp(|X|) / h` to an edge of length `h`), so where the displacement form's `F − I`
+//! is exact to the last bit the positions form is within about `1e-14` of the strain on the
+//! meshes here; the forces match the generic path within `1e-12` of their largest entry
+//! (tested). On the standard 100k box the kernel took the fused step from 40.0-40.7 M to
+//! 47.0-47.2 M node-updates/s on 2 threads and from 20.5-21.0 M to 22.7-22.9 M on 1; at 1M
+//! from 36.2-37.2 M to 35.4 M on 2 threads and 19.2 M to 18.7 M on 1 (2 runs each,
+//! alternated): out of cache the 32-byte node rows and the node pass's extra `X` read and
+//! row write cost what the kernel saves.
+//!
+//! **Displacements kernel** (f32 storage): `F = I + Du Dm⁻¹`, `J = det F`, `cof F = J F⁻ᵀ`,
+//! `V0 P = a F + b cof F` with `a = μ V0`, `b = V0 (λ ln J − μ) / J`, `H = V0 P Dm⁻ᵀ`. It
+//! reads `u` and keeps `Dm⁻¹` and `V0` per element: with `Dm⁻¹` rounded to f32, the strain
+//! `Du Dm⁻¹` keeps its relative accuracy at small strain. The positions form with f32
+//! storage would round `det Dm⁻¹` (hence `J`) and `G` to f32, an error of `6e-8` on `J` and on
+//! the rest-state balance of `Ds G` against `c cof Ds`, larger than the strain itself in soft
+//! tissue under gravity.
+//!
 //! `ln J` ([`ln_j`]) is the series of `ln(1 + f)`, `f = J − 1`, where `|f| < 2⁻⁵` (no
 //! division; nearly incompressible tissue keeps almost every element there), else a
 //! branch-free `2 atanh` series; both within 1 ulp of `f64::ln` on the tested sweeps, and
-//! the AVX2 kernel evaluates the second only for groups with a lane outside. The series
+//! the AVX2 kernels evaluate the second only for groups with a lane outside. The series
 //! took the fused step from 18.6 to 20.4-20.9 M node-updates/s (100k, 1 thread), 36.9-37.1
 //! to 40.3-40.9 M (100k, 2 threads) and 33.3-34.0 to 36.8-36.9 M (1M, 2 threads).
 //!
-//! Kernels (same operations, same bits): portable (`run_groups`, lane loops) and AVX2 + FMA
-//! intrinsics (`run_groups_avx2`), which splits the work over a block of `BLK` = 4 groups into
-//! three stages, (A) gather, `F`, `cof F`, `J`, (B) `b` (`ln J`, `1/J`), (C) `V0 P`, `H`,
-//! scatter, so that the independent groups of a block overlap in the core.
+//! Each kernel comes portable (`run_positions`, `run_groups`: lane loops) and with AVX2 +
+//! FMA intrinsics (`run_positions_avx2`, `run_groups_avx2`), the same operations and the same
+//! bits. The AVX2 kernels split the work over a block of `BLK` = 4 groups into three stages,
+//! (A) gather, the deformation, its cofactor and `J`, (B) the `ln J` factor, (C) `H` and the
+//! scatter, so that the independent groups of a block overlap in the core; the positions
+//! kernel prefetches the element data [`PREFETCH_BLOCKS`] blocks ahead.
 //!
-//! Layout: elements packed in groups of [`LANES`] (structure of arrays inside a group:
-//! `Dm⁻¹` entries, volumes and corner offsets `3 × node id` lane-contiguous, 96 bytes per
-//! tetrahedron), sorted into slabs of equal element counts (by mean node id when the node
+//! Node rows: the kernels read node values from, and accumulate forces into, rows of 32
+//! bytes `[x, y, z, 0]` ([`Row4`], aligned): one 256-bit load per corner and lane and a 4 × 4
+//! transpose for the gather, a transpose and one 256-bit read-add-write per corner and lane
+//! for the scatter, against two 128-bit and one 64-bit access each with 24-byte rows. In the
+//! force pass alone this measured 2-8 % faster (1 thread, 10k to 1M nodes).
+//!
+//! Layout: elements packed in groups of [`LANES`] (structure of arrays inside a group: the
+//! element data and the corner offsets `4 × node id` lane-contiguous), sorted into slabs of equal element counts (by mean node id when the node
 //! numbering is banded, as for the structured boxes, so that a slab touches one contiguous
 //! stretch of `u` and `r`; else along the longest axis of the mesh) and, inside a slab, in
 //! strips one mean element extent wide across the axis of middle node-id growth (banded
@@ -43,29 +75,26 @@
 //! (colour, then slab order, then element order) whatever the number of threads: the same
 //! bits on 1 and 2 threads, no atomics.
 //!
-//! Precision ([`Precision`], chosen per model by [`super::FemParams::precision`]): the
-//! element data are stored either in f64 (`Precision::F64`, the default, 96 bytes per
-//! tetrahedron) or with `Dm⁻¹` and the reference volume in f32 (`Precision::F32Storage`:
-//! 4 × u32 offsets + 9 × f32 + 1 × f32, 56 bytes per tetrahedron). Only the storage changes:
-//! the f32 values are widened exactly to f64 on load (`_mm256_cvtps_pd`, `f32 as f64`) and
-//! every operation, `u`, `r`, the state and the masses stay f64, so both kernels and both
-//! thread counts still give the same bits within each precision. What differs from f64 is
-//! the rounding of `Dm⁻¹` and `V0` to f32 once, at packing (relative error ≤ 2⁻²⁴ ≈ 6e-8
-//! per entry), which perturbs the forces by about that much times the conditioning of the
-//! element. Stated tolerance (tested in `fem::tests`): on a jittered mesh,
-//! `‖R_f32 − R_f64‖₂ ≤ 1e-6 ‖R_f64‖₂` and every entry within `1e-6 max|R_f64|`. Measured:
-//! 2e-8 (2-norm) and 3e-8 to 5e-8 (max entry) under random deformations of 1 % to 30 % of
-//! the shortest edge; 1.2e-7 and 1.6e-7 under an affine stretch, where the f64 interior
-//! forces cancel exactly (patch test) and f32 storage leaves a residue of that size. The
-//! 500-step standard work of [`crate::bench`] on the 1k box agrees with f64 to better than 5
-//! significant digits (tested < 5e-6 relative; measured 3e-9 on both values). The lumped
+//! Precision ([`Precision`], chosen per model by [`super::FemParams::precision`]): f64
+//! storage (`Precision::F64`, the default) runs the positions kernel on 80 bytes per
+//! tetrahedron; f32 storage (`Precision::F32Storage`) runs the displacements kernel with
+//! `Dm⁻¹` and the reference volume in f32 (4 × u32 offsets + 9 × f32 + 1 × f32, 56 bytes per
+//! tetrahedron). The f32 values are widened exactly to f64 on load (`_mm256_cvtps_pd`,
+//! `f32 as f64`) and every operation, `u`, `r`, the state and the masses stay f64, so both
+//! ISAs and both thread counts give the same bits within each precision. What differs from
+//! f64 is the rounding of `Dm⁻¹` and `V0` to f32 once, at packing (relative error ≤ 2⁻²⁴ ≈
+//! 6e-8 per entry), which perturbs the forces by about that much times the conditioning of
+//! the element, and the kernel's own rounding (above). Stated tolerance (tested in
+//! `fem::tests`): on a jittered mesh, `‖R_f32 − R_f64‖₂ ≤ 1e-6 ‖R_f64‖₂` and every entry
+//! within `1e-6 max|R_f64|`. Measured: 2e-8 (2-norm) and 3e-8 to 5e-8 (max entry) under
+//! random deformations of 1 % to 30 % of the shortest edge; 1.2e-7 and 1.6e-7 under an
+//! affine stretch, where the interior forces cancel (patch test) and f32 storage leaves a
+//! residue of that size. The 500-step standard work of [`crate::bench`] on the 1k box
+//! agrees with f64 to better than 5 significant digits (tested < 5e-6 relative). The lumped
 //! masses, the strain energy, the stresses and the generic path keep the f64 `Dm⁻¹` and
-//! volumes. Cost and gain: 40 fewer bytes per tet-step of the ~150 the fused step moves by
-//! design, against 10 `cvtps2pd` per group (the AVX2 kernel widens once and keeps the values
-//! for stage C). It can pay only where the pass is bandwidth-bound; on the 2-vCPU Zen 4
-//! development VM it is not (0.3-0.5 of the triad) and f32 storage measured within the noise
-//! of f64 there (1M nodes, 1 thread: 3-4 % faster in three runs; 100k: 0-4 % slower; 2
-//! threads: ±6 %, contended machine).
+//! volumes. It can pay only where the pass is bandwidth-bound; on the 2-vCPU Zen 4
+//! development VM it is not (0.3-0.5 of the triad), and since the positions kernel it is
+//! the slower of the two.
 
 use crate::mesh::morton3;
 use rayon::prelude::*;
@@ -73,16 +102,23 @@ use rayon::prelude::*;
 /// Elements per SIMD group.
 pub const LANES: usize = 4;
 
-/// Bytes of element data the force pass streams per tetrahedron with f64 storage (ids,
-/// `Dm⁻¹`, volume): 96. See [`Precision::bytes_per_tet`].
-pub const BYTES_PER_TET: usize = std::mem::size_of::<Group<f64>>() / LANES;
+/// Bytes of element data the force pass streams per tetrahedron with f64 storage (ids, `G`,
+/// `det Dm⁻¹`, `w`): 80. See [`Precision::bytes_per_tet`].
+pub const BYTES_PER_TET: usize = std::mem::size_of::<PGroup>() / LANES;
+
+/// One node's row in the force pass's node arrays: `[x, y, z, 0]`, 32 bytes, aligned so
+/// that a row is one 256-bit load or store and never straddles a cache line.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(32))]
+pub struct Row4(pub [f64; 4]);
 
 /// Storage precision of the packed element data (`Dm⁻¹` and reference volume). Arithmetic,
 /// displacements, forces, velocities and masses are f64 in both; see the module docs for
 /// what changes and the tolerance against f64.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Precision {
-    /// Everything in f64 (96 bytes of element data per tetrahedron). The default.
+    /// Everything in f64 (80 bytes of element data per tetrahedron, the positions kernel).
+    /// The default.
     #[default]
     F64,
     /// `Dm⁻¹` and the reference volume stored in f32, widened to f64 on load (56 bytes per
@@ -108,10 +144,10 @@ impl Precision {
         Precision::ALL.into_iter().find(|p| p.name() == s)
     }
 
-    /// Bytes of packed element data per tetrahedron: 96 (f64) or 56 (f32 storage).
+    /// Bytes of packed element data per tetrahedron: 80 (f64) or 56 (f32 storage).
     pub fn bytes_per_tet(self) -> usize {
         match self {
-            Precision::F64 => std::mem::size_of::<Group<f64>>() / LANES,
+            Precision::F64 => BYTES_PER_TET,
             Precision::F32Storage => std::mem::size_of::<Group<f32>>() / LANES,
         }
     }
@@ -201,7 +237,7 @@ impl Store for f32 {
 #[repr(C)]
 pub(crate) struct Group<S: Store> {
     _align: [S::Align; 0],
-    /// Offsets `3 × node id` of the corners into `u` and `r`, `idx[corner][lane]`.
+    /// Offsets `4 × node id` of the corners into the node rows, `idx[corner][lane]`.
     idx: [[u32; LANES]; 4],
     /// `Dm⁻¹` row-major, `dminv[3 r + c][lane]`.
     dminv: [[S; LANES]; 9],
@@ -209,12 +245,31 @@ pub(crate) struct Group<S: Store> {
     vol: [S; LANES],
 }
 
-const _: () = assert!(std::mem::size_of::<Group<f64>>() == 4 * 96);
 const _: () = assert!(std::mem::size_of::<Group<f32>>() == 4 * 56);
+
+/// One group of `LANES` tetrahedra of the positions kernel (f64 storage), structure of
+/// arrays. The fields a stage reads first come first: stage A reads `idx` and `k`, stage B
+/// `w`, stage C `g` and `idx`.
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+pub(crate) struct PGroup {
+    /// Offsets `4 × node id` of the corners into the node rows, `idx[corner][lane]`.
+    idx: [[u32; LANES]; 4],
+    /// `det Dm⁻¹ = 1 / det Dm`, so that `J = det Ds · k`.
+    k: [f64; LANES],
+    /// `V0 det Dm⁻¹` (`±1/6`; 0 for padding lanes).
+    w: [f64; LANES],
+    /// `G = μ V0 Dm⁻¹ Dm⁻ᵀ` (symmetric): `G00, G01, G02, G11, G12, G22` (0 for padding lanes).
+    g: [[f64; LANES]; 6],
+}
+
+const _: () = assert!(std::mem::size_of::<PGroup>() == 4 * 80);
 
 /// The packed groups in one of the storage precisions.
 enum Groups {
-    F64(Vec<Group<f64>>),
+    /// Positions kernel.
+    F64(Vec<PGroup>),
+    /// Displacements kernel, `Dm⁻¹` and `V0` in f32.
     F32(Vec<Group<f32>>),
 }
 
@@ -300,7 +355,7 @@ impl TetPack {
         let ne = vol.len();
         let n_nodes = x0.len() / 3;
         assert!(
-            3 * n_nodes <= u32::MAX as usize,
+            4 * n_nodes <= u32::MAX as usize,
             "too many nodes for u32 offsets"
         );
         // Centroids, bounding box, mean element extent per axis.
@@ -469,14 +524,11 @@ impl TetPack {
             .iter()
             .map(|&s| &order[slab_range[s].0..slab_range[s].1])
             .collect();
-        let (groups, slab_ptr) = match precision {
-            Precision::F64 => {
-                let (g, p) = pack_groups::<f64>(&slabs_in_order, cells, dminv, vol);
-                (Groups::F64(g), p)
-            }
+        let (lanes, slab_ptr) = group_lanes(&slabs_in_order);
+        let groups = match precision {
+            Precision::F64 => Groups::F64(pack_position_groups(&lanes, mu, cells, dminv, vol)),
             Precision::F32Storage => {
-                let (g, p) = pack_groups::<f32>(&slabs_in_order, cells, dminv, vol);
-                (Groups::F32(g), p)
+                Groups::F32(pack_displacement_groups(&lanes, cells, dminv, vol))
             }
         };
         TetPack {
@@ -511,20 +563,29 @@ impl TetPack {
         }
     }
 
-    /// `r += R(u)` (r must hold what is to be accumulated onto, usually zeros). Returns false
-    /// if some element has `J <= 0` (or NaN); `r` is then unspecified.
-    pub(crate) fn accumulate(&self, u: &[f64], r: &mut [f64]) -> bool {
-        assert!(u.len() >= 3 * self.n_nodes && r.len() >= 3 * self.n_nodes);
-        let rp = SyncPtr(r.as_mut_ptr());
+    /// Whether the node rows given to [`TetPack::accumulate`] hold positions `X + u` (f64
+    /// storage: the positions kernel) or displacements `u` (f32 storage).
+    pub(crate) fn reads_positions(&self) -> bool {
+        matches!(self.groups, Groups::F64(_))
+    }
+
+    /// `r += R` for the node rows `q`, positions or displacements as
+    /// [`TetPack::reads_positions`] says (`r` must hold what is to be accumulated onto,
+    /// usually zeros; the fourth entry of a row is read as nothing and stays as it is in `r`
+    /// plus zeros). Returns false if some element has `J <= 0` (or NaN); `r` is then
+    /// unspecified.
+    pub(crate) fn accumulate(&self, q: &[Row4], r: &mut [Row4]) -> bool {
+        assert!(q.len() >= self.n_nodes && r.len() >= self.n_nodes);
+        let rp = SyncPtr(r.as_mut_ptr() as *mut f64);
         let n_slabs = self.slab_ptr.len() - 1;
         let mut good = true;
         for c in 0..self.colour_ptr.len() - 1 {
             let (s0, s1) = (self.colour_ptr[c], self.colour_ptr[c + 1]);
             let run = |s: usize| -> bool {
-                // SAFETY: node ids were checked < n_nodes at construction, u and r have
-                // 3 n_nodes entries (asserted above), and slabs of one colour share no node, so
-                // concurrent slabs write disjoint entries of r.
-                unsafe { self.run_slab(s, u, rp) }
+                // SAFETY: node ids were checked < n_nodes at construction, q and r have
+                // n_nodes rows (asserted above), and slabs of one colour share no node, so
+                // concurrent slabs write disjoint rows of r.
+                unsafe { self.run_slab(s, q, rp) }
             };
             good &= if n_slabs >= 2 && s1 - s0 >= 2 {
                 (s0..s1)
@@ -551,21 +612,26 @@ impl TetPack {
 
     /// The groups of slab `s`.
     #[inline]
-    unsafe fn run_slab(&self, s: usize, u: &[f64], r: SyncPtr) -> bool {
+    unsafe fn run_slab(&self, s: usize, q: &[Row4], r: SyncPtr) -> bool {
         let (a, b) = (self.slab_ptr[s], self.slab_ptr[s + 1]);
+        let qp = q.as_ptr() as *const f64;
+        let (mu, lambda) = (self.mu, self.lambda);
         match &self.groups {
-            Groups::F64(g) => self.run_with(&g[a..b], u, r),
-            Groups::F32(g) => self.run_with(&g[a..b], u, r),
+            Groups::F64(g) => {
+                #[cfg(target_arch = "x86_64")]
+                if self.isa == 1 {
+                    return run_positions_avx2(&g[a..b], qp, r.0, mu, lambda);
+                }
+                run_positions(&g[a..b], qp, r.0, mu, lambda)
+            }
+            Groups::F32(g) => {
+                #[cfg(target_arch = "x86_64")]
+                if self.isa == 1 {
+                    return run_groups_avx2(&g[a..b], qp, r.0, mu, lambda);
+                }
+                run_groups(&g[a..b], qp, r.0, mu, lambda)
+            }
         }
-    }
-
-    #[inline]
-    unsafe fn run_with<S: Store>(&self, g: &[Group<S>], u: &[f64], r: SyncPtr) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if self.isa == 1 {
-            return run_groups_avx2(g, u, r.0, self.mu, self.lambda);
-        }
-        run_groups(g, u, r.0, self.mu, self.lambda)
     }
 }
 
@@ -582,54 +648,113 @@ impl TetPack {
 /// lanes by a quarter of the slab lost locality at 1M (19 M instead of 25 M on 2 threads).
 const INTERLEAVE: usize = 16;
 
-/// Pack the elements of each slab (element ids in force-pass order) into groups of
-/// [`LANES`], lanes interleaved by [`INTERLEAVE`], padding lanes only in the last window
-/// of each slab; returns the groups and the slab pointers.
-fn pack_groups<S: Store>(
-    slabs: &[&[u32]],
-    cells: &[u32],
-    dminv: &[f64],
-    vol: &[f64],
-) -> (Vec<Group<S>>, Vec<usize>) {
+/// The lanes of each group, slab by slab (element ids in force-pass order), lanes
+/// interleaved by [`INTERLEAVE`]; `None` marks a padding lane (only in the last window of a
+/// slab). Returns the lanes and the slab pointers into them.
+fn group_lanes(slabs: &[&[u32]]) -> (Vec<[Option<u32>; LANES]>, Vec<usize>) {
     let ne: usize = slabs.iter().map(|s| s.len()).sum();
-    let mut groups = Vec::with_capacity(ne / LANES + slabs.len());
+    let mut lanes = Vec::with_capacity(ne / LANES + slabs.len());
     let mut slab_ptr = vec![0usize];
     for slab in slabs {
         for window in slab.chunks(INTERLEAVE * LANES) {
             // Lane l of the window's group q holds element l·wg + q of the window.
             let wg = window.len().div_ceil(LANES);
             for q in 0..wg {
-                let lane = |l: usize| window.get(l * wg + q).copied();
-                let first = lane(0).expect("lane 0 of every group holds an element") as usize;
-                let mut g = Group::<S> {
-                    _align: [],
-                    idx: [[0; LANES]; 4],
-                    dminv: [[S::ZERO; LANES]; 9],
-                    vol: [S::ZERO; LANES],
-                };
-                for l in 0..LANES {
-                    // Padding lanes repeat the first element with zero volume: zero force.
-                    let (e, v) = match lane(l) {
-                        Some(e) => (e as usize, vol[e as usize]),
-                        None => (first, 0.0),
-                    };
-                    for k in 0..4 {
-                        g.idx[k][l] = 3 * cells[4 * e + k];
-                    }
-                    for r in 0..3 {
-                        for c in 0..3 {
-                            // Column-major source.
-                            g.dminv[3 * r + c][l] = S::from_f64(dminv[9 * e + 3 * c + r]);
-                        }
-                    }
-                    g.vol[l] = S::from_f64(v);
-                }
-                groups.push(g);
+                lanes.push(std::array::from_fn(|l| window.get(l * wg + q).copied()));
             }
         }
-        slab_ptr.push(groups.len());
+        slab_ptr.push(lanes.len());
     }
-    (groups, slab_ptr)
+    (lanes, slab_ptr)
+}
+
+/// `Dm⁻¹[r][c]` of element `e` from the column-major source.
+#[inline]
+fn dm_inv(dminv: &[f64], e: usize, r: usize, c: usize) -> f64 {
+    dminv[9 * e + 3 * c + r]
+}
+
+/// Groups of the positions kernel. Padding lanes repeat the group's first element with
+/// `G = 0` and `w = 0`: zero force.
+fn pack_position_groups(
+    lanes: &[[Option<u32>; LANES]],
+    mu: f64,
+    cells: &[u32],
+    dminv: &[f64],
+    vol: &[f64],
+) -> Vec<PGroup> {
+    lanes
+        .iter()
+        .map(|gl| {
+            let first = gl[0].expect("lane 0 of every group holds an element") as usize;
+            let mut g = PGroup {
+                idx: [[0; LANES]; 4],
+                k: [0.0; LANES],
+                w: [0.0; LANES],
+                g: [[0.0; LANES]; 6],
+            };
+            for (l, lane) in gl.iter().enumerate() {
+                let (e, v0) = match *lane {
+                    Some(e) => (e as usize, vol[e as usize]),
+                    None => (first, 0.0),
+                };
+                for k in 0..4 {
+                    g.idx[k][l] = 4 * cells[4 * e + k];
+                }
+                let d = |r: usize, c: usize| dm_inv(dminv, e, r, c);
+                let det = d(0, 0) * (d(1, 1) * d(2, 2) - d(1, 2) * d(2, 1))
+                    - d(0, 1) * (d(1, 0) * d(2, 2) - d(1, 2) * d(2, 0))
+                    + d(0, 2) * (d(1, 0) * d(2, 1) - d(1, 1) * d(2, 0));
+                g.k[l] = det;
+                g.w[l] = v0 * det;
+                for (t, (m, n)) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+                    .into_iter()
+                    .enumerate()
+                {
+                    g.g[t][l] = mu * v0 * (0..3).map(|c| d(m, c) * d(n, c)).sum::<f64>();
+                }
+            }
+            g
+        })
+        .collect()
+}
+
+/// Groups of the displacements kernel (f32 storage). Padding lanes repeat the group's first
+/// element with zero volume: zero force.
+fn pack_displacement_groups<S: Store>(
+    lanes: &[[Option<u32>; LANES]],
+    cells: &[u32],
+    dminv: &[f64],
+    vol: &[f64],
+) -> Vec<Group<S>> {
+    lanes
+        .iter()
+        .map(|gl| {
+            let first = gl[0].expect("lane 0 of every group holds an element") as usize;
+            let mut g = Group::<S> {
+                _align: [],
+                idx: [[0; LANES]; 4],
+                dminv: [[S::ZERO; LANES]; 9],
+                vol: [S::ZERO; LANES],
+            };
+            for (l, lane) in gl.iter().enumerate() {
+                let (e, v) = match *lane {
+                    Some(e) => (e as usize, vol[e as usize]),
+                    None => (first, 0.0),
+                };
+                for k in 0..4 {
+                    g.idx[k][l] = 4 * cells[4 * e + k];
+                }
+                for r in 0..3 {
+                    for c in 0..3 {
+                        g.dminv[3 * r + c][l] = S::from_f64(dm_inv(dminv, e, r, c));
+                    }
+                }
+                g.vol[l] = S::from_f64(v);
+            }
+            g
+        })
+        .collect()
 }
 
 /// 1 with AVX2 + FMA, else 0; `RAISOV_ISA=portable` forces 0 (for comparisons). AVX-512
@@ -655,59 +780,54 @@ struct SyncPtr(*mut f64);
 unsafe impl Send for SyncPtr {}
 unsafe impl Sync for SyncPtr {}
 
-/// Gather the 4 corners of one group as `[x; y; z]` vectors over its 4 lanes:
-/// `(cx, cy, cz)`, each `[__m256d; 4]` indexed by corner.
+/// Gather the 4 corners of one group (`idx[corner][lane]`, offsets of 32-byte node rows)
+/// as `[x; y; z]` vectors over its 4 lanes: `(cx, cy, cz)`, each `[__m256d; 4]` indexed by
+/// corner. One aligned 256-bit load per corner and lane, then a 4 × 4 transpose.
 #[cfg(target_arch = "x86_64")]
 macro_rules! gather4 {
-    ($up:expr, $g:expr) => {{
+    ($up:expr, $idx:expr) => {{
         let zero = _mm256_setzero_pd();
         let mut cx = [zero; 4];
         let mut cy = [zero; 4];
         let mut cz = [zero; 4];
         for k in 0..4 {
-            let p = |l: usize| $up.add($g.idx[k][l] as usize);
-            let a = _mm256_insertf128_pd(
-                _mm256_castpd128_pd256(_mm_loadu_pd(p(0))),
-                _mm_loadu_pd(p(2)),
-                1,
-            );
-            let b = _mm256_insertf128_pd(
-                _mm256_castpd128_pd256(_mm_loadu_pd(p(1))),
-                _mm_loadu_pd(p(3)),
-                1,
-            );
-            cx[k] = _mm256_unpacklo_pd(a, b);
-            cy[k] = _mm256_unpackhi_pd(a, b);
-            let z01 = _mm_loadh_pd(_mm_load_sd(p(0).add(2)), p(1).add(2));
-            let z23 = _mm_loadh_pd(_mm_load_sd(p(2).add(2)), p(3).add(2));
-            cz[k] = _mm256_insertf128_pd(_mm256_castpd128_pd256(z01), z23, 1);
+            let p = |l: usize| $up.add($idx[k][l] as usize);
+            let (r0, r1) = (_mm256_load_pd(p(0)), _mm256_load_pd(p(1)));
+            let (r2, r3) = (_mm256_load_pd(p(2)), _mm256_load_pd(p(3)));
+            let t0 = _mm256_unpacklo_pd(r0, r1); // x0 x1 z0 z1
+            let t1 = _mm256_unpackhi_pd(r0, r1); // y0 y1 w0 w1
+            let t2 = _mm256_unpacklo_pd(r2, r3); // x2 x3 z2 z3
+            let t3 = _mm256_unpackhi_pd(r2, r3); // y2 y3 w2 w3
+            cx[k] = _mm256_permute2f128_pd(t0, t2, 0x20);
+            cy[k] = _mm256_permute2f128_pd(t1, t3, 0x20);
+            cz[k] = _mm256_permute2f128_pd(t0, t2, 0x31);
         }
         (cx, cy, cz)
     }};
 }
 
-/// Scatter-add `h[corner][component]` (vectors over the 4 lanes of group `g`) into `r`,
-/// corner by corner, lane by lane (the order of [`run_groups`]).
+/// Scatter-add `h[corner][component]` (vectors over the 4 lanes of a group) into the node
+/// rows `r`, corner by corner, lane by lane (the order of the portable kernels): one
+/// aligned 256-bit read-add-write per corner and lane, `[hx, hy, hz, 0]`.
 #[cfg(target_arch = "x86_64")]
 macro_rules! scatter4 {
-    ($r:expr, $g:expr, $h:expr) => {{
+    ($r:expr, $idx:expr, $h:expr) => {{
         let h: [[__m256d; 3]; 4] = $h;
+        let zero = _mm256_setzero_pd();
         for k in 0..4 {
-            let lo = _mm256_unpacklo_pd(h[k][0], h[k][1]); // x0 y0 x2 y2
-            let hi = _mm256_unpackhi_pd(h[k][0], h[k][1]); // x1 y1 x3 y3
-            let xy = [
-                _mm256_castpd256_pd128(lo),
-                _mm256_castpd256_pd128(hi),
-                _mm256_extractf128_pd(lo, 1),
-                _mm256_extractf128_pd(hi, 1),
+            let t0 = _mm256_unpacklo_pd(h[k][0], h[k][1]); // x0 y0 x2 y2
+            let t1 = _mm256_unpackhi_pd(h[k][0], h[k][1]); // x1 y1 x3 y3
+            let t2 = _mm256_unpacklo_pd(h[k][2], zero); // z0 0 z2 0
+            let t3 = _mm256_unpackhi_pd(h[k][2], zero); // z1 0 z3 0
+            let rows = [
+                _mm256_permute2f128_pd(t0, t2, 0x20),
+                _mm256_permute2f128_pd(t1, t3, 0x20),
+                _mm256_permute2f128_pd(t0, t2, 0x31),
+                _mm256_permute2f128_pd(t1, t3, 0x31),
             ];
-            let zl = _mm256_castpd256_pd128(h[k][2]);
-            let zh = _mm256_extractf128_pd(h[k][2], 1);
-            let zz = [zl, _mm_unpackhi_pd(zl, zl), zh, _mm_unpackhi_pd(zh, zh)];
-            for l in 0..LANES {
-                let q = $r.add($g.idx[k][l] as usize);
-                _mm_storeu_pd(q, _mm_add_pd(_mm_loadu_pd(q), xy[l]));
-                _mm_store_sd(q.add(2), _mm_add_sd(_mm_load_sd(q.add(2)), zz[l]));
+            for (l, row) in rows.iter().enumerate() {
+                let q = $r.add($idx[k][l] as usize);
+                _mm256_store_pd(q, _mm256_add_pd(_mm256_load_pd(q), *row));
             }
         }
     }};
@@ -915,13 +1035,12 @@ const BLK: usize = 4;
 #[target_feature(enable = "avx2,fma")]
 unsafe fn run_groups_avx2<S: Store>(
     groups: &[Group<S>],
-    u: &[f64],
+    up: *const f64,
     r: *mut f64,
     mu: f64,
     lambda: f64,
 ) -> bool {
     use std::arch::x86_64::*;
-    let up = u.as_ptr();
     let zero = _mm256_setzero_pd();
     let vmu = _mm256_set1_pd(mu);
     let mut good = 0xf;
@@ -933,7 +1052,7 @@ unsafe fn run_groups_avx2<S: Store>(
     let load9 = |g: &Group<S>| -> [__m256d; 9] { std::array::from_fn(|q| S::load4(&g.dminv[q])) };
     for chunk in groups.chunks(BLK) {
         for (q, g) in chunk.iter().enumerate() {
-            let (cx, cy, cz) = gather4!(up, g);
+            let (cx, cy, cz) = gather4!(up, g.idx);
             // w[k][i] = Du_ik = u_{k+1,i} − u_{0,i}
             let w: [[__m256d; 3]; 3] = std::array::from_fn(|k| {
                 [
@@ -969,7 +1088,106 @@ unsafe fn run_groups_avx2<S: Store>(
             };
             let a = _mm256_mul_pd(vmu, v0);
             let h = v4::corner_forces(&fbuf[q], &cbuf[q], a, jbuf[q], &d);
-            scatter4!(r, g, h);
+            scatter4!(r, g.idx, h);
+        }
+    }
+    good == 0xf
+}
+
+/// Element data prefetched this many blocks of [`BLK`] groups ahead by the positions kernel.
+/// Its stages read a group's lines out of order (`idx` and `k` in stage A, `w` in B, `G` in
+/// C), which the hardware prefetcher does not follow: without the software prefetch the
+/// kernel ran at 17.7 M node-evaluations/s on the 100k standard box (1 thread), with it
+/// 28.2 M; 1 block ahead 27.2 M, 4 blocks 27.7 M. The displacements kernel, which reads
+/// every line of a group in stage A, measured no gain from it (earlier sessions).
+const PREFETCH_BLOCKS: usize = 2;
+
+/// The positions kernel with AVX2 + FMA intrinsics, 4 lanes per group, in three stages over
+/// a block of [`BLK`] groups as [`run_groups_avx2`]: (A) gather, `Ds`, `cof Ds`, `J`;
+/// (B) `c = w (λ ln J − μ)/J`; (C) `H = Ds G + c cof Ds`, scatter. Same operations as
+/// [`run_positions`], same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn run_positions_avx2(
+    groups: &[PGroup],
+    xp: *const f64,
+    r: *mut f64,
+    mu: f64,
+    lambda: f64,
+) -> bool {
+    use std::arch::x86_64::*;
+    let zero = _mm256_setzero_pd();
+    let mut good = 0xf;
+    let mut sbuf = [[zero; 9]; BLK];
+    let mut cbuf = [[zero; 9]; BLK];
+    let mut jbuf = [zero; BLK];
+    const LINES: usize = BLK * std::mem::size_of::<PGroup>() / 64;
+    for (bi, chunk) in groups.chunks(BLK).enumerate() {
+        let ahead = (bi + PREFETCH_BLOCKS) * BLK;
+        if ahead + BLK <= groups.len() {
+            let p0 = groups.as_ptr().add(ahead) as *const i8;
+            for line in 0..LINES {
+                _mm_prefetch::<_MM_HINT_T0>(p0.add(64 * line));
+            }
+        }
+        for (q, g) in chunk.iter().enumerate() {
+            let (cx, cy, cz) = gather4!(xp, g.idx);
+            // Ds row-major: ds[3 i + m] = x_{m+1, i} − x_{0, i}.
+            let ds: [__m256d; 9] = [
+                _mm256_sub_pd(cx[1], cx[0]),
+                _mm256_sub_pd(cx[2], cx[0]),
+                _mm256_sub_pd(cx[3], cx[0]),
+                _mm256_sub_pd(cy[1], cy[0]),
+                _mm256_sub_pd(cy[2], cy[0]),
+                _mm256_sub_pd(cy[3], cy[0]),
+                _mm256_sub_pd(cz[1], cz[0]),
+                _mm256_sub_pd(cz[2], cz[0]),
+                _mm256_sub_pd(cz[3], cz[0]),
+            ];
+            let (c, det) = v4::cof_det(&ds);
+            sbuf[q] = ds;
+            cbuf[q] = c;
+            jbuf[q] = _mm256_mul_pd(det, _mm256_load_pd(g.k.as_ptr()));
+        }
+        for (q, g) in chunk.iter().enumerate() {
+            let (b, ok) = v4::stress_factor(jbuf[q], _mm256_load_pd(g.w.as_ptr()), mu, lambda);
+            good &= ok;
+            jbuf[q] = b;
+        }
+        for (q, g) in chunk.iter().enumerate() {
+            let gg = |i: usize| _mm256_load_pd(g.g[i].as_ptr());
+            let gm = [
+                gg(0),
+                gg(1),
+                gg(2),
+                gg(1),
+                gg(3),
+                gg(4),
+                gg(2),
+                gg(4),
+                gg(5),
+            ];
+            let (ds, cf, b) = (&sbuf[q], &cbuf[q], jbuf[q]);
+            let mut h = [[zero; 3]; 4];
+            for i in 0..3 {
+                let mut acc = zero;
+                for jj in 0..3 {
+                    // H_i,jj = Σ_m Ds_im G_m,jj + c cof(Ds)_i,jj
+                    let hv = _mm256_fmadd_pd(
+                        ds[3 * i + 2],
+                        gm[6 + jj],
+                        _mm256_fmadd_pd(
+                            ds[3 * i + 1],
+                            gm[3 + jj],
+                            _mm256_fmadd_pd(ds[3 * i], gm[jj], _mm256_mul_pd(b, cf[3 * i + jj])),
+                        ),
+                    );
+                    h[jj + 1][i] = hv;
+                    acc = _mm256_add_pd(acc, hv);
+                }
+                h[0][i] = _mm256_xor_pd(acc, _mm256_set1_pd(-0.0));
+            }
+            scatter4!(r, g.idx, h);
         }
     }
     good == 0xf
@@ -1071,10 +1289,82 @@ pub(crate) fn ln_series(x: f64) -> f64 {
     e * LN2_HI + (2.0 * s + (t + e * LN2_LO))
 }
 
+/// The positions kernel, portable: per lane `Ds`, `cof Ds`, `J = det Ds · k`,
+/// `c = w (λ ln J − μ)/J`, `H = Ds G + c cof Ds`; the same operations as
+/// [`run_positions_avx2`], the same bits.
+#[inline(always)]
+unsafe fn run_positions(
+    groups: &[PGroup],
+    x: *const f64,
+    r: *mut f64,
+    mu: f64,
+    lambda: f64,
+) -> bool {
+    let mut bad = false;
+    for g in groups {
+        let mut h = [[[0.0f64; LANES]; 3]; 4]; // h[corner][component][lane]
+        for l in 0..LANES {
+            let p = |k: usize, i: usize| *x.add(g.idx[k][l] as usize + i);
+            let ds: [f64; 9] = std::array::from_fn(|q| p(q % 3 + 1, q / 3) - p(0, q / 3));
+            let [f00, f01, f02, f10, f11, f12, f20, f21, f22] = ds;
+            let c = [
+                f11.mul_add(f22, -(f12 * f21)),
+                f12.mul_add(f20, -(f10 * f22)),
+                f10.mul_add(f21, -(f11 * f20)),
+                f02.mul_add(f21, -(f01 * f22)),
+                f00.mul_add(f22, -(f02 * f20)),
+                f01.mul_add(f20, -(f00 * f21)),
+                f01.mul_add(f12, -(f02 * f11)),
+                f02.mul_add(f10, -(f00 * f12)),
+                f00.mul_add(f11, -(f01 * f10)),
+            ];
+            let det = f02.mul_add(c[2], f01.mul_add(c[1], f00 * c[0]));
+            let j = det * g.k[l];
+            bad |= !(j > 0.0);
+            let inv_j = 1.0 / j;
+            let b = g.w[l] * (lambda * ln_j(j) - mu) * inv_j;
+            let gv = |i: usize| g.g[i][l];
+            let gm = [
+                gv(0),
+                gv(1),
+                gv(2),
+                gv(1),
+                gv(3),
+                gv(4),
+                gv(2),
+                gv(4),
+                gv(5),
+            ];
+            for i in 0..3 {
+                let mut s = 0.0;
+                for jj in 0..3 {
+                    let hv = ds[3 * i + 2].mul_add(
+                        gm[6 + jj],
+                        ds[3 * i + 1]
+                            .mul_add(gm[3 + jj], ds[3 * i].mul_add(gm[jj], b * c[3 * i + jj])),
+                    );
+                    h[jj + 1][i][l] = hv;
+                    s += hv;
+                }
+                h[0][i][l] = -s;
+            }
+        }
+        for k in 0..4 {
+            for l in 0..LANES {
+                let n = g.idx[k][l] as usize;
+                *r.add(n) += h[k][0][l];
+                *r.add(n + 1) += h[k][1][l];
+                *r.add(n + 2) += h[k][2][l];
+            }
+        }
+    }
+    !bad
+}
+
 #[inline(always)]
 unsafe fn run_groups<S: Store>(
     groups: &[Group<S>],
-    u: &[f64],
+    u: *const f64,
     r: *mut f64,
     mu: f64,
     lambda: f64,
@@ -1085,16 +1375,12 @@ unsafe fn run_groups<S: Store>(
         let mut du = [[[0.0f64; LANES]; 3]; 3];
         for l in 0..LANES {
             let n0 = g.idx[0][l] as usize;
-            let (a0, b0, c0) = (
-                *u.get_unchecked(n0),
-                *u.get_unchecked(n0 + 1),
-                *u.get_unchecked(n0 + 2),
-            );
+            let (a0, b0, c0) = (*u.add(n0), *u.add(n0 + 1), *u.add(n0 + 2));
             for k in 0..3 {
                 let n = g.idx[k + 1][l] as usize;
-                du[k][0][l] = *u.get_unchecked(n) - a0;
-                du[k][1][l] = *u.get_unchecked(n + 1) - b0;
-                du[k][2][l] = *u.get_unchecked(n + 2) - c0;
+                du[k][0][l] = *u.add(n) - a0;
+                du[k][1][l] = *u.add(n + 1) - b0;
+                du[k][2][l] = *u.add(n + 2) - c0;
             }
         }
         let mut h = [[[0.0f64; LANES]; 3]; 4]; // h[corner][component][lane]

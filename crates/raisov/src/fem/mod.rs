@@ -127,8 +127,114 @@ pub struct FemModel {
     elem_forces: Vec<f64>,
     /// Packed neo-Hookean tetrahedra (the fast path), if the model qualifies.
     pack: Option<fast::TetPack>,
-    /// Force accumulator of the fused step, all zeros between steps.
-    acc: Vec<f64>,
+    /// Node rows the packed kernel reads, filled from `u` at each force pass: `X + u`
+    /// (positions kernel, f64 storage) or `u` (f32 storage). Empty without `pack`.
+    rows: Vec<fast::Row4>,
+    /// Force rows the packed kernel (or, in the fused step, the generic path) accumulates
+    /// into; all zeros between passes.
+    acc: Vec<fast::Row4>,
+    /// Generic-path forces of the fused step (3 per node); empty with `pack`.
+    acc3: Vec<f64>,
+}
+
+/// State of the fused step ([`FemModel::step_symplectic_euler`]): displacements `u` and
+/// velocities `v`, 3 per node, and the node rows the packed force pass reads (`X + u`),
+/// which the step's node update keeps in line with `u`. Changing `u` through
+/// [`FusedState::u_mut`] marks the rows for a rebuild at the next step. A state belongs to
+/// the model that steps it (the rows hold that model's reference positions).
+#[derive(Clone, Debug, Default)]
+pub struct FusedState {
+    u: Vec<f64>,
+    v: Vec<f64>,
+    rows: Vec<fast::Row4>,
+    rows_valid: bool,
+}
+
+impl FusedState {
+    /// `u` and `v` given (3 per node each).
+    pub fn new(u: Vec<f64>, v: Vec<f64>) -> FusedState {
+        assert!(
+            u.len() == v.len() && u.len().is_multiple_of(3),
+            "u and v: 3 per node each"
+        );
+        FusedState {
+            u,
+            v,
+            rows: Vec::new(),
+            rows_valid: false,
+        }
+    }
+
+    /// At rest: `u = v = 0` on `n` nodes.
+    pub fn zeros(n: usize) -> FusedState {
+        FusedState::new(vec![0.0; 3 * n], vec![0.0; 3 * n])
+    }
+
+    /// Displacements, 3 per node.
+    pub fn u(&self) -> &[f64] {
+        &self.u
+    }
+
+    /// Velocities, 3 per node.
+    pub fn v(&self) -> &[f64] {
+        &self.v
+    }
+
+    /// Displacements to change; the force pass's rows are rebuilt at the next step.
+    pub fn u_mut(&mut self) -> &mut [f64] {
+        self.rows_valid = false;
+        &mut self.u
+    }
+
+    /// Velocities to change.
+    pub fn v_mut(&mut self) -> &mut [f64] {
+        &mut self.v
+    }
+}
+
+/// `rows[a] = [X_a + u_a, 0]` (`positions`) or `[u_a, 0]`, in parallel chunks.
+fn fill_rows(rows: &mut [fast::Row4], u: &[f64], x0: &[f64], positions: bool) {
+    const NB: usize = 4096;
+    let body = |(rc, (uc, xc)): (&mut [fast::Row4], (&[f64], &[f64]))| {
+        for (a, row) in rc.iter_mut().enumerate() {
+            let i = 3 * a;
+            row.0 = if positions {
+                [
+                    xc[i] + uc[i],
+                    xc[i + 1] + uc[i + 1],
+                    xc[i + 2] + uc[i + 2],
+                    0.0,
+                ]
+            } else {
+                [uc[i], uc[i + 1], uc[i + 2], 0.0]
+            };
+        }
+    };
+    if rows.len() >= 2 * NB {
+        rows.par_chunks_mut(NB)
+            .zip(u.par_chunks(3 * NB).zip(x0.par_chunks(3 * NB)))
+            .for_each(body);
+    } else {
+        body((rows, (u, x0)));
+    }
+}
+
+/// `r[3a + k] = acc[a][k]` and `acc[a] = 0`, in parallel chunks.
+fn drain_rows(acc: &mut [fast::Row4], r: &mut [f64]) {
+    const NB: usize = 4096;
+    let body = |(ac, rc): (&mut [fast::Row4], &mut [f64])| {
+        for (row, ra) in ac.iter_mut().zip(rc.chunks_exact_mut(3)) {
+            ra.copy_from_slice(&row.0[..3]);
+            *row = fast::Row4::default();
+        }
+    };
+    if acc.len() >= 2 * NB {
+        acc.par_chunks_mut(NB)
+            .zip(r.par_chunks_mut(3 * NB))
+            .for_each(body);
+    } else {
+        body((acc, r));
+    }
 }
 
 impl FemModel {
@@ -222,8 +328,14 @@ impl FemModel {
             node_ptr,
             node_slots,
             elem_forces,
+            rows: vec![fast::Row4::default(); if pack.is_some() { n } else { 0 }],
+            acc: vec![fast::Row4::default(); n],
+            acc3: if pack.is_some() {
+                Vec::new()
+            } else {
+                vec![0.0; 3 * n]
+            },
             pack,
-            acc: vec![0.0; 3 * n],
             params,
         })
     }
@@ -297,13 +409,12 @@ impl FemModel {
     /// One fused symplectic-Euler step, `v += Δ (M⁻¹(V − R(u)) − α v)`, `u += Δ v`, with
     /// `u = v = 0` on nodes where `fixed` is true: the same bits as
     /// [`crate::integrate::SymplecticEuler`] on a [`crate::integrate::System`] built from this
-    /// model with those nodes fixed. `inv_mass` per node, `f_ext` 3 per node. On failure `u`
-    /// and `v` are unchanged.
-    #[allow(clippy::too_many_arguments)]
+    /// model with those nodes fixed. `inv_mass` per node, `f_ext` 3 per node. The node update
+    /// also writes the node rows of the next force pass (`X + u`), so that no separate pass
+    /// builds them. On failure the state is unchanged.
     pub fn step_symplectic_euler(
         &mut self,
-        u: &mut [f64],
-        v: &mut [f64],
+        s: &mut FusedState,
         f_ext: &[f64],
         inv_mass: &[f64],
         fixed: &[bool],
@@ -311,59 +422,103 @@ impl FemModel {
         dt: f64,
     ) -> Result<(), ElementFailure> {
         let n = self.n_nodes;
-        assert!(u.len() == 3 * n && v.len() == 3 * n && f_ext.len() == 3 * n);
+        assert!(s.u.len() == 3 * n && s.v.len() == 3 * n && f_ext.len() == 3 * n);
         assert!(inv_mass.len() == n && fixed.len() == n);
-        let mut acc = std::mem::take(&mut self.acc);
+        let positions = self.pack.as_ref().is_some_and(|p| p.reads_positions());
+        if !s.rows_valid {
+            s.rows.resize(n, fast::Row4::default());
+            fill_rows(&mut s.rows, &s.u, &self.x0, positions);
+            s.rows_valid = true;
+        }
         let res = match &self.pack {
             Some(p) => {
-                if p.accumulate(u, &mut acc) {
+                if p.accumulate(&s.rows, &mut self.acc) {
                     Ok(())
                 } else {
-                    Err(self.fast_failure(u))
+                    Err(self.fast_failure(&s.u))
                 }
             }
-            None => self.internal_forces(u, &mut acc),
+            None => {
+                let mut acc3 = std::mem::take(&mut self.acc3);
+                let res = self.internal_forces(&s.u, &mut acc3);
+                for (row, ra) in self.acc.iter_mut().zip(acc3.chunks_exact(3)) {
+                    row.0 = [ra[0], ra[1], ra[2], 0.0];
+                }
+                self.acc3 = acc3;
+                res
+            }
         };
+        let mut acc = std::mem::take(&mut self.acc);
         if res.is_err() {
-            acc.fill(0.0);
+            acc.fill(fast::Row4::default());
             self.acc = acc;
             return res;
         }
         const NB: usize = 4096;
         #[allow(clippy::type_complexity)]
-        let body = |(((((uc, vc), rc), fc), mc), xc): (
-            ((((&mut [f64], &mut [f64]), &mut [f64]), &[f64]), &[f64]),
-            &[bool],
+        let body = |((((((uc, vc), rc), qc), fc), (mc, xc)), x0c): (
+            (
+                (
+                    (
+                        ((&mut [f64], &mut [f64]), &mut [fast::Row4]),
+                        &mut [fast::Row4],
+                    ),
+                    &[f64],
+                ),
+                (&[f64], &[bool]),
+            ),
+            &[f64],
         )| {
             for a in 0..mc.len() {
+                let ra = &mut rc[a].0;
                 for k in 0..3 {
                     let i = 3 * a + k;
                     if xc[a] {
                         vc[i] = 0.0;
                         uc[i] = 0.0;
                     } else {
-                        let acc_i = (fc[i] - rc[i]) * mc[a] - alpha * vc[i];
+                        let acc_i = (fc[i] - ra[k]) * mc[a] - alpha * vc[i];
                         vc[i] += dt * acc_i;
                         uc[i] += dt * vc[i];
                     }
-                    rc[i] = 0.0;
                 }
+                *ra = [0.0; 4];
+                let i = 3 * a;
+                qc[a].0 = if positions {
+                    [
+                        x0c[i] + uc[i],
+                        x0c[i + 1] + uc[i + 1],
+                        x0c[i + 2] + uc[i + 2],
+                        0.0,
+                    ]
+                } else {
+                    [uc[i], uc[i + 1], uc[i + 2], 0.0]
+                };
             }
         };
+        let FusedState { u, v, rows, .. } = s;
         if n >= 2 * NB {
             u.par_chunks_mut(3 * NB)
                 .zip(v.par_chunks_mut(3 * NB))
-                .zip(acc.par_chunks_mut(3 * NB))
+                .zip(acc.par_chunks_mut(NB))
+                .zip(rows.par_chunks_mut(NB))
                 .zip(f_ext.par_chunks(3 * NB))
-                .zip(inv_mass.par_chunks(NB))
-                .zip(fixed.par_chunks(NB))
+                .zip(inv_mass.par_chunks(NB).zip(fixed.par_chunks(NB)))
+                .zip(self.x0.par_chunks(3 * NB))
                 .for_each(body);
         } else {
-            body((((((u, v), &mut acc[..]), f_ext), inv_mass), fixed));
+            body((
+                (
+                    ((((u, v), &mut acc[..]), &mut rows[..]), f_ext),
+                    (inv_mass, fixed),
+                ),
+                &self.x0,
+            ));
         }
         self.acc = acc;
         Ok(())
     }
+
     fn npe(&self) -> usize {
         self.kind.nodes_per_element()
     }
@@ -582,12 +737,10 @@ impl ForceModel for FemModel {
 
     fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure> {
         if let Some(p) = &self.pack {
-            if r.len() >= 1 << 16 {
-                r.par_chunks_mut(1 << 14).for_each(|c| c.fill(0.0));
-            } else {
-                r.fill(0.0);
-            }
-            return if p.accumulate(u, r) {
+            fill_rows(&mut self.rows, u, &self.x0, p.reads_positions());
+            let ok = p.accumulate(&self.rows, &mut self.acc);
+            drain_rows(&mut self.acc, r);
+            return if ok {
                 Ok(())
             } else {
                 Err(self.fast_failure(u))

@@ -1096,10 +1096,11 @@ unsafe fn run_groups_avx2<S: Store>(
 
 /// Element data prefetched this many blocks of [`BLK`] groups ahead by the positions kernel.
 /// Its stages read a group's lines out of order (`idx` and `k` in stage A, `w` in B, `G` in
-/// C), which the hardware prefetcher does not follow: without the software prefetch the
-/// kernel ran at 17.7 M node-evaluations/s on the 100k standard box (1 thread), with it
-/// 28.2 M; 1 block ahead 27.2 M, 4 blocks 27.7 M. The displacements kernel, which reads
-/// every line of a group in stage A, measured no gain from it (earlier sessions).
+/// C), which the hardware prefetcher does not follow: the force pass alone on the 100k
+/// standard box (1 thread) ran at 17.7-19.9 M node-evaluations/s without the software
+/// prefetch and 28.2-28.5 M with it (1 block ahead 27.2 M, 4 blocks 27.7 M); at 1M, 21.0 M
+/// (2 blocks) against 20.0-20.1 M (4 or 8). The displacements kernel, which reads every
+/// line of a group in stage A, measured no gain from it (this session and earlier ones).
 const PREFETCH_BLOCKS: usize = 2;
 
 /// The positions kernel with AVX2 + FMA intrinsics, 4 lanes per group, in three stages over

@@ -30,10 +30,15 @@
 //! against f64 in [`fast`]); arithmetic and state stay f64. Element ids in
 //! [`ElementFailure`] and every public method are the mesh's original ids.
 //!
-//! Fused explicit step ([`FemModel::step_symplectic_euler`]): one force pass accumulating into
-//! a zeroed buffer, then one node pass doing `v += Δ (M⁻¹(V − R) − α v)`, `u += Δ v`,
-//! clearing the buffer for the next step: the bits of [`crate::integrate::SymplecticEuler`]
-//! on a [`crate::integrate::System`] with fixed (zero) constraints.
+//! The packed path reads 32-byte node rows (`X + u` for the f64 positions kernel, `u` with
+//! f32 storage) and accumulates into 32-byte force rows; `internal_forces` fills the former
+//! from `u` and copies the latter out (two node passes around the force pass).
+//!
+//! Fused explicit step ([`FemModel::step_symplectic_euler`], state in a [`FusedState`]): one
+//! force pass accumulating into zeroed force rows, then one node pass doing
+//! `v += Δ (M⁻¹(V − R) − α v)`, `u += Δ v`, clearing the force rows and writing the node rows
+//! of the next force pass: the bits of [`crate::integrate::SymplecticEuler`] on a
+//! [`crate::integrate::System`] with fixed (zero) constraints.
 
 mod element;
 pub mod fast;

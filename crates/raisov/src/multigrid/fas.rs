@@ -264,7 +264,9 @@ const POWER_ITERATIONS_WARM: usize = 5;
 /// finite-difference products `K x ≈ (r(u) − r(u + εx)) / ε`, `r0 = r(u)` given (`r` the
 /// residual `F − R`). Starts from `x` when it is nonzero (the last estimate's vector: a
 /// re-estimate needs only [`POWER_ITERATIONS_WARM`] iterations), else from a deterministic
-/// vector with every frequency present, and leaves the last iterate there. Power iteration
+/// vector with every frequency present, a Weyl sequence over the dofs in the file's node
+/// order ([`Level::node_keys`]; renumbering at load then changes the estimate only by
+/// round-off), and leaves the last iterate there. Power iteration
 /// approaches from below; the caller's `stretch` covers that, and an inverting sweep falls
 /// back to safe steps. Not capped by the small-strain bound: stretched hyperelastic elements
 /// are stiffer. Uses `y` and `w` as scratch.
@@ -284,7 +286,13 @@ fn estimate_lambda_max(
     let warm = x.iter().any(|&v| v != 0.0);
     if !warm {
         for (i, xi) in x.iter_mut().enumerate() {
-            let h = (i as u64)
+            // Keyed by the file's node ids where the mesh was renumbered, so that the vector
+            // of a physical node, and the estimate, do not follow the numbering in memory.
+            let key = lv
+                .node_keys
+                .as_ref()
+                .map_or(i, |k| 3 * k[i / 3] as usize + i % 3);
+            let h = (key as u64)
                 .wrapping_mul(0x9E37_79B9_7F4A_7C15)
                 .rotate_left(17);
             *xi = (h >> 11) as f64 / (1u64 << 53) as f64 - 0.5;

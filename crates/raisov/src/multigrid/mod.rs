@@ -34,6 +34,11 @@ pub struct Level {
     pub lambda_max: f64,
     /// Force evaluations so far on this level.
     pub evaluations: u64,
+    /// The file's id of each node where the mesh was renumbered at load (node `a` of `mesh`
+    /// is node `node_keys[a]` of the file), else `None` (ids are the file's). What should not
+    /// depend on the numbering in memory is keyed by these: FAS's power-iteration start
+    /// vector.
+    pub node_keys: Option<Vec<u32>>,
 }
 
 impl Level {
@@ -49,6 +54,7 @@ impl Level {
             dt,
             lambda_max,
             evaluations: 0,
+            node_keys: None,
         }
     }
     pub fn num_nodes(&self) -> usize {

@@ -168,14 +168,24 @@ impl Scenario {
 
     /// The level meshes, finest (the scenario's mesh) first.
     pub fn level_meshes(&self) -> Result<Vec<Mesh>> {
-        let mut out = vec![self.mesh.clone()];
+        Ok(self
+            .level_meshes_with_ids()?
+            .into_iter()
+            .map(|(m, _)| m)
+            .collect())
+    }
+
+    /// The level meshes, finest first, each with the file ids of its nodes where it was
+    /// renumbered at load (see [`Scenario::file_ids`]).
+    #[allow(clippy::type_complexity)]
+    pub fn level_meshes_with_ids(&self) -> Result<Vec<(Mesh, Option<Vec<u32>>)>> {
+        let mut out = vec![(self.mesh.clone(), self.file_ids.clone())];
         let Some(mg) = &self.spec.multigrid else {
             return Ok(out);
         };
         let base = self.path.parent().unwrap_or(Path::new("."));
         let ratio = mg.ratio.unwrap_or(0.5);
-        let renumber = super::renumber_by_default(&self.spec);
-        let level = |ms: &MeshSpec| resolve_mesh(ms, &self.path, base, renumber).map(|r| r.0);
+        let level = |ms: &MeshSpec| resolve_mesh(ms, &self.path, base).map(|r| (r.0, r.2));
         if let Some(files) = &mg.files {
             for f in files {
                 out.push(level(&MeshSpec {
@@ -298,7 +308,8 @@ impl Scenario {
     /// Build every level (mesh, system with its own constraints, integrator, step) and the
     /// correspondences between consecutive levels.
     pub fn build_levels(&self) -> Result<(Vec<Level>, crate::multigrid::Links)> {
-        let meshes = self.level_meshes()?;
+        let (meshes, keys): (Vec<Mesh>, Vec<Option<Vec<u32>>>) =
+            self.level_meshes_with_ids()?.into_iter().unzip();
         let m = meshes.len();
         let methods = self.level_methods(m)?;
         let mg = self.spec.multigrid.clone().unwrap_or_default();
@@ -338,7 +349,7 @@ impl Scenario {
             links.push(Correspondence::build(&meshes[i], &meshes[i + 1])?);
         }
         let mut levels = Vec::with_capacity(m);
-        for (i, mesh) in meshes.into_iter().enumerate() {
+        for (i, (mesh, node_keys)) in meshes.into_iter().zip(keys).enumerate() {
             let c = self.constraints_on(&mesh, i)?;
             let sys = if i == 0 {
                 self.build_system()?
@@ -347,7 +358,9 @@ impl Scenario {
             };
             let lambda_max = self.material.stability_modulus(mesh.kind) / self.density
                 * super::max_gradient_sum(&mesh);
-            levels.push(Level::new(mesh, sys, methods[i], dts[i], lambda_max));
+            let mut level = Level::new(mesh, sys, methods[i], dts[i], lambda_max);
+            level.node_keys = node_keys;
+            levels.push(level);
         }
         Ok((levels, links))
     }

@@ -5,9 +5,8 @@
 //!
 //! Node order: a mesh read from a file is renumbered once at load ([`Mesh::spatial_order`],
 //! Morton order on a grid one mean element size wide; `[mesh] renumber = false` keeps the
-//! file's order, and so does the FAS multigrid unless `renumber = true`, see
-//! `renumber_by_default`) so that the force pass's gathers and scatters find nearby nodes near in
-//! memory; files from mesh generators often number nodes in an order that jumps across the
+//! file's order; level files follow the same key) so that the force pass's gathers and
+//! scatters find nearby nodes near in memory; files from mesh generators often number nodes in an order that jumps across the
 //! mesh. Measured (force pass, node-evaluations/s, 1 thread, alternated): liver L0 20.7-20.9
 //! M as numbered in the file, 22.8-22.9 M renumbered; heart L0 22.8-23.0 M and 24.2-24.3 M;
 //! the standard 100k box with its nodes shuffled at random, 2 threads, 29.7-30.0 M and
@@ -15,7 +14,11 @@
 //! against 4.56-4.62 s on 1 thread, the same printed results. What the user sees
 //! keeps the file's ids: `nodes = [..]` selectors, `nodal_stress.csv` (rows in file order),
 //! the `file_node_id` point field of the frames, the node named by `raisov inspect`
-//! ([`Scenario::file_ids`]).
+//! ([`Scenario::file_ids`]). Nor do results follow the numbering beyond round-off: the FAS
+//! multigrid's power-iteration start vector, the one place where an index chose a value,
+//! is keyed by the file's ids ([`crate::multigrid::Level::node_keys`]). Before, FAS kept the
+//! file's order, since renumbering the liver levels had moved the interactive example's mean
+//! lag from 2.0 to 2.4 mm through that vector.
 
 pub mod interactive;
 mod levels;
@@ -148,8 +151,7 @@ impl Scenario {
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "scenario".into())
         });
-        let (mesh, mut notes, file_ids) =
-            resolve_mesh(&spec.mesh, path, base, renumber_by_default(&spec))?;
+        let (mesh, mut notes, file_ids) = resolve_mesh(&spec.mesh, path, base)?;
         // Node-id selectors name file ids: into the mesh's order, once, here (the stored spec
         // then names the mesh's nodes, as the per-level constraints expect).
         let mut spec = spec;
@@ -472,28 +474,14 @@ pub fn min_altitude(mesh: &Mesh) -> f64 {
     h
 }
 
-/// Whether a `[mesh] file` is renumbered when `renumber` is not given: yes, except under the
-/// FAS multigrid (the default scheme). FAS estimates each level's `λ_max` by a power
-/// iteration from a start vector laid out in node order, and with a fixed budget of cycles its
-/// results follow that estimate: renumbering the liver levels moved the interactive example's
-/// mean lag from 2.0 to 2.4 mm, and start vectors keyed by position instead made the sagging
-/// beam test take 69-108 cycles instead of 44. Until that estimate is made independent of
-/// the numbering, FAS keeps the file's order unless asked.
-fn renumber_by_default(spec: &ScenarioSpec) -> bool {
-    match &spec.multigrid {
-        None => true,
-        Some(mg) => mg.scheme.as_deref() == Some("raisov-paper"),
-    }
-}
-
 /// The mesh of `[mesh]`, notes for the user, and the file ids of its nodes where `renumber`
-/// reordered them (see [`Scenario::file_ids`]); `renumber_files`: the default for files.
+/// (default: true for files, false for generated meshes) reordered them (see
+/// [`Scenario::file_ids`]).
 #[allow(clippy::type_complexity)]
 fn resolve_mesh(
     m: &spec::MeshSpec,
     path: &Path,
     base: &Path,
-    renumber_files: bool,
 ) -> Result<(Mesh, Vec<String>, Option<Vec<u32>>)> {
     let mut notes = Vec::new();
     let mut mesh = match (&m.file, &m.generate) {
@@ -554,14 +542,11 @@ fn resolve_mesh(
     if let Some(s) = m.scale {
         mesh.scale(positive(path, "mesh.scale", s)?);
     }
-    let file_ids = m
-        .renumber
-        .unwrap_or(renumber_files && m.file.is_some())
-        .then(|| {
-            let order = mesh.spatial_order();
-            mesh.renumber(&order);
-            order
-        });
+    let file_ids = m.renumber.unwrap_or(m.file.is_some()).then(|| {
+        let order = mesh.spatial_order();
+        mesh.renumber(&order);
+        order
+    });
     Ok((mesh, notes, file_ids))
 }
 

@@ -14,10 +14,10 @@
 //! divisions = [10, 4, 4]          # box: cells per side instead of `nodes`
 //! pattern = 6                     # box: 5 or 6 tets per cube, default 6
 //! renumber = true                 # nodes in Morton order for the force pass's memory
-//!                                 # locality; default true for `file` (false under the FAS
-//!                                 # multigrid, whose results follow the node order), false
-//!                                 # for `generate` (numbered along the axes). Node ids that
-//!                                 # a scenario or output shows stay the file's.
+//!                                 # locality; default true for `file` (and the level files),
+//!                                 # false for `generate` (numbered along the axes). Node ids
+//!                                 # that a scenario or output shows stay the file's, and
+//!                                 # results change only by round-off.
 //!
 //! [material]
 //! law = "mooney-rivlin"           # "stvk" | "neo-hookean" | "mooney-rivlin" | "veronda-westmann"

@@ -1066,15 +1066,25 @@ mod tests {
         assert!(d1 < 5e-6 && d2 < 5e-6, "{a:?} vs {b:?}");
     }
 
+    /// The standard work on the 1k box, with the same physics as a System, its symplectic
+    /// Euler integrator and a state at rest.
+    fn fused_and_system() -> (
+        StandardWork,
+        System,
+        Box<dyn crate::integrate::Integrator>,
+        State,
+    ) {
+        let mesh = standard_box(1000).unwrap();
+        let w = StandardWork::new(&mesh).unwrap();
+        let sys = w.system(&mesh).unwrap();
+        let n = w.num_nodes();
+        (w, sys, Method::SymplecticEuler.build(n), State::at_rest(n))
+    }
+
     /// The fused step and System + SymplecticEuler give the same bits.
     #[test]
     fn fused_step_equals_system_step() {
-        let mesh = standard_box(1000).unwrap();
-        let mut w = StandardWork::new(&mesh).unwrap();
-        let mut sys = w.system(&mesh).unwrap();
-        let n = w.num_nodes();
-        let mut integ = Method::SymplecticEuler.build(n);
-        let mut s = State::at_rest(n);
+        let (mut w, mut sys, mut integ, mut s) = fused_and_system();
         for _ in 0..20 {
             integ.step(&mut sys, &mut s, w.dt).unwrap();
         }
@@ -1090,12 +1100,7 @@ mod tests {
     /// the change still equal the System path's from the same changed state, bit for bit.
     #[test]
     fn fused_step_after_changing_u_equals_system_step() {
-        let mesh = standard_box(1000).unwrap();
-        let mut w = StandardWork::new(&mesh).unwrap();
-        let mut sys = w.system(&mesh).unwrap();
-        let n = w.num_nodes();
-        let mut integ = Method::SymplecticEuler.build(n);
-        let mut s = State::at_rest(n);
+        let (mut w, mut sys, mut integ, mut s) = fused_and_system();
         for _ in 0..5 {
             integ.step(&mut sys, &mut s, w.dt).unwrap();
         }

@@ -674,6 +674,23 @@ fn dm_inv(dminv: &[f64], e: usize, r: usize, c: usize) -> f64 {
     dminv[9 * e + 3 * c + r]
 }
 
+/// The corner offsets `4 × node id` of a group's lanes and each lane's
+/// element and reference volume; a padding lane repeats the group's first element with
+/// volume 0.
+fn lane_elements(
+    gl: &[Option<u32>; LANES],
+    cells: &[u32],
+    vol: &[f64],
+) -> ([[u32; LANES]; 4], [(usize, f64); LANES]) {
+    let first = gl[0].expect("lane 0 of every group holds an element") as usize;
+    let ev: [(usize, f64); LANES] = std::array::from_fn(|l| match gl[l] {
+        Some(e) => (e as usize, vol[e as usize]),
+        None => (first, 0.0),
+    });
+    let idx = std::array::from_fn(|k| std::array::from_fn(|l| 4 * cells[4 * ev[l].0 + k]));
+    (idx, ev)
+}
+
 /// Groups of the positions kernel. Padding lanes repeat the group's first element with
 /// `G = 0` and `w = 0`: zero force.
 fn pack_position_groups(
@@ -686,21 +703,14 @@ fn pack_position_groups(
     lanes
         .iter()
         .map(|gl| {
-            let first = gl[0].expect("lane 0 of every group holds an element") as usize;
+            let (idx, ev) = lane_elements(gl, cells, vol);
             let mut g = PGroup {
-                idx: [[0; LANES]; 4],
+                idx,
                 k: [0.0; LANES],
                 w: [0.0; LANES],
                 g: [[0.0; LANES]; 6],
             };
-            for (l, lane) in gl.iter().enumerate() {
-                let (e, v0) = match *lane {
-                    Some(e) => (e as usize, vol[e as usize]),
-                    None => (first, 0.0),
-                };
-                for k in 0..4 {
-                    g.idx[k][l] = 4 * cells[4 * e + k];
-                }
+            for (l, &(e, v0)) in ev.iter().enumerate() {
                 let d = |r: usize, c: usize| dm_inv(dminv, e, r, c);
                 let det = d(0, 0) * (d(1, 1) * d(2, 2) - d(1, 2) * d(2, 1))
                     - d(0, 1) * (d(1, 0) * d(2, 2) - d(1, 2) * d(2, 0))
@@ -730,21 +740,14 @@ fn pack_displacement_groups<S: Store>(
     lanes
         .iter()
         .map(|gl| {
-            let first = gl[0].expect("lane 0 of every group holds an element") as usize;
+            let (idx, ev) = lane_elements(gl, cells, vol);
             let mut g = Group::<S> {
                 _align: [],
-                idx: [[0; LANES]; 4],
+                idx,
                 dminv: [[S::ZERO; LANES]; 9],
                 vol: [S::ZERO; LANES],
             };
-            for (l, lane) in gl.iter().enumerate() {
-                let (e, v) = match *lane {
-                    Some(e) => (e as usize, vol[e as usize]),
-                    None => (first, 0.0),
-                };
-                for k in 0..4 {
-                    g.idx[k][l] = 4 * cells[4 * e + k];
-                }
+            for (l, &(e, v)) in ev.iter().enumerate() {
                 for r in 0..3 {
                     for c in 0..3 {
                         g.dminv[3 * r + c][l] = S::from_f64(dm_inv(dminv, e, r, c));

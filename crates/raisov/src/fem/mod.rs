@@ -197,22 +197,29 @@ impl FusedState {
     }
 }
 
+/// Node `a`'s row from `u` and `x0` (3 per node, `a` counted in those slices):
+/// `[X_a + u_a, 0]` (`positions`) or `[u_a, 0]`.
+#[inline(always)]
+fn node_row(u: &[f64], x0: &[f64], a: usize, positions: bool) -> fast::Row4 {
+    let i = 3 * a;
+    fast::Row4(if positions {
+        [
+            x0[i] + u[i],
+            x0[i + 1] + u[i + 1],
+            x0[i + 2] + u[i + 2],
+            0.0,
+        ]
+    } else {
+        [u[i], u[i + 1], u[i + 2], 0.0]
+    })
+}
+
 /// `rows[a] = [X_a + u_a, 0]` (`positions`) or `[u_a, 0]`, in parallel chunks.
 fn fill_rows(rows: &mut [fast::Row4], u: &[f64], x0: &[f64], positions: bool) {
     const NB: usize = 4096;
     let body = |(rc, (uc, xc)): (&mut [fast::Row4], (&[f64], &[f64]))| {
         for (a, row) in rc.iter_mut().enumerate() {
-            let i = 3 * a;
-            row.0 = if positions {
-                [
-                    xc[i] + uc[i],
-                    xc[i + 1] + uc[i + 1],
-                    xc[i + 2] + uc[i + 2],
-                    0.0,
-                ]
-            } else {
-                [uc[i], uc[i + 1], uc[i + 2], 0.0]
-            };
+            *row = node_row(uc, xc, a, positions);
         }
     };
     if rows.len() >= 2 * NB {
@@ -488,17 +495,7 @@ impl FemModel {
                     }
                 }
                 *ra = [0.0; 4];
-                let i = 3 * a;
-                qc[a].0 = if positions {
-                    [
-                        x0c[i] + uc[i],
-                        x0c[i + 1] + uc[i + 1],
-                        x0c[i + 2] + uc[i + 2],
-                        0.0,
-                    ]
-                } else {
-                    [uc[i], uc[i + 1], uc[i + 2], 0.0]
-                };
+                qc[a] = node_row(uc, x0c, a, positions);
             }
         };
         let FusedState { u, v, rows, .. } = s;

@@ -162,24 +162,19 @@ impl Precision {
     }
 }
 
-/// Zero-sized alignment markers (a group is a whole number of its alignment, so that no
+/// Zero-sized alignment marker (a group is a whole number of its alignment, so that no
 /// group straddles more cache lines than it must).
-#[derive(Clone, Copy)]
-#[repr(C, align(64))]
-pub(crate) struct Align64;
 #[derive(Clone, Copy)]
 #[repr(C, align(32))]
 pub(crate) struct Align32;
 
-/// A scalar type the element data are stored in; the kernels load it as f64.
+/// A scalar type the displacements kernel's element data are stored in (f32); the kernels
+/// load it as f64, and the AVX2 kernel keeps the widened `Dm⁻¹` and `V0` of stages A and B
+/// for stage C (one conversion per entry instead of two).
 pub(crate) trait Store: Copy + Send + Sync + 'static {
     /// Alignment marker of a [`Group`] of this type.
     type Align: Copy + Send + Sync;
     const ZERO: Self;
-    /// Whether the AVX2 kernel keeps the widened `Dm⁻¹` of stage A for stage C (f32: one
-    /// conversion per entry instead of two) or loads it again (f64: a memory operand of the
-    /// FMAs costs nothing extra).
-    const KEEP_WIDENED: bool;
     fn from_f64(x: f64) -> Self;
     /// Exact widening to f64.
     fn get(self) -> f64;
@@ -191,30 +186,9 @@ pub(crate) trait Store: Copy + Send + Sync + 'static {
     unsafe fn load4(p: &[Self; LANES]) -> std::arch::x86_64::__m256d;
 }
 
-impl Store for f64 {
-    type Align = Align64;
-    const ZERO: f64 = 0.0;
-    const KEEP_WIDENED: bool = false;
-    #[inline(always)]
-    fn from_f64(x: f64) -> f64 {
-        x
-    }
-    #[inline(always)]
-    fn get(self) -> f64 {
-        self
-    }
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    unsafe fn load4(p: &[f64; LANES]) -> std::arch::x86_64::__m256d {
-        std::arch::x86_64::_mm256_loadu_pd(p.as_ptr())
-    }
-}
-
 impl Store for f32 {
     type Align = Align32;
     const ZERO: f32 = 0.0;
-    const KEEP_WIDENED: bool = true;
     #[inline(always)]
     fn from_f64(x: f64) -> f32 {
         x as f32
@@ -1065,9 +1039,7 @@ unsafe fn run_groups_avx2<S: Store>(
                 ]
             });
             let d = load9(g);
-            if S::KEEP_WIDENED {
-                dbuf[q] = d;
-            }
+            dbuf[q] = d;
             let f = v4::def_grad(&w, &d);
             let (c, j) = v4::cof_det(&f);
             fbuf[q] = f;
@@ -1076,21 +1048,14 @@ unsafe fn run_groups_avx2<S: Store>(
         }
         for (q, g) in chunk.iter().enumerate() {
             let v0 = S::load4(&g.vol);
-            if S::KEEP_WIDENED {
-                vbuf[q] = v0;
-            }
+            vbuf[q] = v0;
             let (b, ok) = v4::stress_factor(jbuf[q], v0, mu, lambda);
             good &= ok;
             jbuf[q] = b;
         }
         for (q, g) in chunk.iter().enumerate() {
-            let (v0, d) = if S::KEEP_WIDENED {
-                (vbuf[q], dbuf[q])
-            } else {
-                (S::load4(&g.vol), load9(g))
-            };
-            let a = _mm256_mul_pd(vmu, v0);
-            let h = v4::corner_forces(&fbuf[q], &cbuf[q], a, jbuf[q], &d);
+            let a = _mm256_mul_pd(vmu, vbuf[q]);
+            let h = v4::corner_forces(&fbuf[q], &cbuf[q], a, jbuf[q], &dbuf[q]);
             scatter4!(r, g.idx, h);
         }
     }

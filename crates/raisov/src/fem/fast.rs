@@ -1258,6 +1258,20 @@ pub(crate) fn ln_series(x: f64) -> f64 {
     e * LN2_HI + (2.0 * s + (t + e * LN2_LO))
 }
 
+/// Add `h[corner][component][lane]` into the force rows at `idx` (offsets into `r`),
+/// corner by corner, lane by lane: the order of the AVX2 kernels' scatter.
+#[inline(always)]
+unsafe fn scatter_portable(r: *mut f64, idx: &[[u32; LANES]; 4], h: &[[[f64; LANES]; 3]; 4]) {
+    for k in 0..4 {
+        for l in 0..LANES {
+            let n = idx[k][l] as usize;
+            *r.add(n) += h[k][0][l];
+            *r.add(n + 1) += h[k][1][l];
+            *r.add(n + 2) += h[k][2][l];
+        }
+    }
+}
+
 /// The positions kernel, portable: per lane `Ds`, `cof Ds`, `J = det Ds · k`,
 /// `c = w (λ ln J − μ)/J`, `H = Ds G + c cof Ds`; the same operations as
 /// [`run_positions_avx2`], the same bits.
@@ -1318,14 +1332,7 @@ unsafe fn run_positions(
                 h[0][i][l] = -s;
             }
         }
-        for k in 0..4 {
-            for l in 0..LANES {
-                let n = g.idx[k][l] as usize;
-                *r.add(n) += h[k][0][l];
-                *r.add(n + 1) += h[k][1][l];
-                *r.add(n + 2) += h[k][2][l];
-            }
-        }
+        scatter_portable(r, &g.idx, &h);
     }
     !bad
 }
@@ -1417,14 +1424,7 @@ unsafe fn run_groups<S: Store>(
         for &n in &neg {
             bad |= n;
         }
-        for k in 0..4 {
-            for l in 0..LANES {
-                let n = g.idx[k][l] as usize;
-                *r.add(n) += h[k][0][l];
-                *r.add(n + 1) += h[k][1][l];
-                *r.add(n + 2) += h[k][2][l];
-            }
-        }
+        scatter_portable(r, &g.idx, &h);
     }
     !bad
 }

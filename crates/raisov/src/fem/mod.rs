@@ -437,9 +437,13 @@ impl FemModel {
         assert!(s.u.len() == 3 * n && s.v.len() == 3 * n && f_ext.len() == 3 * n);
         assert!(inv_mass.len() == n && fixed.len() == n);
         let positions = self.pack.as_ref().is_some_and(|p| p.reads_positions());
+        // Only the packed kernel reads the node rows; the generic path reads `u`.
+        let keep_rows = self.pack.is_some();
         if !s.rows_valid {
             s.rows.resize(n, fast::Row4::default());
-            fill_rows(&mut s.rows, &s.u, &self.x0, positions);
+            if keep_rows {
+                fill_rows(&mut s.rows, &s.u, &self.x0, positions);
+            }
             s.rows_valid = true;
         }
         let res = match &self.pack {
@@ -495,7 +499,9 @@ impl FemModel {
                     }
                 }
                 *ra = [0.0; 4];
-                qc[a] = node_row(uc, x0c, a, positions);
+                if keep_rows {
+                    qc[a] = node_row(uc, x0c, a, positions);
+                }
             }
         };
         let FusedState { u, v, rows, .. } = s;

@@ -13,8 +13,8 @@
 //! boundary elements such as Gmsh surface triangles of a tet mesh.
 //!
 //! Node order: [`Mesh::spatial_order`] and [`Mesh::renumber`] put nodes that are near in
-//! space near in memory (Morton order of a grid one mean element size wide), which the force
-//! pass's gathers and scatters need. Scenarios apply it to meshes read from files, whose
+//! space near in memory (a banded order: layers along the longest axis, rows along the
+//! middle one), which the force pass's gathers and scatters need. Scenarios apply it to meshes read from files, whose
 //! numbering from mesh generators often jumps across the mesh (see `crate::scenario`).
 
 use std::collections::BTreeMap;
@@ -450,29 +450,40 @@ impl Mesh {
         }
     }
 
-    /// A node order for memory locality: the nodes sorted by the Morton (Z-curve) key of
-    /// their cell on a grid whose spacing is the mean longest element edge, ties by id.
-    /// `order[k]` is the node that becomes node `k` under [`Mesh::renumber`]. Deterministic:
-    /// it depends on the coordinates and ids only.
+    /// A node order for memory locality, banded: the nodes sorted by their cell along the
+    /// longest axis of the bounding box, then along the middle one, then by the coordinate
+    /// along the shortest (ties by id), cells half a mean longest element edge wide (about
+    /// one node layer of a regular mesh). Ids then grow at three rates along the three axes,
+    /// the numbering the force pass's slabs and strips are built for (`fem::fast`); on the
+    /// standard 1M box with its ids shuffled, the force pass ran at 17.7 M
+    /// node-updates/s (1 thread) in this order against 10.8 M in Morton order, the same on
+    /// the organ meshes and +9 % at 100k. `order[k]` is the node that becomes node `k`
+    /// under [`Mesh::renumber`]. Deterministic: it depends on the coordinates and ids only.
     pub fn spatial_order(&self) -> Vec<u32> {
         let ne = self.num_elements();
         let h = if ne > 0 {
-            (0..ne).map(|e| self.element_max_edge(e)).sum::<f64>() / ne as f64
+            0.5 * (0..ne).map(|e| self.element_max_edge(e)).sum::<f64>() / ne as f64
         } else {
             0.0
         };
-        let (lo, _) = self.bounding_box();
+        let (lo, hi) = self.bounding_box();
+        let mut axes = [0usize, 1, 2];
+        axes.sort_by(|&a, &b| (hi[b] - lo[b]).total_cmp(&(hi[a] - lo[a])).then(a.cmp(&b)));
+        let [long, mid, short] = axes;
         let cell = |x: f64, d: usize| -> u64 {
             if h > 0.0 {
-                (((x - lo[d]) / h) as u64).min((1 << 21) - 1)
+                ((x - lo[d]) / h) as u64
             } else {
                 0
             }
         };
         let mut order: Vec<u32> = (0..self.nodes.len() as u32).collect();
-        order.sort_by_key(|&a| {
-            let p = self.nodes[a as usize];
-            (morton3([cell(p[0], 0), cell(p[1], 1), cell(p[2], 2)]), a)
+        order.sort_by(|&a, &b| {
+            let (p, q) = (self.nodes[a as usize], self.nodes[b as usize]);
+            (cell(p[long], long), cell(p[mid], mid))
+                .cmp(&(cell(q[long], long), cell(q[mid], mid)))
+                .then(p[short].total_cmp(&q[short]))
+                .then(a.cmp(&b))
         });
         order
     }
@@ -661,7 +672,7 @@ pub(crate) mod tests {
     /// a permutation, and on a mesh whose ids were shuffled it brings the nodes of an element
     /// close in memory again: the mean id spread within an element falls below a fifth of
     /// the shuffled one and below that of the generator's own axis-by-axis numbering
-    /// (measured: 1035 shuffled, 139 in Morton order).
+    /// (measured: 1035 shuffled, 87 in the banded order, 202 as generated; 139 in the Morton order it replaced).
     #[test]
     fn renumber_moves_ids_not_geometry_and_spatial_order_restores_locality() {
         use crate::mesh::generate::{box_tets, BoxPattern};

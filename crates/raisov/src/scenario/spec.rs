@@ -13,7 +13,7 @@
 //! nodes = 186                     # target node count (rectangle, polygon, box)
 //! divisions = [10, 4, 4]          # box: cells per side instead of `nodes`
 //! pattern = 6                     # box: 5 or 6 tets per cube, default 6
-//! renumber = true                 # nodes in Morton order for the force pass's memory
+//! renumber = true                 # nodes in a banded order for the force pass's memory
 //!                                 # locality; default true for `file` (and the level files),
 //!                                 # false for `generate` (numbered along the axes). Node ids
 //!                                 # that a scenario or output shows stay the file's, and

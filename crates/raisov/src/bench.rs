@@ -14,9 +14,8 @@
 //! volumes stored in f32, arithmetic and state f64; tolerance in [`crate::fem::fast`]).
 //!
 //! Bytes moved per tet-step *by design* (compulsory traffic if every array is streamed once
-//! per step): the packed element data ([`Precision::bytes_per_tet`]: 65 B in f64: 4
-//! 16-bit id deltas and a quarter of the group's 4-byte base, the 6 entries of
-//! `G = μ V0 Dm⁻¹ Dm⁻ᵀ`, `det Dm⁻¹`; 56 B with f32 storage: 4 ids, 9 `Dm⁻¹` entries, the volume) plus, per node ([`bytes_per_node_step`]), the force pass
+//! per step): the packed element data ([`Precision::bytes_per_tet`]: 72 B in f64: 4 ids,
+//! the 6 entries of `G = μ V0 Dm⁻¹ Dm⁻ᵀ`, `det Dm⁻¹`; 56 B with f32 storage: 4 ids, 9 `Dm⁻¹` entries, the volume) plus, per node ([`bytes_per_node_step`]), the force pass
 //! reading the node row (32 B) and reading and writing the accumulator row (64 B), and the
 //! node pass reading `u, v, V` (72 B), the accumulator row (32 B), `X` (24 B, f64 only: the
 //! rows hold `X + u`), `1/m` (8 B), the fixed flag (1 B) and writing `u, v` (48 B), the
@@ -1231,9 +1230,9 @@ mod tests {
         assert_eq!(std_rows[1].precision, "f32-storage");
         let b = |r: &Row| r.bytes_per_tet_step.unwrap();
         let (n, t) = (std_rows[0].nodes as f64, std_rows[0].elements as f64);
-        // 65 B of element data per tet in f64 (narrow ids), 56 with f32 storage; 24 B per node
-        // more on the node side in f64 (the node pass reads X).
-        assert!((b(std_rows[0]) - b(std_rows[1]) - (9.0 + 24.0 * n / t)).abs() < 1e-9);
+        // 72 B of element data per tet in f64, 56 with f32 storage; 24 B per node more on the
+        // node side in f64 (the node pass reads X).
+        assert!((b(std_rows[0]) - b(std_rows[1]) - (16.0 + 24.0 * n / t)).abs() < 1e-9);
         // The flops by design at the measured rate stay under the measured FMA peak: a flop
         // count too high for the work done would show here.
         for r in &std_rows {

@@ -14,10 +14,8 @@
 //! ```
 //!
 //! (`V0 det Dm⁻¹ = 1/6`: the force model admits positively oriented tetrahedra only).
-//! `G` (6 entries, symmetric) and `det Dm⁻¹` are precomputed: 64 bytes per tetrahedron with
-//! the 4 corner ids as 16-bit deltas from a 4-byte base per group of 4 (65 bytes; 72 with
-//! 32-bit ids where a group's ids span more than 65535 nodes), 156 flops, against 96 bytes
-//! and 213 flops for `F = I + Du Dm⁻¹`,
+//! `G` (6 entries, symmetric) and `det Dm⁻¹` are precomputed: 72 bytes per tetrahedron with
+//! the 4 node offsets, 156 flops, against 96 bytes and 213 flops for `F = I + Du Dm⁻¹`,
 //! `cof F`, `V0 P`, `P Dm⁻ᵀ`. The node rows the kernel reads hold `X + u`, built by the
 //! force model from `u` (or kept by the fused step's node update). The rounding differs from
 //! the displacement form: `Ds` carries the rounding of `X + u` (an ulp of the coordinates,
@@ -59,7 +57,7 @@
 //! force pass alone this measured 2-8 % faster (1 thread, 10k to 1M nodes).
 //!
 //! Layout: elements packed in groups of [`LANES`] (structure of arrays inside a group: the
-//! element data and the corner ids lane-contiguous), sorted into slabs of equal element counts (by mean node id when the node
+//! element data and the corner offsets `4 × node id` lane-contiguous), sorted into slabs of equal element counts (by mean node id when the node
 //! numbering is banded, as for the structured boxes, so that a slab touches one contiguous
 //! stretch of `u` and `r`; else along the longest axis of the mesh) and, inside a slab, in
 //! strips one mean element extent wide across the axis of middle node-id growth (banded
@@ -79,7 +77,7 @@
 //! bits on 1 and 2 threads, no atomics.
 //!
 //! Precision ([`Precision`], chosen per model by [`super::FemParams::precision`]): f64
-//! storage (`Precision::F64`, the default) runs the positions kernel on 65 bytes per
+//! storage (`Precision::F64`, the default) runs the positions kernel on 72 bytes per
 //! tetrahedron; f32 storage (`Precision::F32Storage`) runs the displacements kernel with
 //! `Dm⁻¹` and the reference volume in f32 (4 × u32 offsets + 9 × f32 + 1 × f32, 56 bytes per
 //! tetrahedron). The f32 values are widened exactly to f64 on load (`_mm256_cvtps_pd`,
@@ -105,10 +103,9 @@ use rayon::prelude::*;
 /// Elements per SIMD group.
 pub const LANES: usize = 4;
 
-/// Bytes of element data the force pass streams per tetrahedron with f64 storage (16-bit id
-/// deltas, `G`, `det Dm⁻¹`, a quarter of the group's 4-byte base): 65. See
-/// [`Precision::bytes_per_tet`].
-pub const BYTES_PER_TET: usize = (std::mem::size_of::<PGroup<Narrow>>() + 4) / LANES;
+/// Bytes of element data the force pass streams per tetrahedron with f64 storage (ids, `G`,
+/// `det Dm⁻¹`): 72. See [`Precision::bytes_per_tet`].
+pub const BYTES_PER_TET: usize = std::mem::size_of::<PGroup>() / LANES;
 
 /// One node's row in the force pass's node arrays: `[x, y, z, 0]`, 32 bytes, aligned so
 /// that a row is one 256-bit load or store and never straddles a cache line.
@@ -121,7 +118,7 @@ pub struct Row4(pub [f64; 4]);
 /// what changes and the tolerance against f64.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Precision {
-    /// Everything in f64 (65 bytes of element data per tetrahedron, the positions kernel).
+    /// Everything in f64 (72 bytes of element data per tetrahedron, the positions kernel).
     /// The default.
     #[default]
     F64,
@@ -148,8 +145,7 @@ impl Precision {
         Precision::ALL.into_iter().find(|p| p.name() == s)
     }
 
-    /// Bytes of packed element data per tetrahedron: 65 (f64, 16-bit id deltas; 72 where the
-    /// packer falls back to 32-bit ids) or 56 (f32 storage).
+    /// Bytes of packed element data per tetrahedron: 72 (f64) or 56 (f32 storage).
     pub fn bytes_per_tet(self) -> usize {
         match self {
             Precision::F64 => BYTES_PER_TET,
@@ -226,70 +222,30 @@ pub(crate) struct Group<S: Store> {
 
 const _: () = assert!(std::mem::size_of::<Group<f32>>() == 4 * 56);
 
-/// Corner ids of a positions group, `[corner][lane]`: [`Narrow`] (node-id deltas from a
-/// per-group base kept beside the groups) when every group's ids span at most
-/// [`NARROW_SPAN`] nodes, else [`Wide`] (`4 × node id`).
-pub(crate) trait CornerIds: Copy + Send + Sync {
-    /// Whether the ids are deltas from a per-group base.
-    const DELTAS: bool;
-    /// Row offsets `4 × node id` (in f64 entries), `[corner][lane]`; `base` is the group's
-    /// `4 × smallest node id` for [`Narrow`], ignored for [`Wide`].
-    fn offsets(&self, base: u32) -> [[usize; LANES]; 4];
-}
-
-/// Node-id deltas from the group's base (2 bytes per corner).
-pub(crate) type Narrow = [[u16; LANES]; 4];
-/// Offsets `4 × node id` (4 bytes per corner).
-pub(crate) type Wide = [[u32; LANES]; 4];
-
-/// The largest node-id spread of a group that [`Narrow`] holds.
-const NARROW_SPAN: u32 = u16::MAX as u32;
-
-impl CornerIds for Narrow {
-    const DELTAS: bool = true;
-    #[inline(always)]
-    fn offsets(&self, base: u32) -> [[usize; LANES]; 4] {
-        std::array::from_fn(|k| std::array::from_fn(|l| base as usize + 4 * self[k][l] as usize))
-    }
-}
-
-impl CornerIds for Wide {
-    const DELTAS: bool = false;
-    #[inline(always)]
-    fn offsets(&self, _base: u32) -> [[usize; LANES]; 4] {
-        std::array::from_fn(|k| std::array::from_fn(|l| self[k][l] as usize))
-    }
-}
-
-/// `V0 det Dm⁻¹ = 1/6` of every tetrahedron (the force model admits positively oriented
-/// ones only), the factor of `c = (λ ln J − μ) / (6 J)`.
-const W: f64 = 1.0 / 6.0;
-
 /// One group of `LANES` tetrahedra of the positions kernel (f64 storage), structure of
-/// arrays: stage A reads `ids` and `k`, stage B `k`, stage C `g` and `ids`. Padding lanes
-/// have `k = 0` and `G = 0` (zero force).
+/// arrays. The fields a stage reads first come first: stage A reads `idx` and `k`, stage B
+/// `k`, stage C `g` and `idx`. 288 bytes, aligned to 32 (so groups straddle cache lines).
 #[derive(Clone, Copy)]
 #[repr(C, align(32))]
-pub(crate) struct PGroup<I> {
-    /// The corners, `[corner][lane]`.
-    ids: I,
+pub(crate) struct PGroup {
+    /// Offsets `4 × node id` of the corners into the node rows, `idx[corner][lane]`.
+    idx: [[u32; LANES]; 4],
     /// `det Dm⁻¹ = 1 / det Dm > 0`, so that `J = det Ds · k` (0 for padding lanes).
     k: [f64; LANES],
     /// `G = μ V0 Dm⁻¹ Dm⁻ᵀ` (symmetric): `G00, G01, G02, G11, G12, G22` (0 for padding lanes).
     g: [[f64; LANES]; 6],
 }
 
-const _: () = assert!(std::mem::size_of::<PGroup<Narrow>>() == 4 * 64);
-const _: () = assert!(std::mem::size_of::<PGroup<Wide>>() == 4 * 72);
+const _: () = assert!(std::mem::size_of::<PGroup>() == 4 * 72);
+
+/// `V0 det Dm⁻¹ = 1/6` of every tetrahedron (the force model admits positively oriented
+/// ones only), the factor of `c = (λ ln J − μ) / (6 J)`.
+const W: f64 = 1.0 / 6.0;
 
 /// The packed groups in one of the storage precisions.
 enum Groups {
-    /// Positions kernel, corner ids as deltas from the bases (`4 × smallest node id`, one
-    /// per group).
-    F64(Vec<PGroup<Narrow>>, Vec<u32>),
-    /// Positions kernel, corner ids as offsets (some group spans more than [`NARROW_SPAN`]
-    /// nodes).
-    F64Wide(Vec<PGroup<Wide>>),
+    /// Positions kernel.
+    F64(Vec<PGroup>),
     /// Displacements kernel, `Dm⁻¹` and `V0` in f32.
     F32(Vec<Group<f32>>),
 }
@@ -547,13 +503,7 @@ impl TetPack {
             .collect();
         let (lanes, slab_ptr) = group_lanes(&slabs_in_order);
         let groups = match precision {
-            Precision::F64 if narrow_fits(&lanes, cells, vol) => {
-                let (g, bases) = pack_position_groups(&lanes, mu, cells, dminv, vol, narrow_ids);
-                Groups::F64(g, bases)
-            }
-            Precision::F64 => Groups::F64Wide(
-                pack_position_groups(&lanes, mu, cells, dminv, vol, |idx| (*idx, 0)).0,
-            ),
+            Precision::F64 => Groups::F64(pack_position_groups(&lanes, mu, cells, dminv, vol)),
             Precision::F32Storage => {
                 Groups::F32(pack_displacement_groups(&lanes, cells, dminv, vol))
             }
@@ -577,8 +527,7 @@ impl TetPack {
     /// Bytes of the packed element data.
     pub(crate) fn bytes(&self) -> usize {
         match &self.groups {
-            Groups::F64(g, b) => std::mem::size_of_val(&g[..]) + std::mem::size_of_val(&b[..]),
-            Groups::F64Wide(g) => std::mem::size_of_val(&g[..]),
+            Groups::F64(g) => std::mem::size_of_val(&g[..]),
             Groups::F32(g) => std::mem::size_of_val(&g[..]),
         }
     }
@@ -586,7 +535,7 @@ impl TetPack {
     /// Storage precision of the element data.
     pub(crate) fn precision(&self) -> Precision {
         match self.groups {
-            Groups::F64(..) | Groups::F64Wide(_) => Precision::F64,
+            Groups::F64(_) => Precision::F64,
             Groups::F32(_) => Precision::F32Storage,
         }
     }
@@ -594,7 +543,7 @@ impl TetPack {
     /// Whether the node rows given to [`TetPack::accumulate`] hold positions `X + u` (f64
     /// storage: the positions kernel) or displacements `u` (f32 storage).
     pub(crate) fn reads_positions(&self) -> bool {
-        matches!(self.groups, Groups::F64(..) | Groups::F64Wide(_))
+        matches!(self.groups, Groups::F64(_))
     }
 
     /// `r += R` for the node rows `q`, positions or displacements as
@@ -627,30 +576,6 @@ impl TetPack {
         good
     }
 
-    /// Store the corner ids as [`Wide`] offsets, as the packer does when some group spans
-    /// more than [`NARROW_SPAN`] nodes (tests compare the two).
-    #[cfg(test)]
-    pub(crate) fn widen(&mut self) {
-        if let Groups::F64(g, bases) = &self.groups {
-            let wide = g
-                .iter()
-                .zip(bases)
-                .map(|(g, &b)| PGroup {
-                    ids: g.ids.offsets(b).map(|c| c.map(|o| o as u32)),
-                    k: g.k,
-                    g: g.g,
-                })
-                .collect();
-            self.groups = Groups::F64Wide(wide);
-        }
-    }
-
-    /// Whether the corner ids are stored as [`Narrow`] deltas.
-    #[cfg(test)]
-    pub(crate) fn narrow(&self) -> bool {
-        matches!(self.groups, Groups::F64(..))
-    }
-
     /// Use a lower instruction set than detected (tests compare the kernels).
     #[cfg(test)]
     pub(crate) fn force_isa(&mut self, isa: u8) {
@@ -669,19 +594,12 @@ impl TetPack {
         let qp = q.as_ptr() as *const f64;
         let (mu, lambda) = (self.mu, self.lambda);
         match &self.groups {
-            Groups::F64(g, bases) => {
+            Groups::F64(g) => {
                 #[cfg(target_arch = "x86_64")]
                 if self.isa == 1 {
-                    return run_positions_avx2(&g[a..b], &bases[a..b], qp, r.0, mu, lambda);
+                    return run_positions_avx2(&g[a..b], qp, r.0, mu, lambda);
                 }
-                run_positions(&g[a..b], &bases[a..b], qp, r.0, mu, lambda)
-            }
-            Groups::F64Wide(g) => {
-                #[cfg(target_arch = "x86_64")]
-                if self.isa == 1 {
-                    return run_positions_avx2(&g[a..b], &[], qp, r.0, mu, lambda);
-                }
-                run_positions(&g[a..b], &[], qp, r.0, mu, lambda)
+                run_positions(&g[a..b], qp, r.0, mu, lambda)
             }
             Groups::F32(g) => {
                 #[cfg(target_arch = "x86_64")]
@@ -750,67 +668,44 @@ fn lane_elements(
     (idx, ev)
 }
 
-/// Whether every group's corner ids span at most [`NARROW_SPAN`] nodes.
-fn narrow_fits(lanes: &[[Option<u32>; LANES]], cells: &[u32], vol: &[f64]) -> bool {
-    lanes.iter().all(|gl| {
-        let (idx, _) = lane_elements(gl, cells, vol);
-        let all = idx.as_flattened();
-        let (lo, hi) = (all.iter().min(), all.iter().max());
-        (hi.unwrap_or(&0) - lo.unwrap_or(&0)) / 4 <= NARROW_SPAN
-    })
-}
-
-/// Groups of the positions kernel with ids as `I` (and, for [`Narrow`], the bases). Every
-/// tetrahedron has `det Dm > 0` (the force model rejects the others), so `V0 det Dm⁻¹ = 1/6`
-/// ([`W`]). Padding lanes repeat the group's first element with `k = 0` and `G = 0`: zero
-/// force.
-fn pack_position_groups<I: CornerIds>(
+/// Groups of the positions kernel. Padding lanes repeat the group's first element with
+/// `k = 0` and `G = 0`: zero force.
+fn pack_position_groups(
     lanes: &[[Option<u32>; LANES]],
     mu: f64,
     cells: &[u32],
     dminv: &[f64],
     vol: &[f64],
-    ids: impl Fn(&[[u32; LANES]; 4]) -> (I, u32),
-) -> (Vec<PGroup<I>>, Vec<u32>) {
-    let mut bases = Vec::with_capacity(if I::DELTAS { lanes.len() } else { 0 });
-    let groups = lanes
+) -> Vec<PGroup> {
+    lanes
         .iter()
         .map(|gl| {
             let (idx, ev) = lane_elements(gl, cells, vol);
-            let mut k = [0.0; LANES];
-            let mut g = [[0.0; LANES]; 6];
+            let mut g = PGroup {
+                idx,
+                k: [0.0; LANES],
+                g: [[0.0; LANES]; 6],
+            };
             for (l, &(e, v0)) in ev.iter().enumerate() {
+                let d = |r: usize, c: usize| dm_inv(dminv, e, r, c);
+                let det = d(0, 0) * (d(1, 1) * d(2, 2) - d(1, 2) * d(2, 1))
+                    - d(0, 1) * (d(1, 0) * d(2, 2) - d(1, 2) * d(2, 0))
+                    + d(0, 2) * (d(1, 0) * d(2, 1) - d(1, 1) * d(2, 0));
                 if gl[l].is_none() {
                     continue;
                 }
-                let d = |r: usize, c: usize| dm_inv(dminv, e, r, c);
-                k[l] = d(0, 0) * (d(1, 1) * d(2, 2) - d(1, 2) * d(2, 1))
-                    - d(0, 1) * (d(1, 0) * d(2, 2) - d(1, 2) * d(2, 0))
-                    + d(0, 2) * (d(1, 0) * d(2, 1) - d(1, 1) * d(2, 0));
-                debug_assert!(k[l] > 0.0, "the force model admits positive elements only");
+                debug_assert!(det > 0.0, "the force model admits positive elements only");
+                g.k[l] = det;
                 for (t, (m, n)) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
                     .into_iter()
                     .enumerate()
                 {
-                    g[t][l] = mu * v0 * (0..3).map(|c| d(m, c) * d(n, c)).sum::<f64>();
+                    g.g[t][l] = mu * v0 * (0..3).map(|c| d(m, c) * d(n, c)).sum::<f64>();
                 }
             }
-            let (ids, base) = ids(&idx);
-            if I::DELTAS {
-                bases.push(base);
-            }
-            PGroup { ids, k, g }
+            g
         })
-        .collect();
-    (groups, bases)
-}
-
-/// [`Narrow`] ids and the base `4 × smallest node id` (the spread is checked by
-/// [`narrow_fits`]).
-fn narrow_ids(idx: &[[u32; LANES]; 4]) -> (Narrow, u32) {
-    let base = *idx.as_flattened().iter().min().expect("16 ids");
-    let ids = std::array::from_fn(|k| std::array::from_fn(|l| ((idx[k][l] - base) / 4) as u16));
-    (ids, base)
+        .collect()
 }
 
 /// Groups of the displacements kernel (f32 storage). Padding lanes repeat the group's first
@@ -1173,7 +1068,7 @@ unsafe fn run_groups_avx2<S: Store>(
 }
 
 /// Element data prefetched this many blocks of [`BLK`] groups ahead by the positions kernel.
-/// Its stages read a group's lines out of order (`ids` and `k` in stage A, `k` again in B,
+/// Its stages read a group's lines out of order (`idx` and `k` in stage A, `k` again in B,
 /// `G` in C), which the hardware prefetcher does not follow: the force pass alone on the 100k
 /// standard box (1 thread) ran at 17.7-19.9 M node-evaluations/s without the software
 /// prefetch and 28.2-28.5 M with it (1 block ahead 27.2 M, 4 blocks 27.7 M); at 1M, 21.0 M
@@ -1187,9 +1082,8 @@ const PREFETCH_BLOCKS: usize = 2;
 /// [`run_positions`], same bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn run_positions_avx2<I: CornerIds>(
-    groups: &[PGroup<I>],
-    bases: &[u32],
+unsafe fn run_positions_avx2(
+    groups: &[PGroup],
     xp: *const f64,
     r: *mut f64,
     mu: f64,
@@ -1201,25 +1095,17 @@ unsafe fn run_positions_avx2<I: CornerIds>(
     let mut sbuf = [[zero; 9]; BLK];
     let mut cbuf = [[zero; 9]; BLK];
     let mut jbuf = [zero; BLK];
-    let lines = (BLK * std::mem::size_of::<PGroup<I>>()).div_ceil(64);
-    let base = |i: usize| {
-        if I::DELTAS {
-            *bases.get_unchecked(i)
-        } else {
-            0
-        }
-    };
+    const LINES: usize = (BLK * std::mem::size_of::<PGroup>()).div_ceil(64);
     for (bi, chunk) in groups.chunks(BLK).enumerate() {
         let ahead = (bi + PREFETCH_BLOCKS) * BLK;
         if ahead + BLK <= groups.len() {
             let p0 = groups.as_ptr().add(ahead) as *const i8;
-            for line in 0..lines {
+            for line in 0..LINES {
                 _mm_prefetch::<_MM_HINT_T0>(p0.add(64 * line));
             }
         }
         for (q, g) in chunk.iter().enumerate() {
-            let idx = g.ids.offsets(base(bi * BLK + q));
-            let (cx, cy, cz) = gather4!(xp, idx);
+            let (cx, cy, cz) = gather4!(xp, g.idx);
             // Ds row-major: ds[3 i + m] = x_{m+1, i} − x_{0, i}.
             let ds: [__m256d; 9] = [
                 _mm256_sub_pd(cx[1], cx[0]),
@@ -1277,8 +1163,7 @@ unsafe fn run_positions_avx2<I: CornerIds>(
                 }
                 h[0][i] = _mm256_xor_pd(acc, _mm256_set1_pd(-0.0));
             }
-            let idx = g.ids.offsets(base(bi * BLK + q));
-            scatter4!(r, idx, h);
+            scatter4!(r, g.idx, h);
         }
     }
     good == 0xf
@@ -1383,10 +1268,10 @@ pub(crate) fn ln_series(x: f64) -> f64 {
 /// Add `h[corner][component][lane]` into the force rows at `idx` (offsets into `r`),
 /// corner by corner, lane by lane: the order of the AVX2 kernels' scatter.
 #[inline(always)]
-unsafe fn scatter_portable(r: *mut f64, idx: &[[usize; LANES]; 4], h: &[[[f64; LANES]; 3]; 4]) {
+unsafe fn scatter_portable(r: *mut f64, idx: &[[u32; LANES]; 4], h: &[[[f64; LANES]; 3]; 4]) {
     for k in 0..4 {
         for l in 0..LANES {
-            let n = idx[k][l];
+            let n = idx[k][l] as usize;
             *r.add(n) += h[k][0][l];
             *r.add(n + 1) += h[k][1][l];
             *r.add(n + 2) += h[k][2][l];
@@ -1398,20 +1283,18 @@ unsafe fn scatter_portable(r: *mut f64, idx: &[[usize; LANES]; 4], h: &[[[f64; L
 /// `c = w (λ ln J − μ)/J`, `H = Ds G + c cof Ds`; the same operations as
 /// [`run_positions_avx2`], the same bits.
 #[inline(always)]
-unsafe fn run_positions<I: CornerIds>(
-    groups: &[PGroup<I>],
-    bases: &[u32],
+unsafe fn run_positions(
+    groups: &[PGroup],
     x: *const f64,
     r: *mut f64,
     mu: f64,
     lambda: f64,
 ) -> bool {
     let mut bad = false;
-    for (gi, g) in groups.iter().enumerate() {
-        let idx = g.ids.offsets(if I::DELTAS { bases[gi] } else { 0 });
+    for g in groups {
         let mut h = [[[0.0f64; LANES]; 3]; 4]; // h[corner][component][lane]
         for l in 0..LANES {
-            let p = |k: usize, i: usize| *x.add(idx[k][l] + i);
+            let p = |k: usize, i: usize| *x.add(g.idx[k][l] as usize + i);
             let ds: [f64; 9] = std::array::from_fn(|q| p(q % 3 + 1, q / 3) - p(0, q / 3));
             let [f00, f01, f02, f10, f11, f12, f20, f21, f22] = ds;
             let c = [
@@ -1462,7 +1345,7 @@ unsafe fn run_positions<I: CornerIds>(
                 h[0][i][l] = -s;
             }
         }
-        scatter_portable(r, &idx, &h);
+        scatter_portable(r, &g.idx, &h);
     }
     !bad
 }
@@ -1554,7 +1437,7 @@ unsafe fn run_groups<S: Store>(
         for &n in &neg {
             bad |= n;
         }
-        scatter_portable(r, &g.idx.offsets(0), &h);
+        scatter_portable(r, &g.idx, &h);
     }
     !bad
 }

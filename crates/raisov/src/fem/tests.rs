@@ -411,52 +411,6 @@ fn packed_kernel_paths_agree() {
     }
 }
 
-/// The positions kernel's element layouts, corner ids as 16-bit deltas from a per-group base
-/// (what the packer picks when every group's ids span at most 65535 nodes) and as 32-bit
-/// offsets, give the same bits, AVX2 and portable, within 1e-12 of the largest entry of
-/// the generic path's forces, on a mesh in the generator's numbering and on the same mesh
-/// with its ids shuffled (groups spanning the whole mesh).
-#[test]
-fn positions_kernel_id_layouts_agree() {
-    use crate::mesh::generate::{box_tets, BoxPattern};
-    let pos = box_tets([0.1, 0.04, 0.04], [20, 8, 8], BoxPattern::Five).unwrap();
-    let mut shuffled = pos.clone();
-    shuffled.renumber(&crate::mesh::tests::shuffled_order(shuffled.num_nodes()));
-    let n = pos.num_nodes();
-    let u = random_u(n, 0.2 * pos.edge_range().0, 7);
-    let params = || {
-        let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
-        p.slab = 128;
-        p
-    };
-    for mesh in [&pos, &shuffled] {
-        let mut model = FemModel::new(mesh, params()).unwrap();
-        let mut r_ref = vec![0.0; 3 * n];
-        model.internal_forces_reference(&u, &mut r_ref).unwrap();
-        let scale = r_ref.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        assert!(model.pack.as_ref().unwrap().narrow());
-        let mut runs = Vec::new();
-        for wide in [false, true] {
-            if wide {
-                model.pack.as_mut().unwrap().widen();
-                assert!(!model.pack.as_ref().unwrap().narrow());
-            }
-            for isa in [1, 0] {
-                model.pack.as_mut().unwrap().force_isa(isa);
-                let mut r = vec![0.0; 3 * n];
-                model.internal_forces(&u, &mut r).unwrap();
-                runs.push(r);
-            }
-        }
-        for r in &runs[1..] {
-            assert_eq!(&runs[0], r, "layouts or kernels differ");
-        }
-        for (a, b) in runs[0].iter().zip(&r_ref) {
-            assert!((a - b).abs() <= 1e-12 * scale, "{a} vs {b}");
-        }
-    }
-}
-
 /// The stated tolerance of f32 storage against f64 (see [`fast`]): relative in the 2-norm of
 /// the force vector, and per entry relative to the largest entry.
 pub(crate) const F32_STORAGE_TOL: f64 = 1e-6;

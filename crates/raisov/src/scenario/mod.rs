@@ -4,7 +4,7 @@
 //! Units are SI throughout. Paths inside a scenario are relative to the scenario file.
 //!
 //! Node order: a mesh read from a file is renumbered once at load ([`Mesh::spatial_order`],
-//! a banded order: layers along the longest axis, rows along the middle one; `[mesh]
+//! a banded order: layers across the shortest axis, rows along the longest one; `[mesh]
 //! renumber = false` keeps the file's order; level files follow the same key) so that the
 //! force pass's gathers and scatters find nearby nodes near in memory; files from mesh
 //! generators often number nodes in an order that jumps across the mesh. Measured when
@@ -13,9 +13,9 @@
 //! L0 22.8-23.0 M and 24.2-24.3 M; the standard 100k box with its nodes shuffled at random,
 //! 2 threads, 29.7-30.0 M and 37.5-38.0 M (40.6 M as generated). The liver grasp example on
 //! liver L0 (0.2 s): 4.19-4.24 s against 4.56-4.62 s on 1 thread, the same printed results.
-//! The banded order replaced Morton's when the 1M box, shuffled, ran at 10.8 M
-//! node-updates/s in Morton order and 19.4 M banded (1 thread; 100k: 19.5 M and 21.8 M;
-//! liver and heart L0 within 1 % of each other). What the user sees
+//! The banded order replaced Morton's when the 1M box, shuffled, ran at 11.1 M
+//! node-updates/s in Morton order and 20.1 M banded (1 thread; 100k: 21.5 M and 24.8 M;
+//! liver and heart L0 within 3 % of each other). What the user sees
 //! keeps the file's ids: `nodes = [..]` selectors, `nodal_stress.csv` (rows in file order),
 //! the `file_node_id` point field of the frames, the node named by `raisov inspect`
 //! ([`Scenario::file_ids`]). Nor do results follow the numbering beyond round-off: the FAS

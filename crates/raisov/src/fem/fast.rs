@@ -687,13 +687,13 @@ fn pack_position_groups(
                 g: [[0.0; LANES]; 6],
             };
             for (l, &(e, v0)) in ev.iter().enumerate() {
+                if gl[l].is_none() {
+                    continue; // padding lane: k = 0, G = 0
+                }
                 let d = |r: usize, c: usize| dm_inv(dminv, e, r, c);
                 let det = d(0, 0) * (d(1, 1) * d(2, 2) - d(1, 2) * d(2, 1))
                     - d(0, 1) * (d(1, 0) * d(2, 2) - d(1, 2) * d(2, 0))
                     + d(0, 2) * (d(1, 0) * d(2, 1) - d(1, 1) * d(2, 0));
-                if gl[l].is_none() {
-                    continue;
-                }
                 debug_assert!(det > 0.0, "the force model admits positive elements only");
                 g.k[l] = det;
                 for (t, (m, n)) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]

@@ -15,7 +15,8 @@
 //!
 //! Bytes moved per tet-step *by design* (compulsory traffic if every array is streamed once
 //! per step): the packed element data ([`Precision::bytes_per_tet`]: 72 B in f64: 4 ids,
-//! the 6 entries of `G = μ V0 Dm⁻¹ Dm⁻ᵀ`, `det Dm⁻¹`; 56 B with f32 storage: 4 ids, 9 `Dm⁻¹` entries, the volume) plus, per node ([`bytes_per_node_step`]), the force pass
+//! the 6 entries of `G = μ V0 Dm⁻¹ Dm⁻ᵀ`, `det Dm⁻¹`; 56 B with f32 storage: 4 ids, 9
+//! `Dm⁻¹` entries, the volume) plus, per node ([`bytes_per_node_step`]), the force pass
 //! reading the node row (32 B) and reading and writing the accumulator row (64 B), and the
 //! node pass reading `u, v, V` (72 B), the accumulator row (32 B), `X` (24 B, f64 only: the
 //! rows hold `X + u`), `1/m` (8 B), the fixed flag (1 B) and writing `u, v` (48 B), the
@@ -27,7 +28,7 @@
 //! Floating-point operations per tet-step *by design*, counted in the kernel's source (a fused
 //! multiply-add counts 2, a division 1; comparisons, blends, sign flips, shuffles and
 //! conversions 0), [`flops_per_tet`]: in f64 (the positions kernel) 156 for the force (`Ds`
-//! 9, `cof Ds` and `det Ds` 32, `J` 1, `w (λ ln J − μ)/J` with the near-1 series 30,
+//! 9, `cof Ds` and `det Ds` 32, `J` 1, `(λ ln J − μ)/(6 J)` with the near-1 series 30,
 //! `H = Ds G + c cof Ds` 63, `R_0` 9, the scatter 12); with f32 storage (the displacements
 //! kernel) 213 (`Du` 9, `F` 48, `cof F` and `J` 32, `V0 (λ ln J − μ)/J` 30, `V0 P` and `H`
 //! 82, the scatter 12); plus

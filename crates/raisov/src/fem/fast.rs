@@ -1078,7 +1078,7 @@ const PREFETCH_BLOCKS: usize = 2;
 
 /// The positions kernel with AVX2 + FMA intrinsics, 4 lanes per group, in three stages over
 /// a block of [`BLK`] groups as [`run_groups_avx2`]: (A) gather, `Ds`, `cof Ds`, `J`;
-/// (B) `c = w (λ ln J − μ)/J`; (C) `H = Ds G + c cof Ds`, scatter. Same operations as
+/// (B) `c = (λ ln J − μ)/(6 J)`; (C) `H = Ds G + c cof Ds`, scatter. Same operations as
 /// [`run_positions`], same bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
@@ -1280,7 +1280,7 @@ unsafe fn scatter_portable(r: *mut f64, idx: &[[u32; LANES]; 4], h: &[[[f64; LAN
 }
 
 /// The positions kernel, portable: per lane `Ds`, `cof Ds`, `J = det Ds · k`,
-/// `c = w (λ ln J − μ)/J`, `H = Ds G + c cof Ds`; the same operations as
+/// `c = (λ ln J − μ)/(6 J)`, `H = Ds G + c cof Ds`; the same operations as
 /// [`run_positions_avx2`], the same bits.
 #[inline(always)]
 unsafe fn run_positions(

@@ -14,8 +14,9 @@
 //!
 //! Node order: [`Mesh::spatial_order`] and [`Mesh::renumber`] put nodes that are near in
 //! space near in memory (a banded order: layers across the shortest axis, rows along the
-//! longest one), which the force pass's gathers and scatters need. Scenarios apply it to meshes read from files, whose
-//! numbering from mesh generators often jumps across the mesh (see `crate::scenario`).
+//! longest one), which the force pass's gathers and scatters need. Scenarios apply it to
+//! meshes read from files, whose numbering from mesh generators often jumps across the mesh
+//! (see `crate::scenario`).
 
 use std::collections::BTreeMap;
 

@@ -17,7 +17,7 @@
 //! `G` (6 entries, symmetric) and `det Dm⁻¹` are precomputed: 72 bytes per tetrahedron with
 //! the 4 node offsets, 156 flops, against 96 bytes and 213 flops for `F = I + Du Dm⁻¹`,
 //! `cof F`, `V0 P`, `P Dm⁻ᵀ`. The node rows the kernel reads hold `X + u`, built by the
-//! force model from `u` (or kept by the fused step's node update). The rounding differs from
+//! force model from `u` (or advanced in place by the fused step's node update). The rounding differs from
 //! the displacement form: `Ds` carries the rounding of `X + u` (an ulp of the coordinates,
 //! relative `ulp(|X|) / h` to an edge of length `h`), so where the displacement form's `F − I`
 //! is exact to the last bit the positions form is within about `1e-14` of the strain on the

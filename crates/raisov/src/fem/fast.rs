@@ -48,7 +48,8 @@
 //! bits. The AVX2 kernels split the work over a block of `BLK` = 4 groups into three stages,
 //! (A) gather, the deformation, its cofactor and `J`, (B) the `ln J` factor, (C) `H` and the
 //! scatter, so that the independent groups of a block overlap in the core; the positions
-//! kernel prefetches the element data [`PREFETCH_BLOCKS`] blocks ahead.
+//! kernel prefetches the element data [`PREFETCH_BLOCKS`] blocks ahead into L1 and
+//! [`PREFETCH_L2_BLOCKS`] ahead into L2.
 //!
 //! Node rows: the kernels read node values from, and accumulate forces into, rows of 32
 //! bytes `[x, y, z, 0]` ([`Row4`], aligned): one 256-bit load per corner and lane and a 4 × 4
@@ -1076,6 +1077,14 @@ unsafe fn run_groups_avx2<S: Store>(
 /// line of a group in stage A, measured no gain from it (this session and earlier ones).
 const PREFETCH_BLOCKS: usize = 2;
 
+/// A second prefetch of the element data, into L2 only, this many blocks ahead: out of
+/// cache the first, 2 blocks ahead, comes too late for part of the stream (`perf` on the 1M
+/// box: loads of a group's `idx` and `G` took 2.2x their in-cache share of the samples).
+/// Fused step, alternated with the build without it (node-updates/s): 1M box 20.8-21.1 M to
+/// 21.6-22.4 M on 1 thread and 38.6-39.9 M to 40.0-41.8 M on 2 (4 to 8 blocks ahead alike,
+/// 12 to 48 less); 10k and 100k unchanged within noise.
+const PREFETCH_L2_BLOCKS: usize = 6;
+
 /// The positions kernel with AVX2 + FMA intrinsics, 4 lanes per group, in three stages over
 /// a block of [`BLK`] groups as [`run_groups_avx2`]: (A) gather, `Ds`, `cof Ds`, `J`;
 /// (B) `c = (λ ln J − μ)/(6 J)`; (C) `H = Ds G + c cof Ds`, scatter. Same operations as
@@ -1102,6 +1111,13 @@ unsafe fn run_positions_avx2(
             let p0 = groups.as_ptr().add(ahead) as *const i8;
             for line in 0..LINES {
                 _mm_prefetch::<_MM_HINT_T0>(p0.add(64 * line));
+            }
+        }
+        let ahead = (bi + PREFETCH_L2_BLOCKS) * BLK;
+        if ahead + BLK <= groups.len() {
+            let p0 = groups.as_ptr().add(ahead) as *const i8;
+            for line in 0..LINES {
+                _mm_prefetch::<_MM_HINT_T1>(p0.add(64 * line));
             }
         }
         for (q, g) in chunk.iter().enumerate() {

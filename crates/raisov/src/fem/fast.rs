@@ -49,7 +49,9 @@
 //! (A) gather, the deformation, its cofactor and `J`, (B) the `ln J` factor, (C) `H` and the
 //! scatter, so that the independent groups of a block overlap in the core; the positions
 //! kernel prefetches the element data [`PREFETCH_BLOCKS`] blocks ahead into L1 and
-//! [`PREFETCH_L2_BLOCKS`] ahead into L2.
+//! [`PREFETCH_L2_BLOCKS`] ahead into L2 and, out of cache, the node and force rows a slab
+//! is about to touch for the first time, from a schedule built at packing
+//! ([`ROW_PREFETCH_BLOCKS`]).
 //!
 //! Node rows: the kernels read node values from, and accumulate forces into, rows of 32
 //! bytes `[x, y, z, 0]` ([`Row4`], aligned): one 256-bit load per corner and lane and a 4 × 4
@@ -263,6 +265,12 @@ pub(crate) struct TetPack {
     n_nodes: usize,
     /// Instruction set of the kernel: 0 portable, 1 AVX2 + FMA.
     isa: u8,
+    /// Row prefetch schedule ([`row_prefetch_schedule`]): the first block of each slab in
+    /// the global block numbering, and per block the 64-byte lines of node and force rows
+    /// to prefetch (`rows_pf[rows_pf_ptr[b]..rows_pf_ptr[b + 1]]`, line = node id / 2).
+    block_base: Vec<usize>,
+    rows_pf_ptr: Vec<u32>,
+    rows_pf: Vec<u32>,
 }
 
 /// Number of slabs for `wanted` slabs' worth of elements when at most `max` fit: 1 (serial)
@@ -509,6 +517,20 @@ impl TetPack {
                 Groups::F32(pack_displacement_groups(&lanes, cells, dminv, vol))
             }
         };
+        // Row prefetch only out of cache (it costs 3-8 % where the rows come from L3).
+        let footprint = match &groups {
+            Groups::F64(g) => std::mem::size_of_val(&g[..]),
+            Groups::F32(g) => std::mem::size_of_val(&g[..]),
+        } + 2 * std::mem::size_of::<Row4>() * n_nodes;
+        let dist = if footprint > 2 * l3_bytes() {
+            ROW_PREFETCH_BLOCKS
+        } else {
+            0
+        };
+        let (block_base, rows_pf_ptr, rows_pf) = match &groups {
+            Groups::F64(g) => row_prefetch_schedule(|i| g[i].idx, &slab_ptr, n_nodes, dist),
+            Groups::F32(_) => row_prefetch_schedule(|_| [[0; LANES]; 4], &slab_ptr, 0, 0),
+        };
         TetPack {
             mu,
             lambda,
@@ -517,6 +539,9 @@ impl TetPack {
             colour_ptr,
             n_nodes,
             isa: detect_isa(),
+            block_base,
+            rows_pf_ptr,
+            rows_pf,
         }
     }
 
@@ -577,6 +602,21 @@ impl TetPack {
         good
     }
 
+    /// Rebuild the row prefetch schedule `dist` blocks ahead whatever the footprint (tests
+    /// run the kernels with it on small meshes).
+    #[cfg(test)]
+    pub(crate) fn force_row_prefetch(&mut self, dist: usize) {
+        let (block_base, ptr, lines) = match &self.groups {
+            Groups::F64(g) => {
+                row_prefetch_schedule(|i| g[i].idx, &self.slab_ptr, self.n_nodes, dist)
+            }
+            Groups::F32(_) => return,
+        };
+        self.block_base = block_base;
+        self.rows_pf_ptr = ptr;
+        self.rows_pf = lines;
+    }
+
     /// Use a lower instruction set than detected (tests compare the kernels).
     #[cfg(test)]
     pub(crate) fn force_isa(&mut self, isa: u8) {
@@ -598,7 +638,8 @@ impl TetPack {
             Groups::F64(g) => {
                 #[cfg(target_arch = "x86_64")]
                 if self.isa == 1 {
-                    return run_positions_avx2(&g[a..b], qp, r.0, mu, lambda);
+                    let pf = &self.rows_pf_ptr[self.block_base[s]..=self.block_base[s + 1]];
+                    return run_positions_avx2(&g[a..b], (pf, &self.rows_pf), qp, r.0, mu, lambda);
                 }
                 run_positions(&g[a..b], qp, r.0, mu, lambda)
             }
@@ -611,6 +652,88 @@ impl TetPack {
             }
         }
     }
+}
+
+/// Blocks ahead of its first use in a slab that a node row's cache line is prefetched
+/// ([`row_prefetch_schedule`]), when the element data and the two row arrays together
+/// exceed twice the last-level cache ([`l3_bytes`]). The hardware prefetcher follows the
+/// rows' streams (one per layer of nodes a slab spans) too late out of cache: `perf` on the
+/// 1M box showed the gathers and the scatters' loads at 2-3x their in-cache share of the
+/// samples. Fused step, node-updates/s, alternated with the schedule off: 1M box 20.8-21.5 M
+/// to 22.2-23.2 M on 1 thread (4 to 16 blocks alike) and 40.4-43.0 M to 42.3-45.5 M on 2;
+/// 300k box 21.7-21.8 to 22.5-23.1 M and 42.0-45.3 to 43.4-45.6 M; but the 100k box, whose
+/// rows partly stay in L3, 3-8 % slower on 1 thread, hence the footprint rule.
+const ROW_PREFETCH_BLOCKS: usize = 8;
+
+/// Size of the last-level cache (bytes): Linux's `cpu0/cache/index3/size`, else 32 MiB.
+fn l3_bytes() -> usize {
+    static L3: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *L3.get_or_init(|| {
+        std::fs::read_to_string("/sys/devices/system/cpu/cpu0/cache/index3/size")
+            .ok()
+            .and_then(|t| {
+                let t = t.trim();
+                let (num, mul) = match t.chars().last()? {
+                    'K' => (&t[..t.len() - 1], 1 << 10),
+                    'M' => (&t[..t.len() - 1], 1 << 20),
+                    _ => (t, 1),
+                };
+                num.parse::<usize>().ok().map(|n| n * mul)
+            })
+            .filter(|&b| b > 0)
+            .unwrap_or(32 << 20)
+    })
+}
+
+/// The positions kernel's row prefetch schedule from the groups' corner offsets
+/// (`idx_of(group)`, padding lanes included): for each slab, in the kernel's order (blocks
+/// of [`BLK`] groups, corners, lanes), the first access in the slab to each 64-byte line of
+/// the node rows (two 32-byte rows, nodes `2i` and `2i + 1`) is scheduled `dist` blocks
+/// earlier (block 0 at the latest), for the node rows and the force rows alike; `dist = 0`
+/// schedules nothing. Returns the first block of each slab in the global block numbering,
+/// the list pointers per block and the line lists.
+pub(super) fn row_prefetch_schedule(
+    idx_of: impl Fn(usize) -> [[u32; LANES]; 4],
+    slab_ptr: &[usize],
+    n_nodes: usize,
+    dist: usize,
+) -> (Vec<usize>, Vec<u32>, Vec<u32>) {
+    let mut block_base = Vec::with_capacity(slab_ptr.len());
+    let mut stamp = vec![0u32; n_nodes.div_ceil(2)];
+    let mut pairs: Vec<(u32, u32)> = Vec::new(); // (global block, line)
+    let mut blocks = 0usize;
+    for (s, w) in slab_ptr.windows(2).enumerate() {
+        block_base.push(blocks);
+        for gi in w[0]..w[1] {
+            let b = ((gi - w[0]) / BLK).saturating_sub(dist);
+            for corner in idx_of(gi) {
+                for o in corner {
+                    // Offsets are 4 × node id; a line holds two rows.
+                    let line = o as usize / 8;
+                    if dist > 0 && stamp[line] != s as u32 + 1 {
+                        stamp[line] = s as u32 + 1;
+                        pairs.push(((blocks + b) as u32, line as u32));
+                    }
+                }
+            }
+        }
+        blocks += (w[1] - w[0]).div_ceil(BLK);
+    }
+    block_base.push(blocks);
+    let mut ptr = vec![0u32; blocks + 1];
+    for &(b, _) in &pairs {
+        ptr[b as usize + 1] += 1;
+    }
+    for b in 0..blocks {
+        ptr[b + 1] += ptr[b];
+    }
+    let mut fill: Vec<u32> = ptr.clone();
+    let mut lines = vec![0u32; pairs.len()];
+    for &(b, line) in &pairs {
+        lines[fill[b as usize] as usize] = line;
+        fill[b as usize] += 1;
+    }
+    (block_base, ptr, lines)
 }
 
 /// Groups per lane-interleave window: inside a slab, the elements (in Morton order) are
@@ -1007,7 +1130,7 @@ mod v4 {
 }
 
 /// Groups per block of the AVX2 kernel's loop fission.
-const BLK: usize = 4;
+pub(super) const BLK: usize = 4;
 
 /// The kernel with AVX2 + FMA intrinsics, 4 lanes per group, in three stages over a block
 /// of [`BLK`] groups (loop fission: each stage's dependency chain is long, the groups of a
@@ -1093,6 +1216,7 @@ const PREFETCH_L2_BLOCKS: usize = 6;
 #[target_feature(enable = "avx2,fma")]
 unsafe fn run_positions_avx2(
     groups: &[PGroup],
+    (pf_ptr, pf_lines): (&[u32], &[u32]),
     xp: *const f64,
     r: *mut f64,
     mu: f64,
@@ -1112,6 +1236,10 @@ unsafe fn run_positions_avx2(
             for line in 0..LINES {
                 _mm_prefetch::<_MM_HINT_T0>(p0.add(64 * line));
             }
+        }
+        for &line in &pf_lines[pf_ptr[bi] as usize..pf_ptr[bi + 1] as usize] {
+            _mm_prefetch::<_MM_HINT_T0>(xp.add(8 * line as usize) as *const i8);
+            _mm_prefetch::<_MM_HINT_T0>(r.add(8 * line as usize) as *const i8);
         }
         let ahead = (bi + PREFETCH_L2_BLOCKS) * BLK;
         if ahead + BLK <= groups.len() {

@@ -383,7 +383,17 @@ fn packed_kernel_paths_agree() {
             model.internal_forces(&u, &mut r).unwrap();
             runs.push(r);
         }
+        // The row prefetch schedule (off on a mesh this small) changes no bit.
+        model.pack.as_mut().unwrap().force_isa(1);
+        model.pack.as_mut().unwrap().force_row_prefetch(2);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let mut r = vec![0.0; 3 * n];
+        pool.install(|| model.internal_forces(&u, &mut r)).unwrap();
         let name = precision.name();
+        assert_eq!(runs[0], r, "{name}: the row prefetch changed the forces");
         assert_eq!(runs[0], runs[1], "{name}: 1 and 2 threads differ");
         assert_eq!(runs[0], runs[2], "{name}: widest and AVX2 kernels differ");
         assert_eq!(runs[0], runs[3], "{name}: SIMD and portable kernels differ");
@@ -409,6 +419,49 @@ fn packed_kernel_paths_agree() {
             "ln {x}: {a} vs {b}"
         );
     }
+}
+
+/// The row prefetch schedule lists every 64-byte row line a slab touches exactly once, at
+/// `dist` blocks before the block that first touches it in the slab (block 0 at the
+/// latest), and nothing with `dist = 0`.
+#[test]
+fn row_prefetch_schedule_covers_each_line_once_ahead_of_use() {
+    use super::fast::{row_prefetch_schedule, BLK, LANES};
+    // 3 slabs of 10, 7 and 1 groups over 40 nodes; offsets 4 × node id.
+    let slab_ptr = [0usize, 10, 17, 18];
+    let idx = |g: usize| -> [[u32; LANES]; 4] {
+        std::array::from_fn(|k| std::array::from_fn(|l| 4 * ((7 * g + 3 * k + 11 * l) % 40) as u32))
+    };
+    let dist = 2;
+    let (base, ptr, lines) = row_prefetch_schedule(idx, &slab_ptr, 40, dist);
+    assert_eq!(base, vec![0, 3, 5, 6]);
+    for s in 0..3 {
+        let (g0, g1) = (slab_ptr[s], slab_ptr[s + 1]);
+        let mut first = std::collections::BTreeMap::new();
+        for g in g0..g1 {
+            for corner in idx(g) {
+                for o in corner {
+                    first.entry(o / 8).or_insert((g - g0) / BLK);
+                }
+            }
+        }
+        let mut listed = std::collections::BTreeMap::new();
+        for b in base[s]..base[s + 1] {
+            for &line in &lines[ptr[b] as usize..ptr[b + 1] as usize] {
+                assert!(
+                    listed.insert(line, b - base[s]).is_none(),
+                    "line {line} twice"
+                );
+            }
+        }
+        let want: std::collections::BTreeMap<u32, usize> = first
+            .into_iter()
+            .map(|(line, b)| (line, b.saturating_sub(dist)))
+            .collect();
+        assert_eq!(listed, want, "slab {s}");
+    }
+    let (_, ptr, lines) = row_prefetch_schedule(idx, &slab_ptr, 40, 0);
+    assert!(lines.is_empty() && ptr.iter().all(|&p| p == 0));
 }
 
 /// The stated tolerance of f32 storage against f64 (see [`fast`]): relative in the 2-norm of

@@ -801,35 +801,34 @@ fn pack_position_groups(
     dminv: &[f64],
     vol: &[f64],
 ) -> Vec<PGroup> {
-    lanes
-        .iter()
-        .map(|gl| {
-            let (idx, ev) = lane_elements(gl, cells, vol);
-            let mut g = PGroup {
-                idx,
-                k: [0.0; LANES],
-                g: [[0.0; LANES]; 6],
-            };
-            for (l, &(e, v0)) in ev.iter().enumerate() {
-                if gl[l].is_none() {
-                    continue; // padding lane: k = 0, G = 0
-                }
-                let d = |r: usize, c: usize| dm_inv(dminv, e, r, c);
-                let det = d(0, 0) * (d(1, 1) * d(2, 2) - d(1, 2) * d(2, 1))
-                    - d(0, 1) * (d(1, 0) * d(2, 2) - d(1, 2) * d(2, 0))
-                    + d(0, 2) * (d(1, 0) * d(2, 1) - d(1, 1) * d(2, 0));
-                debug_assert!(det > 0.0, "the force model admits positive elements only");
-                g.k[l] = det;
-                for (t, (m, n)) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
-                    .into_iter()
-                    .enumerate()
-                {
-                    g.g[t][l] = mu * v0 * (0..3).map(|c| d(m, c) * d(n, c)).sum::<f64>();
-                }
+    let mut out = huge_page_vec(lanes.len());
+    out.extend(lanes.iter().map(|gl| {
+        let (idx, ev) = lane_elements(gl, cells, vol);
+        let mut g = PGroup {
+            idx,
+            k: [0.0; LANES],
+            g: [[0.0; LANES]; 6],
+        };
+        for (l, &(e, v0)) in ev.iter().enumerate() {
+            if gl[l].is_none() {
+                continue; // padding lane: k = 0, G = 0
             }
-            g
-        })
-        .collect()
+            let d = |r: usize, c: usize| dm_inv(dminv, e, r, c);
+            let det = d(0, 0) * (d(1, 1) * d(2, 2) - d(1, 2) * d(2, 1))
+                - d(0, 1) * (d(1, 0) * d(2, 2) - d(1, 2) * d(2, 0))
+                + d(0, 2) * (d(1, 0) * d(2, 1) - d(1, 1) * d(2, 0));
+            debug_assert!(det > 0.0, "the force model admits positive elements only");
+            g.k[l] = det;
+            for (t, (m, n)) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+                .into_iter()
+                .enumerate()
+            {
+                g.g[t][l] = mu * v0 * (0..3).map(|c| d(m, c) * d(n, c)).sum::<f64>();
+            }
+        }
+        g
+    }));
+    out
 }
 
 /// Groups of the displacements kernel (f32 storage). Padding lanes repeat the group's first
@@ -840,27 +839,55 @@ fn pack_displacement_groups<S: Store>(
     dminv: &[f64],
     vol: &[f64],
 ) -> Vec<Group<S>> {
-    lanes
-        .iter()
-        .map(|gl| {
-            let (idx, ev) = lane_elements(gl, cells, vol);
-            let mut g = Group::<S> {
-                _align: [],
-                idx,
-                dminv: [[S::ZERO; LANES]; 9],
-                vol: [S::ZERO; LANES],
-            };
-            for (l, &(e, v)) in ev.iter().enumerate() {
-                for r in 0..3 {
-                    for c in 0..3 {
-                        g.dminv[3 * r + c][l] = S::from_f64(dm_inv(dminv, e, r, c));
-                    }
+    let mut out = huge_page_vec(lanes.len());
+    out.extend(lanes.iter().map(|gl| {
+        let (idx, ev) = lane_elements(gl, cells, vol);
+        let mut g = Group::<S> {
+            _align: [],
+            idx,
+            dminv: [[S::ZERO; LANES]; 9],
+            vol: [S::ZERO; LANES],
+        };
+        for (l, &(e, v)) in ev.iter().enumerate() {
+            for r in 0..3 {
+                for c in 0..3 {
+                    g.dminv[3 * r + c][l] = S::from_f64(dm_inv(dminv, e, r, c));
                 }
-                g.vol[l] = S::from_f64(v);
             }
-            g
-        })
-        .collect()
+            g.vol[l] = S::from_f64(v);
+        }
+        g
+    }));
+    out
+}
+
+/// An empty vector with room for `n` elements whose memory, if large, is advised for
+/// transparent huge pages before anything touches it (Linux `madvise(MADV_HUGEPAGE)`; a
+/// no-op elsewhere, where THP is off, or on failure). The force pass streams the element
+/// data and the node rows once per step; with 4 KiB pages every 64 lines of a stream cost a
+/// TLB miss, and the row prefetches a page walk. Measured on the 1M standard box with THP
+/// for every allocation (`GLIBC_TUNABLES=glibc.malloc.hugetlb=1`), two pairs of runs:
+/// 23.58-23.68 M to 24.27-24.42 M node-updates/s on 1 thread, 43.87-45.21 M to 45.13-45.61 M
+/// on 2.
+pub(crate) fn huge_page_vec<T>(n: usize) -> Vec<T> {
+    let v: Vec<T> = Vec::with_capacity(n);
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE: usize = 2 << 20;
+        let bytes = n * std::mem::size_of::<T>();
+        if bytes >= 2 * HUGE {
+            let start = (v.as_ptr() as usize).next_multiple_of(4096);
+            let end = (v.as_ptr() as usize + bytes) & !4095;
+            if end > start {
+                // SAFETY: advice on pages of this vector's own allocation; it changes no
+                // contents and its failure is harmless.
+                unsafe {
+                    libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
+                }
+            }
+        }
+    }
+    v
 }
 
 /// 1 with AVX2 + FMA, else 0; `RAISOV_ISA=portable` forces 0 (for comparisons). AVX-512

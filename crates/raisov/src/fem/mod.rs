@@ -448,7 +448,11 @@ impl FemModel {
             node_slots,
             elem_forces,
             rows: vec![fast::Row4::default(); if pack.is_some() { n } else { 0 }],
-            acc: vec![fast::Row4::default(); n],
+            acc: {
+                let mut acc = fast::huge_page_vec(n);
+                acc.resize(n, fast::Row4::default());
+                acc
+            },
             acc3: if pack.is_some() {
                 Vec::new()
             } else {
@@ -561,7 +565,10 @@ impl FemModel {
         let positions = p.reads_positions();
         if !s.rows_valid {
             s.u();
-            s.rows.resize(n, fast::Row4::default());
+            if s.rows.len() != n {
+                s.rows = fast::huge_page_vec(n);
+                s.rows.resize(n, fast::Row4::default());
+            }
             fill_rows(&mut s.rows, &s.u, &self.x0, positions);
             s.base = if positions {
                 self.x0.clone()

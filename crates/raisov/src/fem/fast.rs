@@ -517,21 +517,7 @@ impl TetPack {
                 Groups::F32(pack_displacement_groups(&lanes, cells, dminv, vol))
             }
         };
-        // Row prefetch only out of cache (it costs 3-8 % where the rows come from L3).
-        let footprint = match &groups {
-            Groups::F64(g) => std::mem::size_of_val(&g[..]),
-            Groups::F32(g) => std::mem::size_of_val(&g[..]),
-        } + 2 * std::mem::size_of::<Row4>() * n_nodes;
-        let dist = if footprint > 2 * l3_bytes() {
-            ROW_PREFETCH_BLOCKS
-        } else {
-            0
-        };
-        let (block_base, rows_pf_ptr, rows_pf) = match &groups {
-            Groups::F64(g) => row_prefetch_schedule(|i| g[i].idx, &slab_ptr, n_nodes, dist),
-            Groups::F32(_) => row_prefetch_schedule(|_| [[0; LANES]; 4], &slab_ptr, 0, 0),
-        };
-        TetPack {
+        let mut pack = TetPack {
             mu,
             lambda,
             groups,
@@ -539,10 +525,29 @@ impl TetPack {
             colour_ptr,
             n_nodes,
             isa: detect_isa(),
-            block_base,
-            rows_pf_ptr,
-            rows_pf,
-        }
+            block_base: Vec::new(),
+            rows_pf_ptr: Vec::new(),
+            rows_pf: Vec::new(),
+        };
+        // Row prefetch only out of cache (it costs 3-8 % where the rows come from L3).
+        let footprint = pack.bytes() + 2 * std::mem::size_of::<Row4>() * n_nodes;
+        pack.set_row_prefetch(if footprint > 2 * l3_bytes() {
+            ROW_PREFETCH_BLOCKS
+        } else {
+            0
+        });
+        pack
+    }
+
+    /// Build the positions kernel's row prefetch schedule `dist` blocks ahead (0: none;
+    /// [`row_prefetch_schedule`]); the displacements kernel has none.
+    pub(crate) fn set_row_prefetch(&mut self, dist: usize) {
+        (self.block_base, self.rows_pf_ptr, self.rows_pf) = match &self.groups {
+            Groups::F64(g) => {
+                row_prefetch_schedule(|i| g[i].idx, &self.slab_ptr, self.n_nodes, dist)
+            }
+            Groups::F32(_) => (Vec::new(), Vec::new(), Vec::new()),
+        };
     }
 
     /// Number of slabs (parallel tasks) and colours (sequential phases).
@@ -600,21 +605,6 @@ impl TetPack {
             };
         }
         good
-    }
-
-    /// Rebuild the row prefetch schedule `dist` blocks ahead whatever the footprint (tests
-    /// run the kernels with it on small meshes).
-    #[cfg(test)]
-    pub(crate) fn force_row_prefetch(&mut self, dist: usize) {
-        let (block_base, ptr, lines) = match &self.groups {
-            Groups::F64(g) => {
-                row_prefetch_schedule(|i| g[i].idx, &self.slab_ptr, self.n_nodes, dist)
-            }
-            Groups::F32(_) => return,
-        };
-        self.block_base = block_base;
-        self.rows_pf_ptr = ptr;
-        self.rows_pf = lines;
     }
 
     /// Use a lower instruction set than detected (tests compare the kernels).

@@ -158,6 +158,18 @@ pub enum NodeLoad<'a> {
     Acceleration([f64; 3]),
 }
 
+impl NodeLoad<'_> {
+    /// The acceleration of entry `i = 3a + k` (node `a`, component `k`) under this load and
+    /// the internal force `r` at a node of inverse mass `m`: `(V_i − r) m` or `g_k − r m`.
+    #[inline(always)]
+    fn acceleration(self, i: usize, k: usize, r: f64, m: f64) -> f64 {
+        match self {
+            NodeLoad::Forces(f) => (f[i] - r) * m,
+            NodeLoad::Acceleration(g) => g[k] - r * m,
+        }
+    }
+}
+
 /// State of the fused step ([`FemModel::step_symplectic_euler`]): velocities `v` and the
 /// configuration, 3 per node. On the packed path the configuration lives in the node rows
 /// the force pass reads (`X + u` in f64, `u` with f32 storage), which the node update
@@ -588,7 +600,7 @@ impl FemModel {
         let acc = &mut self.acc[..];
         match load {
             NodeLoad::Forces(f) => packed_node_pass(
-                |i, _, r, m| (f[i] - r) * m,
+                |i, k, r, m| NodeLoad::Forces(f).acceleration(i, k, r, m),
                 (v, acc, rows),
                 (inv_mass, fixed, x0),
                 positions,
@@ -596,7 +608,7 @@ impl FemModel {
                 dt,
             ),
             NodeLoad::Acceleration(g) => packed_node_pass(
-                |_, k, r, m| g[k] - r * m,
+                |i, k, r, m| NodeLoad::Acceleration(g).acceleration(i, k, r, m),
                 (v, acc, rows),
                 (inv_mass, fixed, x0),
                 positions,
@@ -634,10 +646,8 @@ impl FemModel {
                                 vc[i] = 0.0;
                                 uc[i] = 0.0;
                             } else {
-                                let acc_i = match load {
-                                    NodeLoad::Forces(f) => (f[3 * a0 + i] - rc[i]) * mc[a],
-                                    NodeLoad::Acceleration(g) => g[k] - rc[i] * mc[a],
-                                } - alpha * vc[i];
+                                let acc_i =
+                                    load.acceleration(3 * a0 + i, k, rc[i], mc[a]) - alpha * vc[i];
                                 vc[i] += dt * acc_i;
                                 uc[i] += dt * vc[i];
                             }

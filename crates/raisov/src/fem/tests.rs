@@ -385,7 +385,7 @@ fn packed_kernel_paths_agree() {
         }
         // The row prefetch schedule (off on a mesh this small) changes no bit.
         model.pack.as_mut().unwrap().force_isa(1);
-        model.pack.as_mut().unwrap().force_row_prefetch(2);
+        model.pack.as_mut().unwrap().set_row_prefetch(2);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(2)
             .build()

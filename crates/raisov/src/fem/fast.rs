@@ -53,6 +53,14 @@
 //! is about to touch for the first time, from a schedule built at packing
 //! ([`ROW_PREFETCH_BLOCKS`]).
 //!
+//! The positions kernel also comes with AVX-512 (`run_positions_avx512`, chosen by
+//! `detect_isa`): two consecutive groups side by side in 8 lanes, over blocks of 2 × `BLK`
+//! groups, every lane doing the same operations as in the AVX2 kernel (its arithmetic is one
+//! generic code over [`Lanes`], 4 or 8 lanes) and the scatter adding the first group's rows,
+//! then the second's, in the AVX2 order: the same bits (tested on every group count). On the
+//! Zen 5 development VM, alternated with the AVX2 kernel (`RAISOV_ISA=avx2`), the fused step
+//! ran 5-15 % faster in and out of cache (table in `bench/RESULTS.md`).
+//!
 //! Node rows: the kernels read node values from, and accumulate forces into, rows of 32
 //! bytes `[x, y, z, 0]` ([`Row4`], aligned): one 256-bit load per corner and lane and a 4 × 4
 //! transpose for the gather, a transpose and one 256-bit read-add-write per corner and lane
@@ -607,15 +615,48 @@ impl TetPack {
         good
     }
 
-    /// Use a lower instruction set than detected (tests compare the kernels).
+    /// Use kernel `isa` (0 portable, 1 AVX2, 2 AVX-512), or the widest this CPU runs if
+    /// lower (tests compare the kernels).
     #[cfg(test)]
     pub(crate) fn force_isa(&mut self, isa: u8) {
-        self.isa = isa.min(detect_isa());
+        self.isa = isa.min(supported_isa());
+    }
+
+    /// `r += R` over the first `n` groups of the f64 storage's first slab only, with kernel
+    /// `isa` as [`TetPack::force_isa`] (tests: every group count of the AVX-512 kernel's
+    /// pairs and blocks against AVX2). False if the storage is not f64 or the slab is shorter.
+    #[cfg(test)]
+    pub(crate) fn run_first_groups(&self, n: usize, isa: u8, q: &[Row4], r: &mut [Row4]) -> bool {
+        let Groups::F64(g) = &self.groups else {
+            return false;
+        };
+        if n > self.slab_ptr[1] - self.slab_ptr[0] {
+            return false;
+        }
+        let (xp, rp) = (q.as_ptr() as *const f64, r.as_mut_ptr() as *mut f64);
+        let (g, mu, lambda) = (
+            &g[self.slab_ptr[0]..self.slab_ptr[0] + n],
+            self.mu,
+            self.lambda,
+        );
+        let blocks = vec![0; n.div_ceil(BLK) + 1];
+        let pf = (&blocks[..], &[][..]);
+        // SAFETY: as `run_slab`: node ids are < n_nodes, q and r hold n_nodes rows.
+        assert!(q.len() >= self.n_nodes && r.len() >= self.n_nodes);
+        unsafe {
+            match isa.min(supported_isa()) {
+                #[cfg(target_arch = "x86_64")]
+                2 => run_positions_avx512(g, pf, xp, rp, mu, lambda),
+                #[cfg(target_arch = "x86_64")]
+                1 => run_positions_avx2(g, pf, xp, rp, mu, lambda),
+                _ => run_positions(g, xp, rp, mu, lambda),
+            }
+        }
     }
 
     /// The kernel in use: `"portable"` or `"avx2"`.
     pub(crate) fn isa(&self) -> &'static str {
-        ["portable", "avx2"][self.isa as usize]
+        ["portable", "avx2", "avx512"][self.isa as usize]
     }
 
     /// The groups of slab `s`.
@@ -627,15 +668,19 @@ impl TetPack {
         match &self.groups {
             Groups::F64(g) => {
                 #[cfg(target_arch = "x86_64")]
-                if self.isa == 1 {
+                if self.isa >= 1 {
                     let pf = &self.rows_pf_ptr[self.block_base[s]..=self.block_base[s + 1]];
-                    return run_positions_avx2(&g[a..b], (pf, &self.rows_pf), qp, r.0, mu, lambda);
+                    let pf = (pf, &self.rows_pf[..]);
+                    if self.isa == 2 {
+                        return run_positions_avx512(&g[a..b], pf, qp, r.0, mu, lambda);
+                    }
+                    return run_positions_avx2(&g[a..b], pf, qp, r.0, mu, lambda);
                 }
                 run_positions(&g[a..b], qp, r.0, mu, lambda)
             }
             Groups::F32(g) => {
                 #[cfg(target_arch = "x86_64")]
-                if self.isa == 1 {
+                if self.isa >= 1 {
                     return run_groups_avx2(&g[a..b], qp, r.0, mu, lambda);
                 }
                 run_groups(&g[a..b], qp, r.0, mu, lambda)
@@ -880,21 +925,55 @@ pub(crate) fn huge_page_vec<T>(n: usize) -> Vec<T> {
     v
 }
 
-/// 1 with AVX2 + FMA, else 0; `RAISOV_ISA=portable` forces 0 (for comparisons). AVX-512
-/// variants (8 lanes for all the arithmetic, or for stage B only; same bits) were measured
-/// no faster on Zen 4 and left out: the extra shuffles joining and splitting 4-lane halves
-/// cost what the halved arithmetic saves.
+/// The kernel to run: 2 with AVX-512F (8 lanes, [`run_positions_avx512`]) where 512-bit
+/// vectors pay, 1 with AVX2 + FMA, else 0 (portable). `RAISOV_ISA=portable`, `avx2` or
+/// `avx512` caps the choice, or forces AVX-512 where it was left out (for comparisons); all
+/// give the same bits. AVX-512 is left out on AMD family 19h (Zen 3 and 4), which executes a
+/// 512-bit operation as two 256-bit halves: an 8-lane kernel measured no faster than AVX2
+/// there (`bench/RESULTS.md`). On the Zen 5 development VM it is 5-15 % faster.
 fn detect_isa() -> u8 {
     #[cfg(target_arch = "x86_64")]
-    let found =
-        u8::from(std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma"));
+    let wide_pays = !half_width_512();
     #[cfg(not(target_arch = "x86_64"))]
-    let found = 0;
+    let wide_pays = false;
     let cap = match std::env::var("RAISOV_ISA").as_deref() {
         Ok("portable") => 0,
-        _ => 1,
+        Ok("avx2") => 1,
+        Ok("avx512") => 2,
+        _ => 1 + u8::from(wide_pays),
     };
-    found.min(cap)
+    supported_isa().min(cap)
+}
+
+/// The widest kernel this CPU can run: 2 with AVX-512F (and AVX2 + FMA), 1 with AVX2 + FMA,
+/// else 0.
+fn supported_isa() -> u8 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let avx2 = std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma");
+        let avx512 = avx2 && std::is_x86_feature_detected!("avx512f");
+        u8::from(avx2) + u8::from(avx512)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    0
+}
+
+/// Whether this is an AMD family 19h CPU (Zen 3, Zen 4), whose 512-bit operations run as
+/// two 256-bit halves.
+#[cfg(target_arch = "x86_64")]
+fn half_width_512() -> bool {
+    use std::arch::x86_64::__cpuid;
+    #[allow(unused_unsafe)]
+    // SAFETY: `cpuid` exists on every x86-64 CPU.
+    let (v, f) = unsafe { (__cpuid(0), __cpuid(1).eax) };
+    let amd = (v.ebx, v.edx, v.ecx) == (0x6874_7541, 0x6974_6e65, 0x444d_4163);
+    let family = ((f >> 8) & 0xf)
+        + if (f >> 8) & 0xf == 0xf {
+            (f >> 20) & 0xff
+        } else {
+            0
+        };
+    amd && family == 0x19
 }
 
 #[derive(Clone, Copy)]
@@ -956,133 +1035,106 @@ macro_rules! scatter4 {
     }};
 }
 
+/// The vector operations of the kernels' arithmetic over 4 (AVX2, `__m256d`) or 8 (AVX-512,
+/// `__m512d`) f64 lanes, so that [`v4`]'s helpers are written once for both widths. Each lane
+/// sees the same IEEE operations whatever the width: the same bits. Every method is
+/// `inline(always)`, compiled into its caller's target features (a kernel with
+/// `#[target_feature]`); called from elsewhere it would not inline.
 #[cfg(target_arch = "x86_64")]
-mod v4 {
-    use std::arch::x86_64::*;
+pub(super) trait Lanes: Copy {
+    /// Lanes selected by a comparison.
+    type Mask: Copy;
+    /// [`Lanes::bits`] with every lane set.
+    const FULL: u32;
+    unsafe fn splat(x: f64) -> Self;
+    unsafe fn add(a: Self, b: Self) -> Self;
+    unsafe fn sub(a: Self, b: Self) -> Self;
+    unsafe fn mul(a: Self, b: Self) -> Self;
+    unsafe fn div(a: Self, b: Self) -> Self;
+    /// `a b + c`, one rounding.
+    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self;
+    /// `a b − c`, one rounding.
+    unsafe fn fmsub(a: Self, b: Self, c: Self) -> Self;
+    /// `−a` (sign bit flipped).
+    unsafe fn neg(a: Self) -> Self;
+    /// `|a|` (sign bit cleared).
+    unsafe fn abs(a: Self) -> Self;
+    /// `a > b` (ordered).
+    unsafe fn gt(a: Self, b: Self) -> Self::Mask;
+    /// `a < b` (ordered).
+    unsafe fn lt(a: Self, b: Self) -> Self::Mask;
+    /// `t` where `m`, else `f`.
+    unsafe fn select(m: Self::Mask, t: Self, f: Self) -> Self;
+    /// One bit per lane of `m`, lane 0 the lowest.
+    unsafe fn bits(m: Self::Mask) -> u32;
+    /// `(biased exponent as f64, mantissa in [1, 2))` of positive normal `x`.
+    unsafe fn split_exponent(x: Self) -> (Self, Self);
+}
 
-    /// `F` (row-major, 9) from `w[k][i] = Du_ik` and `Dm⁻¹` (row-major, 9).
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    pub(super) unsafe fn def_grad(w: &[[__m256d; 3]; 3], d: &[__m256d; 9]) -> [__m256d; 9] {
-        let one = _mm256_set1_pd(1.0);
-        let fm = |i: usize, j: usize| {
-            _mm256_fmadd_pd(
-                w[2][i],
-                d[6 + j],
-                _mm256_fmadd_pd(w[1][i], d[3 + j], _mm256_mul_pd(w[0][i], d[j])),
-            )
-        };
-        [
-            _mm256_add_pd(one, fm(0, 0)),
-            fm(0, 1),
-            fm(0, 2),
-            fm(1, 0),
-            _mm256_add_pd(one, fm(1, 1)),
-            fm(1, 2),
-            fm(2, 0),
-            fm(2, 1),
-            _mm256_add_pd(one, fm(2, 2)),
-        ]
+#[cfg(target_arch = "x86_64")]
+impl Lanes for std::arch::x86_64::__m256d {
+    type Mask = std::arch::x86_64::__m256d;
+    const FULL: u32 = 0xf;
+    #[inline(always)]
+    unsafe fn splat(x: f64) -> Self {
+        std::arch::x86_64::_mm256_set1_pd(x)
     }
-
-    /// `cof F` (row-major) and `J = det F`.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    pub(super) unsafe fn cof_det(f: &[__m256d; 9]) -> ([__m256d; 9], __m256d) {
-        let [f00, f01, f02, f10, f11, f12, f20, f21, f22] = *f;
-        let c = [
-            _mm256_fmsub_pd(f11, f22, _mm256_mul_pd(f12, f21)),
-            _mm256_fmsub_pd(f12, f20, _mm256_mul_pd(f10, f22)),
-            _mm256_fmsub_pd(f10, f21, _mm256_mul_pd(f11, f20)),
-            _mm256_fmsub_pd(f02, f21, _mm256_mul_pd(f01, f22)),
-            _mm256_fmsub_pd(f00, f22, _mm256_mul_pd(f02, f20)),
-            _mm256_fmsub_pd(f01, f20, _mm256_mul_pd(f00, f21)),
-            _mm256_fmsub_pd(f01, f12, _mm256_mul_pd(f02, f11)),
-            _mm256_fmsub_pd(f02, f10, _mm256_mul_pd(f00, f12)),
-            _mm256_fmsub_pd(f00, f11, _mm256_mul_pd(f01, f10)),
-        ];
-        let j = _mm256_fmadd_pd(
-            f02,
-            c[2],
-            _mm256_fmadd_pd(f01, c[1], _mm256_mul_pd(f00, c[0])),
-        );
-        (c, j)
+    #[inline(always)]
+    unsafe fn add(a: Self, b: Self) -> Self {
+        std::arch::x86_64::_mm256_add_pd(a, b)
     }
-
-    /// [`super::estrin9`], the same operations.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    pub(super) unsafe fn estrin9(c: &[f64; 10], x: __m256d) -> __m256d {
-        let cc = |i: usize| _mm256_set1_pd(c[i]);
-        let x2 = _mm256_mul_pd(x, x);
-        let x4 = _mm256_mul_pd(x2, x2);
-        let x8 = _mm256_mul_pd(x4, x4);
-        let q0 = _mm256_fmadd_pd(cc(1), x, cc(0));
-        let q1 = _mm256_fmadd_pd(cc(3), x, cc(2));
-        let q2 = _mm256_fmadd_pd(cc(5), x, cc(4));
-        let q3 = _mm256_fmadd_pd(cc(7), x, cc(6));
-        let q4 = _mm256_fmadd_pd(cc(9), x, cc(8));
-        let r0 = _mm256_fmadd_pd(q1, x2, q0);
-        let r1 = _mm256_fmadd_pd(q3, x2, q2);
-        _mm256_fmadd_pd(q4, x8, _mm256_fmadd_pd(r1, x4, r0))
+    #[inline(always)]
+    unsafe fn sub(a: Self, b: Self) -> Self {
+        std::arch::x86_64::_mm256_sub_pd(a, b)
     }
-
-    /// `ln_series` without the exponent/mantissa split: `2 s + 2 s z p(z) + e ln 2`.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    pub(super) unsafe fn ln_tail(s: __m256d, e: __m256d) -> __m256d {
-        let z = _mm256_mul_pd(s, s);
-        let pp = estrin9(&super::LN_COEF, z);
-        let two = _mm256_set1_pd(2.0);
-        let t = _mm256_mul_pd(_mm256_mul_pd(two, s), _mm256_mul_pd(pp, z));
-        _mm256_add_pd(
-            _mm256_mul_pd(e, _mm256_set1_pd(super::LN2_HI)),
-            _mm256_add_pd(
-                _mm256_mul_pd(two, s),
-                _mm256_add_pd(t, _mm256_mul_pd(e, _mm256_set1_pd(super::LN2_LO))),
-            ),
-        )
+    #[inline(always)]
+    unsafe fn mul(a: Self, b: Self) -> Self {
+        std::arch::x86_64::_mm256_mul_pd(a, b)
     }
-
-    /// `H[corner][component]` from `V0 P = a F + b cof F` and `Dm⁻¹`.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    pub(super) unsafe fn corner_forces(
-        f: &[__m256d; 9],
-        c: &[__m256d; 9],
-        a: __m256d,
-        b: __m256d,
-        d: &[__m256d; 9],
-    ) -> [[__m256d; 3]; 4] {
-        let mut p = [[_mm256_set1_pd(0.0); 3]; 3];
-        for i in 0..3 {
-            for jj in 0..3 {
-                p[i][jj] = _mm256_fmadd_pd(a, f[3 * i + jj], _mm256_mul_pd(b, c[3 * i + jj]));
-            }
-        }
-        let mut h = [[_mm256_set1_pd(0.0); 3]; 4];
-        for i in 0..3 {
-            let mut acc = _mm256_set1_pd(0.0);
-            for jj in 0..3 {
-                let hv = _mm256_fmadd_pd(
-                    p[i][2],
-                    d[3 * jj + 2],
-                    _mm256_fmadd_pd(p[i][1], d[3 * jj + 1], _mm256_mul_pd(p[i][0], d[3 * jj])),
-                );
-                h[jj + 1][i] = hv;
-                acc = _mm256_add_pd(acc, hv);
-            }
-            h[0][i] = _mm256_xor_pd(acc, _mm256_set1_pd(-0.0));
-        }
-        h
+    #[inline(always)]
+    unsafe fn div(a: Self, b: Self) -> Self {
+        std::arch::x86_64::_mm256_div_pd(a, b)
     }
-
-    /// `ln x` as [`super::ln_series`], the same operations.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    pub(super) unsafe fn ln_general(j: __m256d) -> __m256d {
-        let one = _mm256_set1_pd(1.0);
-        let bits = _mm256_castpd_si256(j);
+    #[inline(always)]
+    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
+        std::arch::x86_64::_mm256_fmadd_pd(a, b, c)
+    }
+    #[inline(always)]
+    unsafe fn fmsub(a: Self, b: Self, c: Self) -> Self {
+        std::arch::x86_64::_mm256_fmsub_pd(a, b, c)
+    }
+    #[inline(always)]
+    unsafe fn neg(a: Self) -> Self {
+        use std::arch::x86_64::*;
+        _mm256_xor_pd(a, _mm256_set1_pd(-0.0))
+    }
+    #[inline(always)]
+    unsafe fn abs(a: Self) -> Self {
+        use std::arch::x86_64::*;
+        _mm256_andnot_pd(_mm256_set1_pd(-0.0), a)
+    }
+    #[inline(always)]
+    unsafe fn gt(a: Self, b: Self) -> Self {
+        use std::arch::x86_64::*;
+        _mm256_cmp_pd(a, b, _CMP_GT_OQ)
+    }
+    #[inline(always)]
+    unsafe fn lt(a: Self, b: Self) -> Self {
+        use std::arch::x86_64::*;
+        _mm256_cmp_pd(a, b, _CMP_LT_OQ)
+    }
+    #[inline(always)]
+    unsafe fn select(m: Self, t: Self, f: Self) -> Self {
+        std::arch::x86_64::_mm256_blendv_pd(f, t, m)
+    }
+    #[inline(always)]
+    unsafe fn bits(m: Self) -> u32 {
+        std::arch::x86_64::_mm256_movemask_pd(m) as u32
+    }
+    #[inline(always)]
+    unsafe fn split_exponent(x: Self) -> (Self, Self) {
+        use std::arch::x86_64::*;
+        let bits = _mm256_castpd_si256(x);
         let eb = _mm256_and_si256(_mm256_srli_epi64(bits, 52), _mm256_set1_epi64x(0x7ff));
         let magic = _mm256_set1_pd(4503599627370496.0); // 2^52
         let ef = _mm256_sub_pd(
@@ -1093,56 +1145,251 @@ mod v4 {
             _mm256_and_si256(bits, _mm256_set1_epi64x(0x000f_ffff_ffff_ffff)),
             _mm256_set1_epi64x(0x3ff0_0000_0000_0000),
         ));
-        let big = _mm256_cmp_pd(m, _mm256_set1_pd(std::f64::consts::SQRT_2), _CMP_GT_OQ);
-        let m = _mm256_blendv_pd(m, _mm256_mul_pd(_mm256_set1_pd(0.5), m), big);
-        let e = _mm256_add_pd(
-            _mm256_sub_pd(ef, _mm256_set1_pd(1023.0)),
-            _mm256_and_pd(big, one),
+        (ef, m)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Lanes for std::arch::x86_64::__m512d {
+    type Mask = std::arch::x86_64::__mmask8;
+    const FULL: u32 = 0xff;
+    #[inline(always)]
+    unsafe fn splat(x: f64) -> Self {
+        std::arch::x86_64::_mm512_set1_pd(x)
+    }
+    #[inline(always)]
+    unsafe fn add(a: Self, b: Self) -> Self {
+        std::arch::x86_64::_mm512_add_pd(a, b)
+    }
+    #[inline(always)]
+    unsafe fn sub(a: Self, b: Self) -> Self {
+        std::arch::x86_64::_mm512_sub_pd(a, b)
+    }
+    #[inline(always)]
+    unsafe fn mul(a: Self, b: Self) -> Self {
+        std::arch::x86_64::_mm512_mul_pd(a, b)
+    }
+    #[inline(always)]
+    unsafe fn div(a: Self, b: Self) -> Self {
+        std::arch::x86_64::_mm512_div_pd(a, b)
+    }
+    #[inline(always)]
+    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
+        std::arch::x86_64::_mm512_fmadd_pd(a, b, c)
+    }
+    #[inline(always)]
+    unsafe fn fmsub(a: Self, b: Self, c: Self) -> Self {
+        std::arch::x86_64::_mm512_fmsub_pd(a, b, c)
+    }
+    #[inline(always)]
+    unsafe fn neg(a: Self) -> Self {
+        use std::arch::x86_64::*;
+        _mm512_castsi512_pd(_mm512_xor_si512(
+            _mm512_castpd_si512(a),
+            _mm512_set1_epi64(i64::MIN),
+        ))
+    }
+    #[inline(always)]
+    unsafe fn abs(a: Self) -> Self {
+        std::arch::x86_64::_mm512_abs_pd(a)
+    }
+    #[inline(always)]
+    unsafe fn gt(a: Self, b: Self) -> Self::Mask {
+        use std::arch::x86_64::*;
+        _mm512_cmp_pd_mask::<_CMP_GT_OQ>(a, b)
+    }
+    #[inline(always)]
+    unsafe fn lt(a: Self, b: Self) -> Self::Mask {
+        use std::arch::x86_64::*;
+        _mm512_cmp_pd_mask::<_CMP_LT_OQ>(a, b)
+    }
+    #[inline(always)]
+    unsafe fn select(m: Self::Mask, t: Self, f: Self) -> Self {
+        std::arch::x86_64::_mm512_mask_blend_pd(m, f, t)
+    }
+    #[inline(always)]
+    unsafe fn bits(m: Self::Mask) -> u32 {
+        m as u32
+    }
+    #[inline(always)]
+    unsafe fn split_exponent(x: Self) -> (Self, Self) {
+        use std::arch::x86_64::*;
+        let bits = _mm512_castpd_si512(x);
+        let eb = _mm512_and_si512(_mm512_srli_epi64::<52>(bits), _mm512_set1_epi64(0x7ff));
+        let magic = _mm512_set1_pd(4503599627370496.0); // 2^52
+        let ef = _mm512_sub_pd(
+            _mm512_castsi512_pd(_mm512_or_si512(eb, _mm512_castpd_si512(magic))),
+            magic,
         );
-        let s = _mm256_div_pd(_mm256_sub_pd(m, one), _mm256_add_pd(m, one));
+        let m = _mm512_castsi512_pd(_mm512_or_si512(
+            _mm512_and_si512(bits, _mm512_set1_epi64(0x000f_ffff_ffff_ffff)),
+            _mm512_set1_epi64(0x3ff0_0000_0000_0000),
+        ));
+        (ef, m)
+    }
+}
+
+/// The kernels' arithmetic on [`Lanes`] (4 or 8 lanes, the same operations per lane).
+#[cfg(target_arch = "x86_64")]
+mod v4 {
+    use super::Lanes;
+
+    /// `F` (row-major, 9) from `w[k][i] = Du_ik` and `Dm⁻¹` (row-major, 9).
+    #[inline(always)]
+    pub(super) unsafe fn def_grad<V: Lanes>(w: &[[V; 3]; 3], d: &[V; 9]) -> [V; 9] {
+        let one = V::splat(1.0);
+        let fm = |i: usize, j: usize| {
+            V::fmadd(
+                w[2][i],
+                d[6 + j],
+                V::fmadd(w[1][i], d[3 + j], V::mul(w[0][i], d[j])),
+            )
+        };
+        [
+            V::add(one, fm(0, 0)),
+            fm(0, 1),
+            fm(0, 2),
+            fm(1, 0),
+            V::add(one, fm(1, 1)),
+            fm(1, 2),
+            fm(2, 0),
+            fm(2, 1),
+            V::add(one, fm(2, 2)),
+        ]
+    }
+
+    /// `cof F` (row-major) and `J = det F`.
+    #[inline(always)]
+    pub(super) unsafe fn cof_det<V: Lanes>(f: &[V; 9]) -> ([V; 9], V) {
+        let [f00, f01, f02, f10, f11, f12, f20, f21, f22] = *f;
+        let c = [
+            V::fmsub(f11, f22, V::mul(f12, f21)),
+            V::fmsub(f12, f20, V::mul(f10, f22)),
+            V::fmsub(f10, f21, V::mul(f11, f20)),
+            V::fmsub(f02, f21, V::mul(f01, f22)),
+            V::fmsub(f00, f22, V::mul(f02, f20)),
+            V::fmsub(f01, f20, V::mul(f00, f21)),
+            V::fmsub(f01, f12, V::mul(f02, f11)),
+            V::fmsub(f02, f10, V::mul(f00, f12)),
+            V::fmsub(f00, f11, V::mul(f01, f10)),
+        ];
+        let j = V::fmadd(f02, c[2], V::fmadd(f01, c[1], V::mul(f00, c[0])));
+        (c, j)
+    }
+
+    /// [`super::estrin9`], the same operations.
+    #[inline(always)]
+    pub(super) unsafe fn estrin9<V: Lanes>(c: &[f64; 10], x: V) -> V {
+        let cc = |i: usize| V::splat(c[i]);
+        let x2 = V::mul(x, x);
+        let x4 = V::mul(x2, x2);
+        let x8 = V::mul(x4, x4);
+        let q0 = V::fmadd(cc(1), x, cc(0));
+        let q1 = V::fmadd(cc(3), x, cc(2));
+        let q2 = V::fmadd(cc(5), x, cc(4));
+        let q3 = V::fmadd(cc(7), x, cc(6));
+        let q4 = V::fmadd(cc(9), x, cc(8));
+        let r0 = V::fmadd(q1, x2, q0);
+        let r1 = V::fmadd(q3, x2, q2);
+        V::fmadd(q4, x8, V::fmadd(r1, x4, r0))
+    }
+
+    /// `ln_series` without the exponent/mantissa split: `2 s + 2 s z p(z) + e ln 2`.
+    #[inline(always)]
+    pub(super) unsafe fn ln_tail<V: Lanes>(s: V, e: V) -> V {
+        let z = V::mul(s, s);
+        let pp = estrin9(&super::LN_COEF, z);
+        let two = V::splat(2.0);
+        let t = V::mul(V::mul(two, s), V::mul(pp, z));
+        V::add(
+            V::mul(e, V::splat(super::LN2_HI)),
+            V::add(
+                V::mul(two, s),
+                V::add(t, V::mul(e, V::splat(super::LN2_LO))),
+            ),
+        )
+    }
+
+    /// `H[corner][component]` from `V0 P = a F + b cof F` and `Dm⁻¹`.
+    #[inline(always)]
+    pub(super) unsafe fn corner_forces<V: Lanes>(
+        f: &[V; 9],
+        c: &[V; 9],
+        a: V,
+        b: V,
+        d: &[V; 9],
+    ) -> [[V; 3]; 4] {
+        let zero = V::splat(0.0);
+        let mut p = [[zero; 3]; 3];
+        for i in 0..3 {
+            for jj in 0..3 {
+                p[i][jj] = V::fmadd(a, f[3 * i + jj], V::mul(b, c[3 * i + jj]));
+            }
+        }
+        let mut h = [[zero; 3]; 4];
+        for i in 0..3 {
+            let mut acc = zero;
+            for jj in 0..3 {
+                let hv = V::fmadd(
+                    p[i][2],
+                    d[3 * jj + 2],
+                    V::fmadd(p[i][1], d[3 * jj + 1], V::mul(p[i][0], d[3 * jj])),
+                );
+                h[jj + 1][i] = hv;
+                acc = V::add(acc, hv);
+            }
+            h[0][i] = V::neg(acc);
+        }
+        h
+    }
+
+    /// `ln x` as [`super::ln_series`], the same operations.
+    #[inline(always)]
+    pub(super) unsafe fn ln_general<V: Lanes>(j: V) -> V {
+        let one = V::splat(1.0);
+        let (ef, m) = V::split_exponent(j);
+        let big = V::gt(m, V::splat(std::f64::consts::SQRT_2));
+        let m = V::select(big, V::mul(V::splat(0.5), m), m);
+        let e = V::add(
+            V::sub(ef, V::splat(1023.0)),
+            V::select(big, one, V::splat(0.0)),
+        );
+        let s = V::div(V::sub(m, one), V::add(m, one));
         ln_tail(s, e)
     }
 
-    /// `ln(1 + f)` as [`super::ln_near1`], the same operations.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    pub(super) unsafe fn ln_near1(f: __m256d) -> __m256d {
-        let p = estrin9(&super::LN1P_COEF, f);
-        let f2 = _mm256_mul_pd(f, f);
-        _mm256_fmadd_pd(f2, p, f)
+    /// `−a`.
+    #[inline(always)]
+    pub(super) unsafe fn neg<V: Lanes>(a: V) -> V {
+        V::neg(a)
     }
 
-    /// `(b, mask)`: `b = V0 (λ ln J − μ) / J` with `ln` as [`super::ln_j`], and the lanes
-    /// where `J > 0` as a bit mask. The general series (exponent split, a division) is
-    /// evaluated only when some lane has `|J − 1| ≥` [`super::LN_NEAR`].
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    pub(super) unsafe fn stress_factor(
-        j: __m256d,
-        v0: __m256d,
-        mu: f64,
-        lambda: f64,
-    ) -> (__m256d, i32) {
-        let one = _mm256_set1_pd(1.0);
-        let ok = _mm256_movemask_pd(_mm256_cmp_pd(j, _mm256_setzero_pd(), _CMP_GT_OQ));
-        let invj = _mm256_div_pd(one, j);
-        let f = _mm256_sub_pd(j, one);
-        let near = _mm256_cmp_pd(
-            _mm256_andnot_pd(_mm256_set1_pd(-0.0), f),
-            _mm256_set1_pd(super::LN_NEAR),
-            _CMP_LT_OQ,
-        );
+    /// `ln(1 + f)` as [`super::ln_near1`], the same operations.
+    #[inline(always)]
+    pub(super) unsafe fn ln_near1<V: Lanes>(f: V) -> V {
+        let p = estrin9(&super::LN1P_COEF, f);
+        let f2 = V::mul(f, f);
+        V::fmadd(f2, p, f)
+    }
+
+    /// `(b, ok)`: `b = V0 (λ ln J − μ) / J` with `ln` as [`super::ln_j`], and the lanes
+    /// where `J > 0` as bits ([`Lanes::bits`]). The general series (exponent split, a
+    /// division) is evaluated only when some lane has `|J − 1| ≥` [`super::LN_NEAR`].
+    #[inline(always)]
+    pub(super) unsafe fn stress_factor<V: Lanes>(j: V, v0: V, mu: f64, lambda: f64) -> (V, u32) {
+        let one = V::splat(1.0);
+        let ok = V::bits(V::gt(j, V::splat(0.0)));
+        let invj = V::div(one, j);
+        let f = V::sub(j, one);
+        let near = V::lt(V::abs(f), V::splat(super::LN_NEAR));
         let poly = ln_near1(f);
-        let lnj = if _mm256_movemask_pd(near) == 0xf {
+        let lnj = if V::bits(near) == V::FULL {
             poly
         } else {
-            _mm256_blendv_pd(ln_general(j), poly, near)
+            V::select(near, poly, ln_general(j))
         };
-        let t = _mm256_sub_pd(
-            _mm256_mul_pd(_mm256_set1_pd(lambda), lnj),
-            _mm256_set1_pd(mu),
-        );
-        (_mm256_mul_pd(_mm256_mul_pd(v0, t), invj), ok)
+        let t = V::sub(V::mul(V::splat(lambda), lnj), V::splat(mu));
+        (V::mul(V::mul(v0, t), invj), ok)
     }
 }
 
@@ -1288,7 +1535,7 @@ unsafe fn run_positions_avx2(
             // Padding lanes (k = 0): c = 0, and their J = 0 is no inversion.
             let pad = _mm256_cmp_pd(_mm256_load_pd(g.k.as_ptr()), zero, _CMP_EQ_OQ);
             let (b, ok) = v4::stress_factor(jbuf[q], _mm256_set1_pd(W), mu, lambda);
-            good &= ok | _mm256_movemask_pd(pad);
+            good &= ok | _mm256_movemask_pd(pad) as u32;
             jbuf[q] = _mm256_blendv_pd(b, zero, pad);
         }
         for (q, g) in chunk.iter().enumerate() {
@@ -1328,6 +1575,168 @@ unsafe fn run_positions_avx2(
         }
     }
     good == 0xf
+}
+
+/// The positions kernel with AVX-512, 8 lanes: two consecutive groups of 4 side by side
+/// (lanes 0-3 the first, 4-7 the second), in the stages of [`run_positions_avx2`] over the
+/// same blocks and with the same prefetches; the scatter adds the first group's rows, then the
+/// second's, in [`run_positions_avx2`]'s order. Each lane does the same operations: the same
+/// bits. A block's odd last group goes through [`run_positions_avx2`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+unsafe fn run_positions_avx512(
+    groups: &[PGroup],
+    (pf_ptr, pf_lines): (&[u32], &[u32]),
+    xp: *const f64,
+    r: *mut f64,
+    mu: f64,
+    lambda: f64,
+) -> bool {
+    use std::arch::x86_64::*;
+    const SUB: usize = 2; // prefetch blocks per fission chunk
+    const PAIRS: usize = SUB * BLK / 2;
+    let zero = _mm512_setzero_pd();
+    let mut good = 0xffu32;
+    let mut sbuf = [[zero; 9]; PAIRS];
+    let mut cbuf = [[zero; 9]; PAIRS];
+    let mut jbuf = [zero; PAIRS];
+    let mut kbuf = [zero; PAIRS];
+    // `permutex2var` indices: lanes 0, 1 of each 256-bit half of `a` and of `b`, and lanes 2, 3.
+    let even = _mm512_set_epi64(13, 12, 5, 4, 9, 8, 1, 0);
+    let odd = _mm512_set_epi64(15, 14, 7, 6, 11, 10, 3, 2);
+    // Rows `[x y z 0]` of lanes 0, 2 (or 1, 3) from the unpacked pairs, and of lanes 4, 6.
+    let rows_lo = _mm512_set_epi64(11, 10, 3, 2, 9, 8, 1, 0);
+    let rows_hi = _mm512_set_epi64(15, 14, 7, 6, 13, 12, 5, 4);
+    let pair = |a: *const f64, b: *const f64| {
+        _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(_mm256_load_pd(a)), _mm256_load_pd(b))
+    };
+    const LINES: usize = (BLK * std::mem::size_of::<PGroup>()).div_ceil(64);
+    for (ci, chunk) in groups.chunks(SUB * BLK).enumerate() {
+        for bi in SUB * ci..(SUB * ci + SUB).min(groups.len().div_ceil(BLK)) {
+            let ahead = (bi + PREFETCH_BLOCKS) * BLK;
+            if ahead + BLK <= groups.len() {
+                let p0 = groups.as_ptr().add(ahead) as *const i8;
+                for line in 0..LINES {
+                    _mm_prefetch::<_MM_HINT_T0>(p0.add(64 * line));
+                }
+            }
+            for &line in &pf_lines[pf_ptr[bi] as usize..pf_ptr[bi + 1] as usize] {
+                _mm_prefetch::<_MM_HINT_T0>(xp.add(8 * line as usize) as *const i8);
+                _mm_prefetch::<_MM_HINT_T0>(r.add(8 * line as usize) as *const i8);
+            }
+            let ahead = (bi + PREFETCH_L2_BLOCKS) * BLK;
+            if ahead + BLK <= groups.len() {
+                let p0 = groups.as_ptr().add(ahead) as *const i8;
+                for line in 0..LINES {
+                    _mm_prefetch::<_MM_HINT_T1>(p0.add(64 * line));
+                }
+            }
+        }
+        let pairs = chunk.len() / 2;
+        for q in 0..pairs {
+            let (ga, gb) = (&chunk[2 * q], &chunk[2 * q + 1]);
+            // Corner rows of the 8 lanes, transposed to x, y, z vectors.
+            let mut cx = [zero; 4];
+            let mut cy = [zero; 4];
+            let mut cz = [zero; 4];
+            for k in 0..4 {
+                let z =
+                    |l: usize| pair(xp.add(ga.idx[k][l] as usize), xp.add(gb.idx[k][l] as usize));
+                let (z0, z1, z2, z3) = (z(0), z(1), z(2), z(3));
+                let t0 = _mm512_unpacklo_pd(z0, z1); // a0x a1x a0z a1z b0x b1x b0z b1z
+                let t1 = _mm512_unpackhi_pd(z0, z1); // the same with y, w
+                let t2 = _mm512_unpacklo_pd(z2, z3);
+                let t3 = _mm512_unpackhi_pd(z2, z3);
+                cx[k] = _mm512_permutex2var_pd(t0, even, t2);
+                cy[k] = _mm512_permutex2var_pd(t1, even, t3);
+                cz[k] = _mm512_permutex2var_pd(t0, odd, t2);
+            }
+            let d = |a: __m512d, b: __m512d| _mm512_sub_pd(a, b);
+            let ds: [__m512d; 9] = [
+                d(cx[1], cx[0]),
+                d(cx[2], cx[0]),
+                d(cx[3], cx[0]),
+                d(cy[1], cy[0]),
+                d(cy[2], cy[0]),
+                d(cy[3], cy[0]),
+                d(cz[1], cz[0]),
+                d(cz[2], cz[0]),
+                d(cz[3], cz[0]),
+            ];
+            let (c, det) = v4::cof_det(&ds);
+            let k8 = pair(ga.k.as_ptr(), gb.k.as_ptr());
+            sbuf[q] = ds;
+            cbuf[q] = c;
+            kbuf[q] = k8;
+            jbuf[q] = _mm512_mul_pd(det, k8);
+        }
+        for q in 0..pairs {
+            // Padding lanes (k = 0): c = 0, and their J = 0 is no inversion.
+            let pad = _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(kbuf[q], zero);
+            let (b, ok) = v4::stress_factor(jbuf[q], _mm512_set1_pd(W), mu, lambda);
+            good &= ok | pad as u32;
+            jbuf[q] = _mm512_mask_blend_pd(pad, b, zero);
+        }
+        for q in 0..pairs {
+            let (ga, gb) = (&chunk[2 * q], &chunk[2 * q + 1]);
+            let gg = |i: usize| pair(ga.g[i].as_ptr(), gb.g[i].as_ptr());
+            let (g0, g1, g2, g3, g4, g5) = (gg(0), gg(1), gg(2), gg(3), gg(4), gg(5));
+            let gm = [g0, g1, g2, g1, g3, g4, g2, g4, g5];
+            let (ds, cf, b) = (&sbuf[q], &cbuf[q], jbuf[q]);
+            let mut h = [[zero; 3]; 4];
+            for i in 0..3 {
+                let mut acc = zero;
+                for jj in 0..3 {
+                    // H_i,jj = Σ_m Ds_im G_m,jj + c cof(Ds)_i,jj
+                    let hv = _mm512_fmadd_pd(
+                        ds[3 * i + 2],
+                        gm[6 + jj],
+                        _mm512_fmadd_pd(
+                            ds[3 * i + 1],
+                            gm[3 + jj],
+                            _mm512_fmadd_pd(ds[3 * i], gm[jj], _mm512_mul_pd(b, cf[3 * i + jj])),
+                        ),
+                    );
+                    h[jj + 1][i] = hv;
+                    acc = _mm512_add_pd(acc, hv);
+                }
+                h[0][i] = v4::neg(acc);
+            }
+            // Rows [x y z 0] per corner: (lanes 0, 2), (1, 3), (4, 6), (5, 7).
+            let mut rows = [[zero; 4]; 4];
+            for k in 0..4 {
+                let t0 = _mm512_unpacklo_pd(h[k][0], h[k][1]); // x0 y0 x2 y2 x4 y4 x6 y6
+                let t1 = _mm512_unpackhi_pd(h[k][0], h[k][1]); // x1 y1 x3 y3 x5 y5 x7 y7
+                let t2 = _mm512_unpacklo_pd(h[k][2], zero); // z0 0 z2 0 z4 0 z6 0
+                let t3 = _mm512_unpackhi_pd(h[k][2], zero); // z1 0 z3 0 z5 0 z7 0
+                rows[k] = [
+                    _mm512_permutex2var_pd(t0, rows_lo, t2),
+                    _mm512_permutex2var_pd(t1, rows_lo, t3),
+                    _mm512_permutex2var_pd(t0, rows_hi, t2),
+                    _mm512_permutex2var_pd(t1, rows_hi, t3),
+                ];
+            }
+            let add = |q: *mut f64, row: __m256d| {
+                _mm256_store_pd(q, _mm256_add_pd(_mm256_load_pd(q), row));
+            };
+            for (half, g) in [ga, gb].into_iter().enumerate() {
+                for k in 0..4 {
+                    let (e, o) = (rows[k][2 * half], rows[k][2 * half + 1]);
+                    add(r.add(g.idx[k][0] as usize), _mm512_castpd512_pd256(e));
+                    add(r.add(g.idx[k][1] as usize), _mm512_castpd512_pd256(o));
+                    add(r.add(g.idx[k][2] as usize), _mm512_extractf64x4_pd::<1>(e));
+                    add(r.add(g.idx[k][3] as usize), _mm512_extractf64x4_pd::<1>(o));
+                }
+            }
+        }
+        if chunk.len() % 2 == 1 {
+            let last = &chunk[chunk.len() - 1..];
+            if !run_positions_avx2(last, (&[0, 0], &[]), xp, r, mu, lambda) {
+                good = 0;
+            }
+        }
+    }
+    good == 0xff
 }
 
 /// Coefficients `1/3, 1/5, ..., 1/21` of the atanh series, `p(z) = Σ LN_COEF[i] zⁱ`.

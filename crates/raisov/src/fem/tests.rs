@@ -384,7 +384,7 @@ fn packed_kernel_paths_agree() {
             runs.push(r);
         }
         // The row prefetch schedule (off on a mesh this small) changes no bit.
-        model.pack.as_mut().unwrap().force_isa(1);
+        model.pack.as_mut().unwrap().force_isa(2);
         model.pack.as_mut().unwrap().set_row_prefetch(2);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(2)
@@ -655,6 +655,60 @@ fn kernel_log_is_within_two_ulp_near_and_far_from_one() {
     assert!(worst > 0.0, "the sweep compared nothing");
 }
 
+/// The AVX-512 kernel runs two groups as 8 lanes and a block's odd last group through the
+/// AVX2 kernel: on every group count from 1 to 4 blocks and a half, it gives the AVX2
+/// kernel's bits (the same scatter order), and both the portable kernel's. On a CPU without
+/// AVX-512 this compares AVX2 with itself.
+#[test]
+fn avx512_kernel_equals_avx2_on_every_group_count() {
+    use crate::mesh::generate::{box_tets, BoxPattern};
+    let mesh = box_tets([0.1, 0.04, 0.04], [20, 8, 8], BoxPattern::Five).unwrap();
+    let n = mesh.num_nodes();
+    let u = random_u(n, 0.2 * mesh.edge_range().0, 11);
+    let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
+    p.slab = 4096;
+    let model = FemModel::new(&mesh, p).unwrap();
+    let pack = model.pack.as_ref().unwrap();
+    let q: Vec<fast::Row4> = (0..n)
+        .map(|a| {
+            let x = mesh.nodes[a];
+            fast::Row4([
+                x[0] + u[3 * a],
+                x[1] + u[3 * a + 1],
+                x[2] + u[3 * a + 2],
+                0.0,
+            ])
+        })
+        .collect();
+    let blk = fast::BLK;
+    let mut compared = 0;
+    for groups in 1..=4 * blk + blk / 2 + 1 {
+        let mut runs = Vec::new();
+        for isa in [2, 1, 0] {
+            let mut r = vec![fast::Row4([0.0; 4]); n];
+            assert!(
+                pack.run_first_groups(groups, isa, &q, &mut r),
+                "{groups} groups"
+            );
+            runs.push(r);
+        }
+        assert!(
+            runs[0].iter().any(|r| r.0 != [0.0; 4]),
+            "{groups} groups: no force"
+        );
+        for (k, name) in [(1, "AVX2"), (2, "portable")] {
+            for (a, (x, y)) in runs[0].iter().zip(&runs[k]).enumerate() {
+                assert_eq!(
+                    x.0, y.0,
+                    "{groups} groups, node {a}: widest and {name} differ"
+                );
+            }
+        }
+        compared += 1;
+    }
+    assert_eq!(compared, 4 * blk + blk / 2 + 1);
+}
+
 /// With every element's `|J − 1|` below [`fast::LN_NEAR`] the AVX2 kernel skips the general
 /// logarithm for whole groups; it still gives the bits of the portable kernel, and the
 /// forces of the reference path within rounding.
@@ -670,13 +724,14 @@ fn near_unit_volume_change_takes_the_series_in_both_kernels() {
     let mut r_ref = vec![0.0; 3 * n];
     model.internal_forces_reference(&u, &mut r_ref).unwrap();
     let mut runs = Vec::new();
-    for isa in [1, 0] {
+    for isa in [2, 1, 0] {
         model.pack.as_mut().unwrap().force_isa(isa);
         let mut r = vec![0.0; 3 * n];
         model.internal_forces(&u, &mut r).unwrap();
         runs.push(r);
     }
-    assert_eq!(runs[0], runs[1], "SIMD and portable kernels differ");
+    assert_eq!(runs[0], runs[1], "AVX-512 and AVX2 kernels differ");
+    assert_eq!(runs[0], runs[2], "SIMD and portable kernels differ");
     let scale = r_ref.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
     assert!(scale > 0.0);
     for (a, b) in runs[0].iter().zip(&r_ref) {

@@ -46,18 +46,20 @@ pub struct RaisovParams {
 
 /// The paper's multigrid time integrator.
 ///
-/// The bookkeeping of eq. 8 rides on the strokes instead of whole-level passes: a node's
-/// `X_n` and `ΔX` are taken when the cycle first writes that node (the down stroke on levels
-/// 1 … m−1, the up stroke on level 0), and level 0's `ΔX`, read only before level 0 is
-/// written, is summed as `X_n − X_(n−1)` at its hosts without being stored. The same bits
-/// as the literal whole-level snapshots (test `fused_cycle_equals_the_literal_cycle`).
+/// The bookkeeping of eq. 8 rides on the strokes instead of whole-level passes: the transfer
+/// that first writes a level in a cycle (the down stroke on levels 1 … m−1, the up stroke on
+/// level 0) reads `X_n` from the state's buffers, keeps `ΔX` where needed, writes the new
+/// state over `X_(n−1)` and swaps the two pairs of buffers, so that `X_n` is kept without a
+/// copy; level 0's `ΔX`, read only before level 0 is written, is summed as `X_n − X_(n−1)` at
+/// its hosts without being stored. The same bits as the literal whole-level snapshots (test
+/// `fused_cycle_equals_the_literal_cycle`).
 pub struct Raisov {
     pub levels: Vec<Level>,
     pub links: Links,
     pub params: RaisovParams,
-    /// Per level: `X_(n−1)` at the start of a cycle; a node's entry becomes `X_n` when the
-    /// cycle first writes the node, so after the down stroke the coarse levels' entries are
-    /// `X_n` (the `Paper` reading's base).
+    /// Per level: `X_(n−1)` at the start of a cycle, `X_n` once the cycle's first transfer into
+    /// the level has swapped it with the state (so after the down stroke the coarse levels'
+    /// are `X_n`, the `Paper` reading's base).
     prev_u: Vec<Vec<f64>>,
     prev_v: Vec<Vec<f64>>,
     /// ΔX on levels 1 … m−2, written by the down stroke (level 0's is summed on the fly, the
@@ -147,6 +149,9 @@ impl Raisov {
             };
             sw[0].0 += counts.0;
             sw[0].1 += counts.1;
+            // The transfer wrote the new state over X_(n−1): the state's buffers now hold X_n.
+            std::mem::swap(&mut c.state.u, &mut self.prev_u[i]);
+            std::mem::swap(&mut c.state.v, &mut self.prev_v[i]);
             let tt = c.state.t;
             c.sys.impose(tt, &mut c.state.u, &mut c.state.v);
             if snapshot {
@@ -182,6 +187,11 @@ impl Raisov {
                 let counts = up(t, level, above, i == 0, src, base);
                 sw[1].0 += counts.0;
                 sw[1].1 += counts.1;
+                if i == 0 {
+                    // As in the down stroke: the new state is in the X_(n−1) buffers.
+                    std::mem::swap(&mut f.state.u, &mut self.prev_u[0]);
+                    std::mem::swap(&mut f.state.v, &mut self.prev_v[0]);
+                }
                 let tt = f.state.t;
                 f.sys.impose(tt, &mut f.state.u, &mut f.state.v);
                 if snapshot {
@@ -266,9 +276,10 @@ macro_rules! by_case {
     };
 }
 
-/// Down-stroke transfer into one level (eqs. 9, 10): per node, keep `X_n` (and ΔX where the
-/// level keeps it), then `X = Σ ω X^(i−1)` if `|Σ ω ΔX_u^(i−1)| > ε`, else
-/// `X += Σ ω ΔX^(i−1)`; the snapshot, where kept, is the new state.
+/// Down-stroke transfer into one level (eqs. 9, 10): per node, ΔX = X_n − X_(n−1) where the
+/// level keeps it, then the new state `Σ ω X^(i−1)` if `|Σ ω ΔX_u^(i−1)| > ε`, else
+/// `X_n + Σ ω ΔX^(i−1)`, written over `X_(n−1)` (the caller swaps the buffers); the
+/// snapshot, where kept, is the new state.
 fn down<C: Field + Sync>(
     t: &Transfer,
     level: Rows,
@@ -306,23 +317,27 @@ fn down_chunk<C: Field, const N: usize, const D: bool, const S: bool>(
             c.du[j] = sub(ou, c.pu[j]);
             c.dv[j] = sub(ov, c.pv[j]);
         }
-        c.pu[j] = ou;
-        c.pv[j] = ov;
         let (w, h) = (&ws[j], &hs[j]);
         let [d_u] = weighted_n::<N, 1, C>(w, h, [dfu]);
-        if above.test(d_u) {
+        let (nu, nv) = if above.test(d_u) {
             states += 1;
-            [c.u[j], c.v[j]] = weighted_n::<N, 2, _>(w, h, [src_u, src_v]);
+            let [nu, nv] = weighted_n::<N, 2, _>(w, h, [src_u, src_v]);
+            (nu, nv)
         } else {
             let [d_v] = weighted_n::<N, 1, C>(w, h, [dfv]);
+            let (mut nu, mut nv) = (ou, ov);
             for q in 0..3 {
-                c.u[j][q] += d_u[q];
-                c.v[j][q] += d_v[q];
+                nu[q] += d_u[q];
+                nv[q] += d_v[q];
             }
-        }
+            (nu, nv)
+        };
+        // The new state goes where X_(n−1) was; the caller swaps the buffers.
+        c.pu[j] = nu;
+        c.pv[j] = nv;
         if S {
-            c.su[j] = c.u[j];
-            c.sv[j] = c.v[j];
+            c.su[j] = nu;
+            c.sv[j] = nv;
         }
     }
     (states, n - states)
@@ -330,7 +345,8 @@ fn down_chunk<C: Field, const N: usize, const D: bool, const S: bool>(
 
 /// Up-stroke transfer into one level (eqs. 11, 12): `X = Σ ω X^(i+1)` if the level's own
 /// `|ΔX_u| > ε`, else `X += Σ ω (X^(i+1) − base)`. `finest`: the level's ΔX is `X − X_(n−1)`
-/// now, and its `X_n` is kept here. The snapshot, where kept, is the new state.
+/// now, and the new state is written over `X_(n−1)` (the caller swaps the buffers). The
+/// snapshot, where kept, is the new state.
 fn up(
     t: &Transfer,
     level: Rows,
@@ -353,7 +369,7 @@ fn up(
 }
 
 /// [`up`] on one chunk: `N` hosts per node; the level's own ΔX is `X − X_(n−1)` now where
-/// `FINEST` (and its `X_n` is kept here), else the stored ΔX; `S` the snapshot.
+/// `FINEST` (its new state then written over `X_(n−1)`), else the stored ΔX; `S` the snapshot.
 #[inline(always)]
 fn up_chunk<const N: usize, const FINEST: bool, const S: bool>(
     t: &Transfer,
@@ -368,29 +384,35 @@ fn up_chunk<const N: usize, const FINEST: bool, const S: bool>(
     let mut states = 0;
     for j in 0..n {
         let own = if FINEST {
-            let own = sub(c.u[j], c.pu[j]);
-            c.pu[j] = c.u[j];
-            c.pv[j] = c.v[j];
-            own
+            sub(c.u[j], c.pu[j])
         } else {
             c.du[j]
         };
         let (w, h) = (&ws[j], &hs[j]);
         let [cu, cv] = weighted_n::<N, 2, _>(w, h, src);
-        if above.test(own) {
+        let (nu, nv) = if above.test(own) {
             states += 1;
-            c.u[j] = cu;
-            c.v[j] = cv;
+            (cu, cv)
         } else {
             let [bu, bv] = weighted_n::<N, 2, _>(w, h, base);
+            let (mut nu, mut nv) = (c.u[j], c.v[j]);
             for q in 0..3 {
-                c.u[j][q] += cu[q] - bu[q];
-                c.v[j][q] += cv[q] - bv[q];
+                nu[q] += cu[q] - bu[q];
+                nv[q] += cv[q] - bv[q];
             }
+            (nu, nv)
+        };
+        if FINEST {
+            // The new state goes where X_(n−1) was; the caller swaps the buffers.
+            c.pu[j] = nu;
+            c.pv[j] = nv;
+        } else {
+            c.u[j] = nu;
+            c.v[j] = nv;
         }
         if S {
-            c.su[j] = c.u[j];
-            c.sv[j] = c.v[j];
+            c.su[j] = nu;
+            c.sv[j] = nv;
         }
     }
     (states, n - states)

@@ -1071,38 +1071,55 @@ pub(super) trait Lanes: Copy {
     unsafe fn split_exponent(x: Self) -> (Self, Self);
 }
 
+/// The arithmetic methods of [`Lanes`], the same for both widths but for the intrinsics'
+/// names.
+#[cfg(target_arch = "x86_64")]
+macro_rules! lanes_arith {
+    ($splat:ident, $add:ident, $sub:ident, $mul:ident, $div:ident, $fmadd:ident, $fmsub:ident) => {
+        #[inline(always)]
+        unsafe fn splat(x: f64) -> Self {
+            std::arch::x86_64::$splat(x)
+        }
+        #[inline(always)]
+        unsafe fn add(a: Self, b: Self) -> Self {
+            std::arch::x86_64::$add(a, b)
+        }
+        #[inline(always)]
+        unsafe fn sub(a: Self, b: Self) -> Self {
+            std::arch::x86_64::$sub(a, b)
+        }
+        #[inline(always)]
+        unsafe fn mul(a: Self, b: Self) -> Self {
+            std::arch::x86_64::$mul(a, b)
+        }
+        #[inline(always)]
+        unsafe fn div(a: Self, b: Self) -> Self {
+            std::arch::x86_64::$div(a, b)
+        }
+        #[inline(always)]
+        unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
+            std::arch::x86_64::$fmadd(a, b, c)
+        }
+        #[inline(always)]
+        unsafe fn fmsub(a: Self, b: Self, c: Self) -> Self {
+            std::arch::x86_64::$fmsub(a, b, c)
+        }
+    };
+}
+
 #[cfg(target_arch = "x86_64")]
 impl Lanes for std::arch::x86_64::__m256d {
     type Mask = std::arch::x86_64::__m256d;
     const FULL: u32 = 0xf;
-    #[inline(always)]
-    unsafe fn splat(x: f64) -> Self {
-        std::arch::x86_64::_mm256_set1_pd(x)
-    }
-    #[inline(always)]
-    unsafe fn add(a: Self, b: Self) -> Self {
-        std::arch::x86_64::_mm256_add_pd(a, b)
-    }
-    #[inline(always)]
-    unsafe fn sub(a: Self, b: Self) -> Self {
-        std::arch::x86_64::_mm256_sub_pd(a, b)
-    }
-    #[inline(always)]
-    unsafe fn mul(a: Self, b: Self) -> Self {
-        std::arch::x86_64::_mm256_mul_pd(a, b)
-    }
-    #[inline(always)]
-    unsafe fn div(a: Self, b: Self) -> Self {
-        std::arch::x86_64::_mm256_div_pd(a, b)
-    }
-    #[inline(always)]
-    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
-        std::arch::x86_64::_mm256_fmadd_pd(a, b, c)
-    }
-    #[inline(always)]
-    unsafe fn fmsub(a: Self, b: Self, c: Self) -> Self {
-        std::arch::x86_64::_mm256_fmsub_pd(a, b, c)
-    }
+    lanes_arith!(
+        _mm256_set1_pd,
+        _mm256_add_pd,
+        _mm256_sub_pd,
+        _mm256_mul_pd,
+        _mm256_div_pd,
+        _mm256_fmadd_pd,
+        _mm256_fmsub_pd
+    );
     #[inline(always)]
     unsafe fn neg(a: Self) -> Self {
         use std::arch::x86_64::*;
@@ -1153,34 +1170,15 @@ impl Lanes for std::arch::x86_64::__m256d {
 impl Lanes for std::arch::x86_64::__m512d {
     type Mask = std::arch::x86_64::__mmask8;
     const FULL: u32 = 0xff;
-    #[inline(always)]
-    unsafe fn splat(x: f64) -> Self {
-        std::arch::x86_64::_mm512_set1_pd(x)
-    }
-    #[inline(always)]
-    unsafe fn add(a: Self, b: Self) -> Self {
-        std::arch::x86_64::_mm512_add_pd(a, b)
-    }
-    #[inline(always)]
-    unsafe fn sub(a: Self, b: Self) -> Self {
-        std::arch::x86_64::_mm512_sub_pd(a, b)
-    }
-    #[inline(always)]
-    unsafe fn mul(a: Self, b: Self) -> Self {
-        std::arch::x86_64::_mm512_mul_pd(a, b)
-    }
-    #[inline(always)]
-    unsafe fn div(a: Self, b: Self) -> Self {
-        std::arch::x86_64::_mm512_div_pd(a, b)
-    }
-    #[inline(always)]
-    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
-        std::arch::x86_64::_mm512_fmadd_pd(a, b, c)
-    }
-    #[inline(always)]
-    unsafe fn fmsub(a: Self, b: Self, c: Self) -> Self {
-        std::arch::x86_64::_mm512_fmsub_pd(a, b, c)
-    }
+    lanes_arith!(
+        _mm512_set1_pd,
+        _mm512_add_pd,
+        _mm512_sub_pd,
+        _mm512_mul_pd,
+        _mm512_div_pd,
+        _mm512_fmadd_pd,
+        _mm512_fmsub_pd
+    );
     #[inline(always)]
     unsafe fn neg(a: Self) -> Self {
         use std::arch::x86_64::*;
@@ -1472,6 +1470,41 @@ const PREFETCH_BLOCKS: usize = 2;
 /// 12 to 48 less); 10k and 100k unchanged within noise.
 const PREFETCH_L2_BLOCKS: usize = 6;
 
+/// The positions kernels' prefetches at block `bi` (of [`BLK`] groups) of a slab's `groups`:
+/// the element data [`PREFETCH_BLOCKS`] blocks ahead into L1 and [`PREFETCH_L2_BLOCKS`] ahead
+/// into L2, and the node and force row lines of the block's entry `(pf_ptr, pf_lines)` of
+/// the row prefetch schedule ([`row_prefetch_schedule`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn prefetch_block(
+    groups: &[PGroup],
+    bi: usize,
+    (pf_ptr, pf_lines): (&[u32], &[u32]),
+    xp: *const f64,
+    r: *mut f64,
+) {
+    use std::arch::x86_64::*;
+    const LINES: usize = (BLK * std::mem::size_of::<PGroup>()).div_ceil(64);
+    let ahead = (bi + PREFETCH_BLOCKS) * BLK;
+    if ahead + BLK <= groups.len() {
+        let p0 = groups.as_ptr().add(ahead) as *const i8;
+        for line in 0..LINES {
+            _mm_prefetch::<_MM_HINT_T0>(p0.add(64 * line));
+        }
+    }
+    for &line in &pf_lines[pf_ptr[bi] as usize..pf_ptr[bi + 1] as usize] {
+        _mm_prefetch::<_MM_HINT_T0>(xp.add(8 * line as usize) as *const i8);
+        _mm_prefetch::<_MM_HINT_T0>(r.add(8 * line as usize) as *const i8);
+    }
+    let ahead = (bi + PREFETCH_L2_BLOCKS) * BLK;
+    if ahead + BLK <= groups.len() {
+        let p0 = groups.as_ptr().add(ahead) as *const i8;
+        for line in 0..LINES {
+            _mm_prefetch::<_MM_HINT_T1>(p0.add(64 * line));
+        }
+    }
+}
+
 /// The positions kernel with AVX2 + FMA intrinsics, 4 lanes per group, in three stages over
 /// a block of [`BLK`] groups as [`run_groups_avx2`]: (A) gather, `Ds`, `cof Ds`, `J`;
 /// (B) `c = (λ ln J − μ)/(6 J)`; (C) `H = Ds G + c cof Ds`, scatter. Same operations as
@@ -1480,7 +1513,7 @@ const PREFETCH_L2_BLOCKS: usize = 6;
 #[target_feature(enable = "avx2,fma")]
 unsafe fn run_positions_avx2(
     groups: &[PGroup],
-    (pf_ptr, pf_lines): (&[u32], &[u32]),
+    pf: (&[u32], &[u32]),
     xp: *const f64,
     r: *mut f64,
     mu: f64,
@@ -1492,26 +1525,8 @@ unsafe fn run_positions_avx2(
     let mut sbuf = [[zero; 9]; BLK];
     let mut cbuf = [[zero; 9]; BLK];
     let mut jbuf = [zero; BLK];
-    const LINES: usize = (BLK * std::mem::size_of::<PGroup>()).div_ceil(64);
     for (bi, chunk) in groups.chunks(BLK).enumerate() {
-        let ahead = (bi + PREFETCH_BLOCKS) * BLK;
-        if ahead + BLK <= groups.len() {
-            let p0 = groups.as_ptr().add(ahead) as *const i8;
-            for line in 0..LINES {
-                _mm_prefetch::<_MM_HINT_T0>(p0.add(64 * line));
-            }
-        }
-        for &line in &pf_lines[pf_ptr[bi] as usize..pf_ptr[bi + 1] as usize] {
-            _mm_prefetch::<_MM_HINT_T0>(xp.add(8 * line as usize) as *const i8);
-            _mm_prefetch::<_MM_HINT_T0>(r.add(8 * line as usize) as *const i8);
-        }
-        let ahead = (bi + PREFETCH_L2_BLOCKS) * BLK;
-        if ahead + BLK <= groups.len() {
-            let p0 = groups.as_ptr().add(ahead) as *const i8;
-            for line in 0..LINES {
-                _mm_prefetch::<_MM_HINT_T1>(p0.add(64 * line));
-            }
-        }
+        prefetch_block(groups, bi, pf, xp, r);
         for (q, g) in chunk.iter().enumerate() {
             let (cx, cy, cz) = gather4!(xp, g.idx);
             // Ds row-major: ds[3 i + m] = x_{m+1, i} − x_{0, i}.
@@ -1586,7 +1601,7 @@ unsafe fn run_positions_avx2(
 #[target_feature(enable = "avx512f,avx2,fma")]
 unsafe fn run_positions_avx512(
     groups: &[PGroup],
-    (pf_ptr, pf_lines): (&[u32], &[u32]),
+    pf: (&[u32], &[u32]),
     xp: *const f64,
     r: *mut f64,
     mu: f64,
@@ -1610,27 +1625,9 @@ unsafe fn run_positions_avx512(
     let pair = |a: *const f64, b: *const f64| {
         _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(_mm256_load_pd(a)), _mm256_load_pd(b))
     };
-    const LINES: usize = (BLK * std::mem::size_of::<PGroup>()).div_ceil(64);
     for (ci, chunk) in groups.chunks(SUB * BLK).enumerate() {
         for bi in SUB * ci..(SUB * ci + SUB).min(groups.len().div_ceil(BLK)) {
-            let ahead = (bi + PREFETCH_BLOCKS) * BLK;
-            if ahead + BLK <= groups.len() {
-                let p0 = groups.as_ptr().add(ahead) as *const i8;
-                for line in 0..LINES {
-                    _mm_prefetch::<_MM_HINT_T0>(p0.add(64 * line));
-                }
-            }
-            for &line in &pf_lines[pf_ptr[bi] as usize..pf_ptr[bi + 1] as usize] {
-                _mm_prefetch::<_MM_HINT_T0>(xp.add(8 * line as usize) as *const i8);
-                _mm_prefetch::<_MM_HINT_T0>(r.add(8 * line as usize) as *const i8);
-            }
-            let ahead = (bi + PREFETCH_L2_BLOCKS) * BLK;
-            if ahead + BLK <= groups.len() {
-                let p0 = groups.as_ptr().add(ahead) as *const i8;
-                for line in 0..LINES {
-                    _mm_prefetch::<_MM_HINT_T1>(p0.add(64 * line));
-                }
-            }
+            prefetch_block(groups, bi, pf, xp, r);
         }
         let pairs = chunk.len() / 2;
         for q in 0..pairs {

@@ -1356,10 +1356,54 @@ mod v4 {
         ln_tail(s, e)
     }
 
-    /// `−a`.
+    /// `Ds` row-major, `ds[3 i + m] = x_(m+1),i − x_0,i`, from the corners' coordinates
+    /// `(cx, cy, cz)[corner]`.
     #[inline(always)]
-    pub(super) unsafe fn neg<V: Lanes>(a: V) -> V {
-        V::neg(a)
+    pub(super) unsafe fn edges<V: Lanes>(cx: &[V; 4], cy: &[V; 4], cz: &[V; 4]) -> [V; 9] {
+        let d = |c: &[V; 4], m: usize| V::sub(c[m], c[0]);
+        [
+            d(cx, 1),
+            d(cx, 2),
+            d(cx, 3),
+            d(cy, 1),
+            d(cy, 2),
+            d(cy, 3),
+            d(cz, 1),
+            d(cz, 2),
+            d(cz, 3),
+        ]
+    }
+
+    /// The positions kernel's corner forces `H[corner][component]`:
+    /// `H_i,jj = Σ_m Ds_im G_m,jj + c cof(Ds)_i,jj` for corners 1-3, corner 0 minus their sum;
+    /// `gm` is `G` as a full row-major 3 × 3.
+    #[inline(always)]
+    pub(super) unsafe fn positions_h<V: Lanes>(
+        ds: &[V; 9],
+        cf: &[V; 9],
+        c: V,
+        gm: &[V; 9],
+    ) -> [[V; 3]; 4] {
+        let zero = V::splat(0.0);
+        let mut h = [[zero; 3]; 4];
+        for i in 0..3 {
+            let mut acc = zero;
+            for jj in 0..3 {
+                let hv = V::fmadd(
+                    ds[3 * i + 2],
+                    gm[6 + jj],
+                    V::fmadd(
+                        ds[3 * i + 1],
+                        gm[3 + jj],
+                        V::fmadd(ds[3 * i], gm[jj], V::mul(c, cf[3 * i + jj])),
+                    ),
+                );
+                h[jj + 1][i] = hv;
+                acc = V::add(acc, hv);
+            }
+            h[0][i] = V::neg(acc);
+        }
+        h
     }
 
     /// `ln(1 + f)` as [`super::ln_near1`], the same operations.
@@ -1530,17 +1574,7 @@ unsafe fn run_positions_avx2(
         for (q, g) in chunk.iter().enumerate() {
             let (cx, cy, cz) = gather4!(xp, g.idx);
             // Ds row-major: ds[3 i + m] = x_{m+1, i} − x_{0, i}.
-            let ds: [__m256d; 9] = [
-                _mm256_sub_pd(cx[1], cx[0]),
-                _mm256_sub_pd(cx[2], cx[0]),
-                _mm256_sub_pd(cx[3], cx[0]),
-                _mm256_sub_pd(cy[1], cy[0]),
-                _mm256_sub_pd(cy[2], cy[0]),
-                _mm256_sub_pd(cy[3], cy[0]),
-                _mm256_sub_pd(cz[1], cz[0]),
-                _mm256_sub_pd(cz[2], cz[0]),
-                _mm256_sub_pd(cz[3], cz[0]),
-            ];
+            let ds = v4::edges(&cx, &cy, &cz);
             let (c, det) = v4::cof_det(&ds);
             sbuf[q] = ds;
             cbuf[q] = c;
@@ -1566,26 +1600,7 @@ unsafe fn run_positions_avx2(
                 gg(4),
                 gg(5),
             ];
-            let (ds, cf, b) = (&sbuf[q], &cbuf[q], jbuf[q]);
-            let mut h = [[zero; 3]; 4];
-            for i in 0..3 {
-                let mut acc = zero;
-                for jj in 0..3 {
-                    // H_i,jj = Σ_m Ds_im G_m,jj + c cof(Ds)_i,jj
-                    let hv = _mm256_fmadd_pd(
-                        ds[3 * i + 2],
-                        gm[6 + jj],
-                        _mm256_fmadd_pd(
-                            ds[3 * i + 1],
-                            gm[3 + jj],
-                            _mm256_fmadd_pd(ds[3 * i], gm[jj], _mm256_mul_pd(b, cf[3 * i + jj])),
-                        ),
-                    );
-                    h[jj + 1][i] = hv;
-                    acc = _mm256_add_pd(acc, hv);
-                }
-                h[0][i] = _mm256_xor_pd(acc, _mm256_set1_pd(-0.0));
-            }
+            let h = v4::positions_h(&sbuf[q], &cbuf[q], jbuf[q], &gm);
             scatter4!(r, g.idx, h);
         }
     }
@@ -1648,18 +1663,7 @@ unsafe fn run_positions_avx512(
                 cy[k] = _mm512_permutex2var_pd(t1, even, t3);
                 cz[k] = _mm512_permutex2var_pd(t0, odd, t2);
             }
-            let d = |a: __m512d, b: __m512d| _mm512_sub_pd(a, b);
-            let ds: [__m512d; 9] = [
-                d(cx[1], cx[0]),
-                d(cx[2], cx[0]),
-                d(cx[3], cx[0]),
-                d(cy[1], cy[0]),
-                d(cy[2], cy[0]),
-                d(cy[3], cy[0]),
-                d(cz[1], cz[0]),
-                d(cz[2], cz[0]),
-                d(cz[3], cz[0]),
-            ];
+            let ds = v4::edges(&cx, &cy, &cz);
             let (c, det) = v4::cof_det(&ds);
             let k8 = pair(ga.k.as_ptr(), gb.k.as_ptr());
             sbuf[q] = ds;
@@ -1679,26 +1683,7 @@ unsafe fn run_positions_avx512(
             let gg = |i: usize| pair(ga.g[i].as_ptr(), gb.g[i].as_ptr());
             let (g0, g1, g2, g3, g4, g5) = (gg(0), gg(1), gg(2), gg(3), gg(4), gg(5));
             let gm = [g0, g1, g2, g1, g3, g4, g2, g4, g5];
-            let (ds, cf, b) = (&sbuf[q], &cbuf[q], jbuf[q]);
-            let mut h = [[zero; 3]; 4];
-            for i in 0..3 {
-                let mut acc = zero;
-                for jj in 0..3 {
-                    // H_i,jj = Σ_m Ds_im G_m,jj + c cof(Ds)_i,jj
-                    let hv = _mm512_fmadd_pd(
-                        ds[3 * i + 2],
-                        gm[6 + jj],
-                        _mm512_fmadd_pd(
-                            ds[3 * i + 1],
-                            gm[3 + jj],
-                            _mm512_fmadd_pd(ds[3 * i], gm[jj], _mm512_mul_pd(b, cf[3 * i + jj])),
-                        ),
-                    );
-                    h[jj + 1][i] = hv;
-                    acc = _mm512_add_pd(acc, hv);
-                }
-                h[0][i] = v4::neg(acc);
-            }
+            let h = v4::positions_h(&sbuf[q], &cbuf[q], jbuf[q], &gm);
             // Rows [x y z 0] per corner: (lanes 0, 2), (1, 3), (4, 6), (5, 7).
             let mut rows = [[zero; 4]; 4];
             for k in 0..4 {

@@ -21,6 +21,9 @@
 use std::collections::BTreeMap;
 
 pub mod generate;
+pub mod surface;
+
+pub use surface::Surface;
 
 /// Element type of a mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

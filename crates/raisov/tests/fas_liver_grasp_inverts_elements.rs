@@ -1,4 +1,4 @@
-//! Regression: the FAS multigrid on the liver levels (L1, L2, L3 of `../shared/meshes`) under a
+//! Regression: the FAS multigrid on the liver levels (L1, L2, L3 of `data/`) under a
 //! slow grasp-and-pull inverted elements every few cycles and then stopped with "diverged ...
 //! inverted element", where single-level integration ran on. Three causes, each fixed:
 //! - the coarse-grid correction `P(u_c − u_c0)` was applied in full: near the grasp the coarse
@@ -15,7 +15,7 @@
 use raisov::scenario::Scenario;
 use std::path::Path;
 
-const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/meshes");
+const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data");
 
 #[test]
 #[ignore = "slow: liver meshes; run in release with --ignored"]

@@ -1,4 +1,4 @@
-//! Regression: on the liver levels (L1, L2, L3 of `../shared/meshes`), held on the cap of its
+//! Regression: on the liver levels (L1, L2, L3 of `data/`), held on the cap of its
 //! top and sagging under gravity, plain FAS V-cycles hardly converged: the residual fell from
 //! 2.4 N to 0.11 N in 44 cycles and then by about 1.2x per 3500 cycles (3.8e-4 N after
 //! 290k force evaluations), slower per evaluation than single-level symplectic Euler (6e-4 N
@@ -14,7 +14,7 @@
 use raisov::scenario::Scenario;
 use std::path::Path;
 
-const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/meshes");
+const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data");
 
 #[test]
 #[ignore = "slow: liver meshes; run in release with --ignored"]

@@ -892,7 +892,7 @@ mod tests {
 
     const LIVER: &str = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/meshes/liver_L3.msh"
+        "/../../data/liver_L3.msh"
     );
 
     fn write(dir: &Path, name: &str, content: &[u8]) -> std::path::PathBuf {

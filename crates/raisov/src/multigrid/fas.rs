@@ -1,7 +1,7 @@
 //! The project's convergent multigrid: a full approximation scheme (FAS) built from the
 //! paper's ingredients (independent levels, host weights both ways, explicit damped
 //! integrators as smoothers, coarse changes carried up as variations). Not in the paper; see
-//! `../shared/design/raisov-reading.md`, "A multigrid that converges".
+//! `docs/raisov-reading.md`, "A multigrid that converges".
 //!
 //! One step is one V-cycle from level 0, recursively on level l with equation
 //! `R_l(u) = F_l` (`F_0 = V`, the real loads):

@@ -3,7 +3,7 @@
 //! Two schemes behind the same [`Stepper`](crate::integrate::Stepper) interface as
 //! single-level integration (SLIM):
 //! - [`raisov::Raisov`]: the paper's RaISoV V-cycle (Wu & Tendick 2004, eqs. 8-13), exactly as
-//!   `../shared/design/raisov-reading.md` reads it, with both up-stroke readings;
+//!   `docs/raisov-reading.md` reads it, with both up-stroke readings;
 //! - [`fas::Fas`]: the project's own full-approximation-scheme multigrid built from the same
 //!   ingredients (host weights both ways, explicit damped integrators as smoothers, coarse
 //!   changes carried up as variations), which converges to SLIM's equilibrium.

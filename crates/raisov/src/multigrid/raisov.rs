@@ -1,5 +1,5 @@
 //! RaISoV, Restrict-and-Interpolate-State-or-Variation (Wu & Tendick 2004, section 2.2),
-//! exactly as `../shared/design/raisov-reading.md` reads it. One time step is one V-cycle.
+//! exactly as `docs/raisov-reading.md` reads it. One time step is one V-cycle.
 //!
 //! State per node `X = [u; u̇]`; `X_n^(i)` a level's state at the start of cycle n, before any
 //! transfer; `ΔX^(i) = X_n^(i) − X_(n−1)^(i)` (eq. 8), its whole change over the last cycle.

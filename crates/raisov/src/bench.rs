@@ -11,7 +11,7 @@
 //!
 //! Precision: the standard-work rows are measured for each [`Precision`] asked for
 //! ([`BenchOptions::precisions`]): `f64` (everything f64) and `f32-storage` (`Dm⁻¹` and
-//! volumes stored in f32, arithmetic and state f64; tolerance in [`crate::fem::fast`]).
+//! volumes stored in f32, arithmetic and state f64; tolerance in [`crate::fem::packed`]).
 //!
 //! Bytes moved per tet-step *by design* (compulsory traffic if every array is streamed once
 //! per step): the packed element data ([`Precision::bytes_per_tet`]: 72 B in f64: 4 ids,

@@ -20,14 +20,14 @@
 //! element measure.
 //!
 //! Data layout for speed: flat arrays, `Dm⁻¹` and measures precomputed. Compressible
-//! neo-Hookean tetrahedra (the benchmark work) take the packed, vectorised path of [`fast`]:
+//! neo-Hookean tetrahedra (the benchmark work) take the packed, vectorised path of [`packed`]:
 //! elements sorted into slabs and by a Morton key, slabs coloured so that one colour's slabs
 //! scatter into `r` concurrently without sharing a node (fixed summation order per node).
 //! Every other material and the membranes write element forces into per-element slots in
 //! parallel and then gather them per node in a fixed order. Either way the result has the
 //! same bits on any number of threads and no atomics are needed. The packed path can store
 //! its element data (`Dm⁻¹`, volumes) in f32 ([`FemParams::precision`], [`Precision`]; tolerance
-//! against f64 in [`fast`]); arithmetic and state stay f64. Element ids in
+//! against f64 in [`packed`]); arithmetic and state stay f64. Element ids in
 //! [`ElementFailure`] and every public method are the mesh's original ids.
 //!
 //! The packed path reads 32-byte node rows (`X + u` for the f64 positions kernel, `u` with
@@ -41,17 +41,18 @@
 //! force rows: [`crate::integrate::SymplecticEuler`] on a [`crate::integrate::System`] with
 //! fixed (zero) constraints, to the bit on the generic path and with f32 storage under a
 //! per-node load, within rounding of `X` in f64 (bounds in the method's docs). The load is
-//! per node or, as gravity, one acceleration for all ([`NodeLoad`]).
+//! per node or, as gravity, one acceleration for all ([`NodeLoad`]). It lives with the packed
+//! path, in `packed/fused.rs`.
 
 mod element;
-pub mod fast;
+pub mod packed;
 
 use crate::material::{Material, MembraneMaterial, SolidMaterial};
 use crate::mesh::{ElementKind, Mesh};
 use crate::{Error, Result};
 pub use element::{membrane_frame, tet_dm_inverse};
-pub use fast::Precision;
 use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector3};
+pub use packed::{FusedState, NodeLoad, Precision};
 use rayon::prelude::*;
 
 /// An element that cannot be evaluated: inverted (tets `det F <= 0`) or collapsed
@@ -87,14 +88,14 @@ pub struct FemParams {
     /// Elements per parallel task of the generic force pass; below 2 tasks' worth it runs
     /// serially. Default 2048.
     pub chunk: usize,
-    /// Wanted elements per slab of the packed neo-Hookean tetrahedron path (see [`fast`]):
+    /// Wanted elements per slab of the packed neo-Hookean tetrahedron path (see [`packed`]):
     /// one slab (serial) below 2 slabs' worth, else a multiple of 4 slabs (2 colours × an
     /// even number of slabs per colour) and no more than the node numbering's band allows.
     /// The layout, hence the bits, depend on this and the mesh only, never on the thread
     /// count. Default 16384 (10k-node standard box: 4 slabs; 100k: 16; 1M: 36).
     pub slab: usize,
     /// Storage precision of the packed neo-Hookean tetrahedron data (`Dm⁻¹` and volumes in
-    /// f64, or in f32 widened to f64 on load; see [`fast`] for the tolerance). Other
+    /// f64, or in f32 widened to f64 on load; see [`packed`] for the tolerance). Other
     /// materials and membranes, the masses, the strain energy and the stresses are f64
     /// whatever this says. Default [`Precision::F64`].
     pub precision: Precision,
@@ -134,238 +135,16 @@ pub struct FemModel {
     /// Per-element-corner force scratch (3 per slot); empty when `pack` is used.
     elem_forces: Vec<f64>,
     /// Packed neo-Hookean tetrahedra (the fast path), if the model qualifies.
-    pack: Option<fast::TetPack>,
+    pack: Option<packed::TetPack>,
     /// Node rows the packed kernel reads in [`FemModel::internal_forces`], filled from `u`
     /// at each force pass: `X + u` (positions kernel, f64 storage) or `u` (f32 storage).
     /// Empty without `pack`. (The fused step keeps its rows in its [`FusedState`].)
-    rows: Vec<fast::Row4>,
+    rows: Vec<packed::Row4>,
     /// Force rows the packed kernel (or, in the fused step, the generic path) accumulates
     /// into; all zeros between passes.
-    acc: Vec<fast::Row4>,
+    acc: Vec<packed::Row4>,
     /// Generic-path forces of the fused step (3 per node); empty with `pack`.
     acc3: Vec<f64>,
-}
-
-/// External load of the fused step ([`FemModel::step_symplectic_euler`]).
-#[derive(Clone, Copy, Debug)]
-pub enum NodeLoad<'a> {
-    /// Forces `V`, 3 per node (N): `v += Δ (M⁻¹(V − R) − α v)`.
-    Forces(&'a [f64]),
-    /// The same acceleration `g` on every node (m/s², e.g. gravity, `V = M g`):
-    /// `v += Δ (g − M⁻¹R − α v)`. Nothing is read per node for it: 24 bytes per node-step
-    /// less than [`NodeLoad::Forces`] with `M g`, and a different rounding (`g − R/m` against
-    /// `(m g − R)/m`, an ulp of the acceleration).
-    Acceleration([f64; 3]),
-}
-
-impl NodeLoad<'_> {
-    /// The acceleration of entry `i = 3a + k` (node `a`, component `k`) under this load and
-    /// the internal force `r` at a node of inverse mass `m`: `(V_i − r) m` or `g_k − r m`.
-    #[inline(always)]
-    fn acceleration(self, i: usize, k: usize, r: f64, m: f64) -> f64 {
-        match self {
-            NodeLoad::Forces(f) => (f[i] - r) * m,
-            NodeLoad::Acceleration(g) => g[k] - r * m,
-        }
-    }
-}
-
-/// State of the fused step ([`FemModel::step_symplectic_euler`]): velocities `v` and the
-/// configuration, 3 per node. On the packed path the configuration lives in the node rows
-/// the force pass reads (`X + u` in f64, `u` with f32 storage), which the node update
-/// advances in place; `u` is derived from them when asked for ([`FusedState::u`]). On the
-/// generic path `u` itself is advanced. Changing `u` through [`FusedState::u_mut`] rebuilds
-/// the rows at the next step. A state belongs to the model that steps it (the rows hold
-/// that model's reference positions).
-#[derive(Clone, Debug, Default)]
-pub struct FusedState {
-    u: Vec<f64>,
-    v: Vec<f64>,
-    rows: Vec<fast::Row4>,
-    /// The rows hold the configuration (the packed path has stepped since the last
-    /// change of `u`).
-    rows_valid: bool,
-    /// `u` lags the rows (a packed step ran since it was last derived).
-    u_stale: bool,
-    /// What the rows hold beyond `u`: `X`, 3 per node (f64 positions rows), or empty.
-    base: Vec<f64>,
-}
-
-impl FusedState {
-    /// `u` and `v` given (3 per node each).
-    pub fn new(u: Vec<f64>, v: Vec<f64>) -> FusedState {
-        assert!(
-            u.len() == v.len() && u.len().is_multiple_of(3),
-            "u and v: 3 per node each"
-        );
-        FusedState {
-            u,
-            v,
-            ..Default::default()
-        }
-    }
-
-    /// At rest: `u = v = 0` on `n` nodes.
-    pub fn zeros(n: usize) -> FusedState {
-        FusedState::new(vec![0.0; 3 * n], vec![0.0; 3 * n])
-    }
-
-    /// Displacements, 3 per node: on the packed path derived from the node rows
-    /// (`(X + u) − X` in f64: within an ulp of `X` of the `u` the rows were built from).
-    pub fn u(&mut self) -> &[f64] {
-        if self.u_stale {
-            const NB: usize = 4096;
-            let base: &[f64] = &self.base;
-            if base.is_empty() {
-                self.u
-                    .par_chunks_mut(3 * NB)
-                    .zip(self.rows.par_chunks(NB))
-                    .for_each(|(uc, rc)| {
-                        for (ua, row) in uc.chunks_exact_mut(3).zip(rc) {
-                            ua.copy_from_slice(&row.0[..3]);
-                        }
-                    });
-            } else {
-                self.u
-                    .par_chunks_mut(3 * NB)
-                    .zip(self.rows.par_chunks(NB).zip(base.par_chunks(3 * NB)))
-                    .for_each(|(uc, (rc, bc))| {
-                        for ((ua, row), xa) in
-                            uc.chunks_exact_mut(3).zip(rc).zip(bc.chunks_exact(3))
-                        {
-                            for k in 0..3 {
-                                ua[k] = row.0[k] - xa[k];
-                            }
-                        }
-                    });
-            }
-            self.u_stale = false;
-        }
-        &self.u
-    }
-
-    /// Velocities, 3 per node.
-    pub fn v(&self) -> &[f64] {
-        &self.v
-    }
-
-    /// Displacements to change; the force pass's rows are rebuilt at the next step.
-    pub fn u_mut(&mut self) -> &mut [f64] {
-        self.u();
-        self.rows_valid = false;
-        &mut self.u
-    }
-
-    /// Velocities to change.
-    pub fn v_mut(&mut self) -> &mut [f64] {
-        &mut self.v
-    }
-}
-
-/// Node `a`'s row from `u` and `x0` (3 per node, `a` counted in those slices):
-/// `[X_a + u_a, 0]` (`positions`) or `[u_a, 0]`.
-#[inline(always)]
-fn node_row(u: &[f64], x0: &[f64], a: usize, positions: bool) -> fast::Row4 {
-    let i = 3 * a;
-    fast::Row4(if positions {
-        [
-            x0[i] + u[i],
-            x0[i + 1] + u[i + 1],
-            x0[i + 2] + u[i + 2],
-            0.0,
-        ]
-    } else {
-        [u[i], u[i + 1], u[i + 2], 0.0]
-    })
-}
-
-/// The packed fused step's node pass, in parallel chunks: for each node `a`, `v += Δ (load
-/// − α v)` with `load(3a + k, k, R, 1/m)` the acceleration the load and the force rows give,
-/// then `row += Δ v`, and the force row cleared; fixed nodes get `v = 0` and their
-/// reference row (`[X, 0]` with `positions`, else zeros).
-#[inline(always)]
-fn packed_node_pass<L: Fn(usize, usize, f64, f64) -> f64 + Sync>(
-    load: L,
-    (v, acc, rows): (&mut [f64], &mut [fast::Row4], &mut [fast::Row4]),
-    (inv_mass, fixed, x0): (&[f64], &[bool], &[f64]),
-    positions: bool,
-    alpha: f64,
-    dt: f64,
-) {
-    const NB: usize = 4096;
-    let body = |a0: usize,
-                vc: &mut [f64],
-                rc: &mut [fast::Row4],
-                qc: &mut [fast::Row4],
-                mc: &[f64],
-                xc: &[bool]| {
-        for a in 0..mc.len() {
-            let ra = &mut rc[a].0;
-            let q = &mut qc[a].0;
-            if xc[a] {
-                let g = 3 * (a0 + a);
-                vc[3 * a..3 * a + 3].fill(0.0);
-                *q = if positions {
-                    [x0[g], x0[g + 1], x0[g + 2], 0.0]
-                } else {
-                    [0.0; 4]
-                };
-            } else {
-                for k in 0..3 {
-                    let i = 3 * a + k;
-                    let acc_i = load(3 * a0 + i, k, ra[k], mc[a]) - alpha * vc[i];
-                    vc[i] += dt * acc_i;
-                    q[k] += dt * vc[i];
-                }
-            }
-            *ra = [0.0; 4];
-        }
-    };
-    if inv_mass.len() >= 2 * NB {
-        v.par_chunks_mut(3 * NB)
-            .zip(acc.par_chunks_mut(NB))
-            .zip(rows.par_chunks_mut(NB))
-            .zip(inv_mass.par_chunks(NB).zip(fixed.par_chunks(NB)))
-            .enumerate()
-            .for_each(|(c, (((vc, rc), qc), (mc, xc)))| body(c * NB, vc, rc, qc, mc, xc));
-    } else {
-        body(0, v, acc, rows, inv_mass, fixed);
-    }
-}
-
-/// `rows[a] = [X_a + u_a, 0]` (`positions`) or `[u_a, 0]`, in parallel chunks.
-fn fill_rows(rows: &mut [fast::Row4], u: &[f64], x0: &[f64], positions: bool) {
-    const NB: usize = 4096;
-    let body = |(rc, (uc, xc)): (&mut [fast::Row4], (&[f64], &[f64]))| {
-        for (a, row) in rc.iter_mut().enumerate() {
-            *row = node_row(uc, xc, a, positions);
-        }
-    };
-    if rows.len() >= 2 * NB {
-        rows.par_chunks_mut(NB)
-            .zip(u.par_chunks(3 * NB).zip(x0.par_chunks(3 * NB)))
-            .for_each(body);
-    } else {
-        body((rows, (u, x0)));
-    }
-}
-
-/// `r[3a + k] = acc[a][k]` and `acc[a] = 0`, in parallel chunks.
-fn drain_rows(acc: &mut [fast::Row4], r: &mut [f64]) {
-    const NB: usize = 4096;
-    let body = |(ac, rc): (&mut [fast::Row4], &mut [f64])| {
-        for (row, ra) in ac.iter_mut().zip(rc.chunks_exact_mut(3)) {
-            ra.copy_from_slice(&row.0[..3]);
-            *row = fast::Row4::default();
-        }
-    };
-    if acc.len() >= 2 * NB {
-        acc.par_chunks_mut(NB)
-            .zip(r.par_chunks_mut(3 * NB))
-            .for_each(body);
-    } else {
-        body((acc, r));
-    }
 }
 
 impl FemModel {
@@ -431,7 +210,7 @@ impl FemModel {
             "node id out of range"
         );
         let pack = match (&params.material, mesh.kind) {
-            (Material::NeoHookean(m), ElementKind::Tet4) => Some(fast::TetPack::new(
+            (Material::NeoHookean(m), ElementKind::Tet4) => Some(packed::TetPack::new(
                 m.mu,
                 m.lambda,
                 &x0,
@@ -459,10 +238,10 @@ impl FemModel {
             node_ptr,
             node_slots,
             elem_forces,
-            rows: vec![fast::Row4::default(); if pack.is_some() { n } else { 0 }],
+            rows: vec![packed::Row4::default(); if pack.is_some() { n } else { 0 }],
             acc: {
-                let mut acc = fast::huge_page_vec(n);
-                acc.resize(n, fast::Row4::default());
+                let mut acc = packed::huge_page_vec(n);
+                acc.resize(n, packed::Row4::default());
                 acc
             },
             acc3: if pack.is_some() {
@@ -494,7 +273,7 @@ impl FemModel {
         })
     }
 
-    /// Instruction set of the fast kernel (`"portable"`, `"avx2"`), if in use.
+    /// Instruction set of the fast kernel (`"portable"`, `"avx2"`, `"avx512"`), if in use.
     pub fn fast_kernel_isa(&self) -> Option<&'static str> {
         self.pack.as_ref().map(|p| p.isa())
     }
@@ -539,135 +318,6 @@ impl FemModel {
                 element: 0,
                 det_f: f64::NAN,
             })
-    }
-
-    /// One fused symplectic-Euler step, `v += Δ (M⁻¹(V − R(u)) − α v)`, `u += Δ v`, with
-    /// `u = v = 0` on nodes where `fixed` is true; `inv_mass` per node, the load `V` as
-    /// [`NodeLoad`]. On failure the state is unchanged.
-    ///
-    /// On the packed path the node update advances the node rows of the next force pass in
-    /// place (`x += Δ v` on `x = X + u` in f64, `u += Δ v` on `u` with f32 storage) and
-    /// never touches `u` ([`FusedState::u`] derives it), so that a node-step moves 64 bytes
-    /// less than updating `u` and rebuilding the rows (`X` and `u` read, `u` written) with a
-    /// per-node load: 281 bytes per node-step in f64 with [`NodeLoad::Acceleration`]. The
-    /// result is [`crate::integrate::SymplecticEuler`] on a [`crate::integrate::System`]
-    /// built from this model with those nodes fixed: the same bits on the generic path and
-    /// with f32 storage (`u += Δ v` either way) under [`NodeLoad::Forces`]; in f64 the
-    /// positions carry the rounding of `X` (an ulp of `|X|` per step, absolute), within
-    /// `1e-11` of the largest `|u|` of the System path over 500 steps of the standard work
-    /// (tested), and [`NodeLoad::Acceleration`] rounds `g − R/m` for `(m g − R)/m`.
-    pub fn step_symplectic_euler(
-        &mut self,
-        s: &mut FusedState,
-        load: NodeLoad<'_>,
-        inv_mass: &[f64],
-        fixed: &[bool],
-        alpha: f64,
-        dt: f64,
-    ) -> Result<(), ElementFailure> {
-        let n = self.n_nodes;
-        assert!(s.u.len() == 3 * n && s.v.len() == 3 * n);
-        if let NodeLoad::Forces(f) = load {
-            assert!(f.len() == 3 * n, "f_ext: 3 per node");
-        }
-        assert!(inv_mass.len() == n && fixed.len() == n);
-        let Some(p) = &self.pack else {
-            return self.step_generic(s, load, inv_mass, fixed, alpha, dt);
-        };
-        let positions = p.reads_positions();
-        if !s.rows_valid {
-            s.u();
-            if s.rows.len() != n {
-                s.rows = fast::huge_page_vec(n);
-                s.rows.resize(n, fast::Row4::default());
-            }
-            fill_rows(&mut s.rows, &s.u, &self.x0, positions);
-            s.base = if positions {
-                self.x0.clone()
-            } else {
-                Vec::new()
-            };
-            s.rows_valid = true;
-        }
-        if !p.accumulate(&s.rows, &mut self.acc) {
-            self.acc.fill(fast::Row4::default());
-            s.u();
-            return Err(self.fast_failure(&s.u));
-        }
-        s.u_stale = true;
-        let x0: &[f64] = &self.x0;
-        let FusedState { v, rows, .. } = s;
-        let acc = &mut self.acc[..];
-        match load {
-            NodeLoad::Forces(f) => packed_node_pass(
-                |i, k, r, m| NodeLoad::Forces(f).acceleration(i, k, r, m),
-                (v, acc, rows),
-                (inv_mass, fixed, x0),
-                positions,
-                alpha,
-                dt,
-            ),
-            NodeLoad::Acceleration(g) => packed_node_pass(
-                |i, k, r, m| NodeLoad::Acceleration(g).acceleration(i, k, r, m),
-                (v, acc, rows),
-                (inv_mass, fixed, x0),
-                positions,
-                alpha,
-                dt,
-            ),
-        }
-        Ok(())
-    }
-
-    /// [`FemModel::step_symplectic_euler`] on the generic element path: forces into
-    /// `acc3`, then `v` and `u` updated (the same operations as the integrator's).
-    fn step_generic(
-        &mut self,
-        s: &mut FusedState,
-        load: NodeLoad<'_>,
-        inv_mass: &[f64],
-        fixed: &[bool],
-        alpha: f64,
-        dt: f64,
-    ) -> Result<(), ElementFailure> {
-        let mut acc3 = std::mem::take(&mut self.acc3);
-        acc3.resize(3 * self.n_nodes, 0.0);
-        s.u();
-        let res = self.internal_forces(&s.u, &mut acc3);
-        if res.is_ok() {
-            s.rows_valid = false;
-            const NB: usize = 4096;
-            let body =
-                |a0: usize, uc: &mut [f64], vc: &mut [f64], rc: &[f64], mc: &[f64], xc: &[bool]| {
-                    for a in 0..mc.len() {
-                        for k in 0..3 {
-                            let i = 3 * a + k;
-                            if xc[a] {
-                                vc[i] = 0.0;
-                                uc[i] = 0.0;
-                            } else {
-                                let acc_i =
-                                    load.acceleration(3 * a0 + i, k, rc[i], mc[a]) - alpha * vc[i];
-                                vc[i] += dt * acc_i;
-                                uc[i] += dt * vc[i];
-                            }
-                        }
-                    }
-                };
-            let FusedState { u, v, .. } = s;
-            if self.n_nodes >= 2 * NB {
-                u.par_chunks_mut(3 * NB)
-                    .zip(v.par_chunks_mut(3 * NB))
-                    .zip(acc3.par_chunks(3 * NB))
-                    .zip(inv_mass.par_chunks(NB).zip(fixed.par_chunks(NB)))
-                    .enumerate()
-                    .for_each(|(c, (((uc, vc), rc), (mc, xc)))| body(c * NB, uc, vc, rc, mc, xc));
-            } else {
-                body(0, u, v, &acc3, inv_mass, fixed);
-            }
-        }
-        self.acc3 = acc3;
-        res
     }
 
     fn npe(&self) -> usize {
@@ -888,9 +538,9 @@ impl ForceModel for FemModel {
 
     fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure> {
         if let Some(p) = &self.pack {
-            fill_rows(&mut self.rows, u, &self.x0, p.reads_positions());
+            packed::fill_rows(&mut self.rows, u, &self.x0, p.reads_positions());
             let ok = p.accumulate(&self.rows, &mut self.acc);
-            drain_rows(&mut self.acc, r);
+            packed::drain_rows(&mut self.acc, r);
             return if ok {
                 Ok(())
             } else {

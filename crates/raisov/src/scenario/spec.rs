@@ -62,7 +62,7 @@
 //! precision = "f64"               # element data of the force pass: "f64" (default) | "f32-storage"
 //!                                 # (Dm⁻¹ and volumes stored in f32, arithmetic and state f64;
 //!                                 # fewer bytes per step on large meshes, forces within 1e-6
-//!                                 # relative of f64, see fem::fast). Applies to neo-Hookean
+//!                                 # relative of f64, see fem::packed). Applies to neo-Hookean
 //!                                 # tetrahedra (the packed path); elsewhere f64 with a note
 //!
 //! [run]

@@ -4,10 +4,9 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use raisov::io::{load_mesh, write_msh22, write_vtu};
-use raisov::mesh::generate::{
-    box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern,
-};
+use raisov::mesh::generate::{box_tets, box_tets_target, polygon_membrane, rectangle_membrane};
 use raisov::mesh::Mesh;
+use raisov::scenario::spec::{box_pattern, defaults};
 use raisov::scenario::{run_with, RunOptions, Scenario};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -122,8 +121,8 @@ enum MeshCmd {
         /// Box divisions NX,NY,NZ instead of --nodes.
         #[arg(long, value_delimiter = ',')]
         divisions: Vec<usize>,
-        /// Box: 5 or 6 tets per cube.
-        #[arg(long, default_value_t = 6)]
+        /// Box: 5 or 6 tets per cube (the default of a scenario's `[mesh] pattern`).
+        #[arg(long, default_value_t = defaults::BOX_PATTERN.tets_per_cube() as u32)]
         pattern: u32,
     },
 }
@@ -548,10 +547,8 @@ fn cmd_generate(
             let [x, y, z] = size[..] else {
                 bail!("box needs --size X,Y,Z (m)")
             };
-            let pat = match pattern {
-                5 => BoxPattern::Five,
-                6 => BoxPattern::Six,
-                p => bail!("--pattern {p}: valid are 5 or 6"),
+            let Some(pat) = box_pattern(pattern) else {
+                bail!("--pattern {pattern}: valid are 5 or 6")
             };
             match (nodes, divisions) {
                 (Some(n), []) => box_tets_target([x, y, z], n, pat)?,

@@ -662,7 +662,7 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
             let sys = w.system(&mesh)?;
             let m = standard_material();
             let lambda_max = Material::NeoHookean(m).stability_modulus(mesh.kind) / 1000.0
-                * crate::scenario::max_gradient_sum(&mesh);
+                * crate::integrate::stability::max_gradient_sum(&mesh);
             levels.push(Level::new(
                 mesh,
                 sys,

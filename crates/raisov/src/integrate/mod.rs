@@ -24,6 +24,7 @@
 
 mod constraints;
 pub mod relax;
+pub mod stability;
 pub mod statics;
 mod stepper;
 
@@ -86,7 +87,7 @@ fn chunks4(
 }
 
 /// Which explicit integrator.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Deserialize, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     ForwardEuler,

@@ -91,7 +91,7 @@ impl Material {
     }
 
     /// Small-strain modulus bounding one element's stiffness, for stable time steps
-    /// (`c² = modulus / ρ` in [`crate::scenario::critical_step_estimate`]): the energy
+    /// (`c² = modulus / ρ` in [`crate::integrate::stability`]): the energy
     /// density `λ (tr ε)² + 2μ ε:ε` is at most `(dλ + 2μ) |∇u|²` in d dimensions, the bound
     /// reached by an element's dilatation mode. Solids: `3λ + 2μ = 3K` (`3κ` for the laws with
     /// a bulk modulus). Membranes (plane stress, d = 2): `2λ* + 2μ`, `λ* = 2λμ/(λ + 2μ)`;

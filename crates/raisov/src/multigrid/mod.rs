@@ -30,7 +30,7 @@ pub struct Level {
     /// This level's time step (s).
     pub dt: f64,
     /// Upper bound on the largest eigenvalue of M⁻¹K at small strain (1/s²), from
-    /// [`crate::scenario::max_gradient_sum`]: `λ_max ≤ c² max_e npe Σ|∇N_a|²`.
+    /// [`crate::integrate::stability::max_gradient_sum`]: `λ_max ≤ c² max_e npe Σ|∇N_a|²`.
     pub lambda_max: f64,
     /// Force evaluations so far on this level.
     pub evaluations: u64,

@@ -27,8 +27,7 @@ use crate::integrate::{check_state, Stepper};
 use rayon::prelude::*;
 
 /// How the up stroke reads δX^(i+1) (design note, step 2).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Reading {
     Paper,
     Correction,

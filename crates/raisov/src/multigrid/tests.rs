@@ -73,7 +73,7 @@ fn equilibrium_is_a_fixed_point_of_raisov() {
         let mut eq = Vec::new();
         for l in levels.iter_mut() {
             let dt = 0.5
-                * crate::scenario::critical_step_estimate(
+                * crate::integrate::stability::critical_step_estimate(
                     &l.mesh,
                     &sc.material,
                     sc.density,

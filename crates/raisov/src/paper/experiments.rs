@@ -9,7 +9,8 @@ use crate::integrate::relax::relax;
 use crate::integrate::statics::{NewtonParams, NewtonSolver};
 use crate::integrate::{Method, State, Stepper};
 use crate::metrics::Meter;
-use crate::scenario::{critical_step_estimate, Scenario};
+use crate::integrate::stability::critical_step_estimate;
+use crate::scenario::Scenario;
 use std::path::Path;
 use std::time::Instant;
 
@@ -512,7 +513,7 @@ pub fn bisect_stable(
 /// `sc`'s hierarchy, interpolated up level by level with a Newton-Krylov solve on each
 /// (the finest to 1e-8 of the load scale).
 pub fn reference(sc: &Scenario, relax_max_nodes: usize) -> Result<(Vec<f64>, String)> {
-    if sc.mesh.num_nodes() <= relax_max_nodes || sc.spec.multigrid.is_none() {
+    if sc.mesh.num_nodes() <= relax_max_nodes || sc.multigrid.is_none() {
         return sc.steady_reference();
     }
     let start = Instant::now();

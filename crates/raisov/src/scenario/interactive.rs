@@ -23,7 +23,7 @@
 //! `summary.txt`.
 
 use super::run::RunOptions;
-use super::spec::InteractiveSpec;
+use super::spec::{defaults, InteractiveSpec, StaticReference};
 use super::{err, positive, Scenario, StopRule};
 use crate::error::{Error, Result};
 use crate::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
@@ -56,7 +56,7 @@ pub struct Interactive {
 
 impl Interactive {
     pub(crate) fn from_spec(path: &Path, s: &InteractiveSpec) -> Result<Interactive> {
-        let fps = positive(path, "interactive.fps", s.fps.unwrap_or(30.0))?;
+        let fps = positive(path, "interactive.fps", s.fps.unwrap_or(defaults::FPS))?;
         let budget = match (s.cycles, s.budget_ms) {
             (Some(_), Some(_)) => {
                 return Err(err(
@@ -68,24 +68,13 @@ impl Interactive {
             (Some(0), None) => {
                 return Err(err(path, "`interactive.cycles` = 0: must be at least 1"))
             }
-            (c, None) => Budget::Cycles(c.unwrap_or(4)),
+            (c, None) => Budget::Cycles(c.unwrap_or(defaults::CYCLES)),
         };
-        let reference = match s.reference.as_deref() {
-            None | Some("newton") => true,
-            Some("none") => false,
-            Some(other) => {
-                return Err(err(
-                    path,
-                    format!(
-                        "`interactive.reference` = \"{other}\": valid are \"newton\", \"none\""
-                    ),
-                ))
-            }
-        };
+        let reference = s.reference.unwrap_or_default() == StaticReference::Newton;
         let reference_tol = positive(
             path,
             "interactive.reference_tol",
-            s.reference_tol.unwrap_or(1e-6),
+            s.reference_tol.unwrap_or(defaults::REFERENCE_TOL),
         )?;
         Ok(Interactive {
             fps,

@@ -5,40 +5,241 @@
 //! list is carried by nearest node); a prescribed displacement of level 0 goes to the node of
 //! each coarser level nearest to level 0's prescribed node (paper section 3.1).
 
-use super::spec::{MeshSpec, MultigridSpec, RegionSpec};
-use super::{build_system, critical_step_estimate, err, positive, resolve_mesh, select, Scenario};
+use super::spec::{defaults, Accelerate, CoarseKind, MeshSpec, MultigridSpec, Scheme, SmootherKind};
+use super::{build_system, err, positive, select, BoxCells, Scenario, Selector, Shape};
 use crate::error::Result;
 use crate::hierarchy::Correspondence;
+use crate::integrate::stability::{critical_step_estimate, lambda_max_bound};
 use crate::integrate::{energy_limit_for, Method, Motion, SingleLevel, Stepper, StepperParams};
 use crate::mesh::Mesh;
-use crate::multigrid::fas::{CoarseSolve, Fas, FasParams, Scaling, Smoother, TransferWeights};
-use crate::multigrid::raisov::{Raisov, RaisovParams, Reading};
+use crate::multigrid::fas::{CoarseSolve, Fas, FasParams, Smoother};
+use crate::multigrid::raisov::{Raisov, RaisovParams};
 use crate::multigrid::Level;
 use std::path::Path;
 
-/// Check a `[multigrid]` section before anything is built.
-pub(super) fn validate(mg: &MultigridSpec, mesh: &MeshSpec, path: &Path) -> Result<()> {
-    match mg.scheme.as_deref() {
-        None | Some("fas") | Some("raisov-paper") => {}
-        Some(o) => {
-            return Err(err(
-                path,
-                format!("`multigrid.scheme` = \"{o}\": valid are \"fas\", \"raisov-paper\""),
-            ))
+/// Fewest nodes of a generated level.
+const MIN_LEVEL_NODES: usize = 4;
+
+/// The resolved `[multigrid]` section.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Multigrid {
+    pub scheme: MultigridScheme,
+    /// The coarser levels' meshes.
+    pub meshes: LevelMeshes,
+    /// Integrator of each level, level 0 first.
+    pub methods: Vec<Method>,
+    /// Step of each level (s), level 0 first, where `level_dt` gives them.
+    pub level_dt: Option<Vec<f64>>,
+}
+
+/// The multigrid method and its settings (`kinetic_limit` is set from the system when the
+/// stepper is built).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MultigridScheme {
+    Fas(FasParams),
+    RaisovPaper(RaisovParams),
+}
+
+/// How the coarser levels are made, level 0 being `[mesh]`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LevelMeshes {
+    /// `levels` generated levels, node counts (or divisions) shrinking by `ratio` per level.
+    Ratio { levels: usize, ratio: f64 },
+    /// Generated levels of these node targets, level 0 first.
+    Nodes(Vec<usize>),
+    /// Mesh files of levels 1.. (paths joined to the scenario's directory).
+    Files(Vec<std::path::PathBuf>),
+}
+
+impl LevelMeshes {
+    /// Number of levels, level 0 included.
+    pub fn count(&self) -> usize {
+        match self {
+            LevelMeshes::Ratio { levels, .. } => *levels,
+            LevelMeshes::Nodes(n) => n.len(),
+            LevelMeshes::Files(f) => 1 + f.len(),
         }
     }
+}
+
+/// Check a `[multigrid]` section and resolve it; `mesh` is level 0.
+pub(super) fn resolve(
+    mg: &MultigridSpec,
+    mesh_spec: &MeshSpec,
+    mesh: &Mesh,
+    method: Method,
+    path: &Path,
+    base: &Path,
+) -> Result<Multigrid> {
+    let meshes = resolve_meshes(mg, mesh_spec, path, base)?;
+    let m = meshes.count();
+    let methods = match &mg.level_methods {
+        None => vec![method; m],
+        Some(list) if list.len() == m => list.clone(),
+        Some(list) => {
+            return Err(err(
+                path,
+                format!(
+                    "`multigrid.level_methods` has {} entries for {m} levels",
+                    list.len()
+                ),
+            ))
+        }
+    };
+    let level_dt = match &mg.level_dt {
+        None => None,
+        Some(d) if d.len() == m => Some(
+            d.iter()
+                .enumerate()
+                .map(|(i, &x)| positive(path, &format!("multigrid.level_dt[{i}]"), x))
+                .collect::<Result<_>>()?,
+        ),
+        Some(d) => {
+            return Err(err(
+                path,
+                format!(
+                    "`multigrid.level_dt` has {} entries for {m} levels",
+                    d.len()
+                ),
+            ))
+        }
+    };
+    let scheme = mg.scheme.unwrap_or_default();
+    let only = |keys: &[(&str, bool)], what: &str| -> Result<()> {
+        match keys.iter().find(|(_, set)| *set) {
+            Some((k, _)) => Err(err(path, format!("`multigrid.{k}` applies to {what} only"))),
+            None => Ok(()),
+        }
+    };
+    let scheme = match scheme {
+        Scheme::RaisovPaper => {
+            only(
+                &[
+                    ("pre_smooth", mg.pre_smooth.is_some()),
+                    ("post_smooth", mg.post_smooth.is_some()),
+                    ("coarse", mg.coarse.is_some()),
+                    ("coarse_time", mg.coarse_time.is_some()),
+                    ("coarse_iterations", mg.coarse_iterations.is_some()),
+                    ("smoother", mg.smoother.is_some()),
+                    ("scaling", mg.scaling.is_some()),
+                    ("transfer", mg.transfer.is_some()),
+                    ("accelerate", mg.accelerate.is_some()),
+                ],
+                "scheme = \"fas\"",
+            )?;
+            let epsilon = match mg.epsilon {
+                Some(e) if e >= 0.0 => e,
+                Some(e) => {
+                    return Err(err(
+                        path,
+                        format!("`multigrid.epsilon` = {e}: must be >= 0 (m)"),
+                    ))
+                }
+                None => defaults::EPSILON_PER_EDGE * mesh.edge_range().0,
+            };
+            MultigridScheme::RaisovPaper(RaisovParams {
+                epsilon,
+                reading: mg.reading.unwrap_or(defaults::READING),
+                kinetic_limit: f64::INFINITY,
+            })
+        }
+        Scheme::Fas => {
+            only(
+                &[
+                    ("reading", mg.reading.is_some()),
+                    ("epsilon", mg.epsilon.is_some()),
+                ],
+                "scheme = \"raisov-paper\"",
+            )?;
+            MultigridScheme::Fas(fas_params(mg, path)?)
+        }
+    };
+    Ok(Multigrid {
+        scheme,
+        meshes,
+        methods,
+        level_dt,
+    })
+}
+
+/// The FAS settings of `[multigrid]`, [`FasParams::default`] where not given.
+fn fas_params(mg: &MultigridSpec, path: &Path) -> Result<FasParams> {
+    let d = FasParams::default();
     if mg.coarse_iterations == Some(0) {
         return Err(err(
             path,
             "`multigrid.coarse_iterations` = 0: give at least 1 (Chebyshev iterations per coarsest visit, default 60)",
         ));
     }
-    if mg.coarse_iterations.is_some() && !matches!(mg.coarse.as_deref(), None | Some("chebyshev")) {
+    let coarse_kind = mg.coarse.unwrap_or(match d.coarse {
+        CoarseSolve::Chebyshev { .. } => CoarseKind::Chebyshev,
+        CoarseSolve::Explicit { .. } => CoarseKind::Explicit,
+        CoarseSolve::Newton { .. } => CoarseKind::Newton,
+    });
+    if mg.coarse_iterations.is_some() && coarse_kind != CoarseKind::Chebyshev {
         return Err(err(
             path,
             "`multigrid.coarse_iterations` applies to coarse = \"chebyshev\" only",
         ));
     }
+    if mg.coarse_time.is_some() && coarse_kind != CoarseKind::Explicit {
+        return Err(err(
+            path,
+            "`multigrid.coarse_time` applies to coarse = \"explicit\" only",
+        ));
+    }
+    let coarse = match coarse_kind {
+        CoarseKind::Newton => CoarseSolve::Newton {
+            rel_tol: defaults::COARSE_NEWTON_TOL,
+        },
+        CoarseKind::Explicit => CoarseSolve::Explicit {
+            time: positive(
+                path,
+                "multigrid.coarse_time",
+                mg.coarse_time.unwrap_or(defaults::COARSE_TIME),
+            )?,
+        },
+        CoarseKind::Chebyshev => match (mg.coarse_iterations, d.coarse) {
+            (Some(iterations), CoarseSolve::Chebyshev { ratio, .. }) => {
+                CoarseSolve::Chebyshev { iterations, ratio }
+            }
+            (_, c) => c,
+        },
+    };
+    let smoother = match (mg.smoother, d.smoother) {
+        (Some(SmootherKind::Dynamics), _) => Smoother::Dynamics,
+        (
+            _,
+            Smoother::Chebyshev {
+                ratio,
+                stretch,
+                scaling,
+            },
+        ) => Smoother::Chebyshev {
+            ratio,
+            stretch,
+            scaling: mg.scaling.unwrap_or(scaling),
+        },
+        (_, s) => s,
+    };
+    Ok(FasParams {
+        pre_smooth: mg.pre_smooth.unwrap_or(d.pre_smooth),
+        post_smooth: mg.post_smooth.unwrap_or(d.post_smooth),
+        coarse,
+        smoother,
+        weights: mg.transfer.unwrap_or(d.weights),
+        krylov: mg.accelerate.map_or(d.krylov, |a| a == Accelerate::Cg),
+        ..d
+    })
+}
+
+/// Which levels `[multigrid]` asks for.
+fn resolve_meshes(
+    mg: &MultigridSpec,
+    mesh: &MeshSpec,
+    path: &Path,
+    base: &Path,
+) -> Result<LevelMeshes> {
     if let Some(ln) = &mg.level_nodes {
         if mg.files.is_some() || mg.ratio.is_some() {
             return Err(err(path, "[multigrid]: `level_nodes` gives every generated level's node count; do not combine it with `files` or `ratio`"));
@@ -78,72 +279,33 @@ pub(super) fn validate(mg: &MultigridSpec, mesh: &MeshSpec, path: &Path) -> Resu
                 ));
             }
         }
-        if ln.iter().any(|&n| n < 4) {
+        if ln.iter().any(|&n| n < MIN_LEVEL_NODES) {
             return Err(err(
                 path,
-                format!("`multigrid.level_nodes` = {ln:?}: every level needs at least 4 nodes"),
+                format!("`multigrid.level_nodes` = {ln:?}: every level needs at least {MIN_LEVEL_NODES} nodes"),
             ));
         }
-        return Ok(());
+        return Ok(LevelMeshes::Nodes(ln.clone()));
     }
-    match (mg.levels, &mg.files, &mesh.generate) {
-        (Some(_), Some(_), _) => return Err(err(path, "[multigrid]: give `levels` (generated meshes) or `files`, not both")),
-        (Some(n), None, Some(_)) if n >= 1 => {}
-        (Some(_), None, Some(_)) => return Err(err(path, "`multigrid.levels` must be at least 1")),
-        (Some(_), None, None) => return Err(err(path, "[multigrid]: `levels` needs [mesh] generate; for mesh files list the coarser levels in `files`")),
-        (None, Some(_), _) => {}
-        (None, None, _) => return Err(err(path, "[multigrid]: give `levels` (with [mesh] generate) or `files` (coarser levels)")),
-    }
-    if let Some(r) = mg.ratio {
-        if !(r > 0.0 && r < 1.0) {
+    let ratio = match mg.ratio {
+        Some(r) if !(r > 0.0 && r < 1.0) => {
             return Err(err(
                 path,
                 format!("`multigrid.ratio` = {r}: must be in (0, 1)"),
-            ));
+            ))
         }
+        Some(r) => r,
+        None => defaults::LEVEL_RATIO,
+    };
+    match (mg.levels, &mg.files, &mesh.generate) {
+        (Some(_), Some(_), _) => Err(err(path, "[multigrid]: give `levels` (generated meshes) or `files`, not both")),
+        (Some(n), None, Some(_)) if n >= 1 => Ok(LevelMeshes::Ratio { levels: n, ratio }),
+        (Some(_), None, Some(_)) => Err(err(path, "`multigrid.levels` must be at least 1")),
+        (Some(_), None, None) => Err(err(path, "[multigrid]: `levels` needs [mesh] generate; for mesh files list the coarser levels in `files`")),
+        (None, Some(_), _) if mg.ratio.is_some() => Err(err(path, "`multigrid.ratio` applies to generated levels (`levels`), not to `files`")),
+        (None, Some(f), _) => Ok(LevelMeshes::Files(f.iter().map(|f| base.join(f)).collect())),
+        (None, None, _) => Err(err(path, "[multigrid]: give `levels` (with [mesh] generate) or `files` (coarser levels)")),
     }
-    if let Some(r) = mg.reading.as_deref() {
-        if r != "paper" && r != "correction" {
-            return Err(err(
-                path,
-                format!("`multigrid.reading` = \"{r}\": valid are \"paper\", \"correction\""),
-            ));
-        }
-    }
-    for (key, value, valid) in [
-        (
-            "coarse",
-            mg.coarse.as_deref(),
-            &["chebyshev", "explicit", "newton"][..],
-        ),
-        (
-            "smoother",
-            mg.smoother.as_deref(),
-            &["chebyshev", "dynamics"][..],
-        ),
-        (
-            "scaling",
-            mg.scaling.as_deref(),
-            &["fictitious", "mass"][..],
-        ),
-        (
-            "transfer",
-            mg.transfer.as_deref(),
-            &["convex", "exact", "convex-restriction"][..],
-        ),
-        ("accelerate", mg.accelerate.as_deref(), &["cg", "none"][..]),
-    ] {
-        if let Some(v) = value {
-            if !valid.contains(&v) {
-                let list: Vec<String> = valid.iter().map(|x| format!("\"{x}\"")).collect();
-                return Err(err(
-                    path,
-                    format!("`multigrid.{key}` = \"{v}\": valid are {}", list.join(", ")),
-                ));
-            }
-        }
-    }
-    Ok(())
 }
 
 /// Constraints and loads of one level.
@@ -154,16 +316,25 @@ pub struct LevelConstraints {
     pub loads: Vec<(u32, [f64; 3])>,
 }
 
+/// `shape` with `nodes` nodes (a generated shape; files stay).
+fn with_nodes(shape: &Shape, nodes: usize) -> Shape {
+    let mut s = shape.clone();
+    match &mut s {
+        Shape::Rectangle { nodes: n, .. }
+        | Shape::Polygon { nodes: n, .. }
+        | Shape::Box {
+            cells: BoxCells::Nodes(n),
+            ..
+        } => *n = nodes,
+        Shape::Box { .. } | Shape::File(_) => {}
+    }
+    s
+}
+
 impl Scenario {
     /// Number of levels (1 without `[multigrid]`).
     pub fn num_levels(&self) -> usize {
-        match &self.spec.multigrid {
-            None => 1,
-            Some(mg) => mg.levels.unwrap_or_else(|| match &mg.level_nodes {
-                Some(ln) => ln.len(),
-                None => 1 + mg.files.as_ref().map_or(0, |f| f.len()),
-            }),
-        }
+        self.multigrid.as_ref().map_or(1, |mg| mg.meshes.count())
     }
 
     /// The level meshes, finest (the scenario's mesh) first.
@@ -180,39 +351,58 @@ impl Scenario {
     #[allow(clippy::type_complexity)]
     pub fn level_meshes_with_ids(&self) -> Result<Vec<(Mesh, Option<Vec<u32>>)>> {
         let mut out = vec![(self.mesh.clone(), self.file_ids.clone())];
-        let Some(mg) = &self.spec.multigrid else {
+        let Some(mg) = &self.multigrid else {
             return Ok(out);
         };
-        let base = self.path.parent().unwrap_or(Path::new("."));
-        let ratio = mg.ratio.unwrap_or(0.5);
-        let level = |ms: &MeshSpec| resolve_mesh(ms, &self.path, base).map(|r| (r.0, r.2));
-        if let Some(files) = &mg.files {
-            for f in files {
-                out.push(level(&MeshSpec {
-                    file: Some(f.clone()),
-                    scale: self.spec.mesh.scale,
-                    renumber: self.spec.mesh.renumber,
-                    ..Default::default()
-                })?);
-            }
-        } else if let Some(ln) = &mg.level_nodes {
-            for &n in &ln[1..] {
-                let mut ms = self.spec.mesh.clone();
-                ms.nodes = Some(n);
-                out.push(level(&ms)?);
-            }
-        } else {
-            for i in 1..mg.levels.unwrap_or(1) {
-                let f = ratio.powi(i as i32);
-                let mut ms = self.spec.mesh.clone();
-                if let Some(n) = ms.nodes {
-                    ms.nodes = Some(((n as f64 * f).round() as usize).max(4));
+        let src = &self.mesh_source;
+        let level = |shape: &Shape, key: &str| {
+            src.build(shape, &self.path, key).map(|r| (r.0, r.2))
+        };
+        match &mg.meshes {
+            LevelMeshes::Files(files) => {
+                for (i, f) in files.iter().enumerate() {
+                    out.push(level(
+                        &Shape::File(f.clone()),
+                        &format!("multigrid.files[{i}]"),
+                    )?);
                 }
-                if let Some(d) = ms.divisions {
-                    let g = f.cbrt();
-                    ms.divisions = Some(d.map(|x| ((x as f64 * g).round() as usize).max(1)));
+            }
+            LevelMeshes::Nodes(ln) => {
+                for &n in &ln[1..] {
+                    out.push(level(&with_nodes(&src.shape, n), "mesh")?);
                 }
-                out.push(level(&ms)?);
+            }
+            LevelMeshes::Ratio { levels, ratio } => {
+                for i in 1..*levels {
+                    let f = ratio.powi(i as i32);
+                    let shape = match &src.shape {
+                        Shape::Rectangle { nodes, .. }
+                        | Shape::Polygon { nodes, .. }
+                        | Shape::Box {
+                            cells: BoxCells::Nodes(nodes),
+                            ..
+                        } => with_nodes(
+                            &src.shape,
+                            ((*nodes as f64 * f).round() as usize).max(MIN_LEVEL_NODES),
+                        ),
+                        Shape::Box {
+                            size,
+                            cells: BoxCells::Divisions(d),
+                            pattern,
+                        } => {
+                            let g = f.cbrt();
+                            Shape::Box {
+                                size: *size,
+                                cells: BoxCells::Divisions(
+                                    d.map(|x| ((x as f64 * g).round() as usize).max(1)),
+                                ),
+                                pattern: *pattern,
+                            }
+                        }
+                        Shape::File(_) => unreachable!("`levels` needs [mesh] generate"),
+                    };
+                    out.push(level(&shape, "mesh")?);
+                }
             }
         }
         Ok(out)
@@ -227,39 +417,36 @@ impl Scenario {
                 loads: self.loads.clone(),
             });
         }
-        let carry = |r: &RegionSpec| -> RegionSpec {
-            match &r.nodes {
+        let carry = |s: &Selector| -> Selector {
+            match s {
                 // A node list names level-0 nodes: carry each to the nearest node here.
-                Some(ns) => RegionSpec {
-                    nodes: Some(
-                        ns.iter()
-                            .filter_map(|&a| self.mesh.nodes.get(a as usize))
-                            .filter_map(|&p| mesh.nearest_node(p).map(|x| x as u32))
-                            .collect(),
-                    ),
-                    ..Default::default()
-                },
-                None => r.clone(),
+                Selector::Nodes(ns) => Selector::Nodes(
+                    ns.iter()
+                        .filter_map(|&a| self.mesh.nodes.get(a as usize))
+                        .filter_map(|&p| mesh.nearest_node(p).map(|x| x as u32))
+                        .collect(),
+                ),
+                s => s.clone(),
             }
         };
         let mut fixed = Vec::new();
-        for (i, r) in self.spec.fix.iter().enumerate() {
+        for (i, s) in self.fix.iter().enumerate() {
             fixed.extend(select(
                 mesh,
-                &carry(r),
+                &carry(s),
                 &self.path,
                 &format!("level {level}: fix[{i}]"),
             )?);
         }
         let mut loads = Vec::new();
-        for (i, l) in self.spec.load.iter().enumerate() {
+        for (i, (s, force)) in self.load.iter().enumerate() {
             for n in select(
                 mesh,
-                &carry(&l.at),
+                &carry(s),
                 &self.path,
                 &format!("level {level}: load[{i}].at"),
             )? {
-                loads.push((n, l.force));
+                loads.push((n, *force));
             }
         }
         let mut prescribed: Vec<(u32, Motion)> = Vec::new();
@@ -277,60 +464,23 @@ impl Scenario {
         })
     }
 
-    /// Per-level integrator methods.
-    fn level_methods(&self, m: usize) -> Result<Vec<Method>> {
-        let Some(list) = self
-            .spec
-            .multigrid
-            .as_ref()
-            .and_then(|mg| mg.level_methods.clone())
-        else {
-            return Ok(vec![self.method; m]);
-        };
-        if list.len() != m {
-            return Err(err(
-                &self.path,
-                format!(
-                    "`multigrid.level_methods` has {} entries for {m} levels",
-                    list.len()
-                ),
-            ));
-        }
-        list.iter()
-            .map(|s| {
-                Method::ALL.into_iter().find(|x| x.name() == s).ok_or_else(|| {
-                    err(&self.path, format!("`multigrid.level_methods`: \"{s}\": valid are forward-euler, symplectic-euler, rk4, central-difference"))
-                })
-            })
-            .collect()
-    }
-
     /// Build every level (mesh, system with its own constraints, integrator, step) and the
     /// correspondences between consecutive levels.
     pub fn build_levels(&self) -> Result<(Vec<Level>, crate::multigrid::Links)> {
         let (meshes, keys): (Vec<Mesh>, Vec<Option<Vec<u32>>>) =
             self.level_meshes_with_ids()?.into_iter().unzip();
         let m = meshes.len();
-        let methods = self.level_methods(m)?;
-        let mg = self.spec.multigrid.clone().unwrap_or_default();
-        let scheme = mg.scheme.as_deref().unwrap_or("fas");
-        let safety = self.spec.integrator.safety.unwrap_or(0.5);
-        let dts: Vec<f64> = match &mg.level_dt {
-            Some(d) if d.len() == m => d
-                .iter()
-                .enumerate()
-                .map(|(i, &x)| positive(&self.path, &format!("multigrid.level_dt[{i}]"), x))
-                .collect::<Result<_>>()?,
-            Some(d) => {
-                return Err(err(
-                    &self.path,
-                    format!(
-                        "`multigrid.level_dt` has {} entries for {m} levels",
-                        d.len()
-                    ),
-                ))
-            }
-            None if scheme == "raisov-paper" => vec![self.dt; m],
+        let (methods, level_dt, paper) = match &self.multigrid {
+            Some(mg) => (
+                mg.methods.clone(),
+                mg.level_dt.clone(),
+                matches!(mg.scheme, MultigridScheme::RaisovPaper(_)),
+            ),
+            None => (vec![self.method; m], None, false),
+        };
+        let dts: Vec<f64> = match level_dt {
+            Some(d) => d,
+            None if paper => vec![self.dt; m],
             None => meshes
                 .iter()
                 .zip(&methods)
@@ -339,7 +489,7 @@ impl Scenario {
                     if i == 0 {
                         self.dt
                     } else {
-                        safety * critical_step_estimate(mesh, &self.material, self.density, me)
+                        self.safety * critical_step_estimate(mesh, &self.material, self.density, me)
                     }
                 })
                 .collect(),
@@ -356,8 +506,7 @@ impl Scenario {
             } else {
                 build_system(self, &mesh, &c.fixed, &c.prescribed, &c.loads)?
             };
-            let lambda_max = self.material.stability_modulus(mesh.kind) / self.density
-                * super::max_gradient_sum(&mesh);
+            let lambda_max = lambda_max_bound(&mesh, &self.material, self.density);
             let mut level = Level::new(mesh, sys, methods[i], dts[i], lambda_max);
             level.node_keys = node_keys;
             levels.push(level);
@@ -369,7 +518,7 @@ impl Scenario {
     pub fn stepper(&self) -> Result<Box<dyn Stepper>> {
         let sys = self.build_system()?;
         let limit = energy_limit_for(&sys, &self.mesh, self.blowup_factor);
-        let Some(mg) = &self.spec.multigrid else {
+        let Some(mg) = &self.multigrid else {
             return Ok(Box::new(SingleLevel::new(
                 sys,
                 self.method,
@@ -379,94 +528,24 @@ impl Scenario {
                 },
             )));
         };
-        let scheme = mg.scheme.as_deref().unwrap_or("fas");
         let (levels, links) = self.build_levels()?;
-        Ok(match scheme {
-            "raisov-paper" => {
-                let reading = match mg.reading.as_deref() {
-                    Some("paper") => Reading::Paper,
-                    _ => Reading::Correction,
-                };
-                let epsilon = match mg.epsilon {
-                    Some(e) if e >= 0.0 => e,
-                    Some(e) => {
-                        return Err(err(
-                            &self.path,
-                            format!("`multigrid.epsilon` = {e}: must be >= 0 (m)"),
-                        ))
-                    }
-                    None => 1e-3 * self.mesh.edge_range().0,
-                };
-                Box::new(Raisov::new(
-                    levels,
-                    links,
-                    RaisovParams {
-                        epsilon,
-                        reading,
-                        kinetic_limit: limit,
-                    },
-                ))
-            }
-            _ => {
-                let coarse = match mg.coarse.as_deref() {
-                    Some("newton") => CoarseSolve::Newton { rel_tol: 1e-6 },
-                    Some("explicit") => CoarseSolve::Explicit {
-                        time: positive(
-                            &self.path,
-                            "multigrid.coarse_time",
-                            mg.coarse_time.unwrap_or(0.1),
-                        )?,
-                    },
-                    _ => match (mg.coarse_iterations, FasParams::default().coarse) {
-                        (Some(iterations), CoarseSolve::Chebyshev { ratio, .. }) => {
-                            CoarseSolve::Chebyshev { iterations, ratio }
-                        }
-                        (_, c) => c,
-                    },
-                };
-                let smoother = match (mg.smoother.as_deref(), FasParams::default().smoother) {
-                    (Some("dynamics"), _) => Smoother::Dynamics,
-                    (
-                        _,
-                        Smoother::Chebyshev {
-                            ratio,
-                            stretch,
-                            scaling,
-                        },
-                    ) => Smoother::Chebyshev {
-                        ratio,
-                        stretch,
-                        scaling: match mg.scaling.as_deref() {
-                            Some("mass") => Scaling::Mass,
-                            Some(_) => Scaling::Fictitious,
-                            None => scaling,
-                        },
-                    },
-                    (_, s) => s,
-                };
-                Box::new(Fas::new(
-                    levels,
-                    links,
-                    FasParams {
-                        pre_smooth: mg.pre_smooth.unwrap_or(FasParams::default().pre_smooth),
-                        post_smooth: mg.post_smooth.unwrap_or(FasParams::default().post_smooth),
-                        coarse,
-                        smoother,
-                        weights: match mg.transfer.as_deref() {
-                            Some("exact") => TransferWeights::Exact,
-                            Some("convex-restriction") => TransferWeights::ConvexRestriction,
-                            _ => TransferWeights::Convex,
-                        },
-                        krylov: match mg.accelerate.as_deref() {
-                            Some("none") => false,
-                            Some(_) => true,
-                            None => FasParams::default().krylov,
-                        },
-                        kinetic_limit: limit,
-                        ..FasParams::default()
-                    },
-                ))
-            }
+        Ok(match mg.scheme {
+            MultigridScheme::RaisovPaper(p) => Box::new(Raisov::new(
+                levels,
+                links,
+                RaisovParams {
+                    kinetic_limit: limit,
+                    ..p
+                },
+            )),
+            MultigridScheme::Fas(p) => Box::new(Fas::new(
+                levels,
+                links,
+                FasParams {
+                    kinetic_limit: limit,
+                    ..p
+                },
+            )),
         })
     }
 }

@@ -24,6 +24,7 @@
 //! file's order, since renumbering the liver levels had moved the interactive example's mean
 //! lag from 2.0 to 2.4 mm through that vector.
 
+
 pub mod interactive;
 mod levels;
 pub mod run;
@@ -31,6 +32,7 @@ pub mod spec;
 
 use crate::error::{Error, Result};
 use crate::fem::{FemModel, FemParams, Precision};
+use crate::integrate::stability::critical_step_estimate;
 use crate::integrate::{Constraints, Method, Motion, System};
 use crate::io::load_mesh;
 use crate::material::{
@@ -40,8 +42,9 @@ use crate::mesh::generate::{
     box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern,
 };
 use crate::mesh::{dot, norm, sub, ElementKind, Mesh};
-pub use levels::LevelConstraints;
+pub use levels::{LevelConstraints, LevelMeshes, Multigrid, MultigridScheme};
 pub use run::{run, run_with, RunOptions, RunSummary, StopReason};
+use spec::{defaults, Generator, Law, MotionMode, Named, Stop};
 pub use spec::ScenarioSpec;
 use std::path::{Path, PathBuf};
 
@@ -59,14 +62,74 @@ pub enum StopRule {
     },
 }
 
-/// Where |T − T∞| takes T∞ from.
-#[derive(Clone, Debug, PartialEq)]
+/// Where |T − T∞| takes T∞ from (`[output] reference`).
+#[derive(Clone, Debug, PartialEq, Default)]
 pub enum Reference {
+    #[default]
     None,
     /// Compute the steady state first, to a tolerance far below the run's.
     Auto,
     /// A `nodal_stress.csv` written by an earlier run on the same mesh.
     File(PathBuf),
+}
+
+/// A node selection of `[[fix]]` or `[[load]] at`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Selector {
+    /// Every boundary node.
+    Boundary,
+    /// The nodes inside an axis-aligned box (m).
+    Box { min: [f64; 3], max: [f64; 3] },
+    /// The nodes with `(x − point)·normal ≤ 0`; `normal` is non-zero.
+    Plane { point: [f64; 3], normal: [f64; 3] },
+    /// A physical group of the mesh file.
+    Group(String),
+    /// Nodes of [`Scenario::mesh`] by index (the file's ids mapped to the mesh's order).
+    Nodes(Vec<u32>),
+    /// The node nearest this point.
+    Point([f64; 3]),
+}
+
+/// What `[mesh]` builds; the coarser `[multigrid]` levels are built the same way.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshSource {
+    pub shape: Shape,
+    /// Coordinate factor to metres.
+    pub scale: f64,
+    /// Renumber mesh files (level files included) in the banded order.
+    pub renumber_files: bool,
+    /// Renumber generated meshes.
+    pub renumber_generated: bool,
+}
+
+/// A mesh file or a generated shape.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    /// A mesh file (the path joined to the scenario's directory).
+    File(PathBuf),
+    /// A rectangular membrane of about `nodes` nodes.
+    Rectangle {
+        width: f64,
+        height: f64,
+        nodes: usize,
+    },
+    /// A polygonal membrane of about `nodes` nodes.
+    Polygon { outline: Vec<[f64; 2]>, nodes: usize },
+    /// A tetrahedral box.
+    Box {
+        size: [f64; 3],
+        cells: BoxCells,
+        pattern: BoxPattern,
+    },
+}
+
+/// How finely a generated box is cut.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BoxCells {
+    /// About this many nodes.
+    Nodes(usize),
+    /// This many cubes per side.
+    Divisions([usize; 3]),
 }
 
 /// A resolved scenario, ready to run.
@@ -75,6 +138,8 @@ pub struct Scenario {
     pub name: String,
     pub path: PathBuf,
     pub mesh: Mesh,
+    /// How [`Scenario::mesh`] was made (for the coarser multigrid levels).
+    pub mesh_source: MeshSource,
     /// Notes from loading (reoriented elements, dropped nodes), for the user.
     pub notes: Vec<String>,
     pub material: Material,
@@ -82,7 +147,13 @@ pub struct Scenario {
     pub thickness: f64,
     pub alpha: f64,
     pub gravity: [f64; 3],
+    /// `[[fix]]` selectors, selected again on every multigrid level.
+    pub fix: Vec<Selector>,
+    /// `[[load]]` selectors and the force on each selected node (N).
+    pub load: Vec<(Selector, [f64; 3])>,
+    /// The nodes `fix` selects on [`Scenario::mesh`].
     pub fixed: Vec<u32>,
+    /// The nodes `load` selects on [`Scenario::mesh`], each with its force.
     pub loads: Vec<(u32, [f64; 3])>,
     pub prescribed: Vec<(u32, Motion)>,
     /// `[mesh] renumber`: node `k` of [`Scenario::mesh`] is node `file_ids[k]` of the file
@@ -94,6 +165,9 @@ pub struct Scenario {
     pub dt: f64,
     /// The estimated critical step (s) the default `dt` derives from.
     pub dt_critical_estimate: f64,
+    /// `[integrator] safety`: the fraction of the estimated critical step taken where no step
+    /// is given (level 0 without `dt`, coarser FAS levels without `level_dt`).
+    pub safety: f64,
     /// `[integrator] precision`: storage precision of the packed tetrahedron data.
     pub precision: Precision,
     pub stop: StopRule,
@@ -102,10 +176,10 @@ pub struct Scenario {
     pub frame_interval: f64,
     pub csv_every: u64,
     pub reference: Reference,
+    /// `[multigrid]`: the levels and the scheme; `None` for a single level.
+    pub multigrid: Option<Multigrid>,
     /// `[interactive]`: a budget per frame along the displacement paths; `None` for a plain run.
     pub interactive: Option<interactive::Interactive>,
-    /// The parsed file, for what is re-resolved per multigrid level.
-    pub spec: ScenarioSpec,
 }
 
 fn err(path: &Path, msg: impl Into<String>) -> Error {
@@ -127,6 +201,18 @@ fn positive(path: &Path, key: &str, v: f64) -> Result<f64> {
     }
 }
 
+/// `name` names files under the output directory: a plain file name, so that nothing is
+/// written outside it.
+fn check_name(path: &Path, name: &str) -> Result<()> {
+    if name.is_empty() || name.contains(['/', '\\', '\0']) || name.contains("..") {
+        return Err(err(
+            path,
+            format!("`name` = {name:?}: must be a plain file name (not empty, no `/`, `\\` or `..`): it names the files under the output directory"),
+        ));
+    }
+    Ok(())
+}
+
 impl Scenario {
     /// Read, parse and resolve a scenario file.
     pub fn load(path: &Path) -> Result<Scenario> {
@@ -136,58 +222,54 @@ impl Scenario {
 
     /// Parse and resolve scenario text; `path` names it in messages and anchors relative paths.
     pub fn from_toml(text: &str, path: &Path) -> Result<Scenario> {
-        let spec: ScenarioSpec = toml::from_str(text).map_err(|e| {
-            let line = e.span().map(|s| text[..s.start].matches('\n').count() + 1);
-            Error::Scenario {
-                path: path.to_path_buf(),
-                line,
-                msg: e.message().trim().to_string(),
-            }
-        })?;
-        Self::resolve(spec, path)
+        Self::resolve(spec::parse(text, path)?, path)
     }
 
-    /// Resolve a parsed spec.
+    /// Resolve a parsed spec: check every value, apply the defaults ([`spec::defaults`]),
+    /// build the mesh and select the constrained and loaded nodes.
     pub fn resolve(spec: ScenarioSpec, path: &Path) -> Result<Scenario> {
         let base = path.parent().unwrap_or(Path::new("."));
         let name = spec.name.clone().unwrap_or_else(|| {
             path.file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "scenario".into())
+                .unwrap_or_else(|| defaults::NAME.into())
         });
-        let (mesh, mut notes, file_ids) = resolve_mesh(&spec.mesh, path, base)?;
-        // Node-id selectors name file ids: into the mesh's order, once, here (the stored spec
-        // then names the mesh's nodes, as the per-level constraints expect).
-        let mut spec = spec;
-        if let Some(order) = &file_ids {
-            let new_of = crate::mesh::inverse_order(order);
-            let map = |r: &mut spec::RegionSpec, key: &str| -> Result<()> {
-                if let Some(ns) = &mut r.nodes {
-                    check_node_ids(ns, mesh.num_nodes(), path, key)?;
-                    ns.iter_mut().for_each(|a| *a = new_of[*a as usize]);
+        check_name(path, &name)?;
+        let mesh_source = resolve_mesh_source(&spec.mesh, path, base)?;
+        let (mesh, mut notes, file_ids) = mesh_source.build(&mesh_source.shape, path, "mesh.file")?;
+        // Node-id selectors name file ids: into the mesh's order, once, here.
+        let new_of = file_ids.as_deref().map(crate::mesh::inverse_order);
+        let selector = |r: &spec::RegionSpec, key: &str| -> Result<Selector> {
+            let s = resolve_selector(r, path, key)?;
+            Ok(match s {
+                Selector::Nodes(ns) => {
+                    check_node_ids(&ns, mesh.num_nodes(), path, key)?;
+                    Selector::Nodes(match &new_of {
+                        Some(new_of) => ns.iter().map(|&a| new_of[a as usize]).collect(),
+                        None => ns,
+                    })
                 }
-                Ok(())
-            };
-            for (i, r) in spec.fix.iter_mut().enumerate() {
-                map(r, &format!("fix[{i}]"))?;
-            }
-            for (i, l) in spec.load.iter_mut().enumerate() {
-                map(&mut l.at, &format!("load[{i}].at"))?;
-            }
+                s => s,
+            })
+        };
+        let mut fix = Vec::with_capacity(spec.fix.len());
+        for (i, r) in spec.fix.iter().enumerate() {
+            fix.push(selector(r, &format!("fix[{i}]"))?);
         }
-        if let Some(mg) = &spec.multigrid {
-            levels::validate(mg, &spec.mesh, path)?;
+        let mut load = Vec::with_capacity(spec.load.len());
+        for (i, l) in spec.load.iter().enumerate() {
+            load.push((selector(&l.at, &format!("load[{i}].at"))?, l.force));
         }
         let material = resolve_material(&spec.material, mesh.kind, path)?;
         let density = positive(
             path,
             "material.density",
-            spec.material.density.unwrap_or(1000.0),
+            spec.material.density.unwrap_or(defaults::DENSITY),
         )?;
         let thickness = positive(
             path,
             "material.thickness",
-            spec.material.thickness.unwrap_or(1e-3),
+            spec.material.thickness.unwrap_or(defaults::THICKNESS),
         )?;
         if mesh.kind == ElementKind::Tet4 && spec.material.thickness.is_some() {
             return Err(err(
@@ -199,7 +281,7 @@ impl Scenario {
             (Some(a), None, None) if a >= 0.0 && a.is_finite() => a,
             (Some(a), None, None) => return Err(err(path, format!("`damping.alpha` = {a}: must be >= 0 (1/s)"))),
             (None, Some(z), Some(w)) => 2.0 * positive(path, "damping.ratio", z)? * positive(path, "damping.omega", w)?,
-            (None, None, None) => 0.0,
+            (None, None, None) => defaults::ALPHA,
             _ => {
                 return Err(err(
                     path,
@@ -207,16 +289,15 @@ impl Scenario {
                 ))
             }
         };
-        let gravity = spec.gravity.unwrap_or([0.0; 3]);
+        let gravity = spec.gravity.unwrap_or(defaults::GRAVITY);
         let mut fixed = Vec::new();
-        for (i, r) in spec.fix.iter().enumerate() {
-            let sel = select(&mesh, r, path, &format!("fix[{i}]"))?;
-            fixed.extend(sel);
+        for (i, s) in fix.iter().enumerate() {
+            fixed.extend(select(&mesh, s, path, &format!("fix[{i}]"))?);
         }
         let mut loads = Vec::new();
-        for (i, l) in spec.load.iter().enumerate() {
-            for n in select(&mesh, &l.at, path, &format!("load[{i}].at"))? {
-                loads.push((n, l.force));
+        for (i, (s, force)) in load.iter().enumerate() {
+            for n in select(&mesh, s, path, &format!("load[{i}].at"))? {
+                loads.push((n, *force));
             }
         }
         let mut prescribed: Vec<(u32, Motion)> = Vec::new();
@@ -232,22 +313,8 @@ impl Scenario {
             }
             prescribed.push((node, motion));
         }
-        let method = match spec.integrator.method.as_deref() {
-            None => Method::SymplecticEuler,
-            Some(m) => Method::ALL
-                .into_iter()
-                .find(|x| x.name() == m)
-                .ok_or_else(|| err(path, format!("`integrator.method` = \"{m}\": valid are forward-euler, symplectic-euler, rk4, central-difference")))?,
-        };
-        let precision = match spec.integrator.precision.as_deref() {
-            None => Precision::F64,
-            Some(p) => Precision::from_name(p).ok_or_else(|| {
-                err(
-                    path,
-                    format!("`integrator.precision` = \"{p}\": valid are \"f64\", \"f32-storage\""),
-                )
-            })?,
-        };
+        let method = spec.integrator.method.unwrap_or(defaults::METHOD);
+        let precision = spec.integrator.precision.unwrap_or_default();
         if precision != Precision::F64
             && !(mesh.kind == ElementKind::Tet4 && matches!(material, Material::NeoHookean(_)))
         {
@@ -260,7 +327,7 @@ impl Scenario {
         let safety = positive(
             path,
             "integrator.safety",
-            spec.integrator.safety.unwrap_or(0.5),
+            spec.integrator.safety.unwrap_or(defaults::SAFETY),
         )?;
         let dt = match spec.integrator.dt {
             Some(dt) => positive(path, "integrator.dt", dt)?,
@@ -271,84 +338,98 @@ impl Scenario {
             .duration
             .map(|d| positive(path, "run.duration", d))
             .transpose()?;
-        let stop = match spec.run.stop.as_deref().unwrap_or("duration") {
-            "duration" => StopRule::Duration(duration.ok_or_else(|| {
-                err(
-                    path,
-                    "[run]: `duration` (s) is required when stop = \"duration\"",
-                )
-            })?),
-            "steady" => StopRule::Steady {
+        let stop = match spec.run.stop.unwrap_or_default() {
+            Stop::Duration => {
+                for (k, set) in [
+                    ("kinetic_tol", spec.run.kinetic_tol.is_some()),
+                    ("residual_tol", spec.run.residual_tol.is_some()),
+                ] {
+                    if set {
+                        return Err(err(path, format!("`run.{k}` applies to stop = \"steady\"")));
+                    }
+                }
+                StopRule::Duration(duration.ok_or_else(|| {
+                    err(
+                        path,
+                        "[run]: `duration` (s) is required when stop = \"duration\"",
+                    )
+                })?)
+            }
+            Stop::Steady => StopRule::Steady {
                 kinetic_tol: positive(
                     path,
                     "run.kinetic_tol",
-                    spec.run.kinetic_tol.unwrap_or(1e-8),
+                    spec.run.kinetic_tol.unwrap_or(defaults::KINETIC_TOL),
                 )?,
                 residual_tol: positive(
                     path,
                     "run.residual_tol",
-                    spec.run.residual_tol.unwrap_or(1e-4),
+                    spec.run.residual_tol.unwrap_or(defaults::RESIDUAL_TOL),
                 )?,
-                max: duration.unwrap_or(60.0),
+                max: duration.unwrap_or(defaults::STEADY_CAP),
             },
-            other => {
-                return Err(err(
-                    path,
-                    format!("`run.stop` = \"{other}\": valid are \"duration\", \"steady\""),
-                ))
-            }
         };
         let blowup_factor = positive(
             path,
             "run.blowup_factor",
-            spec.run.blowup_factor.unwrap_or(1e3),
+            spec.run.blowup_factor.unwrap_or(defaults::BLOWUP_FACTOR),
         )?;
         let out_dir = spec
             .output
             .dir
             .as_ref()
             .map(|d| base.join(d))
-            .unwrap_or_else(|| PathBuf::from("raisov-out").join(&name));
-        let frame_interval = spec.output.frame_interval.unwrap_or(0.05);
+            .unwrap_or_else(|| PathBuf::from(defaults::OUTPUT_ROOT).join(&name));
+        let frame_interval = spec
+            .output
+            .frame_interval
+            .unwrap_or(defaults::FRAME_INTERVAL);
         if !(frame_interval >= 0.0 && frame_interval.is_finite()) {
             return Err(err(
                 path,
                 format!("`output.frame_interval` = {frame_interval}: must be >= 0 (s)"),
             ));
         }
+        let multigrid = spec
+            .multigrid
+            .as_ref()
+            .map(|mg| levels::resolve(mg, &spec.mesh, &mesh, method, path, base))
+            .transpose()?;
         let interactive = spec
             .interactive
             .as_ref()
             .map(|i| interactive::Interactive::from_spec(path, i))
             .transpose()?;
-        let csv_every = spec.output.csv_every.unwrap_or(1);
+        let csv_every = spec.output.csv_every.unwrap_or(defaults::CSV_EVERY);
         if csv_every == 0 {
             return Err(err(
                 path,
                 "`output.csv_every` = 0: must be at least 1 (steps)",
             ));
         }
-        let reference = match spec.output.reference.as_deref() {
-            None | Some("none") => Reference::None,
-            Some("auto") => Reference::Auto,
-            Some(p) => {
+        let reference = match spec.output.reference.clone().unwrap_or_default() {
+            Reference::File(p) => {
                 let p = base.join(p);
                 if !p.is_file() {
                     return Err(err(path, format!("`output.reference` = {}: no such file (valid: \"none\", \"auto\", or a nodal_stress.csv of an earlier run)", p.display())));
                 }
                 Reference::File(p)
             }
+            r => r,
         };
         Ok(Scenario {
             name,
             path: path.to_path_buf(),
             mesh,
+            mesh_source,
             notes,
             material,
             density,
             thickness,
             alpha,
             gravity,
+            fix,
+            load,
             fixed,
             loads,
             prescribed,
@@ -356,6 +437,7 @@ impl Scenario {
             method,
             dt,
             dt_critical_estimate: dt_crit,
+            safety,
             precision,
             stop,
             blowup_factor,
@@ -363,8 +445,8 @@ impl Scenario {
             frame_interval,
             csv_every,
             reference,
+            multigrid,
             interactive,
-            spec,
         })
     }
 
@@ -427,131 +509,126 @@ pub fn build_system(
     Ok(sys)
 }
 
-/// Estimated critical time step `bound / ω_max` (`bound` = 2 for the symplectic schemes,
-/// 2√2 for RK4), with the element-wise upper bound on the highest frequency of lumped-mass
-/// linear elements
-///
-/// ```text
-/// ω_max² ≤ max_e  npe c² Σ_a |∇N_a|²,     c² = Material::stability_modulus / ρ
-/// ```
-///
-/// (the element stiffness is at most `P V Σ|∇N_a|²` in norm and each node carries `ρV/npe`).
-/// Hyperelastic laws stiffen under large stretch, hence the scenario's safety factor on top.
-pub fn critical_step_estimate(
-    mesh: &Mesh,
-    material: &Material,
-    density: f64,
-    method: Method,
-) -> f64 {
-    let c2 = material.stability_modulus(mesh.kind) / density;
-    method.stability_bound() / (c2 * max_gradient_sum(mesh)).sqrt()
-}
-
-/// `max_e npe Σ_a |∇N_a|²` over the elements (1/m²).
-pub fn max_gradient_sum(mesh: &Mesh) -> f64 {
-    crate::fem::gradient_sums(mesh)
-        .into_iter()
-        .fold(0.0, f64::max)
-}
-
-/// Smallest element altitude: tets `3V / max face area`, triangles `2A / max edge`.
-pub fn min_altitude(mesh: &Mesh) -> f64 {
-    let mut h = f64::INFINITY;
-    for e in 0..mesh.num_elements() {
-        let p = mesh.element_points(e);
-        let a = match mesh.kind {
-            ElementKind::Tri3 => {
-                let area = crate::mesh::tri_area(p[0], p[1], p[2]);
-                2.0 * area / mesh.element_max_edge(e)
-            }
-            ElementKind::Tet4 => {
-                let v = crate::mesh::tet_volume(p[0], p[1], p[2], p[3]).abs();
-                let fmax = [(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)]
-                    .iter()
-                    .map(|&(i, j, k)| crate::mesh::tri_area(p[i], p[j], p[k]))
-                    .fold(0.0, f64::max);
-                3.0 * v / fmax
-            }
-        };
-        h = h.min(a);
-    }
-    h
-}
-
-/// The mesh of `[mesh]`, notes for the user, and the file ids of its nodes where `renumber`
-/// (default: true for files, false for generated meshes) reordered them (see
-/// [`Scenario::file_ids`]).
-#[allow(clippy::type_complexity)]
-fn resolve_mesh(
-    m: &spec::MeshSpec,
-    path: &Path,
-    base: &Path,
-) -> Result<(Mesh, Vec<String>, Option<Vec<u32>>)> {
-    let mut notes = Vec::new();
-    let mut mesh = match (&m.file, &m.generate) {
+/// Check `[mesh]` and say what it builds.
+fn resolve_mesh_source(m: &spec::MeshSpec, path: &Path, base: &Path) -> Result<MeshSource> {
+    let forbid = |what: &str, keys: &[(&str, bool)]| -> Result<()> {
+        match keys.iter().find(|(_, set)| *set) {
+            Some((k, _)) => Err(err(path, format!("[mesh]: `{k}` does not apply to {what}"))),
+            None => Ok(()),
+        }
+    };
+    let shape = match (&m.file, m.generate) {
         (Some(_), Some(_)) => return Err(err(path, "[mesh]: give either `file` or `generate`, not both")),
-        (None, None) => return Err(err(path, "[mesh]: missing `file` (a .msh, .node/.ele or .vtk mesh) or `generate` (\"rectangle\", \"polygon\", \"box\")")),
+        (None, None) => return Err(err(path, format!("[mesh]: missing `file` (a .msh, .node/.ele or .vtk mesh) or `generate` ({})", Generator::valid()))),
         (Some(f), None) => {
-            for (k, set) in [("size", m.size.is_some()), ("polygon", m.polygon.is_some()), ("nodes", m.nodes.is_some()), ("divisions", m.divisions.is_some()), ("pattern", m.pattern.is_some())] {
-                if set {
-                    return Err(err(path, format!("[mesh]: `{k}` applies to `generate`, not to `file`")));
-                }
-            }
-            let p = base.join(f);
-            let loaded = load_mesh(&p).map_err(|e| err(path, format!("[mesh] file = \"{f}\": {e}")))?;
-            if !loaded.reoriented.is_empty() {
-                notes.push(format!("{}: reoriented {} inverted elements (first: {})", p.display(), loaded.reoriented.len(), loaded.reoriented[0]));
-            }
-            if loaded.unused_nodes_dropped > 0 {
-                notes.push(format!("{}: dropped {} nodes used by no element", p.display(), loaded.unused_nodes_dropped));
-            }
-            loaded.mesh
+            forbid("`file`", &[("size", m.size.is_some()), ("polygon", m.polygon.is_some()), ("nodes", m.nodes.is_some()), ("divisions", m.divisions.is_some()), ("pattern", m.pattern.is_some())])?;
+            Shape::File(base.join(f))
         }
         (None, Some(g)) => {
-            let nodes = m.nodes;
-            let need_nodes = || nodes.ok_or_else(|| err(path, format!("[mesh]: generate = \"{g}\" needs `nodes` (target node count)")));
+            let what = format!("generate = \"{}\"", g.name());
+            let need_nodes = || m.nodes.ok_or_else(|| err(path, format!("[mesh]: {what} needs `nodes` (target node count)")));
             let size = |len: usize| -> Result<Vec<f64>> {
-                let s = m.size.clone().ok_or_else(|| err(path, format!("[mesh]: generate = \"{g}\" needs `size` ({len} lengths in m)")))?;
+                let s = m.size.clone().ok_or_else(|| err(path, format!("[mesh]: {what} needs `size` ({len} lengths in m)")))?;
                 if s.len() != len || s.iter().any(|&x| !(x > 0.0)) {
-                    return Err(err(path, format!("[mesh]: `size` = {s:?}: need {len} positive lengths (m) for generate = \"{g}\"")));
+                    return Err(err(path, format!("[mesh]: `size` = {s:?}: need {len} positive lengths (m) for {what}")));
                 }
                 Ok(s)
             };
-            match g.as_str() {
-                "rectangle" => {
+            match g {
+                Generator::Rectangle => {
+                    forbid(&what, &[("polygon", m.polygon.is_some()), ("divisions", m.divisions.is_some()), ("pattern", m.pattern.is_some())])?;
                     let s = size(2)?;
-                    rectangle_membrane(s[0], s[1], need_nodes()?)?
+                    Shape::Rectangle { width: s[0], height: s[1], nodes: need_nodes()? }
                 }
-                "polygon" => {
-                    let poly = m.polygon.as_ref().ok_or_else(|| err(path, "[mesh]: generate = \"polygon\" needs `polygon` = [[x, y], ...] (m)"))?;
-                    polygon_membrane(poly, need_nodes()?)?
+                Generator::Polygon => {
+                    forbid(&what, &[("size", m.size.is_some()), ("divisions", m.divisions.is_some()), ("pattern", m.pattern.is_some())])?;
+                    let outline = m.polygon.clone().ok_or_else(|| err(path, "[mesh]: generate = \"polygon\" needs `polygon` = [[x, y], ...] (m)"))?;
+                    Shape::Polygon { outline, nodes: need_nodes()? }
                 }
-                "box" => {
+                Generator::Box => {
+                    forbid(&what, &[("polygon", m.polygon.is_some())])?;
                     let s = size(3)?;
-                    let pattern = match m.pattern.unwrap_or(6) {
-                        6 => BoxPattern::Six,
-                        5 => BoxPattern::Five,
-                        p => return Err(err(path, format!("[mesh]: `pattern` = {p}: valid are 5 or 6 tets per cube"))),
-                    };
-                    match (m.divisions, nodes) {
-                        (Some(d), None) => box_tets([s[0], s[1], s[2]], d, pattern)?,
-                        (None, Some(n)) => box_tets_target([s[0], s[1], s[2]], n, pattern)?,
+                    let cells = match (m.divisions, m.nodes) {
+                        (Some(d), None) => BoxCells::Divisions(d),
+                        (None, Some(n)) => BoxCells::Nodes(n),
                         _ => return Err(err(path, "[mesh]: generate = \"box\" needs exactly one of `nodes` or `divisions`")),
-                    }
+                    };
+                    Shape::Box { size: [s[0], s[1], s[2]], cells, pattern: m.pattern.unwrap_or(defaults::BOX_PATTERN) }
                 }
-                other => return Err(err(path, format!("[mesh]: generate = \"{other}\": valid are \"rectangle\", \"polygon\", \"box\""))),
             }
         }
     };
-    if let Some(s) = m.scale {
-        mesh.scale(positive(path, "mesh.scale", s)?);
+    let scale = positive(path, "mesh.scale", m.scale.unwrap_or(defaults::SCALE))?;
+    Ok(MeshSource {
+        shape,
+        scale,
+        renumber_files: m.renumber.unwrap_or(defaults::RENUMBER_FILES),
+        renumber_generated: m.renumber.unwrap_or(defaults::RENUMBER_GENERATED),
+    })
+}
+
+impl MeshSource {
+    /// Build `shape` (this source's or a coarser level's; `key` names it in messages), scale
+    /// and renumber it. Returns the mesh, notes for the user, and the file ids of its nodes
+    /// where it was renumbered (see [`Scenario::file_ids`]).
+    #[allow(clippy::type_complexity)]
+    pub fn build(
+        &self,
+        shape: &Shape,
+        path: &Path,
+        key: &str,
+    ) -> Result<(Mesh, Vec<String>, Option<Vec<u32>>)> {
+        let mut notes = Vec::new();
+        let mut mesh = match shape {
+            Shape::File(p) => {
+                let loaded = load_mesh(p)
+                    .map_err(|e| err(path, format!("`{key}` = \"{}\": {e}", p.display())))?;
+                if !loaded.reoriented.is_empty() {
+                    notes.push(format!(
+                        "{}: reoriented {} inverted elements (first: {})",
+                        p.display(),
+                        loaded.reoriented.len(),
+                        loaded.reoriented[0]
+                    ));
+                }
+                if loaded.unused_nodes_dropped > 0 {
+                    notes.push(format!(
+                        "{}: dropped {} nodes used by no element",
+                        p.display(),
+                        loaded.unused_nodes_dropped
+                    ));
+                }
+                loaded.mesh
+            }
+            Shape::Rectangle {
+                width,
+                height,
+                nodes,
+            } => rectangle_membrane(*width, *height, *nodes)?,
+            Shape::Polygon { outline, nodes } => polygon_membrane(outline, *nodes)?,
+            Shape::Box {
+                size,
+                cells: BoxCells::Divisions(d),
+                pattern,
+            } => box_tets(*size, *d, *pattern)?,
+            Shape::Box {
+                size,
+                cells: BoxCells::Nodes(n),
+                pattern,
+            } => box_tets_target(*size, *n, *pattern)?,
+        };
+        mesh.scale(self.scale);
+        let renumber = match shape {
+            Shape::File(_) => self.renumber_files,
+            _ => self.renumber_generated,
+        };
+        let file_ids = renumber.then(|| {
+            let order = mesh.spatial_order();
+            mesh.renumber(&order);
+            order
+        });
+        Ok((mesh, notes, file_ids))
     }
-    let file_ids = m.renumber.unwrap_or(m.file.is_some()).then(|| {
-        let order = mesh.spatial_order();
-        mesh.renumber(&order);
-        order
-    });
-    Ok((mesh, notes, file_ids))
 }
 
 /// Every id of a `nodes = [..]` selector names a node of a mesh of `n` nodes.
@@ -568,24 +645,59 @@ fn check_node_ids(ns: &[u32], n: usize, path: &Path, key: &str) -> Result<()> {
     }
 }
 
-fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> Result<Material> {
-    let need = |key: &str, v: Option<f64>| -> Result<f64> {
-        v.ok_or_else(|| {
-            err(
+/// The one selector a `[[fix]]` or `at` table sets.
+fn resolve_selector(r: &spec::RegionSpec, path: &Path, key: &str) -> Result<Selector> {
+    let mut found = Vec::new();
+    if let Some(b) = r.boundary {
+        if !b {
+            return Err(err(
                 path,
-                format!("[material]: law = \"{}\" needs `{key}`", m.law),
-            )
-        })
+                format!("{key}: `boundary = false` selects nothing; remove the entry"),
+            ));
+        }
+        found.push(Selector::Boundary);
+    }
+    if let Some(b) = &r.aabb {
+        found.push(Selector::Box {
+            min: b.min,
+            max: b.max,
+        });
+    }
+    if let Some(p) = &r.plane {
+        if !(norm(p.normal) > 0.0) {
+            return Err(err(path, format!("{key}.plane.normal must be non-zero")));
+        }
+        found.push(Selector::Plane {
+            point: p.point,
+            normal: p.normal,
+        });
+    }
+    if let Some(g) = &r.group {
+        found.push(Selector::Group(g.clone()));
+    }
+    if let Some(ns) = &r.nodes {
+        found.push(Selector::Nodes(ns.clone()));
+    }
+    if let Some(p) = r.point {
+        found.push(Selector::Point(p));
+    }
+    match found.len() {
+        1 => Ok(found.pop().expect("one selector")),
+        n => Err(err(path, format!("{key}: give exactly one selector of `boundary`, `box`, `plane`, `group`, `nodes`, `point` (found {n})"))),
+    }
+}
+
+fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> Result<Material> {
+    let law = m.law.name();
+    let need = |key: &str, v: Option<f64>| -> Result<f64> {
+        v.ok_or_else(|| err(path, format!("[material]: law = \"{law}\" needs `{key}`")))
     };
     let forbid = |keys: &[(&str, bool)]| -> Result<()> {
         for (k, set) in keys {
             if *set {
                 return Err(err(
                     path,
-                    format!(
-                        "[material]: `{k}` is not a parameter of law = \"{}\"",
-                        m.law
-                    ),
+                    format!("[material]: `{k}` is not a parameter of law = \"{law}\""),
                 ));
             }
         }
@@ -609,19 +721,19 @@ fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> R
         }
         Ok((e, nu))
     };
-    Ok(match m.law.as_str() {
-        "stvk" | "st-venant-kirchhoff" => {
+    Ok(match m.law {
+        Law::StVenantKirchhoff => {
             forbid(&[("c1", m.c1.is_some()), ("c2", m.c2.is_some()), ("gamma", m.gamma.is_some()), ("kappa", m.kappa.is_some())])?;
             let (e, nu) = young_poisson()?;
             Material::StVenantKirchhoff(StVenantKirchhoff::from_young(e, nu))
         }
-        "neo-hookean" => {
+        Law::NeoHookean => {
             forbid(&[("c1", m.c1.is_some()), ("c2", m.c2.is_some()), ("gamma", m.gamma.is_some()), ("kappa", m.kappa.is_some())])?;
             let (e, nu) = young_poisson()?;
             let (lambda, mu) = lame(e, nu);
             Material::NeoHookean(NeoHookean { lambda, mu })
         }
-        "mooney-rivlin" => {
+        Law::MooneyRivlin => {
             forbid(&[("young", m.young.is_some()), ("poisson", m.poisson.is_some()), ("gamma", m.gamma.is_some())])?;
             let c1 = need("c1", m.c1)?;
             let c2 = need("c2", m.c2)?;
@@ -630,44 +742,61 @@ fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> R
             }
             Material::MooneyRivlin(MooneyRivlin::new(c1, c2, kappa(m.kappa)?))
         }
-        "veronda-westmann" => {
+        Law::VerondaWestmann => {
             forbid(&[("young", m.young.is_some()), ("poisson", m.poisson.is_some()), ("c2", m.c2.is_some())])?;
             let c1 = positive(path, "material.c1", need("c1", m.c1)?)?;
             let gamma = positive(path, "material.gamma", need("gamma", m.gamma)?)?;
             Material::VerondaWestmann(VerondaWestmann::new(c1, gamma, kappa(m.kappa)?))
         }
-        other => {
-            return Err(err(path, format!("`material.law` = \"{other}\": valid are \"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\"")))
-        }
     })
 }
 
 fn resolve_motion(d: &spec::DisplaceSpec, path: &Path, key: &str) -> Result<Motion> {
-    let mode = d
-        .mode
-        .as_deref()
-        .unwrap_or(if d.table.is_some() { "table" } else { "held" });
+    let mode = d.mode.unwrap_or(if d.table.is_some() {
+        MotionMode::Table
+    } else {
+        MotionMode::Held
+    });
     let disp = || {
         d.displacement.ok_or_else(|| {
             err(
                 path,
-                format!("{key}: mode = \"{mode}\" needs `displacement` = [dx, dy, dz] (m)"),
+                format!(
+                    "{key}: mode = \"{}\" needs `displacement` = [dx, dy, dz] (m)",
+                    mode.name()
+                ),
             )
         })
     };
-    Ok(match mode {
-        "held" => Motion::Held { d: disp()? },
-        "ramp" => Motion::Ramp {
-            d: disp()?,
-            duration: positive(
+    let forbid = |k: &str, set: bool| -> Result<()> {
+        if set {
+            return Err(err(
                 path,
-                &format!("{key}.duration"),
-                d.duration.ok_or_else(|| {
-                    err(path, format!("{key}: mode = \"ramp\" needs `duration` (s)"))
-                })?,
-            )?,
-        },
-        "table" => {
+                format!("{key}: `{k}` does not apply to mode = \"{}\"", mode.name()),
+            ));
+        }
+        Ok(())
+    };
+    Ok(match mode {
+        MotionMode::Held => {
+            forbid("duration", d.duration.is_some())?;
+            forbid("table", d.table.is_some())?;
+            Motion::Held { d: disp()? }
+        }
+        MotionMode::Ramp => {
+            forbid("table", d.table.is_some())?;
+            Motion::Ramp {
+                d: disp()?,
+                duration: positive(
+                    path,
+                    &format!("{key}.duration"),
+                    d.duration.ok_or_else(|| {
+                        err(path, format!("{key}: mode = \"ramp\" needs `duration` (s)"))
+                    })?,
+                )?,
+            }
+        }
+        MotionMode::Table => {
             let t = d.table.as_ref().ok_or_else(|| {
                 err(
                     path,
@@ -683,6 +812,7 @@ fn resolve_motion(d: &spec::DisplaceSpec, path: &Path, key: &str) -> Result<Moti
                     format!("{key}: give `table` or `displacement`, not both"),
                 ));
             }
+            forbid("duration", d.duration.is_some())?;
             for w in t.windows(2) {
                 if !(w[1][0] > w[0][0]) {
                     return Err(err(
@@ -699,57 +829,28 @@ fn resolve_motion(d: &spec::DisplaceSpec, path: &Path, key: &str) -> Result<Moti
                 values: t.iter().map(|r| [r[1], r[2], r[3]]).collect(),
             }
         }
-        other => {
-            return Err(err(
-                path,
-                format!("{key}: mode = \"{other}\": valid are \"held\", \"ramp\", \"table\""),
-            ))
-        }
     })
 }
 
-/// Resolve a node selection; errors if it selects nothing or names a missing group/node.
-pub fn select(mesh: &Mesh, r: &spec::RegionSpec, path: &Path, key: &str) -> Result<Vec<u32>> {
-    let set = [
-        r.boundary.is_some(),
-        r.aabb.is_some(),
-        r.plane.is_some(),
-        r.group.is_some(),
-        r.nodes.is_some(),
-        r.point.is_some(),
-    ]
-    .iter()
-    .filter(|&&b| b)
-    .count();
-    if set != 1 {
-        return Err(err(path, format!("{key}: give exactly one selector of `boundary`, `box`, `plane`, `group`, `nodes`, `point` (found {set})")));
-    }
+/// The nodes `s` selects on `mesh`; errors if none or a missing group.
+pub fn select(mesh: &Mesh, s: &Selector, path: &Path, key: &str) -> Result<Vec<u32>> {
     let (lo, hi) = mesh.bounding_box();
     let tol = 1e-9 * norm(sub(hi, lo)).max(f64::MIN_POSITIVE);
     let all = 0..mesh.num_nodes() as u32;
-    let sel: Vec<u32> = if let Some(b) = r.boundary {
-        if !b {
-            return Err(err(
-                path,
-                format!("{key}: `boundary = false` selects nothing; remove the entry"),
-            ));
+    let sel: Vec<u32> = match s {
+        Selector::Boundary => mesh.boundary_nodes(),
+        Selector::Box { min, max } => all
+            .filter(|&a| {
+                let p = mesh.nodes[a as usize];
+                (0..3).all(|k| p[k] >= min[k] - tol && p[k] <= max[k] + tol)
+            })
+            .collect(),
+        Selector::Plane { point, normal } => {
+            let nn = norm(*normal);
+            all.filter(|&a| dot(sub(mesh.nodes[a as usize], *point), *normal) / nn <= tol)
+                .collect()
         }
-        mesh.boundary_nodes()
-    } else if let Some(b) = &r.aabb {
-        all.filter(|&a| {
-            let p = mesh.nodes[a as usize];
-            (0..3).all(|k| p[k] >= b.min[k] - tol && p[k] <= b.max[k] + tol)
-        })
-        .collect()
-    } else if let Some(pl) = &r.plane {
-        let nn = norm(pl.normal);
-        if !(nn > 0.0) {
-            return Err(err(path, format!("{key}.plane.normal must be non-zero")));
-        }
-        all.filter(|&a| dot(sub(mesh.nodes[a as usize], pl.point), pl.normal) / nn <= tol)
-            .collect()
-    } else if let Some(g) = &r.group {
-        mesh.groups.get(g).cloned().ok_or_else(|| {
+        Selector::Group(g) => mesh.groups.get(g).cloned().ok_or_else(|| {
             let names: Vec<&str> = mesh.groups.keys().map(|s| s.as_str()).collect();
             err(
                 path,
@@ -762,16 +863,15 @@ pub fn select(mesh: &Mesh, r: &spec::RegionSpec, path: &Path, key: &str) -> Resu
                     }
                 ),
             )
-        })?
-    } else if let Some(ns) = &r.nodes {
-        check_node_ids(ns, mesh.num_nodes(), path, key)?;
-        ns.clone()
-    } else if let Some(p) = r.point {
-        vec![mesh
-            .nearest_node(p)
-            .ok_or_else(|| err(path, "the mesh has no nodes"))? as u32]
-    } else {
-        unreachable!("exactly one selector is set")
+        })?,
+        Selector::Nodes(ns) => {
+            check_node_ids(ns, mesh.num_nodes(), path, key)?;
+            ns.clone()
+        }
+        Selector::Point(p) => vec![mesh
+            .nearest_node(*p)
+            .ok_or_else(|| err(path, "the mesh has no nodes"))?
+            as u32],
     };
     if sel.is_empty() {
         return Err(err(path, format!("{key}: the selection contains no node")));

@@ -1,7 +1,13 @@
-//! The TOML scenario format. Every key, its unit and its default; unknown keys are errors.
+//! The TOML scenario format. Every key, its unit and its default; unknown keys are errors,
+//! and so are unknown values of the keys that name one of a few values (the message names
+//! the key, its line and the valid values), numbers that are not finite (`nan`, `inf`) and
+//! values outside their range. The defaults are the constants of [`defaults`] (and, for the
+//! FAS settings, [`crate::multigrid::fas::FasParams::default`]).
 //!
 //! ```toml
-//! name = "membrane-lift"          # optional; default: the file's stem
+//! name = "membrane-lift"          # optional; default: the file's stem. A plain file name
+//!                                 # (no `/`, `\`, `..`): it names the files written under
+//!                                 # the output directory
 //! gravity = [0.0, 0.0, -9.81]     # m/s², default none
 //!
 //! [mesh]                          # one of `file` or `generate`
@@ -20,7 +26,8 @@
 //!                                 # results change only by round-off.
 //!
 //! [material]
-//! law = "mooney-rivlin"           # "stvk" | "neo-hookean" | "mooney-rivlin" | "veronda-westmann"
+//! law = "mooney-rivlin"           # "stvk" (or "st-venant-kirchhoff") | "neo-hookean" |
+//!                                 # "mooney-rivlin" | "veronda-westmann"
 //! young = 5e4                     # Pa   (stvk, neo-hookean), with
 //! poisson = 0.4                   #      (stvk, neo-hookean)
 //! c1 = 1e3                        # Pa   (mooney-rivlin, veronda-westmann)
@@ -51,13 +58,16 @@
 //! [[displace]]                    # prescribed displacement of the node nearest `point`
 //! point = [0.0, 0.0, 0.0]
 //! displacement = [0.0, 0.0, 0.03] # m
-//! mode = "held"                   # "held" (from t = 0) | "ramp" | "table"; default "held"
+//! mode = "held"                   # "held" (from t = 0) | "ramp" | "table"; default "table"
+//!                                 # where `table` is given, else "held"
 //! duration = 0.5                  # s, ramp
 //! table = [[0.0, 0,0,0], [1.0, 0,0,0.01]]   # rows [t, dx, dy, dz], t increasing (mode "table")
 //!
 //! [integrator]
-//! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" | "central-difference"
+//! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" |
+//!                                 # "central-difference"; default "symplectic-euler"
 //! dt = 1e-4                       # s; default: safety × estimated critical step
+//!                                 # (crate::integrate::stability)
 //! safety = 0.5                    # fraction of the estimated critical step, default 0.5
 //! precision = "f64"               # element data of the force pass: "f64" (default) | "f32-storage"
 //!                                 # (Dm⁻¹ and volumes stored in f32, arithmetic and state f64;
@@ -66,20 +76,25 @@
 //!                                 # tetrahedra (the packed path); elsewhere f64 with a note
 //!
 //! [run]
-//! stop = "duration"               # "duration" | "steady"
-//! duration = 1.0                  # s of simulated time (stop = "duration"); the cap for "steady"
-//! kinetic_tol = 1e-8              # steady: kinetic energy below this × its peak
-//! residual_tol = 1e-4             # steady: residual norm below this × its peak
-//! blowup_factor = 1e3             # energy blow-up threshold factor (see integrate::stepper)
+//! stop = "duration"               # "duration" (default) | "steady"
+//! duration = 1.0                  # s of simulated time (stop = "duration", required); the cap
+//!                                 # for "steady", default 60
+//! kinetic_tol = 1e-8              # steady: kinetic energy below this × its peak, default 1e-8
+//! residual_tol = 1e-4             # steady: residual norm below this × its peak, default 1e-4
+//! blowup_factor = 1e3             # energy blow-up threshold factor (see integrate::stepper),
+//!                                 # default 1e3
 //!
 //! [output]
-//! dir = "raisov-out/NAME"         # default; `raisov run --out DIR` overrides
-//! frame_interval = 0.05           # s between VTU frames; 0 writes only the first and last
-//! csv_every = 1                   # steps between rows of measures.csv
-//! reference = "none"              # T∞ for |T − T∞|: "none" | "auto" | path to nodal_stress.csv
+//! dir = "raisov-out/NAME"         # relative to this file; default raisov-out/NAME relative to
+//!                                 # the working directory; `raisov run --out DIR` overrides
+//! frame_interval = 0.05           # s between VTU frames, default 0.05; 0 writes only the
+//!                                 # first and last
+//! csv_every = 1                   # steps between rows of measures.csv, default 1
+//! reference = "none"              # T∞ for |T − T∞|: "none" (default) | "auto" | path to an
+//!                                 # earlier run's nodal_stress.csv
 //!
 //! [multigrid]                     # optional: integrate over a hierarchy of independent meshes
-//! scheme = "fas"                  # "fas" (converges; default) | "raisov-paper" (the literal method)
+//! scheme = "fas"                  # "fas" (default; converges) | "raisov-paper" (the literal method)
 //! levels = 4                      # with [mesh] generate: level count, node counts a geometric series
 //! ratio = 0.5                     # node-count ratio between levels, default 0.5 (the paper's)
 //! level_nodes = [186, 103, 55, 31] # or explicit node targets per generated level, level 0
@@ -90,11 +105,12 @@
 //! pre_smooth = 4                  # fas: ν1, default 4
 //! post_smooth = 4                 # fas: ν2, default 4
 //! smoother = "chebyshev"          # fas: "chebyshev" (default) | "dynamics" (damped explicit steps)
-//! coarse = "chebyshev"            # fas: coarsest solve, "chebyshev" (60 iterations, default) |
-//!                                 #      "explicit" (damped steps) | "newton" (Newton-Krylov)
-//! scaling = "fictitious"          # fas chebyshev: preconditioner, "fictitious" (per-node fictitious
-//!                                 #      masses, default) | "mass" (lumped mass)
-//! transfer = "convex"            # fas: weights of R, P: "convex" (default; eq. 7 extrapolating
+//! coarse = "chebyshev"            # fas: coarsest solve, "chebyshev" (default; 60 iterations) |
+//!                                 #      "explicit" (damped steps) | "newton" (Newton-Krylov to
+//!                                 #      a relative residual of 1e-6)
+//! scaling = "fictitious"          # fas chebyshev: preconditioner, "fictitious" (default; per-node
+//!                                 #      fictitious masses) | "mass" (lumped mass)
+//! transfer = "convex"             # fas: weights of R, P: "convex" (default; eq. 7 extrapolating
 //!                                 #      weights clamped into the host) | "exact" (eq. 6/7 as they
 //!                                 #      are) | "convex-restriction" (only R clamped)
 //! accelerate = "cg"               # fas chebyshev: each V-cycle preconditions a nonlinear
@@ -105,6 +121,9 @@
 //! level_methods = ["rk4", "rk4"]  # per level integrator, default [integrator] method on all
 //! level_dt = [1e-3, 2e-3]         # per level step (s); default: raisov-paper the level-0 step
 //!                                 # on every level (the paper), fas each level's own estimate
+//!                                 # (safety × its estimated critical step)
+//!                                 # The keys marked fas or raisov-paper are errors with the
+//!                                 # other scheme.
 //!
 //! [interactive]                   # optional: a fixed budget per frame while the [[displace]]
 //!                                 # paths move (surgical interaction); `raisov run` then writes
@@ -117,9 +136,333 @@
 //! reference_tol = 1e-6            # its relative residual, default 1e-6
 //! ```
 
+use super::Reference;
+use crate::error::{Error, Result};
+use crate::fem::Precision;
+use crate::integrate::Method;
+use crate::mesh::generate::BoxPattern;
+use crate::multigrid::fas::{Scaling, TransferWeights};
+use crate::multigrid::raisov::Reading;
+use serde::de::{Deserializer, Error as _};
 use serde::Deserialize;
+use std::path::{Path, PathBuf};
 
-#[derive(Clone, Debug, Deserialize, Default)]
+/// The default of every scenario key that has one (the FAS settings default to
+/// [`crate::multigrid::fas::FasParams::default`]). The module documentation lists them per key.
+pub mod defaults {
+    use crate::integrate::Method;
+    use crate::mesh::generate::BoxPattern;
+    use crate::multigrid::raisov::Reading;
+
+    /// `name` where the scenario file has no stem.
+    pub const NAME: &str = "scenario";
+    /// `[mesh] scale`: coordinates are in metres.
+    pub const SCALE: f64 = 1.0;
+    /// `[mesh] pattern`: 6 tetrahedra per cube (Kuhn).
+    pub const BOX_PATTERN: BoxPattern = BoxPattern::Six;
+    /// `[mesh] renumber` for mesh files (level files included).
+    pub const RENUMBER_FILES: bool = true;
+    /// `[mesh] renumber` for generated meshes (numbered along the axes already).
+    pub const RENUMBER_GENERATED: bool = false;
+    /// `[material] density` (kg/m³).
+    pub const DENSITY: f64 = 1000.0;
+    /// `[material] thickness` of membranes (m).
+    pub const THICKNESS: f64 = 1e-3;
+    /// `[damping] alpha` (1/s): undamped.
+    pub const ALPHA: f64 = 0.0;
+    /// `gravity` (m/s²): none.
+    pub const GRAVITY: [f64; 3] = [0.0; 3];
+    /// `[integrator] method`.
+    pub const METHOD: Method = Method::SymplecticEuler;
+    /// `[integrator] safety`: the fraction of the estimated critical step taken where no
+    /// `dt` is given (and on the coarser FAS levels without `level_dt`).
+    pub const SAFETY: f64 = 0.5;
+    /// `[run] duration` with `stop = "steady"`: the cap on simulated time (s).
+    pub const STEADY_CAP: f64 = 60.0;
+    /// `[run] kinetic_tol`.
+    pub const KINETIC_TOL: f64 = 1e-8;
+    /// `[run] residual_tol`.
+    pub const RESIDUAL_TOL: f64 = 1e-4;
+    /// `[run] blowup_factor`.
+    pub const BLOWUP_FACTOR: f64 = 1e3;
+    /// The directory under which `[output] dir` defaults to `OUTPUT_ROOT/NAME`.
+    pub const OUTPUT_ROOT: &str = "raisov-out";
+    /// `[output] frame_interval` (s).
+    pub const FRAME_INTERVAL: f64 = 0.05;
+    /// `[output] csv_every` (steps).
+    pub const CSV_EVERY: u64 = 1;
+    /// `[multigrid] ratio` of node counts between generated levels (the paper's).
+    pub const LEVEL_RATIO: f64 = 0.5;
+    /// `[multigrid] reading` of raisov-paper.
+    pub const READING: Reading = Reading::Correction;
+    /// `[multigrid] epsilon` of raisov-paper, as a fraction of the shortest edge of level 0.
+    pub const EPSILON_PER_EDGE: f64 = 1e-3;
+    /// `[multigrid] coarse_time` of the explicit coarsest solve (s per visit).
+    pub const COARSE_TIME: f64 = 0.1;
+    /// Relative residual of `[multigrid] coarse = "newton"`.
+    pub const COARSE_NEWTON_TOL: f64 = 1e-6;
+    /// `[interactive] fps`.
+    pub const FPS: f64 = 30.0;
+    /// `[interactive] cycles` per frame.
+    pub const CYCLES: usize = 4;
+    /// `[interactive] reference_tol`.
+    pub const REFERENCE_TOL: f64 = 1e-6;
+}
+
+/// A closed set of values that a scenario key names by string.
+pub trait Named: Sized + Copy + 'static {
+    /// Every value, in the order messages list them.
+    const ALL: &'static [Self];
+    /// The scenario's spelling.
+    fn name(self) -> &'static str;
+    /// Other accepted spellings.
+    fn aliases(self) -> &'static [&'static str] {
+        &[]
+    }
+    /// The value spelled `s`.
+    fn from_name(s: &str) -> Option<Self> {
+        Self::ALL
+            .iter()
+            .copied()
+            .find(|v| v.name() == s || v.aliases().contains(&s))
+    }
+    /// The valid spellings, quoted: `"a", "b"`.
+    fn valid() -> String {
+        let names: Vec<String> = Self::ALL.iter().map(|v| format!("\"{}\"", v.name())).collect();
+        names.join(", ")
+    }
+}
+
+/// Messages of value errors start with this; [`parse`] writes the key before it.
+const VALUE_ERROR: &str = "= ";
+
+/// `Deserialize` from the name ([`Named`]): an unknown name is an error listing the valid ones.
+macro_rules! deserialize_named {
+    ($($t:ty),+) => {$(
+        impl<'de> Deserialize<'de> for $t {
+            fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+                let s = String::deserialize(d)?;
+                <$t as Named>::from_name(&s).ok_or_else(|| {
+                    D::Error::custom(format!(
+                        "{VALUE_ERROR}\"{s}\": valid are {}",
+                        <$t as Named>::valid()
+                    ))
+                })
+            }
+        }
+    )+};
+}
+
+/// An enum of named values: the type, its [`Named`] spelling and `Deserialize`.
+macro_rules! named_enum {
+    (
+        $(#[$meta:meta])*
+        pub enum $name:ident {
+            $($(#[$vmeta:meta])* $var:ident = $s:literal $(| $alias:literal)*,)+
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum $name {
+            $($(#[$vmeta])* $var,)+
+        }
+        impl Named for $name {
+            const ALL: &'static [Self] = &[$($name::$var),+];
+            fn name(self) -> &'static str {
+                match self {
+                    $($name::$var => $s,)+
+                }
+            }
+            fn aliases(self) -> &'static [&'static str] {
+                match self {
+                    $($name::$var => &[$($alias),*],)+
+                }
+            }
+        }
+        deserialize_named!($name);
+    };
+}
+
+named_enum! {
+    /// `[mesh] generate`.
+    pub enum Generator {
+        /// A rectangular membrane `size = [w, h]`, centred on the origin.
+        Rectangle = "rectangle",
+        /// A membrane inside `polygon`.
+        Polygon = "polygon",
+        /// A tetrahedral box `size = [x, y, z]`.
+        Box = "box",
+    }
+}
+
+named_enum! {
+    /// `[material] law`.
+    pub enum Law {
+        StVenantKirchhoff = "stvk" | "st-venant-kirchhoff",
+        NeoHookean = "neo-hookean",
+        MooneyRivlin = "mooney-rivlin",
+        VerondaWestmann = "veronda-westmann",
+    }
+}
+
+named_enum! {
+    /// `[[displace]] mode`.
+    pub enum MotionMode {
+        /// At `displacement` from t = 0.
+        Held = "held",
+        /// Linearly from 0 to `displacement` over `duration`, then held.
+        Ramp = "ramp",
+        /// Piecewise linear through the rows of `table`.
+        Table = "table",
+    }
+}
+
+named_enum! {
+    /// `[run] stop`.
+    #[derive(Default)]
+    pub enum Stop {
+        /// After `duration` seconds.
+        #[default]
+        Duration = "duration",
+        /// At steady state, or at the `duration` cap.
+        Steady = "steady",
+    }
+}
+
+named_enum! {
+    /// `[multigrid] scheme`.
+    #[derive(Default)]
+    pub enum Scheme {
+        /// The full-approximation-scheme multigrid ([`crate::multigrid::fas`]).
+        #[default]
+        Fas = "fas",
+        /// The paper's RaISoV cycle as written ([`crate::multigrid::raisov`]).
+        RaisovPaper = "raisov-paper",
+    }
+}
+
+named_enum! {
+    /// `[multigrid] smoother` (fas).
+    pub enum SmootherKind {
+        Chebyshev = "chebyshev",
+        Dynamics = "dynamics",
+    }
+}
+
+named_enum! {
+    /// `[multigrid] coarse` (fas).
+    pub enum CoarseKind {
+        Chebyshev = "chebyshev",
+        Explicit = "explicit",
+        Newton = "newton",
+    }
+}
+
+named_enum! {
+    /// `[multigrid] accelerate` (fas).
+    pub enum Accelerate {
+        /// Nonlinear conjugate gradients preconditioned by the V-cycle.
+        Cg = "cg",
+        /// Plain V-cycles.
+        None = "none",
+    }
+}
+
+named_enum! {
+    /// `[interactive] reference`.
+    #[derive(Default)]
+    pub enum StaticReference {
+        /// Solve for the static solution of each frame (Newton-Krylov).
+        #[default]
+        Newton = "newton",
+        /// No reference: no lag.
+        None = "none",
+    }
+}
+
+impl Named for Method {
+    const ALL: &'static [Self] = &Method::ALL;
+    fn name(self) -> &'static str {
+        Method::name(self)
+    }
+}
+
+impl Named for Precision {
+    const ALL: &'static [Self] = &Precision::ALL;
+    fn name(self) -> &'static str {
+        Precision::name(self)
+    }
+}
+
+impl Named for Reading {
+    const ALL: &'static [Self] = &[Reading::Paper, Reading::Correction];
+    fn name(self) -> &'static str {
+        match self {
+            Reading::Paper => "paper",
+            Reading::Correction => "correction",
+        }
+    }
+}
+
+impl Named for Scaling {
+    const ALL: &'static [Self] = &[Scaling::Fictitious, Scaling::Mass];
+    fn name(self) -> &'static str {
+        match self {
+            Scaling::Fictitious => "fictitious",
+            Scaling::Mass => "mass",
+        }
+    }
+}
+
+impl Named for TransferWeights {
+    const ALL: &'static [Self] = &[
+        TransferWeights::Convex,
+        TransferWeights::Exact,
+        TransferWeights::ConvexRestriction,
+    ];
+    fn name(self) -> &'static str {
+        match self {
+            TransferWeights::Convex => "convex",
+            TransferWeights::Exact => "exact",
+            TransferWeights::ConvexRestriction => "convex-restriction",
+        }
+    }
+}
+
+deserialize_named!(Method, Precision, Reading, Scaling, TransferWeights);
+
+/// `[mesh] pattern`: the number of tetrahedra per cube.
+pub fn box_pattern(tets_per_cube: u32) -> Option<BoxPattern> {
+    [BoxPattern::Five, BoxPattern::Six]
+        .into_iter()
+        .find(|p| p.tets_per_cube() as u32 == tets_per_cube)
+}
+
+impl<'de> Deserialize<'de> for BoxPattern {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let n = u32::deserialize(d)?;
+        box_pattern(n).ok_or_else(|| {
+            D::Error::custom(format!("{VALUE_ERROR}{n}: valid are 5 or 6 tets per cube"))
+        })
+    }
+}
+
+/// `[output] reference`: `"none"`, `"auto"` or a path (relative to the scenario file; made
+/// absolute and checked when the scenario is resolved).
+impl<'de> Deserialize<'de> for Reference {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        Ok(match s.as_str() {
+            "none" => Reference::None,
+            "auto" => Reference::Auto,
+            _ => Reference::File(PathBuf::from(s)),
+        })
+    }
+}
+
+/// A scenario file as written: the keys of the module documentation, typed. [`parse`] reads
+/// it; [`super::Scenario::resolve`] checks and resolves it.
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ScenarioSpec {
     pub name: Option<String>,
@@ -148,24 +491,24 @@ pub struct ScenarioSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MultigridSpec {
-    pub scheme: Option<String>,
+    pub scheme: Option<Scheme>,
     pub levels: Option<usize>,
     pub ratio: Option<f64>,
     /// Explicit node targets of generated levels, level 0 first (= `[mesh] nodes`).
     pub level_nodes: Option<Vec<usize>>,
     pub files: Option<Vec<String>>,
-    pub reading: Option<String>,
+    pub reading: Option<Reading>,
     pub epsilon: Option<f64>,
     pub pre_smooth: Option<usize>,
     pub post_smooth: Option<usize>,
-    pub coarse: Option<String>,
+    pub coarse: Option<CoarseKind>,
     pub coarse_time: Option<f64>,
     pub coarse_iterations: Option<usize>,
-    pub smoother: Option<String>,
-    pub transfer: Option<String>,
-    pub scaling: Option<String>,
-    pub accelerate: Option<String>,
-    pub level_methods: Option<Vec<String>>,
+    pub smoother: Option<SmootherKind>,
+    pub transfer: Option<TransferWeights>,
+    pub scaling: Option<Scaling>,
+    pub accelerate: Option<Accelerate>,
+    pub level_methods: Option<Vec<Method>>,
     pub level_dt: Option<Vec<f64>>,
 }
 
@@ -177,7 +520,7 @@ pub struct InteractiveSpec {
     pub fps: Option<f64>,
     pub cycles: Option<usize>,
     pub budget_ms: Option<f64>,
-    pub reference: Option<String>,
+    pub reference: Option<StaticReference>,
     pub reference_tol: Option<f64>,
 }
 
@@ -186,19 +529,19 @@ pub struct InteractiveSpec {
 pub struct MeshSpec {
     pub file: Option<String>,
     pub scale: Option<f64>,
-    pub generate: Option<String>,
+    pub generate: Option<Generator>,
     pub size: Option<Vec<f64>>,
     pub polygon: Option<Vec<[f64; 2]>>,
     pub nodes: Option<usize>,
     pub divisions: Option<[usize; 3]>,
-    pub pattern: Option<u32>,
+    pub pattern: Option<BoxPattern>,
     pub renumber: Option<bool>,
 }
 
-#[derive(Clone, Debug, Deserialize, Default)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
-    pub law: String,
+    pub law: Law,
     pub young: Option<f64>,
     pub poisson: Option<f64>,
     pub c1: Option<f64>,
@@ -257,7 +600,7 @@ pub struct LoadSpec {
 pub struct DisplaceSpec {
     pub point: [f64; 3],
     pub displacement: Option<[f64; 3]>,
-    pub mode: Option<String>,
+    pub mode: Option<MotionMode>,
     pub duration: Option<f64>,
     pub table: Option<Vec<[f64; 4]>>,
 }
@@ -265,16 +608,16 @@ pub struct DisplaceSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {
-    pub method: Option<String>,
+    pub method: Option<Method>,
     pub dt: Option<f64>,
     pub safety: Option<f64>,
-    pub precision: Option<String>,
+    pub precision: Option<Precision>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RunSpec {
-    pub stop: Option<String>,
+    pub stop: Option<Stop>,
     pub duration: Option<f64>,
     pub kinetic_tol: Option<f64>,
     pub residual_tol: Option<f64>,
@@ -287,5 +630,82 @@ pub struct OutputSpec {
     pub dir: Option<String>,
     pub frame_interval: Option<f64>,
     pub csv_every: Option<u64>,
-    pub reference: Option<String>,
+    pub reference: Option<Reference>,
+}
+
+/// Parse scenario text. Errors name `path`, the line and the key (`integrator.method`), and
+/// for a key with named values the valid ones; a number that is not finite is an error too.
+pub fn parse(text: &str, path: &Path) -> Result<ScenarioSpec> {
+    let line_of = |offset: usize| text[..offset.min(text.len())].matches('\n').count() + 1;
+    let spec: ScenarioSpec = serde_path_to_error::deserialize(toml::Deserializer::new(text))
+        .map_err(|e| {
+            let key = e.path().to_string();
+            let e = e.into_inner();
+            let msg = e.message().trim();
+            // An unknown field's path ends in the field: name the table it is in.
+            let key = if msg.starts_with("unknown field") {
+                key.rsplit_once('.').map_or("", |(t, _)| t).to_string()
+            } else {
+                key
+            };
+            let msg = match (key.as_str(), msg.strip_prefix(VALUE_ERROR)) {
+                ("" | ".", _) => msg.to_string(),
+                (k, Some(rest)) => format!("`{k}` = {rest}"),
+                (k, None) => format!("`{k}`: {msg}"),
+            };
+            Error::Scenario {
+                path: path.to_path_buf(),
+                line: e.span().map(|s| line_of(s.start)),
+                msg,
+            }
+        })?;
+    if let Some((key, span)) = non_finite(text) {
+        return Err(Error::Scenario {
+            path: path.to_path_buf(),
+            line: span.map(|s| line_of(s.start)),
+            msg: format!("`{key}`: numbers must be finite (not nan or inf)"),
+        });
+    }
+    Ok(spec)
+}
+
+/// The key path and span of the first number in `text` that is not finite.
+fn non_finite(text: &str) -> Option<(String, Option<std::ops::Range<usize>>)> {
+    use toml_edit::{Item, Value};
+    fn value(v: &Value, key: String) -> Option<(String, Option<std::ops::Range<usize>>)> {
+        match v {
+            Value::Float(f) if !f.value().is_finite() => Some((key, f.span())),
+            Value::Array(a) => a
+                .iter()
+                .enumerate()
+                .find_map(|(i, v)| value(v, format!("{key}[{i}]"))),
+            Value::InlineTable(t) => t
+                .iter()
+                .find_map(|(k, v)| value(v, join(&key, k))),
+            _ => None,
+        }
+    }
+    fn item(it: &Item, key: String) -> Option<(String, Option<std::ops::Range<usize>>)> {
+        match it {
+            Item::Value(v) => value(v, key),
+            Item::Table(t) => table(t, &key),
+            Item::ArrayOfTables(a) => a
+                .iter()
+                .enumerate()
+                .find_map(|(i, t)| table(t, &format!("{key}[{i}]"))),
+            Item::None => None,
+        }
+    }
+    fn table(t: &toml_edit::Table, key: &str) -> Option<(String, Option<std::ops::Range<usize>>)> {
+        t.iter().find_map(|(k, it)| item(it, join(key, k)))
+    }
+    fn join(a: &str, b: &str) -> String {
+        if a.is_empty() {
+            b.to_string()
+        } else {
+            format!("{a}.{b}")
+        }
+    }
+    let doc = toml_edit::ImDocument::parse(text).ok()?;
+    table(doc.as_table(), "")
 }

@@ -1,7 +1,9 @@
 //! Scenario parsing, validation and short runs.
 
+use super::spec::{defaults, Named};
 use super::*;
 use crate::error::Error;
+use crate::multigrid::fas::{CoarseSolve, FasParams, Scaling, Smoother, TransferWeights};
 
 const BASE: &str = r#"
 [mesh]
@@ -120,7 +122,7 @@ fn every_error_path_names_the_problem() {
         (BASE.replace("boundary = true", "nodes = [100000]"), "does not exist"),
         (BASE.replace("boundary = true", "boundary = true\npoint = [0.0, 0.0, 0.0]"), "exactly one selector"),
         (BASE.replace("boundary = true", "box = { min = [1.0, 1.0, 1.0], max = [2.0, 2.0, 2.0] }"), "contains no node"),
-        (format!("{BASE}\n[integrator]\nmethod = \"leapfrog\""), "valid are forward-euler"),
+        (format!("{BASE}\n[integrator]\nmethod = \"leapfrog\""), "`integrator.method` = \"leapfrog\": valid are \"forward-euler\", \"symplectic-euler\", \"rk4\", \"central-difference\""),
         (format!("{BASE}\n[integrator]\ndt = 0.0"), "`integrator.dt`"),
         (format!("{BASE}\n[integrator]\nprecision = \"f16\""), "`integrator.precision` = \"f16\": valid are \"f64\", \"f32-storage\""),
         (format!("{BASE}\n[damping]\nalpha = 1.0\nratio = 1.0"), "not a mix"),
@@ -437,4 +439,283 @@ fn fas_on_renumbered_files_follows_the_file_order_run() {
         "renumbered FAS off by {:.2e} of the motion",
         worst / scale
     );
+}
+
+/// The 1-based line of the first line of `text` that starts with `prefix`.
+fn line_of(text: &str, prefix: &str) -> usize {
+    text.lines()
+        .position(|l| l.starts_with(prefix))
+        .unwrap_or_else(|| panic!("no line `{prefix}`"))
+        + 1
+}
+
+/// Every key that names one of a few values rejects any other with a message that names
+/// the key, its line and the valid values.
+#[test]
+fn every_enumerated_key_rejects_an_unknown_value_naming_key_line_and_valid_values() {
+    let mg = "[multigrid]\nlevels = 2\n";
+    let paper = "[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\n";
+    let cases: Vec<(String, &str, &str)> = vec![
+        (BASE.replace("generate = \"rectangle\"", "generate = \"bogus\""), "mesh.generate", "\"rectangle\", \"polygon\", \"box\""),
+        (BASE.replace("law = \"mooney-rivlin\"", "law = \"bogus\""), "material.law", "\"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\""),
+        (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ndisplacement = [0.0, 0.0, 0.01]\nmode = \"bogus\""), "displace[0].mode", "\"held\", \"ramp\", \"table\""),
+        (format!("{BASE}\n[integrator]\nmethod = \"bogus\""), "integrator.method", "\"forward-euler\", \"symplectic-euler\", \"rk4\", \"central-difference\""),
+        (format!("{BASE}\n[integrator]\nprecision = \"bogus\""), "integrator.precision", "\"f64\", \"f32-storage\""),
+        (BASE.replace("duration = 0.01", "duration = 0.01\nstop = \"bogus\""), "run.stop", "\"duration\", \"steady\""),
+        (format!("{BASE}\n[multigrid]\nscheme = \"bogus\"\nlevels = 2"), "multigrid.scheme", "\"fas\", \"raisov-paper\""),
+        (format!("{BASE}\n{paper}reading = \"bogus\""), "multigrid.reading", "\"paper\", \"correction\""),
+        (format!("{BASE}\n{mg}smoother = \"bogus\""), "multigrid.smoother", "\"chebyshev\", \"dynamics\""),
+        (format!("{BASE}\n{mg}coarse = \"bogus\""), "multigrid.coarse", "\"chebyshev\", \"explicit\", \"newton\""),
+        (format!("{BASE}\n{mg}scaling = \"bogus\""), "multigrid.scaling", "\"fictitious\", \"mass\""),
+        (format!("{BASE}\n{mg}transfer = \"bogus\""), "multigrid.transfer", "\"convex\", \"exact\", \"convex-restriction\""),
+        (format!("{BASE}\n{mg}accelerate = \"bogus\""), "multigrid.accelerate", "\"cg\", \"none\""),
+        (format!("{BASE}\n{mg}level_methods = [\"rk4\", \"bogus\"]"), "multigrid.level_methods[1]", "\"forward-euler\", \"symplectic-euler\", \"rk4\", \"central-difference\""),
+        (format!("{BASE}\n[interactive]\nreference = \"bogus\""), "interactive.reference", "\"newton\", \"none\""),
+    ];
+    for (text, key, valid) in cases {
+        let msg = error_of(&text);
+        let line = text.lines().position(|l| l.contains("\"bogus\"")).unwrap() + 1;
+        let want = format!("test.toml, line {line}: `{key}` = \"bogus\": valid are {valid}");
+        assert_eq!(msg, want);
+    }
+    // The box pattern is a number.
+    let text = BASE.replace(
+        "generate = \"rectangle\"\nsize = [0.1, 0.1]\nnodes = 60",
+        "generate = \"box\"\nsize = [0.1, 0.04, 0.04]\ndivisions = [5, 2, 2]\npattern = 7",
+    );
+    let line = line_of(&text, "pattern");
+    assert_eq!(
+        error_of(&text),
+        format!("test.toml, line {line}: `mesh.pattern` = 7: valid are 5 or 6 tets per cube")
+    );
+    // A value of the wrong type names the key too.
+    let text = format!("{BASE}\n[integrator]\nmethod = 4");
+    let msg = error_of(&text);
+    assert!(msg.contains("`integrator.method`: invalid type"), "{msg}");
+    // Unknown keys name their table.
+    let text = format!("{BASE}\n[integrator]\nmethd = \"rk4\"");
+    let msg = error_of(&text);
+    assert!(
+        msg.contains("`integrator`: unknown field `methd`, expected one of `method`"),
+        "{msg}"
+    );
+}
+
+/// The spellings are typed once: the alias of St Venant-Kirchhoff, and each named value
+/// reads back as itself.
+#[test]
+fn named_values_read_back() {
+    fn round_trip<T: Named + PartialEq + std::fmt::Debug>() {
+        for &v in T::ALL {
+            assert_eq!(T::from_name(v.name()), Some(v));
+        }
+        assert_eq!(T::from_name("bogus"), None);
+    }
+    round_trip::<Method>();
+    round_trip::<Precision>();
+    round_trip::<Scaling>();
+    round_trip::<TransferWeights>();
+    round_trip::<crate::multigrid::raisov::Reading>();
+    round_trip::<spec::Law>();
+    round_trip::<spec::Scheme>();
+    assert_eq!(
+        spec::Law::from_name("st-venant-kirchhoff"),
+        Some(spec::Law::StVenantKirchhoff)
+    );
+}
+
+/// `nan` and `inf` anywhere are errors naming the key and its line.
+#[test]
+fn non_finite_numbers_are_errors_naming_the_key() {
+    let cases: Vec<(String, &str, &str)> = vec![
+        (format!("{BASE}\n[integrator]\ndt = nan"), "integrator.dt", "dt = nan"),
+        (format!("gravity = [0.0, 0.0, -inf]\n{BASE}"), "gravity[2]", "gravity"),
+        (BASE.replace("c1 = 1000.0", "c1 = inf"), "material.c1", "c1 = inf"),
+        (BASE.replace("boundary = true", "box = { min = [0.0, 0.0, 0.0], max = [nan, 1.0, 1.0] }"), "fix[0].box.max[0]", "box ="),
+        (format!("{BASE}\n[[load]]\nat = {{ boundary = true }}\nforce = [0.0, +inf, 0.0]"), "load[0].force[1]", "force"),
+        (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ntable = [[0.0, 0, 0, 0], [1.0, 0, 0, -nan]]"), "displace[0].table[1][3]", "table"),
+        (format!("{BASE}\n[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\nepsilon = inf"), "multigrid.epsilon", "epsilon"),
+        (format!("{BASE}\n[interactive]\nfps = inf"), "interactive.fps", "fps"),
+    ];
+    for (text, key, at) in cases {
+        let line = line_of(&text, at);
+        assert_eq!(
+            error_of(&text),
+            format!("test.toml, line {line}: `{key}`: numbers must be finite (not nan or inf)")
+        );
+    }
+}
+
+/// `name` names files under the output directory: nothing that would reach outside it.
+#[test]
+fn names_that_would_write_outside_the_output_directory_are_errors() {
+    for bad in ["../up", "a/b", "a\\\\b", "..", "", "/abs"] {
+        let msg = error_of(&format!("name = \"{bad}\"\n{BASE}"));
+        assert!(msg.contains("`name`") && msg.contains("plain file name"), "{bad}: {msg}");
+    }
+    let sc = parse(&format!("name = \"drape-2.v1\"\n{BASE}")).unwrap();
+    assert_eq!(sc.out_dir, PathBuf::from("raisov-out/drape-2.v1"));
+}
+
+/// Keys of one multigrid scheme, coarse solve or motion mode are errors with another.
+#[test]
+fn keys_of_another_setting_are_errors() {
+    let cases: Vec<(String, &str)> = vec![
+        (format!("{BASE}\n[multigrid]\nlevels = 2\nepsilon = 1e-4"), "`multigrid.epsilon` applies to scheme = \"raisov-paper\" only"),
+        (format!("{BASE}\n[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\npre_smooth = 2"), "`multigrid.pre_smooth` applies to scheme = \"fas\" only"),
+        (format!("{BASE}\n[multigrid]\nlevels = 2\ncoarse_time = 0.2"), "`multigrid.coarse_time` applies to coarse = \"explicit\" only"),
+        (format!("{BASE}\n[multigrid]\nfiles = [\"a.msh\"]\nratio = 0.5"), "`multigrid.ratio` applies to generated levels"),
+        (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ndisplacement = [0.0, 0.0, 0.01]\nduration = 1.0"), "`duration` does not apply to mode = \"held\""),
+        (BASE.replace("nodes = 60", "nodes = 60\npattern = 5"), "`pattern` does not apply to generate = \"rectangle\""),
+        (BASE.replace("duration = 0.01", "duration = 0.01\nkinetic_tol = 1e-3"), "`run.kinetic_tol` applies to stop = \"steady\""),
+    ];
+    for (text, want) in cases {
+        let msg = error_of(&text);
+        assert!(msg.contains(want), "expected `{want}` in: {msg}");
+    }
+}
+
+/// The resolved multigrid settings: the FAS defaults are `FasParams::default()`, the keys
+/// reach their fields, raisov-paper's ε defaults to 1e-3 of the shortest edge.
+#[test]
+fn multigrid_settings_resolve_to_typed_parameters() {
+    let fas = |extra: &str| {
+        let sc = parse(&format!("{BASE}\n[multigrid]\nlevels = 3\n{extra}")).unwrap();
+        let mg = sc.multigrid.clone().unwrap();
+        assert_eq!(mg.methods, vec![sc.method; 3]);
+        assert_eq!(sc.num_levels(), 3);
+        match mg.scheme {
+            MultigridScheme::Fas(p) => p,
+            s => panic!("{s:?}"),
+        }
+    };
+    assert_eq!(fas(""), FasParams::default());
+    let p = fas("smoother = \"chebyshev\"\nscaling = \"mass\"\ntransfer = \"exact\"\naccelerate = \"none\"\ncoarse = \"explicit\"\ncoarse_time = 0.2\npre_smooth = 2\npost_smooth = 3");
+    assert!(matches!(
+        p.smoother,
+        Smoother::Chebyshev {
+            scaling: Scaling::Mass,
+            ..
+        }
+    ));
+    assert_eq!(p.weights, TransferWeights::Exact);
+    assert!(!p.krylov);
+    assert_eq!(p.coarse, CoarseSolve::Explicit { time: 0.2 });
+    assert_eq!((p.pre_smooth, p.post_smooth), (2, 3));
+    assert_eq!(
+        fas("coarse = \"newton\"").coarse,
+        CoarseSolve::Newton {
+            rel_tol: defaults::COARSE_NEWTON_TOL
+        }
+    );
+    assert_eq!(fas("smoother = \"dynamics\"").smoother, Smoother::Dynamics);
+    let sc = parse(&format!(
+        "{BASE}\n[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\nreading = \"paper\""
+    ))
+    .unwrap();
+    match sc.multigrid.unwrap().scheme {
+        MultigridScheme::RaisovPaper(p) => {
+            assert_eq!(p.reading, crate::multigrid::raisov::Reading::Paper);
+            assert_eq!(p.epsilon, 1e-3 * sc.mesh.edge_range().0);
+        }
+        s => panic!("{s:?}"),
+    }
+}
+
+/// Every default the module documentation of `spec` states is the one the code applies:
+/// the constants of `spec::defaults` and `FasParams::default()`.
+#[test]
+fn documented_defaults_are_the_applied_ones() {
+    let doc: Vec<&str> = include_str!("spec.rs")
+        .lines()
+        .take_while(|l| l.starts_with("//!"))
+        .map(|l| l.trim_start_matches("//!"))
+        .collect();
+    // The documentation of `key` in `[table]`: its line and the comment lines under it.
+    let entry = |table: &str, key: &str| -> String {
+        let start = doc
+            .iter()
+            .position(|l| l.starts_with(&format!(" [{table}]")))
+            .unwrap_or_else(|| panic!("no [{table}]"));
+        let at = doc[start..]
+            .iter()
+            .position(|l| l.starts_with(&format!(" {key} =")))
+            .unwrap_or_else(|| panic!("no {table}.{key}"))
+            + start;
+        let mut text = doc[at].to_string();
+        for l in &doc[at + 1..] {
+            if l.trim_start().starts_with('#') {
+                text.push_str(l);
+            } else {
+                break;
+            }
+        }
+        text
+    };
+    let d = FasParams::default();
+    let numbers: Vec<(&str, &str, &str, f64)> = vec![
+        ("mesh", "scale", "1", defaults::SCALE),
+        ("mesh", "pattern", "6", defaults::BOX_PATTERN.tets_per_cube() as f64),
+        ("material", "density", "1000", defaults::DENSITY),
+        ("material", "thickness", "1e-3", defaults::THICKNESS),
+        ("integrator", "safety", "0.5", defaults::SAFETY),
+        ("run", "duration", "60", defaults::STEADY_CAP),
+        ("run", "kinetic_tol", "1e-8", defaults::KINETIC_TOL),
+        ("run", "residual_tol", "1e-4", defaults::RESIDUAL_TOL),
+        ("run", "blowup_factor", "1e3", defaults::BLOWUP_FACTOR),
+        ("output", "frame_interval", "0.05", defaults::FRAME_INTERVAL),
+        ("output", "csv_every", "1", defaults::CSV_EVERY as f64),
+        ("multigrid", "ratio", "0.5", defaults::LEVEL_RATIO),
+        ("multigrid", "epsilon", "1e-3", defaults::EPSILON_PER_EDGE),
+        ("multigrid", "coarse_time", "0.1", defaults::COARSE_TIME),
+        ("multigrid", "pre_smooth", "4", d.pre_smooth as f64),
+        ("multigrid", "post_smooth", "4", d.post_smooth as f64),
+        ("interactive", "fps", "30", defaults::FPS),
+        ("interactive", "cycles", "4", defaults::CYCLES as f64),
+        ("interactive", "reference_tol", "1e-6", defaults::REFERENCE_TOL),
+    ];
+    for (table, key, text, value) in numbers {
+        let e = entry(table, key);
+        assert!(e.contains(&format!("default {text}")), "{table}.{key}: {e}");
+        assert_eq!(text.parse::<f64>().unwrap(), value, "{table}.{key}");
+    }
+    let CoarseSolve::Chebyshev { iterations, .. } = d.coarse else {
+        panic!("the FAS default coarse solve is Chebyshev")
+    };
+    assert!(entry("multigrid", "coarse_iterations").contains(&format!("default {iterations}")));
+    assert!(entry("multigrid", "coarse").contains(&format!("{iterations} iterations")));
+    let Smoother::Chebyshev { scaling, .. } = d.smoother else {
+        panic!("the FAS default smoother is Chebyshev")
+    };
+    let names: Vec<(&str, &str, &str)> = vec![
+        ("integrator", "method", defaults::METHOD.name()),
+        ("integrator", "precision", Precision::default().name()),
+        ("run", "stop", spec::Stop::default().name()),
+        ("output", "reference", "none"),
+        ("multigrid", "scheme", spec::Scheme::default().name()),
+        ("multigrid", "reading", defaults::READING.name()),
+        ("multigrid", "smoother", "chebyshev"),
+        ("multigrid", "coarse", "chebyshev"),
+        ("multigrid", "scaling", scaling.name()),
+        ("multigrid", "transfer", d.weights.name()),
+        ("multigrid", "accelerate", if d.krylov { "cg" } else { "none" }),
+        ("interactive", "reference", spec::StaticReference::default().name()),
+    ];
+    for (table, key, name) in names {
+        let e = entry(table, key);
+        assert!(
+            e.contains(&format!("\"{name}\" (default"))
+                || e.contains(&format!("default \"{name}\"")),
+            "{table}.{key}: {e}"
+        );
+    }
+    assert_eq!(Reference::default(), Reference::None);
+    // And the resolved scenario applies them.
+    let sc = parse(BASE).unwrap();
+    assert_eq!(sc.safety, defaults::SAFETY);
+    assert_eq!(sc.blowup_factor, defaults::BLOWUP_FACTOR);
+    assert_eq!(sc.frame_interval, defaults::FRAME_INTERVAL);
+    assert_eq!(sc.csv_every, defaults::CSV_EVERY);
+    assert_eq!(sc.reference, Reference::None);
+    assert_eq!(sc.mesh_source.scale, defaults::SCALE);
 }

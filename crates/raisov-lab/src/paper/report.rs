@@ -1,10 +1,10 @@
 //! The files of `raisov paper`: CSV series, plots and `report.md` with the claims table.
 
 use super::experiments::{fmt_eps, Sim, MEMBRANE_PHYSICS, TISSUE_MATERIAL};
-use super::plot::{write_chart, Panel};
 use super::{outcome_text, rel, tail_mean, Results, STEADY_TARGET};
-use crate::error::Result;
-use crate::io::write_atomic;
+use crate::plot::{write_chart, Panel};
+use raisov::error::Result;
+use raisov::io::write_atomic;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -78,6 +78,7 @@ fn fig_panels(sims: &[Sim], what: &str) -> Vec<Panel> {
                 )
             })
             .collect(),
+        log_x: false,
         log_y: true,
         markers: false,
     };
@@ -236,7 +237,7 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
     }
     let steady_panel = |title: &str, y: &str, f: &dyn Fn(&super::experiments::Pt) -> f64| Panel {
         title: title.into(),
-        x_label: "log10(finest-level nodes)".into(),
+        x_label: "finest-level nodes".into(),
         y_label: y.into(),
         series: methods
             .iter()
@@ -250,12 +251,13 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
                             r.sim
                                 .as_ref()
                                 .and_then(|s| s.reached)
-                                .map(|p| ((r.nodes as f64).log10(), f(&p)))
+                                .map(|p| (r.nodes as f64, f(&p)))
                         })
                         .collect(),
                 )
             })
             .collect(),
+        log_x: true,
         log_y: true,
         markers: true,
     };

@@ -4,12 +4,12 @@
 //! Every run is a scenario built from TOML text ([`scenario_toml`]) exactly as a user would
 //! write it; the driver saves one such file per case and method under `scenarios/`.
 
-use crate::error::{Error, Result};
-use crate::integrate::relax::relax;
-use crate::integrate::statics::{NewtonParams, NewtonSolver};
-use crate::integrate::{Method, State, Stepper};
-use crate::metrics::Meter;
-use crate::scenario::{critical_step_estimate, Scenario};
+use raisov::error::{Error, Result};
+use raisov::integrate::relax::relax;
+use raisov::integrate::statics::{NewtonParams, NewtonSolver};
+use raisov::integrate::{Method, State, Stepper};
+use raisov::metrics::Meter;
+use raisov::scenario::{critical_step_estimate, Scenario};
 use std::path::Path;
 use std::time::Instant;
 

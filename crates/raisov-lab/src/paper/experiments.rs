@@ -135,17 +135,6 @@ pub enum MeshDesc {
     Files { files: Vec<String>, scale: f64 },
 }
 
-impl MeshDesc {
-    pub fn finest_nodes_hint(&self) -> String {
-        match self {
-            MeshDesc::Membrane { level_nodes } => format!("{level_nodes:?}"),
-            MeshDesc::MembraneRatio { nodes, levels } => format!("{nodes} ({levels} levels)"),
-            MeshDesc::Block { nodes, levels, .. } => format!("{nodes} ({levels} levels)"),
-            MeshDesc::Files { files, .. } => format!("{} files", files.len()),
-        }
-    }
-}
-
 /// One physical case: mesh, physics text (material, damping, fixes, loads, gravity) and
 /// how long it runs.
 #[derive(Clone, Debug)]
@@ -284,7 +273,6 @@ pub enum Outcome {
 #[derive(Clone, Debug)]
 pub struct Sim {
     pub label: String,
-    pub describe: String,
     pub dt: f64,
     pub points: Vec<Pt>,
     pub outcome: Outcome,
@@ -441,7 +429,6 @@ pub fn simulate(
     let last = *points.last().expect("first sample");
     Sim {
         label: label.to_string(),
-        describe: stepper.describe(),
         dt,
         points,
         outcome,

@@ -14,7 +14,7 @@ use plotters::style::{register_font, FontStyle};
 use raisov::error::{Error, Result};
 use raisov::io::write_atomic;
 use std::path::{Path, PathBuf};
-use std::sync::Once;
+use std::sync::OnceLock;
 
 /// The font every chart uses, embedded.
 const FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
@@ -32,18 +32,15 @@ pub const ABBREVIATIONS: [&str; 5] = [
 
 /// Register the embedded font under [`FAMILY`] once per process.
 fn register() -> Result<()> {
-    static ONCE: Once = Once::new();
-    let mut bad = false;
-    ONCE.call_once(|| {
-        bad = register_font(FAMILY, FontStyle::Normal, FONT).is_err();
-    });
-    if bad {
-        return Err(Error::param(
+    static PARSED: OnceLock<bool> = OnceLock::new();
+    if *PARSED.get_or_init(|| register_font(FAMILY, FontStyle::Normal, FONT).is_ok()) {
+        Ok(())
+    } else {
+        Err(Error::param(
             "plot",
-            "the embedded font DejaVuSans.ttf does not parse",
-        ));
+            "the embedded font fonts/DejaVuSans.ttf does not parse",
+        ))
     }
-    Ok(())
 }
 
 /// The colour of a method in every figure, from its label ([`crate::paper::experiments::Meth::label`]):
@@ -109,6 +106,17 @@ fn drawable(p: &Panel) -> Vec<(String, Vec<(f64, f64)>)> {
             )
         })
         .collect()
+}
+
+/// A tick label: at most three decimals, trailing zeros dropped.
+fn tick(x: f64) -> String {
+    let s = format!("{x:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.into()
+    }
 }
 
 /// Width of the legend column (px).
@@ -188,6 +196,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> R
                 .x_desc(p.x_label.as_str())
                 .y_desc(p.y_label.as_str())
                 .label_style((FAMILY, 12))
+                .x_label_formatter(&|x| tick(*x))
                 .y_label_formatter(&|y| format!("{y:.0e}"))
                 .draw()
                 .map_err(plot_err)?;
@@ -249,4 +258,65 @@ pub fn write_chart(dir: &Path, stem: &str, panels: &[Panel]) -> Result<Vec<PathB
     }
     std::fs::rename(&tmp, &png_path).map_err(|e| Error::io(&png_path, e))?;
     Ok(vec![png_path, svg_path])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every method of the experiments has its own colour, the same on every call.
+    #[test]
+    fn methods_have_distinct_fixed_colours() {
+        let labels = [
+            "SLIM rk4",
+            "SLIM symplectic-euler",
+            "SLIM central-difference",
+            "FAS multigrid",
+            "RaISoV paper, eps default",
+            "RaISoV paper, eps best (1.2e-5 m)",
+            "RaISoV correction, eps default",
+            "RaISoV correction, eps best (0: state only)",
+        ];
+        let c: Vec<RGBColor> = labels.iter().map(|l| method_colour(l)).collect();
+        for i in 0..c.len() {
+            for j in 0..i {
+                assert_ne!(c[i], c[j], "{} and {}", labels[i], labels[j]);
+            }
+        }
+        assert_eq!(
+            method_colour("anything else"),
+            method_colour("anything else")
+        );
+    }
+
+    /// The embedded font draws text: the legend column, empty of anything but text, gets
+    /// dark pixels, in a bitmap rendered in memory.
+    #[test]
+    fn legend_text_is_drawn_with_the_embedded_font() {
+        register().unwrap();
+        let (w, h) = (900 + LEGEND_WIDTH, 420);
+        let mut buf = vec![0u8; 3 * (w * h) as usize];
+        let panel = Panel {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            series: vec![("FAS multigrid".into(), vec![(1.0, 1.0), (2.0, 0.1)])],
+            log_x: false,
+            log_y: true,
+            markers: false,
+        };
+        {
+            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+            draw_all(root, &[panel]).unwrap();
+        }
+        // Text pixels of the legend column right of its colour swatches (x > 36).
+        let dark = (0..h)
+            .flat_map(|y| (900 + 36..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| {
+                let i = 3 * (y * w + x) as usize;
+                buf[i..i + 3].iter().all(|&c| c < 128)
+            })
+            .count();
+        assert!(dark > 200, "only {dark} dark pixels in the legend column");
+    }
 }

@@ -366,7 +366,7 @@ fn run_case(case: &Case, meth: &Meth, step: Step, t_inf: &[f64], cfg: SimCfg) ->
     Ok(simulate(&sc, st.as_mut(), &meth.label(), Some(t_inf), cfg))
 }
 
-/// 1. Perturbation response [3.1]: the ε sweep of both RaISoV readings, then the 3 cm lift
+/// Experiment 1, perturbation response [3.1]: the ε sweep of both RaISoV readings, then the 3 cm lift
 /// by every method compared (SLIM RK4, FAS, each reading at the default and the best ε).
 /// Returns the lift case and those methods.
 fn perturbation(cx: &mut Ctx, res: &mut Results) -> Result<(Case, Vec<Meth>)> {
@@ -431,7 +431,7 @@ fn perturbation(cx: &mut Ctx, res: &mut Results) -> Result<(Case, Vec<Meth>)> {
     Ok((lift, methods))
 }
 
-/// 2. Draping under gravity [3.2]: every method at 0.5 × its estimated critical step.
+/// Experiment 2, draping under gravity [3.2]: every method at 0.5 × its estimated critical step.
 /// Returns the drape case.
 fn draping(cx: &mut Ctx, res: &mut Results, methods: &[Meth]) -> Result<Case> {
     let drape = drape_case(
@@ -454,7 +454,7 @@ fn draping(cx: &mut Ctx, res: &mut Results, methods: &[Meth]) -> Result<Case> {
     Ok(drape)
 }
 
-/// 3. Largest stable time step by bisection [2.3, 3.1, 4]: lifts of 3.0 and 3.5 cm and the
+/// Experiment 3, largest stable time step by bisection [2.3, 3.1, 4]: lifts of 3.0 and 3.5 cm and the
 /// drape, each test as many steps (cycles) as SLIM RK4 needed to reach steady state.
 fn stability(
     cx: &mut Ctx,
@@ -546,7 +546,7 @@ fn block_case(mesh: &MeshDesc, pull: f64, ramp: f64) -> Case {
     }
 }
 
-/// 4. Element inversion of a tetrahedral block with one node driven fast [3.3]: the largest
+/// Experiment 4, element inversion of a tetrahedral block with one node driven fast [3.3]: the largest
 /// pull each method survives, by bisection, every method at SLIM RK4's step.
 fn inversion(cx: &mut Ctx, res: &mut Results, methods: &[Meth], tiny: bool) -> Result<()> {
     let block_size = [0.04, 0.04, 0.02];
@@ -612,7 +612,7 @@ fn inversion(cx: &mut Ctx, res: &mut Results, methods: &[Meth], tiny: bool) -> R
     Ok(())
 }
 
-/// 5. Cost of one V-cycle over one single-level step [eq. 14]: SLIM RK4, RaISoV and FAS on
+/// Experiment 5, cost of one V-cycle over one single-level step [eq. 14]: SLIM RK4, RaISoV and FAS on
 /// the paper's membrane and a large one, best of [`Sizes::cost_reps`] repetitions.
 fn cost(cx: &mut Ctx, res: &mut Results) -> Result<()> {
     let cost_meshes = [
@@ -779,7 +779,7 @@ fn steady_reference(sc_f: &Scenario, sz: &Sizes) -> Result<(Vec<f64>, String)> {
     }
 }
 
-/// 6. Time to steady state of every method at its own largest stable step (0.9 × the one
+/// Experiment 6, time to steady state of every method at its own largest stable step (0.9 × the one
 /// found on the drape), on the paper's membrane, the larger membranes and the liver.
 fn time_to_steady(
     cx: &mut Ctx,

@@ -65,7 +65,7 @@ fn fig_panels(sims: &[Sim], what: &str) -> Vec<Panel> {
             if max { "max" } else { "mean" }
         ),
         x_label: "time (s)".into(),
-        y_label: "Pa".into(),
+        y_label: format!("{} |T - T_inf| (Pa)", if max { "max" } else { "mean" }),
         series: sims
             .iter()
             .map(|s| {

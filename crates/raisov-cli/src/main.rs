@@ -41,7 +41,7 @@ enum Cmd {
     },
     /// Parse and resolve a scenario, print what it would run, and exit.
     Check { scenario: PathBuf },
-    /// Performance benchmark of the standard explicit-dynamics work (see `raisov::bench`).
+    /// Performance benchmark of the standard explicit-dynamics work (see `raisov_lab::bench`).
     Bench {
         /// Box sizes in nodes, e.g. 1k,10k,100k,1M.
         #[arg(long, default_value = "1k,10k,100k,1M")]
@@ -78,8 +78,8 @@ enum Cmd {
         /// Smaller hierarchies and fewer bisection steps (CI smoke test); no 100k-node runs.
         #[arg(long)]
         quick: bool,
-        /// Directory with liver_L0..L3.msh; default ../shared/meshes (relative to the
-        /// working directory). The liver is skipped with a note if the files are absent.
+        /// Directory with liver_L0..L3.msh; default `data` (relative to the working
+        /// directory). The liver is skipped with a note if the files are absent.
         #[arg(long)]
         meshes: Option<PathBuf>,
         /// No progress bar.
@@ -267,13 +267,13 @@ fn cmd_paper(
     quiet: bool,
     slim_cap: Option<f64>,
 ) -> Result<()> {
-    use raisov::paper::{run_paper, PaperOptions, Progress};
+    use raisov_lab::paper::{run_paper, PaperOptions, Progress};
     if let Some(c) = slim_cap {
         if !(c.is_finite() && c > 0.0) {
             anyhow::bail!("--slim-cap {c}: give a positive number of seconds");
         }
     }
-    let meshes = meshes.unwrap_or_else(|| PathBuf::from("../shared/meshes"));
+    let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
     let opts = PaperOptions {
         out_dir: out.clone(),
         quick,
@@ -386,7 +386,7 @@ fn cmd_bench(
     standard_only: bool,
     precision: &str,
 ) -> Result<()> {
-    use raisov::bench;
+    use raisov_lab::bench;
     let precisions = bench::parse_precisions(precision).context("--precision")?;
     let sizes = if quick && sizes == "1k,10k,100k,1M" {
         vec![1000, 10_000]
@@ -580,10 +580,10 @@ fn cmd_generate(
 }
 
 /// One line of the standard-work correctness check (the numbers the peers must match).
-fn print_check(n: usize, c: &raisov::bench::Check) {
+fn print_check(n: usize, c: &raisov_lab::bench::Check) {
     println!(
         "check size={} nodes={} steps={} precision={} mean_uy_free_end={:.9e} max_abs_u={:.9e}",
-        raisov::bench::size_label(n),
+        raisov_lab::bench::size_label(n),
         c.nodes,
         c.steps,
         c.precision.name(),

@@ -25,7 +25,6 @@
 // Index loops over x, y, z components read like the equations they implement.
 #![allow(clippy::needless_range_loop)]
 
-pub mod bench;
 pub mod error;
 pub mod fem;
 pub mod hierarchy;
@@ -35,7 +34,6 @@ pub mod material;
 pub mod mesh;
 pub mod metrics;
 pub mod multigrid;
-pub mod paper;
 pub mod scenario;
 
 pub use error::{Error, Result};

@@ -66,7 +66,7 @@
 //! (2-norm) and 3e-8 to 5e-8 (max entry) under random deformations of 1 % to 30 % of the
 //! shortest edge; 1.2e-7 and 1.6e-7 under an affine stretch, where the interior forces
 //! cancel (patch test) and f32 storage leaves a residue of that size. The 500-step standard
-//! work of [`crate::bench`] on the 1k box agrees with f64 to better than 5 significant digits (tested < 5e-6 relative). The lumped masses, the
+//! work of the benchmark (`raisov bench`, crate `raisov-lab`) on the 1k box agrees with f64 to better than 5 significant digits (tested < 5e-6 relative). The lumped masses, the
 //! strain energy, the stresses and the generic path keep the f64 `Dm⁻¹` and volumes. f32
 //! storage can pay only where the force pass is bandwidth-bound, and its kernel does more
 //! arithmetic than the positions kernel (213 flops against 156 per tetrahedron).

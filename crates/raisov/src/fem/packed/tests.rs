@@ -248,7 +248,12 @@ fn slabs_come_in_fours_so_each_colour_splits_evenly() {
     assert_eq!(slab_count(298, 18), 16);
     assert_eq!(slab_count(5, 3), 3);
     assert_eq!(slab_count(5, 1), 1);
-    let mesh = crate::bench::standard_box(10_000).unwrap();
+    let mesh = crate::mesh::generate::box_tets_target(
+        [0.1, 0.04, 0.04],
+        10_000,
+        crate::mesh::generate::BoxPattern::Five,
+    )
+    .unwrap();
     let p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e4, 0.4)));
     let model = FemModel::new(&mesh, p).unwrap();
     let (slabs, colours, _) = model.fast_path().unwrap();

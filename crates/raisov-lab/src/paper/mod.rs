@@ -17,14 +17,15 @@
 //! All files are written atomically; nothing non-finite is written.
 
 pub mod experiments;
-pub mod plot;
 pub mod report;
 
-use crate::error::{Error, Result};
-use crate::integrate::Stepper;
-use crate::io::write_atomic;
 use experiments::*;
-use std::collections::BTreeMap;
+use raisov::error::{Error, Result};
+use raisov::integrate::Stepper;
+use raisov::io::write_atomic;
+use raisov::mesh::ElementKind;
+use raisov::scenario::Scenario;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -269,10 +270,8 @@ pub fn drape_case(mesh: MeshDesc, name: &str, duration: f64) -> Case {
 
 /// Run every experiment and write the files under `opts.out_dir`.
 pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Result<Results> {
-    let start = Instant::now();
     let sz = Sizes::of(opts);
-    let out = opts.out_dir.clone();
-    let scen_dir = out.join("scenarios");
+    let scen_dir = opts.out_dir.join("scenarios");
     std::fs::create_dir_all(&scen_dir).map_err(|e| Error::io(&scen_dir, e))?;
     let mut res = Results {
         quick: opts.quick,
@@ -289,21 +288,89 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         + 2
         + 5 * (1 + sz.steady_big.len() as u64 + u64::from(!sz.liver.is_empty()));
     progress(Progress::Planned(planned));
-    let mut saved: BTreeMap<String, ()> = BTreeMap::new();
-    let mut save = |case: &Case, meth: &Meth, step: Step, files: &mut Vec<PathBuf>| -> Result<()> {
+    let mut cx = Ctx {
+        sz,
+        scen_dir,
+        saved: BTreeSet::new(),
+        files: Vec::new(),
+        progress,
+        start: Instant::now(),
+    };
+    let (lift, methods) = perturbation(&mut cx, &mut res)?;
+    let drape = draping(&mut cx, &mut res, &methods)?;
+    cx.stage(&mut res, "1-2. lift and drape");
+    stability(&mut cx, &mut res, &lift, &drape, &methods)?;
+    cx.stage(&mut res, "3. stability");
+    inversion(&mut cx, &mut res, &methods, opts.tiny)?;
+    cx.stage(&mut res, "4. inversion");
+    cost(&mut cx, &mut res)?;
+    cx.stage(&mut res, "5. cost");
+    time_to_steady(&mut cx, &mut res, opts, &drape, &methods)?;
+    cx.stage(&mut res, "6. time to steady state");
+    res.wall = cx.start.elapsed().as_secs_f64();
+    res.files = std::mem::take(&mut cx.files);
+    report::write_all(&opts.out_dir, &mut res)?;
+    Ok(res)
+}
+
+/// What every experiment shares: the sizes, the scenario files saved so far, the progress
+/// callback and the start time.
+struct Ctx<'p> {
+    sz: Sizes,
+    scen_dir: PathBuf,
+    saved: BTreeSet<String>,
+    files: Vec<PathBuf>,
+    progress: &'p mut dyn FnMut(Progress<'_>),
+    start: Instant,
+}
+
+impl Ctx<'_> {
+    /// Save the scenario of `case` run by `meth` (the first step asked for) under
+    /// `scenarios/`, once per case and method.
+    fn save(&mut self, case: &Case, meth: &Meth, step: Step) -> Result<()> {
         let key = format!("{}-{}", case.name, meth.key());
-        if saved.insert(key.clone(), ()).is_none() {
-            let p = scen_dir.join(format!("{key}.toml"));
+        if self.saved.insert(key.clone()) {
+            let p = self.scen_dir.join(format!("{key}.toml"));
             let text = scenario_toml(case, meth, step);
             write_atomic(&p, |w| w.write_all(text.as_bytes()))?;
-            files.push(p);
+            self.files.push(p);
         }
         Ok(())
-    };
-    let mut tick = |s: &str| progress(Progress::Done(s));
+    }
+    fn tick(&mut self, what: &str) {
+        (self.progress)(Progress::Done(what));
+    }
+    /// Record the wall time at the end of a stage.
+    fn stage(&self, res: &mut Results, name: &str) {
+        res.stages
+            .push((name.into(), self.start.elapsed().as_secs_f64()));
+    }
+}
 
-    // ---- 1. perturbation response --------------------------------------------------------
-    let lift = lift_case(&sz.membrane, 0.03, sz.duration);
+/// The settings of the lift and drape runs: the whole duration, 400 samples.
+fn series_cfg(duration: f64) -> SimCfg {
+    SimCfg {
+        t_end: duration,
+        wall_cap: 60.0,
+        samples: 400,
+        target: None,
+        stop_steady: false,
+        min_evals: 0.0,
+    }
+}
+
+/// Run `case` by `meth` at `step`, measured against `t_inf`.
+fn run_case(case: &Case, meth: &Meth, step: Step, t_inf: &[f64], cfg: SimCfg) -> Result<Sim> {
+    let sc = scenario(case, meth, step)?;
+    let mut st = sc.stepper()?;
+    Ok(simulate(&sc, st.as_mut(), &meth.label(), Some(t_inf), cfg))
+}
+
+/// Experiment 1, perturbation response [3.1]: the ε sweep of both RaISoV readings, then the 3 cm lift
+/// by every method compared (SLIM RK4, FAS, each reading at the default and the best ε).
+/// Returns the lift case and those methods.
+fn perturbation(cx: &mut Ctx, res: &mut Results) -> Result<(Case, Vec<Meth>)> {
+    let lift = lift_case(&cx.sz.membrane, 0.03, cx.sz.duration);
     let slim_rk4 = Meth::Slim("rk4");
     let sc0 = scenario(&lift, &slim_rk4, Step::Safety(0.5))?;
     res.alpha = sc0.alpha;
@@ -312,24 +379,11 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
     res.eps_default = eps0;
     let (t_lift, note) = reference(&sc0, 5000)?;
     res.lift_ref = note;
-    let cfg = SimCfg {
-        t_end: sz.duration,
-        wall_cap: 60.0,
-        samples: 400,
-        target: None,
-        stop_steady: false,
-        min_evals: 0.0,
-    };
-    let run_case =
-        |case: &Case, meth: &Meth, step: Step, t_inf: &[f64], cfg: SimCfg| -> Result<Sim> {
-            let sc = scenario(case, meth, step)?;
-            let mut st = sc.stepper()?;
-            Ok(simulate(&sc, st.as_mut(), &meth.label(), Some(t_inf), cfg))
-        };
+    let cfg = series_cfg(cx.sz.duration);
     // ε sweep, RaISoV at twice SLIM's step (the paper's 10 ms against 5 ms).
     let mut best: BTreeMap<&'static str, (f64, f64)> = BTreeMap::new();
     for reading in ["paper", "correction"] {
-        for &mult in &sz.eps_sweep {
+        for mult in cx.sz.eps_sweep.clone() {
             let eps = mult * eps0;
             let m = Meth::Raisov {
                 reading,
@@ -342,17 +396,16 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             } else {
                 tail_mean(&sim)
             };
-            let outcome = outcome_text(&sim);
             res.eps_sweep
-                .push((reading.to_string(), eps, score, outcome.clone()));
+                .push((reading.to_string(), eps, score, outcome_text(&sim)));
             let e = best.entry(reading).or_insert((eps, f64::INFINITY));
             if score < e.1 {
                 *e = (eps, score);
             }
-            tick(&format!("eps sweep {reading} {}", fmt_eps(eps)));
+            cx.tick(&format!("eps sweep {reading} {}", fmt_eps(eps)));
         }
     }
-    let mut methods = vec![slim_rk4.clone(), Meth::Fas];
+    let mut methods = vec![slim_rk4, Meth::Fas];
     for reading in ["paper", "correction"] {
         methods.push(Meth::Raisov {
             reading,
@@ -365,39 +418,52 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             tag: "best",
         });
     }
-    let step_lift = |m: &Meth| match m {
-        Meth::Raisov { .. } => Step::Safety(1.0),
-        _ => Step::Safety(0.5),
-    };
     for m in &methods {
-        save(&lift, m, step_lift(m), &mut res.files)?;
-        let sim = run_case(&lift, m, step_lift(m), &t_lift, cfg)?;
-        tick(&format!("lift {}", m.label()));
+        let step = match m {
+            Meth::Raisov { .. } => Step::Safety(1.0),
+            _ => Step::Safety(0.5),
+        };
+        cx.save(&lift, m, step)?;
+        let sim = run_case(&lift, m, step, &t_lift, cfg)?;
+        cx.tick(&format!("lift {}", m.label()));
         res.lift.push(sim);
     }
+    Ok((lift, methods))
+}
 
-    // ---- 2. draping ------------------------------------------------------------------------
+/// Experiment 2, draping under gravity [3.2]: every method at 0.5 × its estimated critical step.
+/// Returns the drape case.
+fn draping(cx: &mut Ctx, res: &mut Results, methods: &[Meth]) -> Result<Case> {
     let drape = drape_case(
         MeshDesc::Membrane {
-            level_nodes: sz.membrane.clone(),
+            level_nodes: cx.sz.membrane.clone(),
         },
         "drape",
-        sz.duration,
+        cx.sz.duration,
     );
-    let scd = scenario(&drape, &slim_rk4, Step::Safety(0.5))?;
+    let scd = scenario(&drape, &Meth::Slim("rk4"), Step::Safety(0.5))?;
     let (t_drape, note) = reference(&scd, 5000)?;
     res.drape_ref = note;
-    for m in &methods {
-        save(&drape, m, Step::Safety(0.5), &mut res.files)?;
+    let cfg = series_cfg(cx.sz.duration);
+    for m in methods {
+        cx.save(&drape, m, Step::Safety(0.5))?;
         let sim = run_case(&drape, m, Step::Safety(0.5), &t_drape, cfg)?;
-        tick(&format!("drape {}", m.label()));
+        cx.tick(&format!("drape {}", m.label()));
         res.drape.push(sim);
     }
+    Ok(drape)
+}
 
-    // ---- 3. stability ----------------------------------------------------------------------
-    res.stages
-        .push(("1-2. lift and drape".into(), start.elapsed().as_secs_f64()));
-    // A stability test runs as many steps (cycles) as SLIM RK4 needed to reach steady state.
+/// Experiment 3, largest stable time step by bisection [2.3, 3.1, 4]: lifts of 3.0 and 3.5 cm and the
+/// drape, each test as many steps (cycles) as SLIM RK4 needed to reach steady state.
+fn stability(
+    cx: &mut Ctx,
+    res: &mut Results,
+    lift: &Case,
+    drape: &Case,
+    methods: &[Meth],
+) -> Result<()> {
+    let duration = cx.sz.duration;
     let settle = |sims: &[Sim]| -> u64 {
         let s = &sims[0];
         let m0 = s.points[0].mean;
@@ -405,21 +471,21 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             .points
             .iter()
             .find(|p| p.mean <= STEADY_TARGET * m0)
-            .map_or(sz.duration, |p| p.t)
-            .clamp(0.05, sz.duration);
+            .map_or(duration, |p| p.t)
+            .clamp(0.05, duration);
         (t / s.dt).ceil() as u64
     };
     let t_lift_settle = settle(&res.lift);
     let t_drape_settle = settle(&res.drape);
-    let lift35 = lift_case(&sz.membrane, 0.035, sz.duration);
+    let lift35 = lift_case(&cx.sz.membrane, 0.035, duration);
     let stab_cases = [
-        (lift.clone(), t_lift_settle),
-        (lift35.clone(), t_lift_settle),
-        (drape.clone(), t_drape_settle),
+        (lift, t_lift_settle),
+        (&lift35, t_lift_settle),
+        (drape, t_drape_settle),
     ];
-    for (case, t_stab) in &stab_cases {
-        res.stab_steps.insert(case.name.clone(), *t_stab);
-        let mut ms = methods.clone();
+    for (case, t_stab) in stab_cases {
+        res.stab_steps.insert(case.name.clone(), t_stab);
+        let mut ms = methods.to_vec();
         if case.name == "drape" {
             ms.push(Meth::Slim("symplectic-euler"));
             ms.push(Meth::Slim("central-difference"));
@@ -427,7 +493,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         for m in &ms {
             let est = scenario(case, m, Step::Safety(0.5))?.dt_critical_estimate;
             let mut drops: Vec<(f64, f64)> = Vec::new();
-            let b = bisect_stable(SAFETY_RANGE.0, SAFETY_RANGE.1, sz.iters, |s| {
+            let b = bisect_stable(SAFETY_RANGE.0, SAFETY_RANGE.1, cx.sz.iters, |s| {
                 let sc = scenario(case, m, Step::Safety(s))?;
                 let mut st = sc.stepper()?;
                 let sim = simulate(
@@ -436,7 +502,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
                     &m.label(),
                     None,
                     SimCfg {
-                        t_end: *t_stab as f64 * sc.dt,
+                        t_end: t_stab as f64 * sc.dt,
                         wall_cap: 60.0,
                         samples: 200,
                         target: None,
@@ -444,7 +510,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
                         min_evals: 0.0,
                     },
                 );
-                tick(&format!("stability {} {} x{s:.3}", case.name, m.label()));
+                cx.tick(&format!("stability {} {} x{s:.3}", case.name, m.label()));
                 drops.push((s, sim.residual_drop));
                 Ok(!sim.diverged())
             })?;
@@ -461,20 +527,15 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             });
         }
     }
+    Ok(())
+}
 
-    res.stages
-        .push(("3. stability".into(), start.elapsed().as_secs_f64()));
-    // ---- 4. element inversion --------------------------------------------------------------
-    let block_size = [0.04, 0.04, 0.02];
-    let block_mesh = MeshDesc::Block {
-        size: block_size,
-        nodes: sz.block_nodes,
-        levels: if opts.tiny { 2 } else { 4 },
-    };
-    let block_case = |pull: f64, ramp: f64| {
-        Case {
+/// The tetrahedral block of the inversion experiment, its bottom fixed and the node nearest
+/// its top centre driven down by `pull` (m) over `ramp` (s), then held for 0.02 s.
+fn block_case(mesh: &MeshDesc, pull: f64, ramp: f64) -> Case {
+    Case {
         name: "block-pull".into(),
-        mesh: block_mesh.clone(),
+        mesh: mesh.clone(),
         top: String::new(),
         physics: format!(
             "{TISSUE_MATERIAL}\n[damping]\nratio = 1.0\nomega = {:.2}\n\n[[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }}\n\n[[displace]]\npoint = [0.02, 0.02, 0.02]\ndisplacement = [0.0, 0.0, {:e}]\nmode = \"ramp\"\nduration = {ramp:e}\n",
@@ -483,29 +544,40 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         ),
         duration: ramp + 0.02,
     }
+}
+
+/// Experiment 4, element inversion of a tetrahedral block with one node driven fast [3.3]: the largest
+/// pull each method survives, by bisection, every method at SLIM RK4's step.
+fn inversion(cx: &mut Ctx, res: &mut Results, methods: &[Meth], tiny: bool) -> Result<()> {
+    let block_size = [0.04, 0.04, 0.02];
+    let levels = if tiny { 2 } else { 4 };
+    let block_mesh = MeshDesc::Block {
+        size: block_size,
+        nodes: cx.sz.block_nodes,
+        levels,
     };
-    let dt_block = scenario(&block_case(1e-3, 1.0), &slim_rk4, Step::Safety(0.5))?.dt;
+    let dt_block = scenario(
+        &block_case(&block_mesh, 1e-3, 1.0),
+        &Meth::Slim("rk4"),
+        Step::Safety(0.5),
+    )?
+    .dt;
     let ramp = 3.0 * dt_block;
     res.block_desc = format!(
         "tetrahedral block {} x {} x {} cm, ~{} nodes finest ({} levels), bottom fixed; the node nearest the top centre driven down (into the block) by the pull distance over {:.2e} s (3 steps of SLIM RK4 at 0.5 x its estimated critical step, dt = {:.2e} s), then held for 0.02 s; every method at that same dt",
         block_size[0] * 100.0,
         block_size[1] * 100.0,
         block_size[2] * 100.0,
-        sz.block_nodes,
-        if opts.tiny { 2 } else { 4 },
+        cx.sz.block_nodes,
+        levels,
         ramp,
         dt_block
     );
-    for m in &methods {
-        save(
-            &block_case(0.005, ramp),
-            m,
-            Step::Dt(dt_block),
-            &mut res.files,
-        )?;
+    for m in methods {
+        cx.save(&block_case(&block_mesh, 0.005, ramp), m, Step::Dt(dt_block))?;
         let mut fails: Vec<(f64, String)> = Vec::new();
-        let b = bisect_stable(2e-4, 0.018, sz.iters, |pull| {
-            let case = block_case(pull, ramp);
+        let b = bisect_stable(2e-4, 0.018, cx.sz.iters, |pull| {
+            let case = block_case(&block_mesh, pull, ramp);
             let sc = scenario(&case, m, Step::Dt(dt_block))?;
             let mut st = sc.stepper()?;
             let sim = simulate(
@@ -522,7 +594,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
                     min_evals: 0.0,
                 },
             );
-            tick(&format!("inversion {} {:.2} mm", m.label(), pull * 1e3));
+            cx.tick(&format!("inversion {} {:.2} mm", m.label(), pull * 1e3));
             if let Outcome::Diverged { what, .. } = &sim.outcome {
                 fails.push((pull, what.clone()));
             }
@@ -537,31 +609,40 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             failure,
         });
     }
+    Ok(())
+}
 
-    res.stages
-        .push(("4. inversion".into(), start.elapsed().as_secs_f64()));
-    // ---- 5. cost ---------------------------------------------------------------------------
+/// Experiment 5, cost of one V-cycle over one single-level step [eq. 14]: SLIM RK4, RaISoV and FAS on
+/// the paper's membrane and a large one, best of [`Sizes::cost_reps`] repetitions.
+fn cost(cx: &mut Ctx, res: &mut Results) -> Result<()> {
     let cost_meshes = [
         (
             "paper's membrane".to_string(),
             MeshDesc::Membrane {
-                level_nodes: sz.membrane.clone(),
+                level_nodes: cx.sz.membrane.clone(),
             },
             400usize,
         ),
         (
-            format!("membrane {} nodes", sz.cost_big),
+            format!("membrane {} nodes", cx.sz.cost_big),
             MeshDesc::MembraneRatio {
-                nodes: sz.cost_big,
+                nodes: cx.sz.cost_big,
                 levels: 4,
             },
-            (400_000 / sz.cost_big).clamp(2, 400),
+            (400_000 / cx.sz.cost_big).clamp(2, 400),
         ),
     ];
+    let time = |st: &mut dyn Stepper, k: usize| -> Result<f64> {
+        let t = Instant::now();
+        for _ in 0..k {
+            st.advance()?;
+        }
+        Ok(t.elapsed().as_secs_f64() / k as f64)
+    };
     for (name, mesh, k) in cost_meshes {
         let case = drape_case(mesh, "cost", 1.0);
         let t0 = Instant::now();
-        let sc_s = scenario(&case, &slim_rk4, Step::Safety(0.5))?;
+        let sc_s = scenario(&case, &Meth::Slim("rk4"), Step::Safety(0.5))?;
         let mut slim = sc_s.stepper()?;
         let rai = Meth::Raisov {
             reading: "correction",
@@ -574,23 +655,16 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         let mut fas = sc_f.stepper()?;
         let setup = t0.elapsed().as_secs_f64();
         let level_nodes: Vec<usize> = sc_r.level_meshes()?.iter().map(|m| m.num_nodes()).collect();
-        let time = |st: &mut dyn Stepper, k: usize| -> Result<f64> {
-            let t = Instant::now();
-            for _ in 0..k {
-                st.advance()?;
-            }
-            Ok(t.elapsed().as_secs_f64() / k as f64)
-        };
         time(slim.as_mut(), 2)?;
         time(raisov.as_mut(), 2)?;
         time(fas.as_mut(), 1)?;
         let (mut bs, mut br, mut bf) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
-        for _ in 0..sz.cost_reps {
+        for _ in 0..cx.sz.cost_reps {
             bs = bs.min(time(slim.as_mut(), k)?);
             br = br.min(time(raisov.as_mut(), k)?);
             bf = bf.min(time(fas.as_mut(), (k / 4).max(1))?);
         }
-        tick(&format!("cost {name}"));
+        cx.tick(&format!("cost {name}"));
         res.cost.push(CostRow {
             mesh: name,
             level_nodes,
@@ -600,17 +674,120 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             setup,
         });
     }
+    Ok(())
+}
 
-    res.stages
-        .push(("5. cost".into(), start.elapsed().as_secs_f64()));
-    // ---- 6. time to steady state -----------------------------------------------------------
-    let safety_of = |key: &str| -> f64 {
-        res.stability
+/// The liver case from `liver_L*.msh` under `opts.meshes_dir`, or `None` with a note in
+/// `res.notes` when the files are not there.
+fn liver_case(opts: &PaperOptions, sz: &Sizes, res: &mut Results) -> Option<(String, Case)> {
+    let files: Option<Vec<String>> = opts.meshes_dir.as_ref().and_then(|d| {
+        sz.liver
             .iter()
-            .find(|r| r.case == "drape" && r.key == key)
-            .and_then(|r| r.bisection.stable)
-            .map_or(0.5, |s| 0.9 * s)
+            .map(|f| {
+                let p = d.join(f);
+                p.is_file()
+                    .then(|| std::fs::canonicalize(&p).unwrap_or(p))
+                    .map(|p| p.to_string_lossy().into_owned())
+            })
+            .collect()
+    });
+    let Some(files) = files else {
+        res.notes.push(format!(
+            "liver skipped: {} not found under {} (give --meshes DIR)",
+            sz.liver.join(", "),
+            opts.meshes_dir
+                .as_ref()
+                .map_or("(no directory)".into(), |d| d.display().to_string())
+        ));
+        return None;
     };
+    Some((
+        format!("liver ({})", sz.liver.join(", ")),
+        Case {
+            name: "liver".into(),
+            mesh: MeshDesc::Files {
+                files,
+                scale: 0.001,
+            },
+            top: "gravity = [0.0, 0.0, -9.81]\n".into(),
+            physics: format!(
+                "{TISSUE_MATERIAL}\n[damping]\nratio = 1.0\nomega = {:.2}\n\n{LIVER_FIX}",
+                tissue_omega(0.15)
+            ),
+            duration: 10.0,
+        },
+    ))
+}
+
+/// T∞ of a time-to-steady case (`sc_f`: the case run by FAS) and a note on how it was
+/// computed, by the rule of [`REFERENCE_MAX_NODES`]; an error says why there is none.
+fn steady_reference(sc_f: &Scenario, sz: &Sizes) -> Result<(Vec<f64>, String)> {
+    let nodes = sc_f.mesh.num_nodes();
+    let solid = sc_f.mesh.kind == ElementKind::Tet4;
+    if nodes > REFERENCE_MAX_NODES && solid {
+        Err(Error::param(
+            "reference",
+            format!("not computed for solids above {REFERENCE_MAX_NODES} nodes (its cost exceeds this command's budget); each method runs for the wall cap and reports how far its residual fell"),
+        ))
+    } else if nodes > REFERENCE_MAX_NODES {
+        // The Newton-Krylov ladder below costs minutes here; FAS cycles on the case's own
+        // hierarchy reach the same discrete equilibrium in seconds (cross-checked against
+        // the ladder on the 10k membrane, see the note there).
+        fas_reference(sc_f, FAS_REFERENCE_TOL, 2.0 * sz.ref_cap).and_then(|(t, note, rel)| {
+            if rel <= FAS_REFERENCE_TOL {
+                Ok((t, note))
+            } else if rel <= FAS_REFERENCE_ACCEPT {
+                Ok((t, format!("{note}; accepted: below {FAS_REFERENCE_ACCEPT:.0e} of the load, far below what a 1e-3 stress target can see")))
+            } else {
+                Err(Error::param("reference", note))
+            }
+        })
+    } else if solid {
+        // Newton-Krylov from rest with the load in increments (dynamic relaxation is slow
+        // on the liver's sag modes); relaxation where a Newton step inverts an element.
+        match newton_reference(sc_f, 1e-7, 4) {
+            Ok((t, note, true)) => Ok((t, note)),
+            first => relax_reference(sc_f, 1e-6, sz.ref_cap).and_then(|(t, note, ok)| {
+                let why = match first {
+                    Ok((_, n, _)) => n,
+                    Err(e) => e.to_string(),
+                };
+                if ok {
+                    Ok((t, format!("{note} (Newton: {why})")))
+                } else {
+                    Err(Error::param("reference", format!("{note}; Newton: {why}")))
+                }
+            }),
+        }
+    } else if nodes <= 1000 {
+        reference(sc_f, 1000)
+    } else {
+        // The case's deep hierarchy (coarsest about 500 nodes): relaxed there, then
+        // Newton-Krylov level by level up. Cross-checked against the FAS reference used
+        // above REFERENCE_MAX_NODES.
+        reference(sc_f, 1000).map(|(t, note)| {
+            let check = match fas_reference(sc_f, FAS_REFERENCE_TOL, sz.ref_cap) {
+                Ok((tf, _, rel)) if rel <= FAS_REFERENCE_TOL => format!(
+                    "; the FAS reference (as used above {REFERENCE_MAX_NODES} nodes) differs from it by {:.1e} of its mean abs(T_inf) (mean over nodes of abs(T_FAS - T_inf))",
+                    mean_norm_diff(&tf, &t) / mean_norm_diff(&t, &vec![0.0; t.len()]).max(f64::MIN_POSITIVE)
+                ),
+                Ok((_, n, _)) => format!("; FAS reference cross-check: {n}"),
+                Err(e) => format!("; FAS reference cross-check failed: {e}"),
+            };
+            (t, format!("{note}{check}"))
+        })
+    }
+}
+
+/// Experiment 6, time to steady state of every method at its own largest stable step (0.9 × the one
+/// found on the drape), on the paper's membrane, the larger membranes and the liver.
+fn time_to_steady(
+    cx: &mut Ctx,
+    res: &mut Results,
+    opts: &PaperOptions,
+    drape: &Case,
+    methods: &[Meth],
+) -> Result<()> {
     // The RaISoV variant that did best on the drape.
     let best_raisov = methods
         .iter()
@@ -622,18 +799,29 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
     // FAS first: the strongest single-level integrator (symplectic Euler) then runs at least
     // STRONGEST_SLIM_FACTOR x FAS's wall time and force evaluations, so that the project's 5x
     // target is decided even where SLIM does not reach steady state.
-    let steady_methods = vec![
+    let steady_methods = [
         Meth::Fas,
         Meth::Slim("symplectic-euler"),
-        slim_rk4.clone(),
+        Meth::Slim("rk4"),
         Meth::Slim("central-difference"),
         best_raisov,
     ];
+    let safety_of = |key: &str| -> f64 {
+        res.stability
+            .iter()
+            .find(|r| r.case == "drape" && r.key == key)
+            .and_then(|r| r.bisection.stable)
+            .map_or(0.5, |s| 0.9 * s)
+    };
+    let safeties: Vec<f64> = steady_methods.iter().map(|m| safety_of(&m.key())).collect();
     let mut steady_cases: Vec<(String, Case)> = vec![(
-        format!("paper's membrane ({})", sz.membrane[0]),
-        drape.clone(),
+        format!("paper's membrane ({})", cx.sz.membrane[0]),
+        Case {
+            duration: 5.0,
+            ..drape.clone()
+        },
     )];
-    for &n in &sz.steady_big {
+    for &n in &cx.sz.steady_big {
         steady_cases.push((
             format!("membrane {n} ({} levels)", deep_levels(n)),
             drape_case(
@@ -646,111 +834,13 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             ),
         ));
     }
-    if !sz.liver.is_empty() {
-        let dir = opts.meshes_dir.clone();
-        let files: Option<Vec<String>> = dir.and_then(|d| {
-            sz.liver
-                .iter()
-                .map(|f| {
-                    let p = d.join(f);
-                    p.is_file()
-                        .then(|| std::fs::canonicalize(&p).unwrap_or(p))
-                        .map(|p| p.to_string_lossy().into_owned())
-                })
-                .collect()
-        });
-        match files {
-            Some(files) => steady_cases.push((
-                format!("liver ({})", sz.liver.join(", ")),
-                Case {
-                    name: "liver".into(),
-                    mesh: MeshDesc::Files {
-                        files,
-                        scale: 0.001,
-                    },
-                    top: "gravity = [0.0, 0.0, -9.81]\n".into(),
-                    physics: format!(
-                        "{TISSUE_MATERIAL}\n[damping]\nratio = 1.0\nomega = {:.2}\n\n{LIVER_FIX}",
-                        tissue_omega(0.15)
-                    ),
-                    duration: 10.0,
-                },
-            )),
-            None => res.notes.push(format!(
-                "liver skipped: {} not found under {} (give --meshes DIR)",
-                sz.liver.join(", "),
-                opts.meshes_dir
-                    .as_ref()
-                    .map_or("(no directory)".into(), |d| d.display().to_string())
-            )),
-        }
+    if !cx.sz.liver.is_empty() {
+        steady_cases.extend(liver_case(opts, &cx.sz, res));
     }
     for (mesh_name, case) in &steady_cases {
-        let case = Case {
-            duration: if case.name == "drape" {
-                5.0
-            } else {
-                case.duration
-            },
-            ..case.clone()
-        };
-        let sc_f = scenario(&case, &Meth::Fas, Step::Safety(0.5))?;
+        let sc_f = scenario(case, &Meth::Fas, Step::Safety(0.5))?;
         let nodes = sc_f.mesh.num_nodes();
-        let solid = sc_f.mesh.kind == crate::mesh::ElementKind::Tet4;
-        let reference_result = if nodes > REFERENCE_MAX_NODES && solid {
-            Err(Error::param(
-                "reference",
-                format!("not computed for solids above {REFERENCE_MAX_NODES} nodes (its cost exceeds this command's budget); each method runs for the wall cap and reports how far its residual fell"),
-            ))
-        } else if nodes > REFERENCE_MAX_NODES {
-            // The Newton-Krylov ladder below costs minutes here; FAS cycles on the case's own
-            // hierarchy reach the same discrete equilibrium in seconds (cross-checked against
-            // the ladder on the 10k membrane, see the note there).
-            fas_reference(&sc_f, FAS_REFERENCE_TOL, 2.0 * sz.ref_cap).and_then(|(t, note, rel)| {
-                if rel <= FAS_REFERENCE_TOL {
-                    Ok((t, note))
-                } else if rel <= FAS_REFERENCE_ACCEPT {
-                    Ok((t, format!("{note}; accepted: below {FAS_REFERENCE_ACCEPT:.0e} of the load, far below what a 1e-3 stress target can see")))
-                } else {
-                    Err(Error::param("reference", note))
-                }
-            })
-        } else if solid {
-            // Newton-Krylov from rest with the load in increments (dynamic relaxation is slow
-            // on the liver's sag modes); relaxation where a Newton step inverts an element.
-            match newton_reference(&sc_f, 1e-7, 4) {
-                Ok((t, note, true)) => Ok((t, note)),
-                first => relax_reference(&sc_f, 1e-6, sz.ref_cap).and_then(|(t, note, ok)| {
-                    let why = match first {
-                        Ok((_, n, _)) => n,
-                        Err(e) => e.to_string(),
-                    };
-                    if ok {
-                        Ok((t, format!("{note} (Newton: {why})")))
-                    } else {
-                        Err(Error::param("reference", format!("{note}; Newton: {why}")))
-                    }
-                }),
-            }
-        } else if nodes <= 1000 {
-            reference(&sc_f, 1000)
-        } else {
-            // The case's deep hierarchy (coarsest about 500 nodes): relaxed there, then
-            // Newton-Krylov level by level up. Cross-checked against the FAS reference used
-            // above REFERENCE_MAX_NODES.
-            reference(&sc_f, 1000).map(|(t, note)| {
-                let check = match fas_reference(&sc_f, FAS_REFERENCE_TOL, sz.ref_cap) {
-                    Ok((tf, _, rel)) if rel <= FAS_REFERENCE_TOL => format!(
-                        "; the FAS reference (as used above {REFERENCE_MAX_NODES} nodes) differs from it by {:.1e} of its mean abs(T_inf) (mean over nodes of abs(T_FAS - T_inf))",
-                        mean_norm_diff(&tf, &t) / mean_norm_diff(&t, &vec![0.0; t.len()]).max(f64::MIN_POSITIVE)
-                    ),
-                    Ok((_, n, _)) => format!("; FAS reference cross-check: {n}"),
-                    Err(e) => format!("; FAS reference cross-check failed: {e}"),
-                };
-                (t, format!("{note}{check}"))
-            })
-        };
-        let t_inf = match reference_result {
+        let t_inf = match steady_reference(&sc_f, &cx.sz) {
             Ok((t, note)) => {
                 res.notes.push(format!("{mesh_name}: {note}"));
                 Some(t)
@@ -762,13 +852,13 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         };
         // The liver's slow sag needs longer than the membranes.
         let base_cap = if case.name == "liver" {
-            sz.wall_cap * LIVER_WALL_FACTOR
+            cx.sz.wall_cap * LIVER_WALL_FACTOR
         } else {
-            sz.wall_cap
+            cx.sz.wall_cap
         };
         let mut fas_reached: Option<Pt> = None;
-        for m in &steady_methods {
-            let mut safety = safety_of(&m.key());
+        for (m, &safety0) in steady_methods.iter().zip(&safeties) {
+            let mut safety = safety0;
             // The strongest SLIM runs long enough to decide FAS's speed-up.
             let (wall_cap, min_evals) = match (m, fas_reached) {
                 (Meth::Slim("symplectic-euler"), Some(f)) => (
@@ -779,7 +869,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
                 ),
                 _ => (base_cap, 0.0),
             };
-            save(&case, m, Step::Safety(safety), &mut res.files)?;
+            cx.save(case, m, Step::Safety(safety))?;
             // The step found on the paper's mesh need not hold on another mesh: a diverged
             // run is retried at half the step, twice at most. Without T∞ a run goes to the
             // wall cap and reports how far its residual fell.
@@ -789,7 +879,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             }
             let mut tries = 0;
             let sim = loop {
-                let sc = scenario(&case, m, Step::Safety(safety))?;
+                let sc = scenario(case, m, Step::Safety(safety))?;
                 let mut st = sc.stepper()?;
                 let sim = simulate(
                     &sc,
@@ -819,27 +909,18 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             if matches!(m, Meth::Fas) {
                 fas_reached = sim.reached;
             }
-            let (sim, note) = (Some(sim), notes.join("; "));
-            tick(&format!("steady {mesh_name} {}", m.label()));
+            cx.tick(&format!("steady {mesh_name} {}", m.label()));
             res.steady.push(SteadyRow {
                 mesh: mesh_name.clone(),
                 nodes,
                 method: m.label(),
                 safety,
-                sim,
-                note,
+                sim: Some(sim),
+                note: notes.join("; "),
             });
         }
     }
-
-    res.stages.push((
-        "6. time to steady state".into(),
-        start.elapsed().as_secs_f64(),
-    ));
-    // ---- files -----------------------------------------------------------------------------
-    res.wall = start.elapsed().as_secs_f64();
-    report::write_all(&out, &mut res)?;
-    Ok(res)
+    Ok(())
 }
 
 /// Mean of mean |T − T∞| over the last tenth of a run's samples (a run that never settles

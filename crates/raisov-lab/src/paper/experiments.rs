@@ -4,13 +4,13 @@
 //! Every run is a scenario built from TOML text ([`scenario_toml`]) exactly as a user would
 //! write it; the driver saves one such file per case and method under `scenarios/`.
 
-use crate::error::{Error, Result};
-use crate::integrate::relax::relax;
-use crate::integrate::statics::{NewtonParams, NewtonSolver};
-use crate::integrate::{Method, State, Stepper};
-use crate::metrics::Meter;
-use crate::integrate::stability::critical_step_estimate;
-use crate::scenario::Scenario;
+use raisov::error::{Error, Result};
+use raisov::integrate::relax::relax;
+use raisov::integrate::stability::critical_step_estimate;
+use raisov::integrate::statics::{NewtonParams, NewtonSolver};
+use raisov::integrate::{Method, State, Stepper};
+use raisov::metrics::Meter;
+use raisov::scenario::Scenario;
 use std::path::Path;
 use std::time::Instant;
 
@@ -134,17 +134,6 @@ pub enum MeshDesc {
     },
     /// Mesh files (absolute paths), finest first, coordinates scaled by `scale`.
     Files { files: Vec<String>, scale: f64 },
-}
-
-impl MeshDesc {
-    pub fn finest_nodes_hint(&self) -> String {
-        match self {
-            MeshDesc::Membrane { level_nodes } => format!("{level_nodes:?}"),
-            MeshDesc::MembraneRatio { nodes, levels } => format!("{nodes} ({levels} levels)"),
-            MeshDesc::Block { nodes, levels, .. } => format!("{nodes} ({levels} levels)"),
-            MeshDesc::Files { files, .. } => format!("{} files", files.len()),
-        }
-    }
 }
 
 /// One physical case: mesh, physics text (material, damping, fixes, loads, gravity) and
@@ -285,7 +274,6 @@ pub enum Outcome {
 #[derive(Clone, Debug)]
 pub struct Sim {
     pub label: String,
-    pub describe: String,
     pub dt: f64,
     pub points: Vec<Pt>,
     pub outcome: Outcome,
@@ -442,7 +430,6 @@ pub fn simulate(
     let last = *points.last().expect("first sample");
     Sim {
         label: label.to_string(),
-        describe: stepper.describe(),
         dt,
         points,
         outcome,

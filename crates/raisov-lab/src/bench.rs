@@ -11,7 +11,7 @@
 //!
 //! Precision: the standard-work rows are measured for each [`Precision`] asked for
 //! ([`BenchOptions::precisions`]): `f64` (everything f64) and `f32-storage` (`Dm⁻¹` and
-//! volumes stored in f32, arithmetic and state f64; tolerance in [`crate::fem::packed`]).
+//! volumes stored in f32, arithmetic and state f64; tolerance in [`raisov::fem::packed`]).
 //!
 //! Bytes moved per tet-step *by design* (compulsory traffic if every array is streamed once
 //! per step): the packed element data ([`Precision::bytes_per_tet`]: 72 B in f64: 4 ids,
@@ -50,15 +50,15 @@
 //! (≥ 1M-node fine level); and peak memory per node of the largest box, read right after the
 //! standard-work rows so that the larger hierarchy rows do not count.
 
-use crate::fem::{FemModel, FemParams, FusedState, NodeLoad, Precision};
-use crate::hierarchy::Correspondence;
-use crate::integrate::{Constraints, Method, SingleLevel, State, Stepper, StepperParams, System};
-use crate::material::{Material, NeoHookean};
-use crate::mesh::generate::{box_tets_target, rectangle_membrane, BoxPattern};
-use crate::mesh::Mesh;
-use crate::multigrid::raisov::{Raisov, RaisovParams, Reading};
-use crate::multigrid::Level;
-use crate::{Error, Result};
+use raisov::fem::{FemModel, FemParams, FusedState, NodeLoad, Precision};
+use raisov::hierarchy::Correspondence;
+use raisov::integrate::{Constraints, Method, SingleLevel, State, Stepper, StepperParams, System};
+use raisov::material::{Material, NeoHookean};
+use raisov::mesh::generate::{box_tets_target, rectangle_membrane, BoxPattern};
+use raisov::mesh::Mesh;
+use raisov::multigrid::raisov::{Raisov, RaisovParams, Reading};
+use raisov::multigrid::Level;
+use raisov::{Error, Result};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -662,7 +662,7 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
             let sys = w.system(&mesh)?;
             let m = standard_material();
             let lambda_max = Material::NeoHookean(m).stability_modulus(mesh.kind) / 1000.0
-                * crate::integrate::stability::max_gradient_sum(&mesh);
+                * raisov::integrate::stability::max_gradient_sum(&mesh);
             levels.push(Level::new(
                 mesh,
                 sys,
@@ -687,7 +687,7 @@ pub fn run(opts: &BenchOptions, emit: &mut dyn FnMut(&Row)) -> Result<Vec<Row>> 
         // one, so the ratio depends on it.
         for &t in &opts.threads {
             let (s1, sv, sl) = pool(t)?.install(|| -> Result<(f64, f64, f64)> {
-                let diverged = |d: crate::error::Divergence| Error::param("bench", d.to_string());
+                let diverged = |d: raisov::error::Divergence| Error::param("bench", d.to_string());
                 let go = |st: &mut dyn Stepper, k: usize| -> Result<()> {
                     for _ in 0..k {
                         st.advance().map_err(diverged)?;
@@ -1096,7 +1096,7 @@ mod tests {
     ) -> (
         StandardWork,
         System,
-        Box<dyn crate::integrate::Integrator>,
+        Box<dyn raisov::integrate::Integrator>,
         State,
     ) {
         let mesh = standard_box(1000).unwrap();

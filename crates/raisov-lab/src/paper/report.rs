@@ -1,10 +1,10 @@
 //! The files of `raisov paper`: CSV series, plots and `report.md` with the claims table.
 
 use super::experiments::{fmt_eps, Sim, MEMBRANE_PHYSICS, TISSUE_MATERIAL};
-use super::plot::{write_chart, Panel};
 use super::{outcome_text, rel, tail_mean, Results, STEADY_TARGET};
-use crate::error::Result;
-use crate::io::write_atomic;
+use crate::plot::{write_chart, Panel};
+use raisov::error::Result;
+use raisov::io::write_atomic;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -65,7 +65,7 @@ fn fig_panels(sims: &[Sim], what: &str) -> Vec<Panel> {
             if max { "max" } else { "mean" }
         ),
         x_label: "time (s)".into(),
-        y_label: "Pa".into(),
+        y_label: format!("{} |T - T_inf| (Pa)", if max { "max" } else { "mean" }),
         series: sims
             .iter()
             .map(|s| {
@@ -78,6 +78,7 @@ fn fig_panels(sims: &[Sim], what: &str) -> Vec<Panel> {
                 )
             })
             .collect(),
+        log_x: false,
         log_y: true,
         markers: false,
     };
@@ -88,25 +89,17 @@ fn fmt_opt_t(x: Option<f64>) -> String {
     x.map_or("not reached".into(), |t| format!("{t:.3} s"))
 }
 
-/// Write every CSV, plot and the report; fills `res.files`.
-pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
-    let mut files = std::mem::take(&mut res.files);
-    // ---- CSV ----
-    write_text(
-        &out.join("fig5_lift.csv"),
-        &series_csv(&res.lift),
-        &mut files,
-    )?;
-    write_text(
-        &out.join("fig5_drape.csv"),
-        &series_csv(&res.drape),
-        &mut files,
-    )?;
+/// CSV of the epsilon sweep (experiment 1).
+fn csv_eps_sweep(res: &Results) -> String {
     let mut t = String::from("reading,epsilon_m,tail_mean_abs_T_minus_Tinf_Pa,outcome\n");
     for (r, e, s, o) in &res.eps_sweep {
         let _ = writeln!(t, "{r},{},{},\"{}\"", num(*e), num(*s), o.replace('"', "'"));
     }
-    write_text(&out.join("eps_sweep.csv"), &t, &mut files)?;
+    t
+}
+
+/// CSV of the largest stable steps and every bisection test (experiment 3).
+fn csv_stability(res: &Results) -> (String, String) {
     let mut t = String::from("case,method,largest_stable_safety,smallest_unstable_safety,dt_estimate_s,largest_stable_dt_s,residual_drop_at_largest_stable\n");
     let mut tt = String::from("case,method,safety,stable\n");
     for r in &res.stability {
@@ -125,8 +118,11 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
             let _ = writeln!(tt, "{},{},{},{}", r.case, r.method, num(*s), ok);
         }
     }
-    write_text(&out.join("stability.csv"), &t, &mut files)?;
-    write_text(&out.join("stability_tests.csv"), &tt, &mut files)?;
+    (t, tt)
+}
+
+/// CSV of the largest pull each method survives (experiment 4).
+fn csv_inversion(res: &Results) -> String {
     let mut t = String::from("method,largest_surviving_pull_m,smallest_failing_pull_m,failure\n");
     for r in &res.inversion {
         let _ = writeln!(
@@ -138,7 +134,11 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
             r.failure.clone().unwrap_or_default().replace('"', "'")
         );
     }
-    write_text(&out.join("inversion.csv"), &t, &mut files)?;
+    t
+}
+
+/// CSV of the cost of one step or cycle (experiment 5).
+fn csv_cost(res: &Results) -> String {
     let mut t = String::from("mesh,level_nodes,slim_rk4_step_s,raisov_cycle_s,fas_cycle_s,raisov_over_slim,fas_over_slim,sum_nodes_over_finest,setup_s\n");
     for c in &res.cost {
         let sum: usize = c.level_nodes.iter().sum();
@@ -160,7 +160,11 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
             num(c.setup)
         );
     }
-    write_text(&out.join("cost.csv"), &t, &mut files)?;
+    t
+}
+
+/// CSV of the time-to-steady runs and their series (experiment 6).
+fn csv_steady(res: &Results) -> (String, String) {
     let mut t = String::from("mesh,finest_nodes,method,safety,dt_s,reached,sim_time_s,wall_s,force_evals,final_mean_over_initial,outcome\n");
     let mut ts = String::from("mesh,method,t_s,mean_abs_T_minus_Tinf_Pa,force_evals,wall_s\n");
     for r in &res.steady {
@@ -214,6 +218,30 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
             }
         }
     }
+    (t, ts)
+}
+
+/// Write every CSV, plot and the report; fills `res.files`.
+pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
+    let mut files = std::mem::take(&mut res.files);
+    // ---- CSV ----
+    write_text(
+        &out.join("fig5_lift.csv"),
+        &series_csv(&res.lift),
+        &mut files,
+    )?;
+    write_text(
+        &out.join("fig5_drape.csv"),
+        &series_csv(&res.drape),
+        &mut files,
+    )?;
+    write_text(&out.join("eps_sweep.csv"), &csv_eps_sweep(res), &mut files)?;
+    let (t, tt) = csv_stability(res);
+    write_text(&out.join("stability.csv"), &t, &mut files)?;
+    write_text(&out.join("stability_tests.csv"), &tt, &mut files)?;
+    write_text(&out.join("inversion.csv"), &csv_inversion(res), &mut files)?;
+    write_text(&out.join("cost.csv"), &csv_cost(res), &mut files)?;
+    let (t, ts) = csv_steady(res);
     write_text(&out.join("steady_state.csv"), &t, &mut files)?;
     write_text(&out.join("steady_state_series.csv"), &ts, &mut files)?;
 
@@ -236,7 +264,7 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
     }
     let steady_panel = |title: &str, y: &str, f: &dyn Fn(&super::experiments::Pt) -> f64| Panel {
         title: title.into(),
-        x_label: "log10(finest-level nodes)".into(),
+        x_label: "finest-level nodes".into(),
         y_label: y.into(),
         series: methods
             .iter()
@@ -250,12 +278,13 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
                             r.sim
                                 .as_ref()
                                 .and_then(|s| s.reached)
-                                .map(|p| ((r.nodes as f64).log10(), f(&p)))
+                                .map(|p| (r.nodes as f64, f(&p)))
                         })
                         .collect(),
                 )
             })
             .collect(),
+        log_x: true,
         log_y: true,
         markers: true,
     };
@@ -364,6 +393,21 @@ fn fmt_safety(b: &super::experiments::Bisection) -> String {
 fn report_text(out: &Path, res: &Results) -> String {
     let mut r = String::new();
     let w = &mut r;
+    parameters(w, res);
+    abbreviations(w);
+    claims(w, res);
+    section_perturbation(w, res);
+    section_drape(w, res);
+    section_stability(w, res);
+    section_inversion(w, res);
+    section_cost(w, res);
+    section_steady(w, res);
+    closing(w, out, res);
+    r
+}
+
+/// The title, the configuration and the parameters every claim uses.
+fn parameters(w: &mut String, res: &Results) {
     let _ = writeln!(w, "# raisov paper: Wu & Tendick 2004 reproduced\n");
     let _ = writeln!(
         w,
@@ -381,22 +425,66 @@ fn report_text(out: &Path, res: &Results) -> String {
     let _ = writeln!(w, "- Membrane (sections 3.1, 3.2): 10 cm x 10 cm, all four sides fixed, levels of {:?} node targets (generated quality triangulations, not the paper's Triangle meshes), Mooney-Rivlin C1 = C2 = 1 kPa (the paper's `1.0` read as kPa), density 1000 kg/m^3, thickness 1 mm, SI units throughout.", res.membrane_nodes);
     let _ = writeln!(w, "- Damping: mass-proportional D = alpha M with the paper's ratio 1.0 read as alpha = 2 zeta omega, zeta = 1, omega = 177.7 rad/s (lowest in-plane mode of the fixed square): alpha = {:.1} 1/s.", res.alpha);
     let _ = writeln!(w, "- Integrators: RK4 (the paper's) for SLIM and on every RaISoV level, one step size for all RaISoV levels (as the paper); SLIM at 0.5 x its estimated critical step, dt = {:.3e} s; RaISoV at twice that in the lift (the paper's 10 ms against 5 ms) and at the same step in the drape (the paper's 10 ms for both); the project's FAS multigrid at its defaults (Chebyshev smoother over [1.2 lambda_max / 100, 1.2 lambda_max] of M^-1 K with lambda_max by power iteration, 4+4 sweeps per level, 60 Chebyshev sweeps on the coarsest level, each cycle preconditioning a Polak-Ribiere nonlinear conjugate-gradient step with a secant line search).", res.dt_slim);
-    let _ = writeln!(w, "- RaISoV epsilon: the default is 1e-3 x the finest mesh's shortest edge = {}; the best epsilon per reading is chosen by the sweep below (lowest late mean |T - T_inf| on the 3 cm lift) and then used everywhere. Readings `paper` (eq. 8 literally) and `correction` (classic coarse-grid correction), see `../shared/design/raisov-reading.md`.", fmt_eps(res.eps_default));
+    let _ = writeln!(w, "- RaISoV epsilon: the default is 1e-3 x the finest mesh's shortest edge = {}; the best epsilon per reading is chosen by the sweep below (lowest late mean |T - T_inf| on the 3 cm lift) and then used everywhere. Readings `paper` (eq. 8 literally) and `correction` (classic coarse-grid correction), see the documentation of `raisov::multigrid::raisov`.", fmt_eps(res.eps_default));
     let _ = writeln!(w, "- Liver (`liver_L*.msh`, mm scaled by 0.001): held on the cap of its top (z >= 195 mm: 249/127/72/43 nodes on L0..L3), under gravity (0, 0, -9.81) m/s^2 from rest; T_inf by Newton-Krylov on the finest mesh with the load in 4 increments, to 1e-7 of the load (dynamic relaxation if a Newton step inverts an element); time-to-steady runs capped at 3x the membranes' wall cap.
 - 3-D (block, liver): neo-Hookean E = 5 kPa, nu = 0.45, density 1060 kg/m^3, damping ratio 1 at omega = pi sqrt(2) c_s / L (c_s = sqrt(mu/rho), L the body's size, the membrane's rule).");
     let _ = writeln!(w, "- |T - T_inf|: Frobenius norm of the nodal Cauchy stress difference on the finest mesh, max and mean over non-fixed nodes. T_inf: {} (lift); {} (drape).", res.lift_ref, res.drape_ref);
     let _ = writeln!(w, "- Steady state: mean |T - T_inf| <= {STEADY_TARGET:e} x its initial value. Stable: the run completes with no non-finite value, no inverted element and no kinetic-energy blow-up.\n");
+}
 
-    // ---- claims ----
-    let slim_lift = &res.lift[0];
-    let rai_lift = find(&res.lift, "RaISoV");
-    let fas_lift = find(&res.lift, "FAS");
-    let slim_drape = &res.drape[0];
-    let rai_drape = find(&res.drape, "RaISoV");
-    let fas_drape = find(&res.drape, "FAS");
+/// Every abbreviation the report, the tables and the plots use.
+fn abbreviations(w: &mut String) {
+    let _ = writeln!(w, "## Abbreviations\n");
+    for (a, what) in [
+        ("SLIM", "single-level integration method: one integrator step per time step on the finest mesh alone (the paper's term)"),
+        ("RaISoV", "the multigrid integrator of Wu & Tendick (2004): one V-cycle per time step, RK4 on every level"),
+        ("FAS", "full approximation scheme: the project's convergent multigrid built from the paper's ingredients"),
+        ("V-cycle", "one pass from the finest level down to the coarsest and back up"),
+        ("RK4", "the classic fourth-order Runge-Kutta integrator"),
+        ("eps (epsilon)", "RaISoV's switch threshold of eqs. 10 and 12 (m): a transferred displacement change larger than it is passed on as a state, a smaller one as a variation"),
+        ("T, T_inf", "nodal Cauchy stress, and its value at steady state"),
+        ("dt", "time step (s)"),
+        ("L0..L3", "the liver meshes, finest (L0) to coarsest (L3)"),
+    ] {
+        let _ = writeln!(w, "- **{a}**: {what}");
+    }
+    let _ = writeln!(w);
+}
+
+/// The claims table: each claim of the paper (and the project's own) beside what was measured.
+fn claims(w: &mut String, res: &Results) {
     let _ = writeln!(w, "## Claims\n");
     let _ = writeln!(w, "| claim | paper | measured | holds? |");
     let _ = writeln!(w, "|---|---|---|---|");
+    claims_lift(w, res);
+    claim_lift35(w, res);
+    claim_drape(w, res);
+    claim_stable_step(w, res);
+    claim_inversion(w, res);
+    claim_cost(w, res);
+    let meshes = steady_meshes(res);
+    claim_multigrid_cheaper(w, res, &meshes);
+    claim_fas_sooner(w, res, &meshes);
+    claim_fas_gain(w, res, &meshes);
+    let _ = writeln!(w, "Where a row says **no** or **partly**, the paper's claim did not (fully) reproduce with these parameters and this implementation; the sections below give the numbers.\n");
+}
+
+/// The meshes of the time-to-steady runs, in run order.
+fn steady_meshes(res: &Results) -> Vec<String> {
+    let mut meshes: Vec<String> = Vec::new();
+    for r in &res.steady {
+        if !meshes.contains(&r.mesh) {
+            meshes.push(r.mesh.clone());
+        }
+    }
+    meshes
+}
+
+/// Claims 1-2 (experiment 1): the stress concentration at the lifted node regulated quickly, and steady state sooner than SLIM.
+fn claims_lift(w: &mut String, res: &Results) {
+    let slim_lift = &res.lift[0];
+    let rai_lift = find(&res.lift, "RaISoV");
+    let fas_lift = find(&res.lift, "FAS");
     // C1: stress concentration regulated quickly.
     let t10 = |s: &Sim| time_to(s, 0.1, true);
     let best_t10 = rai_lift
@@ -426,6 +514,10 @@ fn report_text(out: &Path, res: &Results) -> String {
         fas_lift.first().map_or("-".into(), |s| fmt_opt_t(time_to(s, STEADY_TARGET, false))),
         yes(c2)
     );
+}
+
+/// Claim 3 (experiment 3): SLIM unstable on the 3.5 cm lift at a step stable for 3.0 cm.
+fn claim_lift35(w: &mut String, res: &Results) {
     // C3: SLIM unstable at 3.5 cm at the 3.0 cm step.
     let s30 = stab(res, "lift3.0cm", "slim-rk4");
     let s35 = stab(res, "lift3.5cm", "slim-rk4");
@@ -445,6 +537,13 @@ fn report_text(out: &Path, res: &Results) -> String {
         s35.first().map_or("-".into(), |r| fmt_safety(&r.bisection)),
         yes(c3)
     );
+}
+
+/// Claim 4 (experiment 2): the drape converges faster with RaISoV.
+fn claim_drape(w: &mut String, res: &Results) {
+    let slim_drape = &res.drape[0];
+    let rai_drape = find(&res.drape, "RaISoV");
+    let fas_drape = find(&res.drape, "FAS");
     // C4: drape converges faster.
     let (tsd, trd, c4, rai_d) = steady_sooner(slim_drape, &rai_drape);
     let _ = writeln!(
@@ -456,6 +555,10 @@ fn report_text(out: &Path, res: &Results) -> String {
         fas_drape.first().map_or("-".into(), |s| fmt_opt_t(time_to(s, STEADY_TARGET, false))),
         yes(c4)
     );
+}
+
+/// Claim 5 (experiment 3): RaISoV's largest stable step at least twice SLIM's.
+fn claim_stable_step(w: &mut String, res: &Results) {
     // C5: stable step ≥ 2× SLIM.
     let mut parts = Vec::new();
     let mut c5 = true;
@@ -484,6 +587,10 @@ fn report_text(out: &Path, res: &Results) -> String {
         parts.join("; "),
         yes(c5)
     );
+}
+
+/// Claim 6 (experiment 4): multigrid survives larger fast pulls without inverting an element.
+fn claim_inversion(w: &mut String, res: &Results) {
     // C6: inversion.
     let slim_inv = res.inversion.first().and_then(|r| r.bisection.stable);
     let best_inv = res
@@ -505,6 +612,10 @@ fn report_text(out: &Path, res: &Results) -> String {
         res.inversion.iter().find(|r| r.method.starts_with("FAS")).and_then(|r| r.bisection.stable).map_or("-".into(), |x| format!("{:.2} mm", x * 1e3)),
         yes(c6)
     );
+}
+
+/// Claim 7 (experiment 5): one V-cycle costs at most about two SLIM steps (eq. 14).
+fn claim_cost(w: &mut String, res: &Results) {
     // C7: cost.
     let n_ok = res
         .cost
@@ -530,16 +641,14 @@ fn report_text(out: &Path, res: &Results) -> String {
         parts.join("; "),
         c7
     );
+}
+
+/// Claim 8 (experiment 6): multigrid cheaper to steady state than single-level integration.
+fn claim_multigrid_cheaper(w: &mut String, res: &Results, meshes: &[String]) {
     // C8: overall cheaper at own largest steps.
     let mut parts = Vec::new();
     let mut c8: Vec<bool> = Vec::new();
-    let mut meshes: Vec<String> = Vec::new();
-    for r in &res.steady {
-        if !meshes.contains(&r.mesh) {
-            meshes.push(r.mesh.clone());
-        }
-    }
-    for m in &meshes {
+    for m in meshes {
         let get = |p: &str| {
             res.steady
                 .iter()
@@ -569,10 +678,14 @@ fn report_text(out: &Path, res: &Results) -> String {
             meshes.len() - c8.len()
         )
     );
+}
+
+/// Claim 9 (experiment 6, the project's): FAS reaches steady state sooner than the fastest SLIM.
+fn claim_fas_sooner(w: &mut String, res: &Results, meshes: &[String]) {
     // C9: the project's FAS.
     let mut parts = Vec::new();
     let mut c9: Vec<bool> = Vec::new();
-    for m in &meshes {
+    for m in meshes {
         let get = |p: &str| {
             res.steady
                 .iter()
@@ -608,6 +721,10 @@ fn report_text(out: &Path, res: &Results) -> String {
             meshes.len() - c9.len()
         )
     );
+}
+
+/// Claim 10 (experiment 6, the project's target): FAS at least 5x sooner than symplectic Euler on 10k+ membranes and the liver, the gain growing with mesh size.
+fn claim_fas_gain(w: &mut String, res: &Results, meshes: &[String]) {
     // C10: the project's target for its FAS (issue): at least 5x sooner than the strongest
     // single-level integrator (symplectic Euler), in wall time and in force evaluations, on
     // membranes of 10k+ nodes and on the liver, the gain growing with mesh size.
@@ -615,7 +732,7 @@ fn report_text(out: &Path, res: &Results) -> String {
     let (mut holds, mut decided, mut undecided) = (0, 0, 0);
     // (finest nodes, gain, whether the gain is only a lower bound), membranes only.
     let mut gains: Vec<(usize, f64, bool)> = Vec::new();
-    for m in &meshes {
+    for m in meshes {
         let row = |p: &str| {
             res.steady
                 .iter()
@@ -712,27 +829,30 @@ fn report_text(out: &Path, res: &Results) -> String {
             String::new()
         }
     );
-    let _ = writeln!(w, "Where a row says **no** or **partly**, the paper's claim did not (fully) reproduce with these parameters and this implementation; the sections below give the numbers.\n");
+}
 
-    // ---- details ----
-    let sim_table = |w: &mut String, sims: &[Sim]| {
-        let _ = writeln!(w, "| method | dt (s) | outcome | time to max <= 10% | time to mean <= 1e-3 | late mean abs(T - T_inf) (Pa) | residual last/peak |");
-        let _ = writeln!(w, "|---|---|---|---|---|---|---|");
-        for s in sims {
-            let _ = writeln!(
-                w,
-                "| {} | {:.3e} | {} | {} | {} | {:.3e} | {:.1e} |",
-                s.label,
-                s.dt,
-                outcome_text(s),
-                fmt_opt_t(time_to(s, 0.1, true)),
-                fmt_opt_t(time_to(s, STEADY_TARGET, false)),
-                tail_mean(s),
-                s.residual_drop
-            );
-        }
-        let _ = writeln!(w);
-    };
+/// One row per run: step, outcome, times to the targets, late level.
+fn sim_table(w: &mut String, sims: &[Sim]) {
+    let _ = writeln!(w, "| method | dt (s) | outcome | time to max <= 10% | time to mean <= 1e-3 | late mean abs(T - T_inf) (Pa) | residual last/peak |");
+    let _ = writeln!(w, "|---|---|---|---|---|---|---|");
+    for s in sims {
+        let _ = writeln!(
+            w,
+            "| {} | {:.3e} | {} | {} | {} | {:.3e} | {:.1e} |",
+            s.label,
+            s.dt,
+            outcome_text(s),
+            fmt_opt_t(time_to(s, 0.1, true)),
+            fmt_opt_t(time_to(s, STEADY_TARGET, false)),
+            tail_mean(s),
+            s.residual_drop
+        );
+    }
+    let _ = writeln!(w);
+}
+
+/// Section 1: the lift runs and the epsilon sweep.
+fn section_perturbation(w: &mut String, res: &Results) {
     let _ = writeln!(
         w,
         "## 1. Perturbation response (section 3.1, Fig. 5 left)\n"
@@ -755,6 +875,10 @@ fn report_text(out: &Path, res: &Results) -> String {
         );
     }
     let _ = writeln!(w);
+}
+
+/// Section 2: the drape runs.
+fn section_drape(w: &mut String, res: &Results) {
     let _ = writeln!(
         w,
         "## 2. Draping under gravity (section 3.2, Fig. 5 right)\n"
@@ -764,6 +888,10 @@ fn report_text(out: &Path, res: &Results) -> String {
         "Plot: `fig5_right_drape.png` / `.svg`; series: `fig5_drape.csv`.\n"
     );
     sim_table(w, &res.drape);
+}
+
+/// Section 3: the largest stable steps.
+fn section_stability(w: &mut String, res: &Results) {
     let _ = writeln!(w, "## 3. Largest stable time step\n");
     let _ = writeln!(w, "Bisection (geometric) on the step as a multiple of the finest mesh's estimated critical step for the method's integrator, in [0.25, 8]; a test runs as many steps (V-cycles for the multigrids) as SLIM RK4 at its default step needed to reach steady state in experiments 1-2 ({}), stopping early once steady (residual 1e-6 of its peak). `converges` = the run at the largest stable step brought the residual down by 1e-6 of its peak; otherwise it only stayed bounded. `stability.csv`, `stability_tests.csv`.\n",
         res.stab_steps.iter().map(|(k, v)| format!("{k}: {v} steps")).collect::<Vec<_>>().join(", "));
@@ -793,6 +921,10 @@ fn report_text(out: &Path, res: &Results) -> String {
         );
     }
     let _ = writeln!(w);
+}
+
+/// Section 4: element inversion.
+fn section_inversion(w: &mut String, res: &Results) {
     let _ = writeln!(w, "## 4. Element inversion in 3-D (section 3.3)\n");
     let _ = writeln!(w, "{}. Bisection on the pull distance in [0.2, 18] mm; a method survives a pull if no element inverts and the run stays finite and bounded. `inversion.csv`.\n", res.block_desc);
     let _ = writeln!(
@@ -815,6 +947,10 @@ fn report_text(out: &Path, res: &Results) -> String {
         );
     }
     let _ = writeln!(w);
+}
+
+/// Section 5: the cost of one V-cycle.
+fn section_cost(w: &mut String, res: &Results) {
     let _ = writeln!(w, "## 5. Cost of one V-cycle (eq. 14)\n");
     let _ = writeln!(w, "Wall time per step, best of several repetitions, all measured in one process side by side (drape, RK4 on every level, Rayon on the machine's cores). The flop-count bound is sum of level nodes over finest nodes (about 2 for ratio 0.5) plus transfers. `cost.csv`.\n");
     let _ = writeln!(w, "| mesh | level nodes | SLIM RK4 step | RaISoV cycle | RaISoV / SLIM | node sum / finest | FAS cycle | FAS / SLIM | setup (mesh, levels, maps) |");
@@ -840,6 +976,10 @@ fn report_text(out: &Path, res: &Results) -> String {
         );
     }
     let _ = writeln!(w);
+}
+
+/// Section 6: time to steady state.
+fn section_steady(w: &mut String, res: &Results) {
     let _ = writeln!(w, "## 6. Time to steady state\n");
     let _ = writeln!(w, "Each method at 0.9 x its own largest stable step found on the paper's drape (experiment 3; as a multiple of each mesh's own estimated critical step; a run that diverges on another mesh is retried at half the step, twice at most, and says so), until mean abs(T - T_inf) <= 1e-3 of its start, capped by wall time and simulated time. The membranes of 10k+ nodes use a hierarchy of ratio 0.5 down to about 500-1000 nodes (the finest mesh, the one SLIM runs on, is the same). FAS runs first; symplectic Euler, the strongest single-level integrator, then runs until it reaches the target or has spent at least 6x FAS's wall time and force evaluations to the target (at most 3x its cap), so that the 5x comparison is decided{}. Wall time excludes setup, T_inf and the measurements themselves (stress and residual samples). Plot: `time_to_steady.png` / `.svg`; `steady_state.csv`, `steady_state_series.csv`.\n", match res.slim_cap { Some(c) => format!(" (in this run at least {c:.0} s of wall time, `--slim-cap`, so that it can reach the target)"), None => String::new() });
     let _ = writeln!(w, "| mesh | finest nodes | method | dt (s) | simulated time | wall time | force evaluations | final mean / start | residual last/peak | outcome |");
@@ -892,6 +1032,10 @@ fn report_text(out: &Path, res: &Results) -> String {
         }
     }
     let _ = writeln!(w);
+}
+
+/// Stage times, notes, abbreviations, the scenario text and the list of files.
+fn closing(w: &mut String, out: &Path, res: &Results) {
     let _ = writeln!(
         w,
         "Stage wall times (cumulative): {}.\n",
@@ -914,5 +1058,4 @@ fn report_text(out: &Path, res: &Results) -> String {
     for f in &res.files {
         let _ = writeln!(w, "- `{}`", rel(f, out));
     }
-    r
 }

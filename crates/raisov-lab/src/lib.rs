@@ -1,0 +1,20 @@
+//! # raisov-lab
+//!
+//! The experiments run around the [`raisov`] library, kept out of it: they use only its
+//! public API.
+//!
+//! - [`paper`]: `raisov paper`, the experiments of Wu & Tendick (2004) reproduced, with CSV
+//!   series, PNG and SVG plots and a Markdown report that sets each claim beside what was
+//!   measured;
+//! - [`bench`]: `raisov bench`, the performance benchmark of the standard explicit-dynamics
+//!   work and its roofline;
+//! - [`plot`]: the line charts (plotters, with an embedded font: no system font library).
+
+// `!(x > 0.0)` is written on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Index loops over x, y, z components read like the equations they implement.
+#![allow(clippy::needless_range_loop)]
+
+pub mod bench;
+pub mod paper;
+pub mod plot;

@@ -32,7 +32,7 @@ pub mod spec;
 use crate::error::{Error, Result};
 use crate::fem::{FemModel, FemParams, Precision};
 use crate::integrate::{Constraints, Method, Motion, System};
-use crate::io::load_mesh;
+use crate::io::{load_mesh, VtuFormat};
 use crate::material::{
     lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, VerondaWestmann,
 };
@@ -101,6 +101,8 @@ pub struct Scenario {
     pub out_dir: PathBuf,
     pub frame_interval: f64,
     pub csv_every: u64,
+    /// `[output] vtu`: how the frames are stored (binary appended zlib, or ASCII).
+    pub vtu: VtuFormat,
     pub reference: Reference,
     /// `[interactive]`: a budget per frame along the displacement paths; `None` for a plain run.
     pub interactive: Option<interactive::Interactive>,
@@ -328,6 +330,15 @@ impl Scenario {
                 "`output.csv_every` = 0: must be at least 1 (steps)",
             ));
         }
+        let vtu = match spec.output.vtu.as_deref() {
+            None => VtuFormat::Binary,
+            Some(v) => VtuFormat::parse(v).ok_or_else(|| {
+                err(
+                    path,
+                    format!("`output.vtu` = \"{v}\": valid are \"binary\", \"ascii\""),
+                )
+            })?,
+        };
         let reference = match spec.output.reference.as_deref() {
             None | Some("none") => Reference::None,
             Some("auto") => Reference::Auto,
@@ -362,6 +373,7 @@ impl Scenario {
             out_dir,
             frame_interval,
             csv_every,
+            vtu,
             reference,
             interactive,
             spec,

@@ -5,7 +5,7 @@
 //! gravity = [0.0, 0.0, -9.81]     # m/s², default none
 //!
 //! [mesh]                          # one of `file` or `generate`
-//! file = "liver_L3.msh"           # .msh (Gmsh 2.2/4.1), .node/.ele, .vtk; relative to this file
+//! file = "liver_L3.msh"           # .msh (Gmsh 2.2/4.1), .node/.ele, .vtk, .vtu; relative to this file
 //! scale = 1e-3                    # coordinate factor to metres (1e-3 for mm), default 1
 //! generate = "rectangle"          # "rectangle" | "polygon" | "box"
 //! size = [0.1, 0.1]               # rectangle [w, h] or box [x, y, z], m
@@ -76,6 +76,11 @@
 //! dir = "raisov-out/NAME"         # default; `raisov run --out DIR` overrides
 //! frame_interval = 0.05           # s between VTU frames; 0 writes only the first and last
 //! csv_every = 1                   # steps between rows of measures.csv
+//! vtu = "binary"                  # frame storage: "binary" (default; appended raw, zlib-
+//!                                 # compressed, ParaView's own layout) | "ascii" (text);
+//!                                 # `raisov run --ascii-vtu` overrides. Frames hold the
+//!                                 # reference points and a `displacement` point field (the
+//!                                 # active vectors: ParaView's Warp By Vector deforms them)
 //! reference = "none"              # T∞ for |T − T∞|: "none" | "auto" | path to nodal_stress.csv
 //!
 //! [multigrid]                     # optional: integrate over a hierarchy of independent meshes
@@ -287,5 +292,6 @@ pub struct OutputSpec {
     pub dir: Option<String>,
     pub frame_interval: Option<f64>,
     pub csv_every: Option<u64>,
+    pub vtu: Option<String>,
     pub reference: Option<String>,
 }

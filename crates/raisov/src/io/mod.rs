@@ -40,7 +40,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 pub use gmsh::write_msh22;
 pub use vtu::{write_vtu, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
-pub use vtu_read::read_vtu;
+pub use vtu_read::{read_vtu, read_vtu_array};
 
 use crate::mesh::{ElementKind, Mesh};
 use crate::{Error, Result};

@@ -3,8 +3,9 @@
 //! ASCII files are read here (versions up to 5.1, including the 5.1 `CELLS` layout with
 //! `OFFSETS` and `CONNECTIVITY`), so errors carry line numbers; binary files of version 5.x
 //! too (the same layout, big-endian data, errors naming the byte offset), older binary files
-//! with `vtkio`. Sections read: `POINTS`, `CELLS`, `CELL_TYPES` (`FIELD` blocks are skipped);
-//! reading stops at `POINT_DATA`, `CELL_DATA` or `METADATA`.
+//! with `vtkio`. Sections read: `POINTS`, `CELLS`, `CELL_TYPES` (`FIELD` blocks and
+//! `METADATA` blocks, which run to the next blank line, are skipped); reading stops at
+//! `POINT_DATA` or `CELL_DATA`.
 //!
 //! Cell types: 5 (triangle) and 10 (tetrahedron) are the mesh elements; 22 (quadratic
 //! triangle) and 24 (quadratic tetrahedron) are read as their corners. Cells of lower
@@ -239,7 +240,8 @@ fn parse_ascii(path: &Path, text: &str) -> Result<Grid> {
                 }
                 types = Some((t, l));
             }
-            "POINT_DATA" | "CELL_DATA" | "METADATA" => break,
+            "METADATA" => tk.skip_to_blank_line(),
+            "POINT_DATA" | "CELL_DATA" => break,
             _ => {
                 return Err(tk.err(format!(
                     "expected `DATASET`, `POINTS`, `CELLS`, `CELL_TYPES`, `POINT_DATA` or \

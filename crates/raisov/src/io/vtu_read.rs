@@ -49,14 +49,55 @@ const B64: GeneralPurpose = GeneralPurpose::new(
         .with_decode_allow_trailing_bits(true),
 );
 
+/// Parse the XML part of `bytes`.
+fn parse_xml<'x>(path: &Path, xml: &'x str) -> Result<Document<'x>> {
+    Document::parse(xml).map_err(|e| {
+        let p = e.pos();
+        format_err(path, p.row as usize, format!("malformed XML: {e}"))
+    })
+}
+
+/// Read the point or cell data array `name` of the first `<Piece>` of a `.vtu` file:
+/// (components per item, values as `f64`, integers converted). Any storage the module docs
+/// list; errors as for [`read_vtu`], and when there is no such array.
+pub fn read_vtu_array(path: &Path, name: &str) -> Result<(usize, Vec<f64>)> {
+    let bytes = read_bytes(path)?;
+    let (xml, appended) = split_appended(path, &bytes)?;
+    let doc = parse_xml(path, &xml)?;
+    let cx = Context::new(path, &doc, appended)?;
+    let grid = child(&cx, doc.root_element(), "UnstructuredGrid")?;
+    let piece = child(&cx, grid, "Piece")?;
+    let np = cx.count_attr(piece, "NumberOfPoints")?;
+    let nc = cx.count_attr(piece, "NumberOfCells")?;
+    for (group, items) in [("PointData", np), ("CellData", nc)] {
+        let Some(g) = piece.children().find(|n| n.has_tag_name(group)) else {
+            continue;
+        };
+        if let Some(a) = g
+            .children()
+            .find(|n| n.has_tag_name("DataArray") && n.attribute("Name") == Some(name))
+        {
+            let k = match a.attribute("NumberOfComponents") {
+                None => 1,
+                Some(s) => s.trim().parse::<usize>().ok().filter(|&k| k > 0).ok_or_else(|| {
+                    cx.err(a, format!("`NumberOfComponents` = {}: expected a count", show(s)))
+                })?,
+            };
+            let v = cx.read_f64(a, name, &[items.saturating_mul(k)])?;
+            return Ok((k, v));
+        }
+    }
+    Err(cx.err(
+        piece,
+        format!("no point or cell data array named {}", show(name)),
+    ))
+}
+
 /// Read a `.vtu` file (see the module docs).
 pub fn read_vtu(path: &Path) -> Result<LoadedMesh> {
     let bytes = read_bytes(path)?;
     let (xml, appended) = split_appended(path, &bytes)?;
-    let doc = Document::parse(&xml).map_err(|e| {
-        let p = e.pos();
-        format_err(path, p.row as usize, format!("malformed XML: {e}"))
-    })?;
+    let doc = parse_xml(path, &xml)?;
     let cx = Context::new(path, &doc, appended)?;
     let root = doc.root_element();
     let grid = child(&cx, root, "UnstructuredGrid")?;
@@ -221,6 +262,15 @@ fn split_appended<'b>(path: &Path, bytes: &'b [u8]) -> Result<(String, Option<&'
     let mut xml = text(&bytes[..gt + 1])?;
     xml.push_str(&text(&bytes[close..])?);
     Ok((xml, Some(&body[us + 1..])))
+}
+
+/// The text directly inside `n` (VTK puts `<InformationKey>` elements after the values).
+fn own_text(n: Node) -> String {
+    n.children()
+        .filter(|c| c.is_text())
+        .filter_map(|c| c.text())
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 fn find(hay: &[u8], needle: &[u8], from: usize) -> Option<usize> {
@@ -524,9 +574,7 @@ impl<'a> Context<'a> {
             }
             "binary" => {
                 seen[1] = true;
-                let text: Vec<u8> = n
-                    .text()
-                    .unwrap_or("")
+                let text: Vec<u8> = own_text(n)
                     .bytes()
                     .filter(|c| !c.is_ascii_whitespace())
                     .collect();
@@ -582,7 +630,7 @@ impl<'a> Context<'a> {
     }
 
     fn parse_ascii(&self, n: Node, what: &str, ty: Ty) -> Result<Vals> {
-        let text = n.text().unwrap_or("");
+        let text = own_text(n);
         let bad = |i: usize, tok: &str| {
             self.err(
                 n,

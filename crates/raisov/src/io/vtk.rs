@@ -338,7 +338,9 @@ impl<'a> BinCursor<'a> {
     fn values(&mut self, what: &str, n: usize, t: &str) -> Result<Vec<f64>> {
         let size = legacy_size(t)
             .ok_or_else(|| self.err(format!("{what}: unsupported data type {}", show(t))))?;
-        let need = n.checked_mul(size).filter(|&k| k <= self.b.len() - self.pos);
+        let need = n
+            .checked_mul(size)
+            .filter(|&k| k <= self.b.len() - self.pos);
         let Some(need) = need else {
             return Err(self.err(format!(
                 "{what}: {n} values of {t} need {} bytes but the file ends after {} (truncated?)",
@@ -370,7 +372,10 @@ impl<'a> BinCursor<'a> {
     /// `n` non-negative integers (exact below 2^53, which bounds any real mesh).
     fn ints(&mut self, what: &str, n: usize, t: &str) -> Result<Vec<u64>> {
         if matches!(t.to_ascii_lowercase().as_str(), "float" | "double") {
-            return Err(self.err(format!("{what}: expected an integer type, found {}", show(t))));
+            return Err(self.err(format!(
+                "{what}: expected an integer type, found {}",
+                show(t)
+            )));
         }
         let v = self.values(what, n, t)?;
         v.iter()
@@ -391,7 +396,11 @@ impl<'a> BinCursor<'a> {
 /// `int` list), `CELL_TYPES` as `int`, `METADATA` blocks (to the next blank line) and
 /// `FIELD` arrays skipped, all data big-endian.
 fn parse_binary51(path: &Path, bytes: &[u8]) -> Result<Grid> {
-    let mut c = BinCursor { path, b: bytes, pos: 0 };
+    let mut c = BinCursor {
+        path,
+        b: bytes,
+        pos: 0,
+    };
     for _ in 0..3 {
         c.raw_line();
     }
@@ -403,9 +412,12 @@ fn parse_binary51(path: &Path, bytes: &[u8]) -> Result<Grid> {
     while let Some(t) = c.line()? {
         let kw = t[0].to_ascii_uppercase();
         let count = |c: &BinCursor, i: usize, what: &str| -> Result<usize> {
-            tok(&t, i)
-                .parse()
-                .map_err(|_| c.err(format!("`{kw}`: expected {what}, found {}", show(&tok(&t, i)))))
+            tok(&t, i).parse().map_err(|_| {
+                c.err(format!(
+                    "`{kw}`: expected {what}, found {}",
+                    show(&tok(&t, i))
+                ))
+            })
         };
         match kw.as_str() {
             "DATASET" => {
@@ -437,10 +449,16 @@ fn parse_binary51(path: &Path, bytes: &[u8]) -> Result<Grid> {
                 let b = count(&c, 2, "the cell list size")?;
                 let save = c.pos;
                 let next = c.line()?.unwrap_or_default();
-                if next.first().is_some_and(|k| k.eq_ignore_ascii_case("OFFSETS")) {
+                if next
+                    .first()
+                    .is_some_and(|k| k.eq_ignore_ascii_case("OFFSETS"))
+                {
                     let offs = c.ints("`OFFSETS`", a, &tok(&next, 1))?;
                     let kw2 = c.line()?.unwrap_or_default();
-                    if !kw2.first().is_some_and(|k| k.eq_ignore_ascii_case("CONNECTIVITY")) {
+                    if !kw2
+                        .first()
+                        .is_some_and(|k| k.eq_ignore_ascii_case("CONNECTIVITY"))
+                    {
                         return Err(c.err(format!(
                             "expected `CONNECTIVITY` after the offsets, found {}",
                             show(&kw2.join(" "))
@@ -467,9 +485,9 @@ fn parse_binary51(path: &Path, bytes: &[u8]) -> Result<Grid> {
                             .get(i)
                             .ok_or_else(|| c.err(format!("`CELLS` ends before cell {cell}")))?
                             as usize;
-                        let ids = list.get(i + 1..i + 1 + k).ok_or_else(|| {
-                            c.err(format!("`CELLS` ends inside cell {cell}"))
-                        })?;
+                        let ids = list
+                            .get(i + 1..i + 1 + k)
+                            .ok_or_else(|| c.err(format!("`CELLS` ends inside cell {cell}")))?;
                         conn.extend_from_slice(ids);
                         offsets.push(conn.len());
                         i += 1 + k;

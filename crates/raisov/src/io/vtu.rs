@@ -259,13 +259,16 @@ fn compress_array(bytes: &[u8]) -> Vec<u8> {
     let blocks: Vec<Vec<u8>> = bytes
         .par_chunks(VTU_BLOCK_SIZE)
         .map(|b| {
-            let mut e =
-                ZlibEncoder::new(Vec::with_capacity(b.len() / 2), Compression::new(ZLIB_LEVEL));
+            let mut e = ZlibEncoder::new(
+                Vec::with_capacity(b.len() / 2),
+                Compression::new(ZLIB_LEVEL),
+            );
             e.write_all(b).expect("writing to a Vec cannot fail");
             e.finish().expect("writing to a Vec cannot fail")
         })
         .collect();
-    let mut out = Vec::with_capacity(8 * (3 + blocks.len()) + blocks.iter().map(Vec::len).sum::<usize>());
+    let mut out =
+        Vec::with_capacity(8 * (3 + blocks.len()) + blocks.iter().map(Vec::len).sum::<usize>());
     for h in [
         blocks.len() as u64,
         VTU_BLOCK_SIZE as u64,
@@ -384,9 +387,7 @@ pub fn write_vtu_as(
         Array {
             name: Some("offsets"),
             components: 1,
-            values: Values::I64(Cow::Owned(
-                (1..=ne).map(|e| (e * npe) as i64).collect(),
-            )),
+            values: Values::I64(Cow::Owned((1..=ne).map(|e| (e * npe) as i64).collect())),
             per_line: 16,
         },
         Array {
@@ -552,7 +553,7 @@ mod tests {
         let u: Vec<f64> = (0..15).map(|i| i as f64 * 1e-7).collect();
         let sig: Vec<f64> = (0..18).map(|i| -(i as f64) * 1.5e3).collect();
         let j = [1.0, 0.99];
-        write_vtu(
+        write_vtu_as(
             &p,
             &m,
             &pos,
@@ -576,6 +577,7 @@ mod tests {
                     data: FieldData::Scalar(&j),
                 },
             ],
+            VtuFormat::Ascii,
         )
         .unwrap();
         let vtk = vtkio::Vtk::import(&p).unwrap();
@@ -626,6 +628,85 @@ mod tests {
     }
 
     #[test]
+    fn binary_frame_reads_back_bit_exact() {
+        use crate::io::{read_vtu, read_vtu_array};
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("b.vtu");
+        let mut m = two_tets();
+        m.orient(); // the reader orients; write what it will return
+        let u: Vec<f64> = (0..15).map(|i| (i as f64 * 0.7).sin() * 1e-3).collect();
+        let ids = [5i64, 4, 3, 2, -1];
+        let j = [1.0, 0.99 + 1e-17];
+        write_vtu(
+            &p,
+            &m,
+            &m.nodes,
+            &[
+                Field {
+                    name: "displacement",
+                    data: FieldData::Vector(&u),
+                },
+                Field {
+                    name: "id",
+                    data: FieldData::Int(&ids),
+                },
+            ],
+            &[Field {
+                name: "J",
+                data: FieldData::Scalar(&j),
+            }],
+        )
+        .unwrap();
+        let l = read_vtu(&p).unwrap();
+        assert_eq!(l.format, "vtu appended zlib");
+        assert_eq!(l.mesh.nodes, m.nodes);
+        assert_eq!(l.mesh.cells, m.cells);
+        assert_eq!(read_vtu_array(&p, "displacement").unwrap(), (3, u));
+        assert_eq!(
+            read_vtu_array(&p, "id").unwrap(),
+            (1, vec![5.0, 4.0, 3.0, 2.0, -1.0])
+        );
+        assert_eq!(read_vtu_array(&p, "J").unwrap(), (1, j.to_vec()));
+        let text = String::from_utf8_lossy(&std::fs::read(&p).unwrap()).to_string();
+        assert!(
+            text.contains("<PointData Vectors=\"displacement\">"),
+            "{text}"
+        );
+        assert!(text.contains("<DataArray type=\"Int64\" Name=\"id\" format=\"appended\""));
+    }
+
+    /// The compressed layout: header `[nblocks, block, last partial, sizes..]`, each block an
+    /// independent zlib stream inflating to its share of the bytes.
+    #[test]
+    fn compressed_header_layout() {
+        use std::io::Read;
+        let bytes: Vec<u8> = (0..(2 * VTU_BLOCK_SIZE + 100))
+            .map(|i| (i % 251) as u8)
+            .collect();
+        let out = compress_array(&bytes);
+        let w = |i: usize| u64::from_le_bytes(out[8 * i..8 * i + 8].try_into().unwrap()) as usize;
+        assert_eq!((w(0), w(1), w(2)), (3, VTU_BLOCK_SIZE, 100));
+        let mut pos = 8 * 6;
+        let mut all = Vec::new();
+        for b in 0..3 {
+            flate2::read::ZlibDecoder::new(&out[pos..pos + w(3 + b)])
+                .read_to_end(&mut all)
+                .unwrap();
+            pos += w(3 + b);
+        }
+        assert_eq!(pos, out.len());
+        assert_eq!(all, bytes);
+        // A whole number of blocks: the last-block field is 0.
+        let out = compress_array(&bytes[..VTU_BLOCK_SIZE]);
+        assert_eq!(
+            &out[..24],
+            &[1u64, VTU_BLOCK_SIZE as u64, 0]
+                .map(u64::to_le_bytes)
+                .concat()[..]
+        );
+    }
+
+    #[test]
     fn vtu_triangles_and_no_fields() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("t.vtu");
@@ -634,7 +715,7 @@ mod tests {
             vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
             vec![0, 1, 2],
         );
-        write_vtu(&p, &m, &m.nodes, &[], &[]).unwrap();
+        write_vtu_as(&p, &m, &m.nodes, &[], &[], VtuFormat::Ascii).unwrap();
         let vtk = vtkio::Vtk::import(&p).unwrap();
         let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
             panic!()

@@ -79,9 +79,17 @@ pub fn read_vtu_array(path: &Path, name: &str) -> Result<(usize, Vec<f64>)> {
         {
             let k = match a.attribute("NumberOfComponents") {
                 None => 1,
-                Some(s) => s.trim().parse::<usize>().ok().filter(|&k| k > 0).ok_or_else(|| {
-                    cx.err(a, format!("`NumberOfComponents` = {}: expected a count", show(s)))
-                })?,
+                Some(s) => s
+                    .trim()
+                    .parse::<usize>()
+                    .ok()
+                    .filter(|&k| k > 0)
+                    .ok_or_else(|| {
+                        cx.err(
+                            a,
+                            format!("`NumberOfComponents` = {}: expected a count", show(s)),
+                        )
+                    })?,
             };
             let v = cx.read_f64(a, name, &[items.saturating_mul(k)])?;
             return Ok((k, v));
@@ -489,12 +497,9 @@ impl<'a> Context<'a> {
 
     /// A non-negative count attribute.
     fn count_attr(&self, n: Node, name: &str) -> Result<usize> {
-        let s = n.attribute(name).ok_or_else(|| {
-            self.err(
-                n,
-                format!("`<{}>` has no `{name}`", n.tag_name().name()),
-            )
-        })?;
+        let s = n
+            .attribute(name)
+            .ok_or_else(|| self.err(n, format!("`<{}>` has no `{name}`", n.tag_name().name())))?;
         s.trim()
             .parse()
             .map_err(|_| self.err(n, format!("`{name}` = {}: expected a count", show(s))))
@@ -732,9 +737,8 @@ impl<'a> Context<'a> {
     fn decode_base64(&self, n: Node, what: &str, text: &[u8]) -> Result<Vec<u8>> {
         let chars = |bytes: usize| bytes.div_ceil(3) * 4;
         let dec = |t: &[u8], part: &str| -> Result<Vec<u8>> {
-            B64.decode(t).map_err(|e| {
-                self.err(n, format!("`{what}`: bad base64 in the {part}: {e}"))
-            })
+            B64.decode(t)
+                .map_err(|e| self.err(n, format!("`{what}`: bad base64 in the {part}: {e}")))
         };
         let get = |len: usize, part: &str| -> Result<&[u8]> {
             text.get(..len).ok_or_else(|| {
@@ -804,10 +808,7 @@ impl<'a> Context<'a> {
         if data.len() < dl {
             return Err(self.err(
                 n,
-                format!(
-                    "`{what}`: {} data bytes, the header says {dl}",
-                    data.len()
-                ),
+                format!("`{what}`: {} data bytes, the header says {dl}", data.len()),
             ));
         }
         self.inflate(n, what, header, &data[..dl])

@@ -38,6 +38,10 @@ enum Cmd {
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
+        /// Write the VTU frames as ASCII text (overrides [output] vtu; default binary,
+        /// zlib-compressed).
+        #[arg(long)]
+        ascii_vtu: bool,
     },
     /// Parse and resolve a scenario, print what it would run, and exit.
     Check { scenario: PathBuf },
@@ -155,7 +159,8 @@ fn real_main(cli: Cli) -> Result<()> {
             scenario,
             out,
             quiet,
-        } => on_pool(|| cmd_run(scenario, out, quiet)),
+            ascii_vtu,
+        } => on_pool(|| cmd_run(scenario, out, quiet, ascii_vtu)),
         Cmd::Check { scenario } => cmd_check(&scenario),
         Cmd::Bench {
             sizes,
@@ -211,8 +216,16 @@ fn load_scenario(path: Option<&Path>) -> Result<Scenario> {
     })
 }
 
-fn cmd_run(scenario: Option<PathBuf>, out: Option<PathBuf>, quiet: bool) -> Result<()> {
-    let sc = load_scenario(scenario.as_deref())?;
+fn cmd_run(
+    scenario: Option<PathBuf>,
+    out: Option<PathBuf>,
+    quiet: bool,
+    ascii_vtu: bool,
+) -> Result<()> {
+    let mut sc = load_scenario(scenario.as_deref())?;
+    if ascii_vtu {
+        sc.vtu = raisov::io::VtuFormat::Ascii;
+    }
     for n in &sc.notes {
         eprintln!("note: {n}");
     }

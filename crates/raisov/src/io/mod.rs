@@ -6,7 +6,8 @@
 //! |---|---|
 //! | `.msh` | Gmsh MSH 2.2 (ASCII, binary) and 4.1 (ASCII, binary), see [`gmsh`] |
 //! | `.node` / `.ele` | Triangle (2-D) and TetGen (3-D) node + element pair, see [`triangle`] |
-//! | `.vtk` | VTK legacy unstructured grid (ASCII, binary), see [`vtk`] |
+//! | `.vtk` | VTK legacy unstructured grid (ASCII, binary; versions up to 5.1), see [`vtk`] |
+//! | `.vtu` | VTK XML unstructured grid (ASCII, inline base64, appended raw or base64; zlib or uncompressed), see [`vtu_read`] |
 //!
 //! A Triangle/TetGen pair can also be given by its base name (`mesh.1` for `mesh.1.node` +
 //! `mesh.1.ele`).
@@ -20,7 +21,8 @@
 //! and rejected if any element is degenerate. Coordinates are returned as read (no unit
 //! conversion; see [`Mesh::scale`]).
 //!
-//! Writing: [`write_msh22`] (Gmsh 2.2 ASCII), [`write_vtu`] and [`PvdWriter`] (ParaView). All
+//! Writing: [`write_msh22`] (Gmsh 2.2 ASCII), [`write_vtu`] / [`write_vtu_as`] (binary
+//! appended zlib by default, ASCII on request, see [`vtu`]) and [`PvdWriter`] (ParaView). All
 //! writers go through [`write_atomic`]: the file appears complete or not at all, and none of
 //! them writes a non-finite number.
 
@@ -29,6 +31,7 @@ mod text;
 pub mod triangle;
 pub mod vtk;
 pub mod vtu;
+pub mod vtu_read;
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::Write;
@@ -36,13 +39,14 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 pub use gmsh::write_msh22;
-pub use vtu::{write_vtu, Field, FieldData, PvdWriter};
+pub use vtu::{write_vtu, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
+pub use vtu_read::{read_vtu, read_vtu_array};
 
 use crate::mesh::{ElementKind, Mesh};
 use crate::{Error, Result};
 
 /// Extensions [`load_mesh`] understands.
-pub const MESH_EXTENSIONS: &[&str] = &["msh", "node", "ele", "vtk"];
+pub const MESH_EXTENSIONS: &[&str] = &["msh", "node", "ele", "vtk", "vtu"];
 
 /// A mesh read from a file, with what the reader did to it.
 #[derive(Clone, Debug)]
@@ -70,6 +74,7 @@ pub fn load_mesh(path: &Path) -> Result<LoadedMesh> {
         Some("msh") => gmsh::read_msh(path),
         Some("node") | Some("ele") => triangle::read_node_ele(&path.with_extension("")),
         Some("vtk") => vtk::read_vtk(path),
+        Some("vtu") => vtu_read::read_vtu(path),
         _ => {
             let node = append_ext(path, "node");
             let ele = append_ext(path, "ele");

@@ -180,4 +180,18 @@ impl<'a> Tokens<'a> {
     pub fn err(&self, msg: impl Into<String>) -> Error {
         format_err(self.path, self.line, msg)
     }
+
+    /// Skip the rest of the current line and the lines after it up to and including the
+    /// next blank one (a legacy VTK `METADATA` block).
+    pub fn skip_to_blank_line(&mut self) {
+        self.cur = "".split_whitespace();
+        while self.line_idx < self.lines.len() {
+            let l = self.lines[self.line_idx];
+            self.line_idx += 1;
+            self.line = self.line_idx;
+            if l.trim().is_empty() {
+                break;
+            }
+        }
+    }
 }

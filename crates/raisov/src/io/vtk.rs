@@ -1,9 +1,11 @@
 //! VTK legacy files (`.vtk`) holding an `UNSTRUCTURED_GRID`.
 //!
 //! ASCII files are read here (versions up to 5.1, including the 5.1 `CELLS` layout with
-//! `OFFSETS` and `CONNECTIVITY`), so errors carry line numbers; binary files are read with
-//! `vtkio`. Sections read: `POINTS`, `CELLS`, `CELL_TYPES` (`FIELD` blocks are skipped);
-//! reading stops at `POINT_DATA`, `CELL_DATA` or `METADATA`.
+//! `OFFSETS` and `CONNECTIVITY`), so errors carry line numbers; binary files of version 5.x
+//! too (the same layout, big-endian data, errors naming the byte offset), older binary files
+//! with `vtkio`. Sections read: `POINTS`, `CELLS`, `CELL_TYPES` (`FIELD` blocks and
+//! `METADATA` blocks, which run to the next blank line, are skipped); reading stops at
+//! `POINT_DATA` or `CELL_DATA`.
 //!
 //! Cell types: 5 (triangle) and 10 (tetrahedron) are the mesh elements; 22 (quadratic
 //! triangle) and 24 (quadratic tetrahedron) are read as their corners. Cells of lower
@@ -47,17 +49,23 @@ fn vtk_cell(t: i64) -> (Option<u8>, &'static str) {
     }
 }
 
-/// The parsed pieces of an unstructured grid, before checks.
-struct Grid {
-    points: Vec<f64>,
-    conn: Vec<u64>,
+/// The parsed pieces of an unstructured grid, before checks (legacy and XML files).
+pub(crate) struct Grid {
+    pub points: Vec<f64>,
+    pub conn: Vec<u64>,
     /// `ncells + 1` offsets into `conn`.
-    offsets: Vec<usize>,
-    types: Vec<i64>,
+    pub offsets: Vec<usize>,
+    pub types: Vec<i64>,
     /// Line of each cell (ASCII only) and of each cell type.
-    cell_lines: Option<Vec<usize>>,
-    type_lines: Option<Vec<usize>>,
+    pub cell_lines: Option<Vec<usize>>,
+    pub type_lines: Option<Vec<usize>>,
+    /// How messages name the cell list and the cell types.
+    pub cells_name: &'static str,
+    pub types_name: &'static str,
 }
+
+const LEGACY_CELLS: &str = "`CELLS`";
+const LEGACY_TYPES: &str = "`CELL_TYPES`";
 
 /// Read a legacy `.vtk` unstructured grid (ASCII or binary).
 pub fn read_vtk(path: &Path) -> Result<LoadedMesh> {
@@ -90,7 +98,11 @@ pub fn read_vtk(path: &Path) -> Result<LoadedMesh> {
             finish(build(path, grid)?, path, "vtk legacy ascii")
         }
         Some("BINARY") => {
-            let grid = parse_binary(path, &bytes)?;
+            let grid = if version_major(&l1) >= 5 {
+                parse_binary51(path, &bytes)?
+            } else {
+                parse_binary(path, &bytes)?
+            };
             finish(build(path, grid)?, path, "vtk legacy binary")
         }
         other => Err(format_err(
@@ -228,7 +240,8 @@ fn parse_ascii(path: &Path, text: &str) -> Result<Grid> {
                 }
                 types = Some((t, l));
             }
-            "POINT_DATA" | "CELL_DATA" | "METADATA" => break,
+            "METADATA" => tk.skip_to_blank_line(),
+            "POINT_DATA" | "CELL_DATA" => break,
             _ => {
                 return Err(tk.err(format!(
                     "expected `DATASET`, `POINTS`, `CELLS`, `CELL_TYPES`, `POINT_DATA` or \
@@ -249,6 +262,291 @@ fn parse_ascii(path: &Path, text: &str) -> Result<Grid> {
         types,
         cell_lines: Some(cell_lines),
         type_lines: Some(type_lines),
+        cells_name: LEGACY_CELLS,
+        types_name: LEGACY_TYPES,
+    })
+}
+
+/// The major version of `# vtk DataFile Version X.Y` (0 when unreadable).
+fn version_major(l1: &str) -> u32 {
+    l1.trim()
+        .rsplit(|c: char| c.is_ascii_whitespace())
+        .next()
+        .and_then(|v| v.split('.').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0)
+}
+
+/// Bytes of a legacy binary data type.
+fn legacy_size(t: &str) -> Option<usize> {
+    Some(match t.to_ascii_lowercase().as_str() {
+        "bit" => return None,
+        "char" | "unsigned_char" => 1,
+        "short" | "unsigned_short" => 2,
+        "int" | "unsigned_int" | "float" | "vtktypeint32" | "vtktypeuint32" => 4,
+        "long" | "unsigned_long" | "double" | "vtktypeint64" | "vtktypeuint64" | "vtkidtype" => 8,
+        _ => return None,
+    })
+}
+
+/// A cursor over a legacy binary file: keyword lines in ASCII, data big-endian after them.
+struct BinCursor<'a> {
+    path: &'a Path,
+    b: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> BinCursor<'a> {
+    fn err(&self, msg: impl Into<String>) -> Error {
+        format_err_noline(self.path, format!("at byte {}: {}", self.pos, msg.into()))
+    }
+
+    /// The next non-blank line, split into tokens; `None` at the end of the file.
+    fn line(&mut self) -> Result<Option<Vec<String>>> {
+        while self.pos < self.b.len() && self.b[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        if self.pos >= self.b.len() {
+            return Ok(None);
+        }
+        let end = self.b[self.pos..]
+            .iter()
+            .position(|&c| c == b'\n')
+            .map_or(self.b.len(), |e| self.pos + e);
+        let text = std::str::from_utf8(&self.b[self.pos..end])
+            .map_err(|_| self.err("expected a keyword line, found binary data"))?;
+        let toks = text.split_ascii_whitespace().map(str::to_string).collect();
+        self.pos = (end + 1).min(self.b.len());
+        Ok(Some(toks))
+    }
+
+    /// A raw line (for METADATA), `None` at the end of the file.
+    fn raw_line(&mut self) -> Option<&'a [u8]> {
+        if self.pos >= self.b.len() {
+            return None;
+        }
+        let end = self.b[self.pos..]
+            .iter()
+            .position(|&c| c == b'\n')
+            .map_or(self.b.len(), |e| self.pos + e);
+        let l = &self.b[self.pos..end];
+        self.pos = (end + 1).min(self.b.len());
+        Some(l)
+    }
+
+    /// `n` values of type `t`, as `f64` (`float` / `double`) or integers.
+    fn values(&mut self, what: &str, n: usize, t: &str) -> Result<Vec<f64>> {
+        let size = legacy_size(t)
+            .ok_or_else(|| self.err(format!("{what}: unsupported data type {}", show(t))))?;
+        let need = n
+            .checked_mul(size)
+            .filter(|&k| k <= self.b.len() - self.pos);
+        let Some(need) = need else {
+            return Err(self.err(format!(
+                "{what}: {n} values of {t} need {} bytes but the file ends after {} (truncated?)",
+                n as u128 * size as u128,
+                self.b.len() - self.pos
+            )));
+        };
+        let data = &self.b[self.pos..self.pos + need];
+        self.pos += need;
+        let t = t.to_ascii_lowercase();
+        let unsigned = t.starts_with("unsigned") || t.starts_with("vtktypeuint");
+        Ok(data
+            .chunks_exact(size)
+            .map(|c| match (size, t.as_str()) {
+                (4, "float") => f32::from_be_bytes(c.try_into().unwrap()) as f64,
+                (8, "double") => f64::from_be_bytes(c.try_into().unwrap()),
+                (1, _) if unsigned => c[0] as f64,
+                (1, _) => c[0] as i8 as f64,
+                (2, _) if unsigned => u16::from_be_bytes(c.try_into().unwrap()) as f64,
+                (2, _) => i16::from_be_bytes(c.try_into().unwrap()) as f64,
+                (4, _) if unsigned => u32::from_be_bytes(c.try_into().unwrap()) as f64,
+                (4, _) => i32::from_be_bytes(c.try_into().unwrap()) as f64,
+                (_, _) if unsigned => u64::from_be_bytes(c.try_into().unwrap()) as f64,
+                (_, _) => i64::from_be_bytes(c.try_into().unwrap()) as f64,
+            })
+            .collect())
+    }
+
+    /// `n` non-negative integers (exact below 2^53, which bounds any real mesh).
+    fn ints(&mut self, what: &str, n: usize, t: &str) -> Result<Vec<u64>> {
+        if matches!(t.to_ascii_lowercase().as_str(), "float" | "double") {
+            return Err(self.err(format!(
+                "{what}: expected an integer type, found {}",
+                show(t)
+            )));
+        }
+        let v = self.values(what, n, t)?;
+        v.iter()
+            .enumerate()
+            .map(|(i, &x)| {
+                if (0.0..9.007_199_254_740_992e15).contains(&x) {
+                    Ok(x as u64)
+                } else {
+                    Err(self.err(format!("{what}: value {i} is {x}; expected 0 <= id < 2^53")))
+                }
+            })
+            .collect()
+    }
+}
+
+/// Parse a `# vtk DataFile Version 5.x` binary unstructured grid: `CELLS nOffsets nConn`
+/// followed by `OFFSETS type` and `CONNECTIVITY type` arrays (or the older count-prefixed
+/// `int` list), `CELL_TYPES` as `int`, `METADATA` blocks (to the next blank line) and
+/// `FIELD` arrays skipped, all data big-endian.
+fn parse_binary51(path: &Path, bytes: &[u8]) -> Result<Grid> {
+    let mut c = BinCursor {
+        path,
+        b: bytes,
+        pos: 0,
+    };
+    for _ in 0..3 {
+        c.raw_line();
+    }
+    let tok = |t: &[String], i: usize| t.get(i).cloned().unwrap_or_default();
+    let mut have_dataset = false;
+    let mut points: Option<Vec<f64>> = None;
+    let mut cells: Option<(Vec<u64>, Vec<usize>)> = None;
+    let mut types: Option<Vec<i64>> = None;
+    while let Some(t) = c.line()? {
+        let kw = t[0].to_ascii_uppercase();
+        let count = |c: &BinCursor, i: usize, what: &str| -> Result<usize> {
+            tok(&t, i).parse().map_err(|_| {
+                c.err(format!(
+                    "`{kw}`: expected {what}, found {}",
+                    show(&tok(&t, i))
+                ))
+            })
+        };
+        match kw.as_str() {
+            "DATASET" => {
+                if !tok(&t, 1).eq_ignore_ascii_case("UNSTRUCTURED_GRID") {
+                    return Err(c.err(format!(
+                        "only `DATASET UNSTRUCTURED_GRID` is supported, found {}",
+                        show(&tok(&t, 1))
+                    )));
+                }
+                have_dataset = true;
+            }
+            "POINTS" => {
+                if !have_dataset {
+                    return Err(c.err("`POINTS` before `DATASET UNSTRUCTURED_GRID`"));
+                }
+                let n = count(&c, 1, "the number of points")?;
+                let p = c.values("`POINTS`", n.saturating_mul(3), &tok(&t, 2))?;
+                if let Some(i) = p.iter().position(|v| !v.is_finite()) {
+                    return Err(c.err(format!(
+                        "point {} has a non-finite coordinate {}",
+                        i / 3,
+                        p[i]
+                    )));
+                }
+                points = Some(p);
+            }
+            "CELLS" => {
+                let a = count(&c, 1, "the number of cells")?;
+                let b = count(&c, 2, "the cell list size")?;
+                let save = c.pos;
+                let next = c.line()?.unwrap_or_default();
+                if next
+                    .first()
+                    .is_some_and(|k| k.eq_ignore_ascii_case("OFFSETS"))
+                {
+                    let offs = c.ints("`OFFSETS`", a, &tok(&next, 1))?;
+                    let kw2 = c.line()?.unwrap_or_default();
+                    if !kw2
+                        .first()
+                        .is_some_and(|k| k.eq_ignore_ascii_case("CONNECTIVITY"))
+                    {
+                        return Err(c.err(format!(
+                            "expected `CONNECTIVITY` after the offsets, found {}",
+                            show(&kw2.join(" "))
+                        )));
+                    }
+                    if offs.first() != Some(&0) || offs.last() != Some(&(b as u64)) {
+                        return Err(c.err(format!(
+                            "`OFFSETS` must start at 0 and end at {b} (the connectivity size)"
+                        )));
+                    }
+                    if let Some(i) = offs.windows(2).position(|w| w[1] < w[0]) {
+                        return Err(c.err(format!("`OFFSETS` decrease at cell {i}")));
+                    }
+                    let conn = c.ints("`CONNECTIVITY`", b, &tok(&kw2, 1))?;
+                    cells = Some((conn, offs.iter().map(|&o| o as usize).collect()));
+                } else {
+                    c.pos = save;
+                    let list = c.ints("`CELLS`", b, "int")?;
+                    let mut conn = Vec::new();
+                    let mut offsets = vec![0usize];
+                    let mut i = 0usize;
+                    for cell in 0..a {
+                        let k = *list
+                            .get(i)
+                            .ok_or_else(|| c.err(format!("`CELLS` ends before cell {cell}")))?
+                            as usize;
+                        let ids = list
+                            .get(i + 1..i + 1 + k)
+                            .ok_or_else(|| c.err(format!("`CELLS` ends inside cell {cell}")))?;
+                        conn.extend_from_slice(ids);
+                        offsets.push(conn.len());
+                        i += 1 + k;
+                    }
+                    cells = Some((conn, offsets));
+                }
+            }
+            "CELL_TYPES" => {
+                let n = count(&c, 1, "the number of cell types")?;
+                types = Some(
+                    c.ints("`CELL_TYPES`", n, "int")?
+                        .into_iter()
+                        .map(|v| v as i64)
+                        .collect(),
+                );
+            }
+            "METADATA" => {
+                while let Some(l) = c.raw_line() {
+                    if l.iter().all(|b| b.is_ascii_whitespace()) {
+                        break;
+                    }
+                }
+            }
+            "FIELD" => {
+                let n = count(&c, 2, "the number of field arrays")?;
+                for _ in 0..n {
+                    let a = c.line()?.unwrap_or_default();
+                    let nc: usize = tok(&a, 1).parse().unwrap_or(usize::MAX);
+                    let nt: usize = tok(&a, 2).parse().unwrap_or(usize::MAX);
+                    c.values(
+                        &format!("field array {}", show(&tok(&a, 0))),
+                        nc.saturating_mul(nt),
+                        &tok(&a, 3),
+                    )?;
+                }
+            }
+            "POINT_DATA" | "CELL_DATA" => break,
+            _ => {
+                return Err(c.err(format!(
+                    "expected `DATASET`, `POINTS`, `CELLS`, `CELL_TYPES`, `POINT_DATA` or \
+                     `CELL_DATA`, found {}",
+                    show(&t[0])
+                )))
+            }
+        }
+    }
+    let missing = |what: &str| format_err_noline(path, format!("no `{what}` section"));
+    let points = points.ok_or_else(|| missing("POINTS"))?;
+    let (conn, offsets) = cells.ok_or_else(|| missing("CELLS"))?;
+    let types = types.ok_or_else(|| missing("CELL_TYPES"))?;
+    Ok(Grid {
+        points,
+        conn,
+        offsets,
+        types,
+        cell_lines: None,
+        type_lines: None,
+        cells_name: LEGACY_CELLS,
+        types_name: LEGACY_TYPES,
     })
 }
 
@@ -313,11 +611,13 @@ fn parse_binary(path: &Path, bytes: &[u8]) -> Result<Grid> {
         types,
         cell_lines: None,
         type_lines: None,
+        cells_name: LEGACY_CELLS,
+        types_name: LEGACY_TYPES,
     })
 }
 
 /// Checks and conversion of a parsed grid.
-fn build(path: &Path, g: Grid) -> Result<RawMesh> {
+pub(crate) fn build(path: &Path, g: Grid) -> Result<RawMesh> {
     let at = |lines: &Option<Vec<usize>>, i: usize, msg: String| -> Error {
         match lines.as_ref().and_then(|l| l.get(i)) {
             Some(&l) => format_err(path, l, msg),
@@ -330,8 +630,10 @@ fn build(path: &Path, g: Grid) -> Result<RawMesh> {
             &g.type_lines,
             0,
             format!(
-                "`CELL_TYPES` has {} entries but `CELLS` has {ncells} cells",
-                g.types.len()
+                "{} has {} entries but {} has {ncells} cells",
+                g.types_name,
+                g.types.len(),
+                g.cells_name
             ),
         ));
     }

@@ -1,19 +1,75 @@
 //! ParaView output: VTK XML unstructured grids (`.vtu`) and `.pvd` time collections.
 //!
-//! [`write_vtu`] writes one frame: the current node positions, the mesh cells (VTK types 5
-//! triangle and 10 tetrahedron, same node order as [`Mesh`]) and any number of point and cell
-//! fields (scalars, 3-vectors, 3x3 tensors stored row-major as 9 components). Data are ASCII
-//! `Float64` written with Rust's shortest round-trip representation (`{:e}`), so values read
-//! back bit-exact. [`PvdWriter`] maintains a `.pvd` collection listing frames and their
-//! times, rewritten after every [`PvdWriter::add`]. Both write atomically and refuse
-//! non-finite values ([`Error::Param`] naming the field and the item).
+//! [`write_vtu`] writes one frame: node positions, the mesh cells (VTK types 5 triangle and
+//! 10 tetrahedron, same node order as [`Mesh`]) and any number of point and cell fields
+//! (scalars, 3-vectors, 3x3 tensors stored row-major as 9 components, integer scalars). The
+//! first 3-vector point field is marked as the active vectors (`<PointData Vectors=..>`), so
+//! ParaView's *Warp By Vector* applies it without choosing: write the reference positions
+//! with a `displacement` field first to see the deformed body.
+//!
+//! Two layouts ([`VtuFormat`]):
+//! - [`VtuFormat::Binary`] (the default), ParaView's own: every array in one
+//!   `<AppendedData encoding="raw">` section after a `_` marker, at the byte `offset` its
+//!   `<DataArray format="appended">` names, zlib-compressed (`compressor="vtkZLibDataCompressor"`,
+//!   `header_type="UInt64"`, little endian). Each array is cut into blocks of
+//!   [`VTU_BLOCK_SIZE`] bytes (the last one shorter), each compressed on its own, and
+//!   preceded by the header `[nblocks, block size, size of the last block if partial else 0,
+//!   compressed size of each block]`, `3 + nblocks` `UInt64` values. Floats are stored as
+//!   their IEEE bits (`Float64`), so values read back bit-exact. The blocks are compressed in
+//!   parallel, but each one independently at a fixed level, so the bytes do not depend on the
+//!   thread count.
+//! - [`VtuFormat::Ascii`]: the same arrays as text (`format="ascii"`), floats in Rust's
+//!   shortest round-trip representation (`{:e}`), so they also read back bit-exact.
+//!
+//! Cells: `connectivity` and `offsets` as `Int64`, `types` as `UInt8`. [`PvdWriter`]
+//! maintains a `.pvd` collection listing frames and their times, rewritten after every
+//! [`PvdWriter::add`]. Both write atomically and refuse non-finite values ([`Error::Param`]
+//! naming the field and the item). [`read_vtu`](super::vtu_read::read_vtu) reads the files
+//! back.
 
+use std::borrow::Cow;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
 
 use super::write_atomic;
 use crate::mesh::{ElementKind, Mesh};
 use crate::{Error, Result};
+
+/// Uncompressed bytes per zlib block of [`VtuFormat::Binary`] (VTK's default block size).
+pub const VTU_BLOCK_SIZE: usize = 1 << 15;
+
+/// zlib level of [`VtuFormat::Binary`] (VTK's default for `vtkZLibDataCompressor`).
+const ZLIB_LEVEL: u32 = 5;
+
+/// How [`write_vtu_as`] stores the arrays (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum VtuFormat {
+    /// Appended raw binary, zlib-compressed, `UInt64` headers (ParaView's layout).
+    #[default]
+    Binary,
+    /// ASCII text.
+    Ascii,
+}
+
+impl VtuFormat {
+    /// The scenario key's spelling: `"binary"` or `"ascii"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            VtuFormat::Binary => "binary",
+            VtuFormat::Ascii => "ascii",
+        }
+    }
+    /// Parse `"binary"` or `"ascii"`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "binary" => Some(VtuFormat::Binary),
+            "ascii" => Some(VtuFormat::Ascii),
+            _ => None,
+        }
+    }
+}
 
 /// The values of one field, one item per node (point fields) or element (cell fields).
 #[derive(Clone, Copy, Debug)]
@@ -24,21 +80,35 @@ pub enum FieldData<'a> {
     Vector(&'a [f64]),
     /// Nine values per item, a 3x3 tensor row-major.
     Tensor(&'a [f64]),
+    /// One integer per item (e.g. ids), written as `Int64`.
+    Int(&'a [i64]),
 }
 
 impl FieldData<'_> {
     /// Components per item.
     pub fn components(&self) -> usize {
         match self {
-            FieldData::Scalar(_) => 1,
+            FieldData::Scalar(_) | FieldData::Int(_) => 1,
             FieldData::Vector(_) => 3,
             FieldData::Tensor(_) => 9,
         }
     }
-    /// The flat values.
-    pub fn values(&self) -> &[f64] {
+    /// The number of values (items x components).
+    pub fn len(&self) -> usize {
         match self {
-            FieldData::Scalar(v) | FieldData::Vector(v) | FieldData::Tensor(v) => v,
+            FieldData::Scalar(v) | FieldData::Vector(v) | FieldData::Tensor(v) => v.len(),
+            FieldData::Int(v) => v.len(),
+        }
+    }
+    /// True when there are no values.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// The float values (`None` for [`FieldData::Int`]).
+    pub fn values(&self) -> Option<&[f64]> {
+        match self {
+            FieldData::Scalar(v) | FieldData::Vector(v) | FieldData::Tensor(v) => Some(v),
+            FieldData::Int(_) => None,
         }
     }
 }
@@ -66,18 +136,9 @@ fn xml_escape(s: &str) -> String {
     o
 }
 
-/// Check that `values` has `items * k` finite entries.
+/// Check that `values` has `items * k` entries, all finite.
 fn check_values(name: &str, what: &str, values: &[f64], k: usize, items: usize) -> Result<()> {
-    if values.len() != items * k {
-        return Err(Error::param(
-            name,
-            format!(
-                "{what} needs {items} items x {k} components = {} values, got {}",
-                items * k,
-                values.len()
-            ),
-        ));
-    }
+    check_len(name, what, values.len(), k, items)?;
     if let Some(i) = values.iter().position(|v| !v.is_finite()) {
         return Err(Error::param(
             name,
@@ -92,62 +153,197 @@ fn check_values(name: &str, what: &str, values: &[f64], k: usize, items: usize) 
     Ok(())
 }
 
+fn check_len(name: &str, what: &str, len: usize, k: usize, items: usize) -> Result<()> {
+    if len != items * k {
+        return Err(Error::param(
+            name,
+            format!(
+                "{what} needs {items} items x {k} components = {} values, got {len}",
+                items * k
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn check_fields(fields: &[Field], items: usize, what: &str) -> Result<()> {
     for f in fields {
         if f.name.is_empty() {
             return Err(Error::param(what, "a field has an empty name"));
         }
-        check_values(
-            f.name,
-            &format!("{what} `{}`", f.name),
-            f.data.values(),
-            f.data.components(),
-            items,
-        )?;
-    }
-    Ok(())
-}
-
-fn write_array(w: &mut dyn Write, values: &[f64], per_line: usize) -> std::io::Result<()> {
-    for chunk in values.chunks(per_line.max(1)) {
-        w.write_all(b"         ")?;
-        for v in chunk {
-            write!(w, " {v:e}")?;
-        }
-        w.write_all(b"\n")?;
-    }
-    Ok(())
-}
-
-fn write_fields(w: &mut dyn Write, tag: &str, fields: &[Field]) -> std::io::Result<()> {
-    if fields.is_empty() {
-        return Ok(());
-    }
-    writeln!(w, "      <{tag}>")?;
-    for f in fields {
+        let what = format!("{what} `{}`", f.name);
         let k = f.data.components();
-        writeln!(
-            w,
-            "        <DataArray type=\"Float64\" Name=\"{}\" NumberOfComponents=\"{k}\" \
-             format=\"ascii\">",
-            xml_escape(f.name)
-        )?;
-        write_array(w, f.data.values(), k.max(3))?;
-        writeln!(w, "        </DataArray>")?;
+        match f.data.values() {
+            Some(v) => check_values(f.name, &what, v, k, items)?,
+            None => check_len(f.name, &what, f.data.len(), k, items)?,
+        }
     }
-    writeln!(w, "      </{tag}>")
+    Ok(())
 }
 
-/// Write one ParaView frame: `mesh`'s cells at node `positions` (one per mesh node, e.g.
-/// reference positions plus displacement), with point fields (one item per node) and cell
-/// fields (one item per element). Atomic; refuses non-finite values and wrong lengths with
-/// [`Error::Param`].
+/// The values of one array to write.
+enum Values<'a> {
+    F64(&'a [f64]),
+    I64(Cow<'a, [i64]>),
+    U8(Vec<u8>),
+}
+
+impl Values<'_> {
+    fn vtk_type(&self) -> &'static str {
+        match self {
+            Values::F64(_) => "Float64",
+            Values::I64(_) => "Int64",
+            Values::U8(_) => "UInt8",
+        }
+    }
+    /// Little-endian bytes.
+    fn bytes(&self) -> Vec<u8> {
+        match self {
+            Values::F64(v) => v.iter().flat_map(|x| x.to_le_bytes()).collect(),
+            Values::I64(v) => v.iter().flat_map(|x| x.to_le_bytes()).collect(),
+            Values::U8(v) => v.clone(),
+        }
+    }
+    fn write_ascii(&self, w: &mut dyn Write, per_line: usize) -> std::io::Result<()> {
+        fn lines<T>(
+            w: &mut dyn Write,
+            v: &[T],
+            per_line: usize,
+            f: impl Fn(&mut dyn Write, &T) -> std::io::Result<()>,
+        ) -> std::io::Result<()> {
+            for chunk in v.chunks(per_line.max(1)) {
+                w.write_all(b"         ")?;
+                for x in chunk {
+                    f(w, x)?;
+                }
+                w.write_all(b"\n")?;
+            }
+            Ok(())
+        }
+        match self {
+            Values::F64(v) => lines(w, v, per_line, |w, x| write!(w, " {x:e}")),
+            Values::I64(v) => lines(w, v, per_line, |w, x| write!(w, " {x}")),
+            Values::U8(v) => lines(w, v, per_line, |w, x| write!(w, " {x}")),
+        }
+    }
+}
+
+/// One `<DataArray>`.
+struct Array<'a> {
+    name: Option<&'a str>,
+    components: usize,
+    values: Values<'a>,
+    /// Values per line in ASCII.
+    per_line: usize,
+}
+
+impl<'a> Array<'a> {
+    fn of_field(f: &Field<'a>) -> Self {
+        let k = f.data.components();
+        let values = match f.data {
+            FieldData::Scalar(v) | FieldData::Vector(v) | FieldData::Tensor(v) => Values::F64(v),
+            FieldData::Int(v) => Values::I64(Cow::Borrowed(v)),
+        };
+        Array {
+            name: Some(f.name),
+            components: k,
+            per_line: if k == 1 { 8 } else { k },
+            values,
+        }
+    }
+}
+
+/// zlib-compress `bytes` in [`VTU_BLOCK_SIZE`] blocks and prepend the VTK `UInt64` header.
+fn compress_array(bytes: &[u8]) -> Vec<u8> {
+    use flate2::{write::ZlibEncoder, Compression};
+    let blocks: Vec<Vec<u8>> = bytes
+        .par_chunks(VTU_BLOCK_SIZE)
+        .map(|b| {
+            let mut e = ZlibEncoder::new(
+                Vec::with_capacity(b.len() / 2),
+                Compression::new(ZLIB_LEVEL),
+            );
+            e.write_all(b).expect("writing to a Vec cannot fail");
+            e.finish().expect("writing to a Vec cannot fail")
+        })
+        .collect();
+    let mut out =
+        Vec::with_capacity(8 * (3 + blocks.len()) + blocks.iter().map(Vec::len).sum::<usize>());
+    for h in [
+        blocks.len() as u64,
+        VTU_BLOCK_SIZE as u64,
+        (bytes.len() % VTU_BLOCK_SIZE) as u64,
+    ]
+    .into_iter()
+    .chain(blocks.iter().map(|b| b.len() as u64))
+    {
+        out.extend_from_slice(&h.to_le_bytes());
+    }
+    for b in &blocks {
+        out.extend_from_slice(b);
+    }
+    out
+}
+
+/// Write `<DataArray>` elements of one group; binary ones append their data to `appended`.
+fn write_arrays(
+    w: &mut dyn Write,
+    arrays: &[Array],
+    format: VtuFormat,
+    appended: &mut Vec<u8>,
+) -> std::io::Result<()> {
+    for a in arrays {
+        write!(w, "        <DataArray type=\"{}\"", a.values.vtk_type())?;
+        if let Some(n) = a.name {
+            write!(w, " Name=\"{}\"", xml_escape(n))?;
+        }
+        if a.components != 1 || a.name.is_none() {
+            write!(w, " NumberOfComponents=\"{}\"", a.components)?;
+        }
+        match format {
+            VtuFormat::Ascii => {
+                writeln!(w, " format=\"ascii\">")?;
+                a.values.write_ascii(w, a.per_line)?;
+                writeln!(w, "        </DataArray>")?;
+            }
+            VtuFormat::Binary => {
+                writeln!(w, " format=\"appended\" offset=\"{}\"/>", appended.len())?;
+                appended.extend_from_slice(&compress_array(&a.values.bytes()));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Write one ParaView frame in the default [`VtuFormat::Binary`]; see [`write_vtu_as`].
 pub fn write_vtu(
     path: &Path,
     mesh: &Mesh,
     positions: &[[f64; 3]],
     point_fields: &[Field],
     cell_fields: &[Field],
+) -> Result<()> {
+    write_vtu_as(
+        path,
+        mesh,
+        positions,
+        point_fields,
+        cell_fields,
+        VtuFormat::Binary,
+    )
+}
+
+/// Write one ParaView frame: `mesh`'s cells at node `positions` (one per mesh node, e.g. the
+/// reference positions), with point fields (one item per node) and cell fields (one item per
+/// element), in `format`. Atomic; refuses non-finite values and wrong lengths with
+/// [`Error::Param`].
+pub fn write_vtu_as(
+    path: &Path,
+    mesh: &Mesh,
+    positions: &[[f64; 3]],
+    point_fields: &[Field],
+    cell_fields: &[Field],
+    format: VtuFormat,
 ) -> Result<()> {
     let nn = mesh.num_nodes();
     let ne = mesh.num_elements();
@@ -170,70 +366,88 @@ pub fn write_vtu(
         ));
     }
     let (npe, vtk_type) = match mesh.kind {
-        ElementKind::Tri3 => (3, 5),
-        ElementKind::Tet4 => (4, 10),
+        ElementKind::Tri3 => (3, 5u8),
+        ElementKind::Tet4 => (4, 10u8),
     };
+    let point_arrays: Vec<Array> = point_fields.iter().map(Array::of_field).collect();
+    let cell_arrays: Vec<Array> = cell_fields.iter().map(Array::of_field).collect();
+    let points = [Array {
+        name: None,
+        components: 3,
+        values: Values::F64(positions.as_flattened()),
+        per_line: 3,
+    }];
+    let cells = [
+        Array {
+            name: Some("connectivity"),
+            components: 1,
+            values: Values::I64(Cow::Owned(mesh.cells.iter().map(|&c| c as i64).collect())),
+            per_line: npe,
+        },
+        Array {
+            name: Some("offsets"),
+            components: 1,
+            values: Values::I64(Cow::Owned((1..=ne).map(|e| (e * npe) as i64).collect())),
+            per_line: 16,
+        },
+        Array {
+            name: Some("types"),
+            components: 1,
+            values: Values::U8(vec![vtk_type; ne]),
+            per_line: 32,
+        },
+    ];
+    let active_vectors = point_fields
+        .iter()
+        .find(|f| matches!(f.data, FieldData::Vector(_)))
+        .map(|f| f.name);
     write_atomic(path, |w: &mut dyn Write| {
+        let mut appended = Vec::new();
         writeln!(w, "<?xml version=\"1.0\"?>")?;
-        writeln!(
+        write!(
             w,
-            "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">"
+            "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\""
         )?;
+        if format == VtuFormat::Binary {
+            write!(
+                w,
+                " header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\""
+            )?;
+        }
+        writeln!(w, ">")?;
         writeln!(w, "  <UnstructuredGrid>")?;
         writeln!(
             w,
             "    <Piece NumberOfPoints=\"{nn}\" NumberOfCells=\"{ne}\">"
         )?;
-        write_fields(w, "PointData", point_fields)?;
-        write_fields(w, "CellData", cell_fields)?;
+        if !point_arrays.is_empty() {
+            match active_vectors {
+                Some(v) => writeln!(w, "      <PointData Vectors=\"{}\">", xml_escape(v))?,
+                None => writeln!(w, "      <PointData>")?,
+            }
+            write_arrays(w, &point_arrays, format, &mut appended)?;
+            writeln!(w, "      </PointData>")?;
+        }
+        if !cell_arrays.is_empty() {
+            writeln!(w, "      <CellData>")?;
+            write_arrays(w, &cell_arrays, format, &mut appended)?;
+            writeln!(w, "      </CellData>")?;
+        }
         writeln!(w, "      <Points>")?;
-        writeln!(
-            w,
-            "        <DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">"
-        )?;
-        write_array(w, positions.as_flattened(), 3)?;
-        writeln!(w, "        </DataArray>")?;
+        write_arrays(w, &points, format, &mut appended)?;
         writeln!(w, "      </Points>")?;
         writeln!(w, "      <Cells>")?;
-        writeln!(
-            w,
-            "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">"
-        )?;
-        for el in mesh.elements() {
-            w.write_all(b"         ")?;
-            for v in el {
-                write!(w, " {v}")?;
-            }
-            w.write_all(b"\n")?;
-        }
-        writeln!(w, "        </DataArray>")?;
-        writeln!(
-            w,
-            "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">"
-        )?;
-        for chunk in (1..=ne).collect::<Vec<_>>().chunks(16) {
-            w.write_all(b"         ")?;
-            for e in chunk {
-                write!(w, " {}", e * npe)?;
-            }
-            w.write_all(b"\n")?;
-        }
-        writeln!(w, "        </DataArray>")?;
-        writeln!(
-            w,
-            "        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">"
-        )?;
-        for chunk in (0..ne).collect::<Vec<_>>().chunks(32) {
-            w.write_all(b"         ")?;
-            for _ in chunk {
-                write!(w, " {vtk_type}")?;
-            }
-            w.write_all(b"\n")?;
-        }
-        writeln!(w, "        </DataArray>")?;
+        write_arrays(w, &cells, format, &mut appended)?;
         writeln!(w, "      </Cells>")?;
         writeln!(w, "    </Piece>")?;
         writeln!(w, "  </UnstructuredGrid>")?;
+        if format == VtuFormat::Binary {
+            writeln!(w, "  <AppendedData encoding=\"raw\">")?;
+            w.write_all(b"   _")?;
+            w.write_all(&appended)?;
+            writeln!(w)?;
+            writeln!(w, "  </AppendedData>")?;
+        }
         writeln!(w, "</VTKFile>")
     })
 }
@@ -339,7 +553,7 @@ mod tests {
         let u: Vec<f64> = (0..15).map(|i| i as f64 * 1e-7).collect();
         let sig: Vec<f64> = (0..18).map(|i| -(i as f64) * 1.5e3).collect();
         let j = [1.0, 0.99];
-        write_vtu(
+        write_vtu_as(
             &p,
             &m,
             &pos,
@@ -363,6 +577,7 @@ mod tests {
                     data: FieldData::Scalar(&j),
                 },
             ],
+            VtuFormat::Ascii,
         )
         .unwrap();
         let vtk = vtkio::Vtk::import(&p).unwrap();
@@ -413,6 +628,85 @@ mod tests {
     }
 
     #[test]
+    fn binary_frame_reads_back_bit_exact() {
+        use crate::io::{read_vtu, read_vtu_array};
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("b.vtu");
+        let mut m = two_tets();
+        m.orient(); // the reader orients; write what it will return
+        let u: Vec<f64> = (0..15).map(|i| (i as f64 * 0.7).sin() * 1e-3).collect();
+        let ids = [5i64, 4, 3, 2, -1];
+        let j = [1.0, 0.99 + 1e-17];
+        write_vtu(
+            &p,
+            &m,
+            &m.nodes,
+            &[
+                Field {
+                    name: "displacement",
+                    data: FieldData::Vector(&u),
+                },
+                Field {
+                    name: "id",
+                    data: FieldData::Int(&ids),
+                },
+            ],
+            &[Field {
+                name: "J",
+                data: FieldData::Scalar(&j),
+            }],
+        )
+        .unwrap();
+        let l = read_vtu(&p).unwrap();
+        assert_eq!(l.format, "vtu appended zlib");
+        assert_eq!(l.mesh.nodes, m.nodes);
+        assert_eq!(l.mesh.cells, m.cells);
+        assert_eq!(read_vtu_array(&p, "displacement").unwrap(), (3, u));
+        assert_eq!(
+            read_vtu_array(&p, "id").unwrap(),
+            (1, vec![5.0, 4.0, 3.0, 2.0, -1.0])
+        );
+        assert_eq!(read_vtu_array(&p, "J").unwrap(), (1, j.to_vec()));
+        let text = String::from_utf8_lossy(&std::fs::read(&p).unwrap()).to_string();
+        assert!(
+            text.contains("<PointData Vectors=\"displacement\">"),
+            "{text}"
+        );
+        assert!(text.contains("<DataArray type=\"Int64\" Name=\"id\" format=\"appended\""));
+    }
+
+    /// The compressed layout: header `[nblocks, block, last partial, sizes..]`, each block an
+    /// independent zlib stream inflating to its share of the bytes.
+    #[test]
+    fn compressed_header_layout() {
+        use std::io::Read;
+        let bytes: Vec<u8> = (0..(2 * VTU_BLOCK_SIZE + 100))
+            .map(|i| (i % 251) as u8)
+            .collect();
+        let out = compress_array(&bytes);
+        let w = |i: usize| u64::from_le_bytes(out[8 * i..8 * i + 8].try_into().unwrap()) as usize;
+        assert_eq!((w(0), w(1), w(2)), (3, VTU_BLOCK_SIZE, 100));
+        let mut pos = 8 * 6;
+        let mut all = Vec::new();
+        for b in 0..3 {
+            flate2::read::ZlibDecoder::new(&out[pos..pos + w(3 + b)])
+                .read_to_end(&mut all)
+                .unwrap();
+            pos += w(3 + b);
+        }
+        assert_eq!(pos, out.len());
+        assert_eq!(all, bytes);
+        // A whole number of blocks: the last-block field is 0.
+        let out = compress_array(&bytes[..VTU_BLOCK_SIZE]);
+        assert_eq!(
+            &out[..24],
+            &[1u64, VTU_BLOCK_SIZE as u64, 0]
+                .map(u64::to_le_bytes)
+                .concat()[..]
+        );
+    }
+
+    #[test]
     fn vtu_triangles_and_no_fields() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("t.vtu");
@@ -421,7 +715,7 @@ mod tests {
             vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
             vec![0, 1, 2],
         );
-        write_vtu(&p, &m, &m.nodes, &[], &[]).unwrap();
+        write_vtu_as(&p, &m, &m.nodes, &[], &[], VtuFormat::Ascii).unwrap();
         let vtk = vtkio::Vtk::import(&p).unwrap();
         let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
             panic!()

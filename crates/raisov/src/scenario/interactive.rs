@@ -18,9 +18,9 @@
 //!
 //! The frame rate counts the stepper's own wall time only (not the reference solve nor the
 //! output): `fps = frames / Σ frame wall`. Written atomically under the output directory:
-//! `frames.csv` (one row per frame), `NAME.pvd` + `frames/*.vtu` (fields `displacement`,
-//! `static` and `lag`, and `file_node_id` where `[mesh] renumber` reordered the nodes),
-//! `summary.txt`.
+//! `frames.csv` (one row per frame), `NAME.pvd` + `frames/*.vtu` (reference points with
+//! fields `displacement`, `static` and `lag`, and `file_node_id` where `[mesh] renumber`
+//! reordered the nodes; format per `[output] vtu`), `summary.txt`.
 
 use super::run::RunOptions;
 use super::spec::{defaults, InteractiveSpec, StaticReference};
@@ -28,7 +28,7 @@ use super::{err, positive, Scenario, StopRule};
 use crate::error::{Error, Result};
 use crate::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
 use crate::integrate::{hold, Stepper};
-use crate::io::{write_atomic, write_vtu, Field, FieldData, PvdWriter};
+use crate::io::{write_atomic, write_vtu_as, Field, FieldData, PvdWriter};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -227,12 +227,11 @@ pub fn run_interactive(
     let frames_dir = out.join("frames");
     std::fs::create_dir_all(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
     let mut pvd = PvdWriter::new(out.join(format!("{}.pvd", sc.name)));
-    let mut positions = vec![[0.0; 3]; n];
     let mut lag = vec![0.0; 3 * n];
-    let file_node_id: Option<Vec<f64>> = sc
+    let file_node_id: Option<Vec<i64>> = sc
         .file_ids
         .as_ref()
-        .map(|f| f.iter().map(|&a| a as f64).collect());
+        .map(|f| f.iter().map(|&a| a as i64).collect());
     let mut diverged = None;
     for k in 1..=frames_n {
         let t = k as f64 / settings.fps;
@@ -297,8 +296,6 @@ pub fn run_interactive(
         for a in 0..n {
             let u = [s.u[3 * a], s.u[3 * a + 1], s.u[3 * a + 2]];
             max_u = max_u.max(crate::mesh::norm(u));
-            let p = sc.mesh.nodes[a];
-            positions[a] = [p[0] + u[0], p[1] + u[1], p[2] + u[2]];
             let us = [u_star[3 * a], u_star[3 * a + 1], u_star[3 * a + 2]];
             static_max_u = static_max_u.max(crate::mesh::norm(us));
             let d = crate::mesh::sub(u, us);
@@ -349,10 +346,17 @@ pub fn run_interactive(
         if let Some(ids) = &file_node_id {
             fields.push(Field {
                 name: "file_node_id",
-                data: FieldData::Scalar(ids),
+                data: FieldData::Int(ids),
             });
         }
-        write_vtu(&frames_dir.join(&file), &sc.mesh, &positions, &fields, &[])?;
+        write_vtu_as(
+            &frames_dir.join(&file),
+            &sc.mesh,
+            &sc.mesh.nodes,
+            &fields,
+            &[],
+            sc.vtu,
+        )?;
         pvd.add(t, &format!("frames/{file}"))?;
         if let Some(p) = opts.progress.as_mut() {
             let sample = crate::metrics::Sample {

@@ -33,7 +33,7 @@ use crate::error::{Error, Result};
 use crate::fem::{FemModel, FemParams, Precision};
 use crate::integrate::stability::critical_step_estimate;
 use crate::integrate::{Constraints, Method, Motion, System};
-use crate::io::load_mesh;
+use crate::io::{load_mesh, VtuFormat};
 use crate::material::{
     lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, VerondaWestmann,
 };
@@ -177,6 +177,8 @@ pub struct Scenario {
     pub out_dir: PathBuf,
     pub frame_interval: f64,
     pub csv_every: u64,
+    /// `[output] vtu`: how the frames are stored (binary appended zlib, or ASCII).
+    pub vtu: VtuFormat,
     pub reference: Reference,
     /// `[multigrid]`: the levels and the scheme; `None` for a single level.
     pub multigrid: Option<Multigrid>,
@@ -410,6 +412,7 @@ impl Scenario {
                 "`output.csv_every` = 0: must be at least 1 (steps)",
             ));
         }
+        let vtu = spec.output.vtu.unwrap_or_default();
         let reference = match spec.output.reference.clone().unwrap_or_default() {
             Reference::File(p) => {
                 let p = base.join(p);
@@ -447,6 +450,7 @@ impl Scenario {
             out_dir,
             frame_interval,
             csv_every,
+            vtu,
             reference,
             multigrid,
             interactive,

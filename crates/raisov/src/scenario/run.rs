@@ -2,10 +2,12 @@
 //!
 //! Files written under the output directory, each atomically (temp file + rename):
 //! - `measures.csv`: one row per `csv_every` steps ([`crate::metrics::CSV_HEADER`]);
-//! - `NAME.pvd` + `frames/NAME_NNNNNN.vtu`: ParaView time series on the deformed mesh with
-//!   point fields `displacement` (m), `velocity` (m/s), `stress` (nodal Cauchy T, Pa), and
-//!   `file_node_id` (each point's node id in the mesh file) where `[mesh] renumber` reordered
-//!   the nodes;
+//! - `NAME.pvd` + `frames/NAME_NNNNNN.vtu`: ParaView time series, points in the reference
+//!   configuration with point fields `displacement` (m; the active vectors, so *Warp By
+//!   Vector* shows the deformed body), `velocity` (m/s), `stress` (nodal Cauchy T, Pa), and
+//!   `file_node_id` (`Int64`, each point's node id in the mesh file) where `[mesh] renumber`
+//!   reordered the nodes; binary appended zlib or ASCII per `[output] vtu`
+//!   ([`crate::io::vtu`]);
 //! - `nodal_stress.csv`: the final nodal stress per node, in file order, `node` the file's id
 //!   (usable as a later run's `output.reference`);
 //! - `summary.txt`: what the closing summary says.
@@ -17,7 +19,7 @@ use super::{Reference, Scenario, StopRule};
 use crate::error::{Error, Result};
 use crate::integrate::relax::relax;
 use crate::integrate::{State, Stepper};
-use crate::io::{write_atomic, write_vtu, Field, FieldData, PvdWriter};
+use crate::io::{write_atomic, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
 use crate::metrics::{write_csv, Meter, Sample};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -271,14 +273,20 @@ struct Frames {
     name: String,
     pvd: PvdWriter,
     count: usize,
-    positions: Vec<[f64; 3]>,
+    format: VtuFormat,
     stress: Vec<f64>,
     /// Each point's node id in the mesh file, where the scenario renumbered the nodes.
-    file_ids: Option<Vec<f64>>,
+    file_ids: Option<Vec<i64>>,
 }
 
 impl Frames {
-    fn new(out: &Path, name: &str, n: usize, file_ids: Option<&[u32]>) -> Result<Self> {
+    fn new(
+        out: &Path,
+        name: &str,
+        n: usize,
+        file_ids: Option<&[u32]>,
+        format: VtuFormat,
+    ) -> Result<Self> {
         let dir = out.join("frames");
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         Ok(Frames {
@@ -286,26 +294,19 @@ impl Frames {
             name: name.to_string(),
             pvd: PvdWriter::new(out.join(format!("{name}.pvd"))),
             count: 0,
-            positions: vec![[0.0; 3]; n],
+            format,
             stress: vec![0.0; 9 * n],
-            file_ids: file_ids.map(|f| f.iter().map(|&a| a as f64).collect()),
+            file_ids: file_ids.map(|f| f.iter().map(|&a| a as i64).collect()),
         })
     }
     fn write(&mut self, sc: &Scenario, stepper: &mut dyn Stepper) -> Result<()> {
         let (sys, s) = stepper.finest();
-        for (a, p) in sc.mesh.nodes.iter().enumerate() {
-            self.positions[a] = [
-                p[0] + s.u[3 * a],
-                p[1] + s.u[3 * a + 1],
-                p[2] + s.u[3 * a + 2],
-            ];
-        }
         sys.force.nodal_stress(&s.u, &mut self.stress);
         let file = format!("{}_{:06}.vtu", self.name, self.count);
-        write_vtu(
+        write_vtu_as(
             &self.dir.join(&file),
             &sc.mesh,
-            &self.positions,
+            &sc.mesh.nodes,
             &[
                 Field {
                     name: "displacement",
@@ -321,10 +322,11 @@ impl Frames {
                 },
                 Field {
                     name: "file_node_id",
-                    data: FieldData::Scalar(self.file_ids.as_deref().unwrap_or(&[])),
+                    data: FieldData::Int(self.file_ids.as_deref().unwrap_or(&[])),
                 },
             ][..if self.file_ids.is_some() { 4 } else { 3 }],
             &[],
+            self.format,
         )?;
         self.pvd.add(s.t, &format!("frames/{file}"))?;
         self.count += 1;
@@ -360,7 +362,7 @@ pub fn run_with(
         ),
     };
     let mut meter = Meter::new(n, t_inf);
-    let mut frames = Frames::new(&out, &sc.name, n, sc.file_ids.as_deref())?;
+    let mut frames = Frames::new(&out, &sc.name, n, sc.file_ids.as_deref(), sc.vtu)?;
     let mut rows: Vec<Sample> = Vec::new();
     let start = Instant::now();
     let dt = stepper.dt();

@@ -11,7 +11,7 @@
 //! gravity = [0.0, 0.0, -9.81]     # m/s², default none
 //!
 //! [mesh]                          # one of `file` or `generate`
-//! file = "liver_L3.msh"           # .msh (Gmsh 2.2/4.1), .node/.ele, .vtk; relative to this file
+//! file = "liver_L3.msh"           # .msh (Gmsh 2.2/4.1), .node/.ele, .vtk, .vtu; relative to this file
 //! scale = 1e-3                    # coordinate factor to metres (1e-3 for mm), default 1
 //! generate = "rectangle"          # "rectangle" | "polygon" | "box"
 //! size = [0.1, 0.1]               # rectangle [w, h] or box [x, y, z], m
@@ -90,6 +90,11 @@
 //! frame_interval = 0.05           # s between VTU frames, default 0.05; 0 writes only the
 //!                                 # first and last
 //! csv_every = 1                   # steps between rows of measures.csv, default 1
+//! vtu = "binary"                  # frame storage: "binary" (default; appended raw, zlib-
+//!                                 # compressed, ParaView's own layout) | "ascii" (text);
+//!                                 # `raisov run --ascii-vtu` overrides. Frames hold the
+//!                                 # reference points and a `displacement` point field (the
+//!                                 # active vectors: ParaView's Warp By Vector deforms them)
 //! reference = "none"              # T∞ for |T − T∞|: "none" (default) | "auto" | path to an
 //!                                 # earlier run's nodal_stress.csv
 //!
@@ -140,6 +145,7 @@ use super::Reference;
 use crate::error::{Error, Result};
 use crate::fem::Precision;
 use crate::integrate::Method;
+use crate::io::VtuFormat;
 use crate::mesh::generate::BoxPattern;
 use crate::multigrid::fas::{Scaling, TransferWeights};
 use crate::multigrid::raisov::Reading;
@@ -432,7 +438,21 @@ impl Named for TransferWeights {
     }
 }
 
-deserialize_named!(Method, Precision, Reading, Scaling, TransferWeights);
+impl Named for VtuFormat {
+    const ALL: &'static [Self] = &[VtuFormat::Binary, VtuFormat::Ascii];
+    fn name(self) -> &'static str {
+        VtuFormat::name(self)
+    }
+}
+
+deserialize_named!(
+    Method,
+    Precision,
+    Reading,
+    Scaling,
+    TransferWeights,
+    VtuFormat
+);
 
 /// `[mesh] pattern`: the number of tetrahedra per cube.
 pub fn box_pattern(tets_per_cube: u32) -> Option<BoxPattern> {
@@ -633,6 +653,7 @@ pub struct OutputSpec {
     pub dir: Option<String>,
     pub frame_interval: Option<f64>,
     pub csv_every: Option<u64>,
+    pub vtu: Option<VtuFormat>,
     pub reference: Option<Reference>,
 }
 

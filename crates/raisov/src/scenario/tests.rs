@@ -130,6 +130,7 @@ fn every_error_path_names_the_problem() {
         (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ntable = [[1.0, 0, 0, 0], [0.5, 0, 0, 1]]"), "times must increase"),
         (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\nmode = \"wiggle\"\ndisplacement = [0.0, 0.0, 0.01]"), "valid are \"held\""),
         (format!("{BASE}\n[output]\ncsv_every = 0"), "csv_every"),
+        (format!("{BASE}\n[output]\nvtu = \"hdf5\""), "`output.vtu` = \"hdf5\": valid are \"binary\", \"ascii\""),
         (format!("{BASE}\n[output]\nreference = \"nowhere.csv\""), "no such file"),
         (BASE.replace("[mesh]", "[mesh]\nfile = \"x.msh\""), "either `file` or `generate`"),
         ("[mesh\n".to_string(), "test.toml, line 1"),
@@ -203,6 +204,43 @@ fn draping_membrane_settles() {
     assert!(dir.path().join("test.pvd").is_file());
     let pvd = std::fs::read_to_string(dir.path().join("test.pvd")).unwrap();
     assert!(pvd.contains("frames/test_000000.vtu"));
+}
+
+/// Frames hold the reference points and the displacement (binary by default, ASCII on
+/// request), and the displacement read back is the run's.
+#[test]
+fn frames_hold_reference_points_and_displacement() {
+    for (extra, format) in [
+        ("", "vtu appended zlib"),
+        ("[output]\nvtu = \"ascii\"\n", "vtu ascii"),
+    ] {
+        let sc = parse(&format!("gravity = [0.0, 0.0, -9.81]\n{BASE}\n{extra}")).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let sum = run(
+            &sc,
+            RunOptions {
+                out_dir: Some(dir.path().to_path_buf()),
+                progress: None,
+            },
+        )
+        .unwrap();
+        let frames: Vec<_> = std::fs::read_dir(dir.path().join("frames"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        let last = frames.iter().max().unwrap();
+        let l = crate::io::load_mesh(last).unwrap();
+        assert_eq!(l.format, format);
+        assert_eq!(l.mesh.nodes, sc.mesh.nodes, "reference points");
+        let (k, u) = crate::io::read_vtu_array(last, "displacement").unwrap();
+        assert_eq!(k, 3);
+        let max_u = u
+            .chunks(3)
+            .map(|d| crate::mesh::norm([d[0], d[1], d[2]]))
+            .fold(0.0, f64::max);
+        assert_eq!(max_u, sum.last.max_u);
+        assert!(max_u > 0.0);
+    }
 }
 
 /// A run that blows up stops with a message naming step, time and cause, and leaves finite

@@ -20,11 +20,15 @@
 //! and rejected if any element is degenerate. Coordinates are returned as read (no unit
 //! conversion; see [`Mesh::scale`]).
 //!
+//! Triangle surfaces (the mesher's input) are read by [`load_surface`]: Wavefront OBJ, STL
+//! and PLY, see [`surface`].
+//!
 //! Writing: [`write_msh22`] (Gmsh 2.2 ASCII), [`write_vtu`] and [`PvdWriter`] (ParaView). All
 //! writers go through [`write_atomic`]: the file appears complete or not at all, and none of
 //! them writes a non-finite number.
 
 pub mod gmsh;
+pub mod surface;
 mod text;
 pub mod triangle;
 pub mod vtk;
@@ -36,6 +40,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 pub use gmsh::write_msh22;
+pub use surface::{is_surface_path, load_surface, SURFACE_EXTENSIONS};
 pub use vtu::{write_vtu, Field, FieldData, PvdWriter};
 
 use crate::mesh::{ElementKind, Mesh};

@@ -64,13 +64,15 @@ pub fn parse_stl(path: &Path, bytes: &[u8]) -> Result<Surface> {
         .position(|b| !b.is_ascii_whitespace())
         .map(|i| &bytes[i..])
         .unwrap_or(&[]);
-    if head.len() >= 5 && head[..5].eq_ignore_ascii_case(b"solid") {
+    // A damaged binary file whose header starts with "solid" is not text: report its size.
+    let text = bytes.len() < 84 || std::str::from_utf8(bytes).is_ok();
+    if head.len() >= 5 && head[..5].eq_ignore_ascii_case(b"solid") && text {
         return parse_ascii(path, bytes);
     }
     let msg = if bytes.len() >= 84 {
         let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
         format!(
-            "neither ASCII STL (does not start with `solid`) nor binary STL (the header \
+            "neither ASCII STL (not text starting with `solid`) nor binary STL (the header \
              says {n} triangles, which needs 84 + 50*{n} = {} bytes, but the file has {} bytes)",
             84 + 50 * n,
             bytes.len()

@@ -170,35 +170,47 @@ mod tests {
         o
     }
 
-    /// Binary little-endian PLY with skipped properties before and after the ones read, and
+    /// Binary PLY (little- or big-endian) with skipped properties before and after the ones read, and
     /// an extra element with a list.
-    fn ply_binary(s: &Surface) -> Vec<u8> {
+    fn ply_binary(s: &Surface, big_endian: bool) -> Vec<u8> {
         let mut o = format!(
-            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty short flag\n\
+            "ply\nformat binary_{}_endian 1.0\nelement vertex {}\nproperty short flag\n\
              property double x\nproperty double y\nproperty double z\nproperty float nx\n\
              element face {}\nproperty list uchar uint vertex_indices\n\
              property list int short extra\nelement edge 1\nproperty int vertex1\n\
              property int vertex2\nend_header\n",
+            if big_endian { "big" } else { "little" },
             s.points.len(),
             s.triangles.len()
         )
         .into_bytes();
+        macro_rules! put {
+            ($x:expr) => {
+                if big_endian {
+                    o.extend($x.to_be_bytes())
+                } else {
+                    o.extend($x.to_le_bytes())
+                }
+            };
+        }
         for p in &s.points {
-            o.extend(7i16.to_le_bytes());
+            put!(7i16);
             for c in p {
-                o.extend(c.to_le_bytes());
+                put!(c);
             }
-            o.extend(1f32.to_le_bytes());
+            put!(1f32);
         }
         for t in &s.triangles {
             o.push(3);
             for v in t {
-                o.extend(v.to_le_bytes());
+                put!(v);
             }
-            o.extend(2i32.to_le_bytes());
-            o.extend([1i16, 2].map(i16::to_le_bytes).concat());
+            put!(2i32);
+            put!(1i16);
+            put!(2i16);
         }
-        o.extend([0i32, 1].map(i32::to_le_bytes).concat());
+        put!(0i32);
+        put!(1i32);
         o
     }
 
@@ -213,7 +225,10 @@ mod tests {
         assert_eq!(a.points.len(), b.points.len());
         assert_eq!(a.triangles.len(), b.triangles.len());
         for (s, t) in a.triangles.iter().zip(&b.triangles) {
-            assert_eq!(s.map(|v| a.points[v as usize]), t.map(|v| b.points[v as usize]));
+            assert_eq!(
+                s.map(|v| a.points[v as usize]),
+                t.map(|v| b.points[v as usize])
+            );
         }
     }
 
@@ -227,7 +242,8 @@ mod tests {
                 (format!("{name}.obj"), obj_text(&s).into_bytes()),
                 (format!("{name}.OBJ"), obj_text(&s).into_bytes()),
                 (format!("{name}_a.ply"), ply_ascii(&s).into_bytes()),
-                (format!("{name}_b.ply"), ply_binary(&s)),
+                (format!("{name}_le.ply"), ply_binary(&s, false)),
+                (format!("{name}_be.ply"), ply_binary(&s, true)),
             ] {
                 let got = load_surface(&write(dir.path(), &file, bytes)).unwrap();
                 assert_eq!(got, s, "{file}");
@@ -235,14 +251,14 @@ mod tests {
             }
             // STL has no vertex list: the corners merge back into the same vertices, numbered
             // by first appearance. ASCII keeps the exact positions.
-            let got = load_surface(&write(dir.path(), &format!("{name}_a.stl"), stl_ascii(&s)))
-                .unwrap();
+            let got =
+                load_surface(&write(dir.path(), &format!("{name}_a.stl"), stl_ascii(&s))).unwrap();
             same_geometry(&got, &s);
             assert_eq!(got.enclosed_volume(), v, "{name}");
             // Binary STL stores f32: the same surface at f32-rounded positions, merged back
             // into the same vertex count, closed, with the volume to f32 precision.
-            let got = load_surface(&write(dir.path(), &format!("{name}_b.stl"), stl_binary(&s)))
-                .unwrap();
+            let got =
+                load_surface(&write(dir.path(), &format!("{name}_b.stl"), stl_binary(&s))).unwrap();
             let mut s32 = s.clone();
             for p in &mut s32.points {
                 *p = p.map(|c| c as f32 as f64);
@@ -315,20 +331,33 @@ mod tests {
     fn reader_errors_name_file_line_and_what_is_valid() {
         let d = tempfile::tempdir().unwrap();
         let d = d.path();
-        let e = load_err(d, "a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 3\nf 1 2 9\n");
+        let e = load_err(
+            d,
+            "a.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 3\nf 1 2 9\n",
+        );
         assert!(e.contains("line 6"), "{e}");
         assert!(
             e.contains("face 2 references vertex 9 but the file has 3 vertices (valid: 1..3)"),
             "{e}"
         );
         let e = load_err(d, "b.obj", "v 0 0 0\nv 1 0\n");
-        assert!(e.contains("line 2") && e.contains("expected `v x y z`"), "{e}");
+        assert!(
+            e.contains("line 2") && e.contains("expected `v x y z`"),
+            "{e}"
+        );
         let e = load_err(d, "c.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n");
         assert!(e.contains("line 4") && e.contains("start at 1"), "{e}");
         let e = load_err(d, "d.obj", "v 0 0 0\ncurv 0 1 1 2\n");
-        assert!(e.contains("line 2") && e.contains("unsupported OBJ statement `curv`"), "{e}");
+        assert!(
+            e.contains("line 2") && e.contains("unsupported OBJ statement `curv`"),
+            "{e}"
+        );
         let e = load_err(d, "e.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n");
-        assert!(e.contains("face 1 has 2 corners; a face needs at least 3"), "{e}");
+        assert!(
+            e.contains("face 1 has 2 corners; a face needs at least 3"),
+            "{e}"
+        );
         let e = load_err(d, "f.obj", "v 0 0 x\n");
         assert!(e.contains("line 1") && e.contains("`x`"), "{e}");
         let e = load_err(d, "g.obj", "# nothing\n");
@@ -352,22 +381,40 @@ mod tests {
         let e = load_err(d, "c.ply", ply("3 0 1 2 7"));
         assert!(e.contains("line 13") && e.contains("has 5 values"), "{e}");
         let e = load_err(d, "d.ply", ply("3 0 1 2").replace("float z", "quad z"));
-        assert!(e.contains("line 6") && e.contains("unknown property type `quad`"), "{e}");
-        let e = load_err(d, "e.ply", ply("3 0 1 2").replace("ascii", "binary_middle_endian"));
+        assert!(
+            e.contains("line 6") && e.contains("unknown property type `quad`"),
+            "{e}"
+        );
+        let e = load_err(
+            d,
+            "e.ply",
+            ply("3 0 1 2").replace("ascii", "binary_middle_endian"),
+        );
         assert!(e.contains("line 2") && e.contains("valid: ascii"), "{e}");
         let e = load_err(d, "f.ply", ply("3 0 1 2").replace("property float z\n", ""));
         assert!(e.contains("no scalar property `z`"), "{e}");
-        let mut bin = ply_binary(&cube(0.0, 1.0));
+        let mut bin = ply_binary(&cube(0.0, 1.0), false);
         bin.truncate(bin.len() - 20);
         let e = load_err(d, "g.ply", bin);
         assert!(e.contains("unexpected end of file"), "{e}");
 
-        let e = load_err(d, "a.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n\
-                                       vertex 1 0\n");
+        let e = load_err(
+            d,
+            "a.stl",
+            "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n\
+                                       vertex 1 0\n",
+        );
         assert!(e.contains("line 5") && e.contains("`vertex x y z`"), "{e}");
-        let e = load_err(d, "b.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n\
-                                       vertex 1 0 0\nvertex 0 1 0\nendloop\n");
-        assert!(e.contains("line 8") && e.contains("expected `endsolid`"), "{e}");
+        let e = load_err(
+            d,
+            "b.stl",
+            "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n\
+                                       vertex 1 0 0\nvertex 0 1 0\nendloop\n",
+        );
+        assert!(
+            e.contains("line 8") && e.contains("expected `endsolid`"),
+            "{e}"
+        );
         let mut bin = stl_binary(&cube(0.0, 1.0));
         bin.pop();
         let e = load_err(d, "c.stl", bin);
@@ -377,7 +424,10 @@ mod tests {
         );
 
         let e = load_err(d, "x.off", "OFF\n");
-        assert!(e.contains("`.off`") && e.contains(".obj, .stl, .ply"), "{e}");
+        assert!(
+            e.contains("`.off`") && e.contains(".obj, .stl, .ply"),
+            "{e}"
+        );
         let e = load_surface(&d.join("missing.obj")).unwrap_err();
         assert!(matches!(e, Error::Io { .. }) && e.to_string().contains("missing.obj"));
     }

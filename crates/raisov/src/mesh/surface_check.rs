@@ -122,9 +122,7 @@ pub fn check_surface(s: &mut Surface) -> Result<SurfaceReport> {
         .enumerate()
         .find(|(_, p)| p.iter().any(|c| !c.is_finite()))
     {
-        return Err(bad(format!(
-            "vertex {i} has a non-finite coordinate {p:?}"
-        )));
+        return Err(bad(format!("vertex {i} has a non-finite coordinate {p:?}")));
     }
     for (t, tri) in s.triangles.iter().enumerate() {
         if let Some(&v) = tri.iter().find(|&&v| v as usize >= nv) {
@@ -256,7 +254,9 @@ fn check_degenerate(s: &Surface) -> Result<()> {
         }
         let [pa, pb, pc] = [a, b, c].map(|i| s.points[i as usize]);
         let area = 0.5 * norm(cross(sub(pb, pa), sub(pc, pa)));
-        let h = norm(sub(pb, pa)).max(norm(sub(pc, pb))).max(norm(sub(pa, pc)));
+        let h = norm(sub(pb, pa))
+            .max(norm(sub(pc, pb)))
+            .max(norm(sub(pa, pc)));
         if area <= DEGENERATE_REL * h * h {
             return Err(bad(format!(
                 "degenerate triangle {t} (vertices {a}, {b}, {c}): zero area ({area:e}, \
@@ -498,8 +498,9 @@ impl Bvh {
             let (l, h) = boxes[*i as usize];
             l[axis] + h[axis]
         };
-        self.items[start..end]
-            .select_nth_unstable_by(mid - start, |a, b| centre(a).total_cmp(&centre(b)).then(a.cmp(b)));
+        self.items[start..end].select_nth_unstable_by(mid - start, |a, b| {
+            centre(a).total_cmp(&centre(b)).then(a.cmp(b))
+        });
         let left = self.nodes.len();
         for _ in 0..2 {
             self.nodes.push(BvhNode {
@@ -655,8 +656,16 @@ fn triangles_intersect(points: &[[f64; 3]], ti: &[u32; 3], tj: &[u32; 3]) -> boo
             segment_triangle(pa, pb, pv, pc, pd) || segment_triangle(pc, pd, pv, pa, pb)
         }
         2 => {
-            let c = ti.iter().copied().find(|v| !tj.contains(v)).unwrap_or(ti[0]);
-            let d = tj.iter().copied().find(|v| !ti.contains(v)).unwrap_or(tj[0]);
+            let c = ti
+                .iter()
+                .copied()
+                .find(|v| !tj.contains(v))
+                .unwrap_or(ti[0]);
+            let d = tj
+                .iter()
+                .copied()
+                .find(|v| !ti.contains(v))
+                .unwrap_or(tj[0]);
             let (a, b) = (p(shared[0]), p(shared[1]));
             let (pc, pd) = (p(c), p(d));
             if o3(a, b, pc, pd) != 0 {
@@ -814,7 +823,10 @@ pub(crate) mod tests {
         let before = s.clone();
         let e = check_surface(s).unwrap_err();
         assert!(matches!(e, Error::BadSurface { .. }), "{e}");
-        assert_eq!(*s, before, "a failed check must leave the surface as it was");
+        assert_eq!(
+            *s, before,
+            "a failed check must leave the surface as it was"
+        );
         e.to_string()
     }
 
@@ -853,7 +865,10 @@ pub(crate) mod tests {
         // Same triangles as the reference, up to a cyclic shift of the corners.
         for (t, (a, b)) in s.triangles.iter().zip(&reference.triangles).enumerate() {
             let rot = |x: [u32; 3], k: usize| [x[k % 3], x[(k + 1) % 3], x[(k + 2) % 3]];
-            assert!((0..3).any(|k| rot(*a, k) == *b), "triangle {t}: {a:?} vs {b:?}");
+            assert!(
+                (0..3).any(|k| rot(*a, k) == *b),
+                "triangle {t}: {a:?} vs {b:?}"
+            );
         }
         assert!((r.enclosed_volume - reference.enclosed_volume()).abs() < 1e-14);
 
@@ -885,7 +900,10 @@ pub(crate) mod tests {
         assert_eq!(r.components.len(), 2);
         assert_eq!(r.flipped, 12, "the cavity's triangles turn inward");
         let (outer, cav) = (&r.components[0], &r.components[1]);
-        assert_eq!((outer.depth, outer.inside, outer.is_cavity()), (0, None, false));
+        assert_eq!(
+            (outer.depth, outer.inside, outer.is_cavity()),
+            (0, None, false)
+        );
         assert_eq!((cav.depth, cav.inside, cav.is_cavity()), (1, Some(0), true));
         assert_eq!((cav.triangles, cav.first_triangle), (12, 12));
         assert!((outer.volume - 27.0).abs() < 1e-12 && (cav.volume + 1.0).abs() < 1e-12);
@@ -905,7 +923,10 @@ pub(crate) mod tests {
         s.triangles.remove(5);
         let e = err(&mut s);
         assert!(e.contains("not closed: 3 boundary edges"), "{e}");
-        assert!(e.contains("e.g. edge (") && e.contains("of triangle"), "{e}");
+        assert!(
+            e.contains("e.g. edge (") && e.contains("of triangle"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -915,7 +936,10 @@ pub(crate) mod tests {
         s.points.push([0.5, -1.0, -1.0]);
         s.triangles.push([0, 1, 8]);
         let e = err(&mut s);
-        assert!(e.contains("non-manifold edge (0, 1): in 3 triangles"), "{e}");
+        assert!(
+            e.contains("non-manifold edge (0, 1): in 3 triangles"),
+            "{e}"
+        );
         assert!(e.contains("12"), "the fin's triangle is named: {e}");
     }
 
@@ -941,14 +965,20 @@ pub(crate) mod tests {
         let mut s = cube(0.0, 1.0);
         s.triangles[4] = [2, 2, 7];
         let e = err(&mut s);
-        assert!(e.contains("degenerate triangle 4 (vertices 2, 2, 7)"), "{e}");
+        assert!(
+            e.contains("degenerate triangle 4 (vertices 2, 2, 7)"),
+            "{e}"
+        );
         assert!(e.contains("vertex 2 is repeated"), "{e}");
 
         let mut s = cube(0.0, 1.0);
         s.points.push([0.5, 0.0, 0.0]); // on the edge from vertex 0 to vertex 1
         s.triangles.push([0, 1, 8]);
         let e = err(&mut s);
-        assert!(e.contains("degenerate triangle 12 (vertices 0, 1, 8): zero area"), "{e}");
+        assert!(
+            e.contains("degenerate triangle 12 (vertices 0, 1, 8): zero area"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -969,15 +999,15 @@ pub(crate) mod tests {
     #[test]
     fn triangle_pair_predicate() {
         let pts = [
-            [0.0, 0.0, 0.0], // 0
-            [1.0, 0.0, 0.0], // 1
-            [0.0, 1.0, 0.0], // 2
-            [0.0, 0.0, 1.0], // 3
-            [1.0, 1.0, 0.0], // 4
-            [0.2, 0.2, -1.0], // 5
-            [0.2, 0.2, 1.0], // 6
-            [0.3, 0.3, 1.0], // 7
-            [0.5, 0.5, 0.0], // 8: on edge (1, 2)
+            [0.0, 0.0, 0.0],   // 0
+            [1.0, 0.0, 0.0],   // 1
+            [0.0, 1.0, 0.0],   // 2
+            [0.0, 0.0, 1.0],   // 3
+            [1.0, 1.0, 0.0],   // 4
+            [0.2, 0.2, -1.0],  // 5
+            [0.2, 0.2, 1.0],   // 6
+            [0.3, 0.3, 1.0],   // 7
+            [0.5, 0.5, 0.0],   // 8: on edge (1, 2)
             [-1.0, -1.0, 0.0], // 9
             [0.25, 0.25, 0.0], // 10: inside triangle (0, 1, 2)
         ];

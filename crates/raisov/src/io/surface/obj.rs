@@ -58,7 +58,10 @@ pub fn parse_obj(path: &Path, bytes: &[u8]) -> Result<Surface> {
                         format_err(
                             path,
                             line,
-                            format!("vertex {} has {k} coordinates; expected `v x y z`", points.len() + 1),
+                            format!(
+                                "vertex {} has {k} coordinates; expected `v x y z`",
+                                points.len() + 1
+                            ),
                         )
                     })?;
                     *c = parse_f64(path, line, t, "a vertex coordinate")?;

@@ -108,9 +108,8 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<Surface> {
             .iter()
             .position(|&b| b == b'\n')
             .map_or(bytes.len(), |e| pos + e);
-        let raw = std::str::from_utf8(&bytes[pos..end]).map_err(|_| {
-            format_err(path, line + 1, "header line is not ASCII text")
-        })?;
+        let raw = std::str::from_utf8(&bytes[pos..end])
+            .map_err(|_| format_err(path, line + 1, "header line is not ASCII text"))?;
         pos = (end + 1).min(bytes.len());
         line += 1;
         let mut tok = raw.split_whitespace();
@@ -120,7 +119,10 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<Surface> {
                 return Err(format_err(
                     path,
                     1,
-                    format!("expected `ply` as the first line, found {}", show(raw.trim())),
+                    format!(
+                        "expected `ply` as the first line, found {}",
+                        show(raw.trim())
+                    ),
                 ));
             }
             continue;
@@ -153,7 +155,10 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<Surface> {
                     format_err(
                         path,
                         line,
-                        format!("element `{name}`: count {} is not a non-negative integer", show(count)),
+                        format!(
+                            "element `{name}`: count {} is not a non-negative integer",
+                            show(count)
+                        ),
                     )
                 })?;
                 elements.push(Element {
@@ -211,12 +216,15 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<Surface> {
         }
     }
     let format = format.ok_or_else(|| {
-        format_err(path, line, "no `format` line in the header; expected e.g. `format ascii 1.0`")
+        format_err(
+            path,
+            line,
+            "no `format` line in the header; expected e.g. `format ascii 1.0`",
+        )
     })?;
     let find = |name: &str| elements.iter().position(|e| e.name == name);
-    let vi = find("vertex").ok_or_else(|| {
-        format_err_noline(path, "no `vertex` element in the header")
-    })?;
+    let vi = find("vertex")
+        .ok_or_else(|| format_err_noline(path, "no `vertex` element in the header"))?;
     let fi = find("face").ok_or_else(|| {
         format_err_noline(
             path,
@@ -298,6 +306,21 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<Surface> {
     };
     let mut poly: Vec<u32> = Vec::new();
     for (k, el) in elements.iter().enumerate() {
+        if el.props.is_empty() && format != Format::Ascii {
+            continue; // nothing stored
+        }
+        if el.count > bytes.len() {
+            return Err(format_err(
+                path,
+                el.line,
+                format!(
+                    "element `{}` declares {} items but the file has only {} bytes",
+                    el.name,
+                    el.count,
+                    bytes.len()
+                ),
+            ));
+        }
         for item in 0..el.count {
             body.begin_item()?;
             for (j, p) in el.props.iter().enumerate() {
@@ -306,9 +329,9 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<Surface> {
                     (Prop::Scalar(t, _), Role::Coord(c)) => {
                         let v = body.value(*t, &what)?;
                         if !v.is_finite() {
-                            return Err(body.err(format!(
-                                "vertex {item} has a non-finite coordinate {v}"
-                            )));
+                            return Err(
+                                body.err(format!("vertex {item} has a non-finite coordinate {v}"))
+                            );
                         }
                         points[item][c] = v;
                     }

@@ -94,11 +94,7 @@ fn parse_binary(path: &Path, bytes: &[u8]) -> Result<Surface> {
             let o = 12 + 4 * k;
             f32::from_le_bytes([rec[o], rec[o + 1], rec[o + 2], rec[o + 3]]) as f64
         };
-        let corners = [
-            [f(0), f(1), f(2)],
-            [f(3), f(4), f(5)],
-            [f(6), f(7), f(8)],
-        ];
+        let corners = [[f(0), f(1), f(2)], [f(3), f(4), f(5)], [f(6), f(7), f(8)]];
         if let Some(c) = corners.iter().flatten().find(|c| !c.is_finite()) {
             return Err(format_err_noline(
                 path,

@@ -104,7 +104,8 @@ enum Cmd {
 
 #[derive(Subcommand)]
 enum MeshCmd {
-    /// Counts, measure, element quality, inverted or degenerate elements, groups.
+    /// Counts, measure, element quality, inverted or degenerate elements, groups; for a
+    /// triangle surface (.obj, .stl, .ply): closedness, components, volume, orientation repair.
     Info { file: PathBuf },
     /// Generate a membrane or a tetrahedral box and write it (.msh Gmsh 2.2, or .vtu).
     Generate {
@@ -502,6 +503,9 @@ fn cmd_bench(
 }
 
 fn cmd_mesh_info(file: &Path) -> Result<()> {
+    if raisov::io::is_surface_path(file) {
+        return cmd_surface_info(file);
+    }
     let loaded = load_mesh(file)?;
     let s = loaded.mesh.stats();
     let unit = if s.kind == raisov::mesh::ElementKind::Tri3 {
@@ -528,6 +532,48 @@ fn cmd_mesh_info(file: &Path) -> Result<()> {
     println!("degenerate      {}", s.degenerate.len());
     for (g, n) in &s.groups {
         println!("group           \"{g}\": {n} nodes");
+    }
+    Ok(())
+}
+
+/// `mesh info` for a triangle surface (.obj, .stl, .ply): counts, the checks, the repair.
+fn cmd_surface_info(file: &Path) -> Result<()> {
+    let mut s = raisov::io::load_surface(file)?;
+    println!("file            {} (triangle surface)", file.display());
+    println!("vertices        {}", s.points.len());
+    println!("triangles       {}", s.triangles.len());
+    let r = match raisov::mesh::check_surface(&mut s) {
+        Ok(r) => r,
+        Err(e) => {
+            println!("closed/manifold no");
+            bail!("{}: {e}", file.display())
+        }
+    };
+    println!(
+        "closed/manifold yes (no degenerate triangle, no self-intersection, {} unused vertices)",
+        r.unused_vertices
+    );
+    println!("components      {}", r.components.len());
+    for (i, c) in r.components.iter().enumerate() {
+        let kind = match (c.is_cavity(), c.inside) {
+            (true, Some(k)) => format!("cavity inside component {k}"),
+            (false, Some(k)) => format!("solid inside the cavity of component {k}"),
+            _ => "outer boundary".into(),
+        };
+        println!(
+            "  component {i}   {} triangles, {} vertices, volume {:.6e}, {kind}",
+            c.triangles, c.vertices, c.volume
+        );
+    }
+    println!("enclosed volume {:.6e}", r.enclosed_volume);
+    println!("bounding box    {:?} .. {:?}", r.bbox_min, r.bbox_max);
+    println!("flipped         {} triangles reoriented", r.flipped);
+    if raisov::mesh::looks_like_millimetres((r.bbox_min, r.bbox_max), 1.0) {
+        println!(
+            "note            spans more than {} units: if these are millimetres, scale by 1e-3 \
+             for metres",
+            raisov::mesh::surface_check::MAX_ORGAN_EXTENT_M
+        );
     }
     Ok(())
 }

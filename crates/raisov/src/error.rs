@@ -26,6 +26,10 @@ pub enum Error {
     /// A mesh is well-formed but unusable (degenerate element, unused nodes, ...).
     #[error("{path}: {msg}")]
     BadMesh { path: PathBuf, msg: String },
+    /// A triangle surface cannot bound a solid: degenerate triangle, open or non-manifold,
+    /// not orientable, self-intersecting. The message names the triangles and vertices.
+    #[error("bad surface: {msg}")]
+    BadSurface { msg: String },
     /// A scenario file is wrong: unknown key, bad value, missing file.
     #[error("{path}{}: {msg}", line.map(|l| format!(", line {l}")).unwrap_or_default())]
     Scenario {

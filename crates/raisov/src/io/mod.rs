@@ -21,12 +21,16 @@
 //! and rejected if any element is degenerate. Coordinates are returned as read (no unit
 //! conversion; see [`Mesh::scale`]).
 //!
+//! Triangle surfaces (the mesher's input) are read by [`load_surface`]: Wavefront OBJ, STL
+//! and PLY, see [`surface`].
+//!
 //! Writing: [`write_msh22`] (Gmsh 2.2 ASCII), [`write_vtu`] / [`write_vtu_as`] (binary
 //! appended zlib by default, ASCII on request, see [`vtu`]) and [`PvdWriter`] (ParaView). All
 //! writers go through [`write_atomic`]: the file appears complete or not at all, and none of
 //! them writes a non-finite number.
 
 pub mod gmsh;
+pub mod surface;
 mod text;
 pub mod triangle;
 pub mod vtk;
@@ -39,6 +43,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 pub use gmsh::write_msh22;
+pub use surface::{is_surface_path, load_surface, SURFACE_EXTENSIONS};
 pub use vtu::{write_vtu, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
 pub use vtu_read::{read_vtu, read_vtu_array};
 

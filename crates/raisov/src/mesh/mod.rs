@@ -22,8 +22,10 @@ use std::collections::BTreeMap;
 
 pub mod generate;
 pub mod surface;
+pub mod surface_check;
 
 pub use surface::Surface;
+pub use surface_check::{check_surface, looks_like_millimetres, SurfaceComponent, SurfaceReport};
 
 /// Element type of a mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -11,7 +11,8 @@
 //! until `|n / n_i − 1| ≤` [`COUNT_TOLERANCE`] (the closest of at most [`MAX_SEARCH`] meshes
 //! otherwise). With [`LevelTarget::Size`] level 0 uses that spacing and `n_0` is its count.
 
-use super::{mean_edge, StuffStats, Stuffer, DIHEDRAL_BOUNDS};
+use super::distance::SurfaceField;
+use super::{mean_edge, StuffStats, Stuffed, Stuffer, DIHEDRAL_BOUNDS};
 use crate::hierarchy::{Correspondence, CorrespondenceReport};
 use crate::mesh::{cross, dot, norm, sub, tet_radius_ratio, Mesh, Surface};
 use crate::{Error, Result};
@@ -56,6 +57,9 @@ pub struct LevelReport {
     pub volume_error: f64,
     /// Largest distance from a boundary node to the surface.
     pub max_boundary_distance: f64,
+    /// Largest distance from a surface vertex to the mesh boundary (how far the boundary
+    /// strays from the surface where the lattice cuts corners and thin parts).
+    pub max_surface_distance: f64,
     /// Mean element edge length.
     pub mean_edge: f64,
     pub stats: StuffStats,
@@ -171,7 +175,15 @@ pub fn mesh_levels_report(
             }
         };
         h_prev = stats.h;
-        let rep = level_report(&stuffer, i, &mesh, stats, target_nodes, reports.last());
+        let rep = level_report(
+            &stuffer,
+            surface,
+            i,
+            &mesh,
+            stats,
+            target_nodes,
+            reports.last(),
+        );
         meshes.push(mesh);
         reports.push(rep);
     }
@@ -199,10 +211,12 @@ fn search_spacing(
     level: usize,
 ) -> Result<(Mesh, StuffStats)> {
     let mut h = guess;
-    let mut best: Option<(f64, Mesh, StuffStats)> = None;
+    let mut best: Option<(f64, Stuffed)> = None;
     let mut prev: Option<(f64, f64)> = None;
+    let mut tried = 0;
     for _ in 0..MAX_SEARCH {
-        let (m, s) = match stuffer.mesh(h) {
+        tried += 1;
+        let st = match stuffer.stuff(h) {
             Ok(x) => x,
             Err(_) if best.is_none() => {
                 // Nothing inside at this spacing: refine.
@@ -211,7 +225,7 @@ fn search_spacing(
             }
             Err(e) => return Err(e),
         };
-        let n = m.num_nodes() as f64;
+        let n = st.nodes.len() as f64;
         let err = (n / target - 1.0).abs();
         let done = err <= COUNT_TOLERANCE;
         let (lh, ln) = (h.ln(), n.ln());
@@ -224,7 +238,7 @@ fn search_spacing(
         }
         prev = Some((lh, ln));
         if best.as_ref().is_none_or(|x| err < x.0) {
-            best = Some((err, m, s));
+            best = Some((err, st));
         }
         if done {
             break;
@@ -232,7 +246,11 @@ fn search_spacing(
         h *= (n / target).powf(1.0 / b);
     }
     match best {
-        Some((_, m, s)) => Ok((m, s)),
+        Some((_, mut st)) => {
+            st.stats.searched = tried;
+            let s = st.stats.clone();
+            Ok((st.into_mesh(), s))
+        }
         None => Err(Error::param(
             "nodes",
             format!(
@@ -244,6 +262,7 @@ fn search_spacing(
 
 fn level_report(
     stuffer: &Stuffer,
+    surface: &Surface,
     level: usize,
     m: &Mesh,
     stats: StuffStats,
@@ -270,6 +289,15 @@ fn level_report(
         .par_iter()
         .map(|&v| stuffer.distance(m.nodes[v as usize]))
         .reduce(|| 0.0, f64::max);
+    let skin = SurfaceField::new(&Surface {
+        points: m.nodes.clone(),
+        triangles: m.boundary_facets(),
+    });
+    let max_surface_distance = surface
+        .points
+        .par_iter()
+        .map(|&p| skin.distance(p))
+        .reduce(|| 0.0, f64::max);
     let enclosed = stuffer.enclosed_volume.abs();
     LevelReport {
         level,
@@ -285,6 +313,7 @@ fn level_report(
         volume,
         volume_error: volume / enclosed - 1.0,
         max_boundary_distance,
+        max_surface_distance,
         mean_edge: mean_edge(m),
         stats,
     }
@@ -303,12 +332,12 @@ impl fmt::Display for LevelsReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "level  nodes    tets     ratio  h          mean edge  dihedral min..max  radius ratio  volume error  boundary dist"
+            "level  nodes    tets     ratio  h          mean edge  dihedral min..max  radius ratio  volume error  boundary->surface  surface->boundary"
         )?;
         for r in &self.levels {
             writeln!(
                 f,
-                "L{:<5} {:<8} {:<8} {:<6} {:<10.4e} {:<10.4e} {:>6.2}..{:<6.2}°     {:<13.4} {:>+8.3} %    {:.2e} ({:.1e} edge)",
+                "L{:<5} {:<8} {:<8} {:<6} {:<10.4e} {:<10.4e} {:>6.2}..{:<6.2}°     {:<13.4} {:>+8.3} %    {:.1e} ({:.0e} edge)   {:.2e} ({:.2} edge)",
                 r.level,
                 r.nodes,
                 r.tets,
@@ -321,6 +350,8 @@ impl fmt::Display for LevelsReport {
                 100.0 * r.volume_error,
                 r.max_boundary_distance,
                 r.max_boundary_distance / r.mean_edge,
+                r.max_surface_distance,
+                r.max_surface_distance / r.mean_edge,
             )?;
         }
         writeln!(

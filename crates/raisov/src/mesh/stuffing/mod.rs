@@ -82,6 +82,8 @@ pub struct StuffStats {
     /// Cut edges whose crossing was not found by the exact intersection (segment grazing
     /// an edge of the surface), placed at the edge's midpoint instead.
     pub cut_fallbacks: usize,
+    /// Spacings tried by the search of [`mesh_levels`] for this level (0: none, `h` given).
+    pub searched: usize,
 }
 
 /// A surface prepared for stuffing at any spacing (the BVH and bounding box built once).
@@ -152,6 +154,13 @@ impl Stuffer {
     /// Errors: `h` not positive and finite, a lattice of more than `u32` vertices, or a
     /// surface that encloses no lattice vertex at this spacing.
     pub fn mesh(&self, h: f64) -> Result<(Mesh, StuffStats)> {
+        let raw = self.stuff(h)?;
+        let stats = raw.stats.clone();
+        Ok((raw.into_mesh(), stats))
+    }
+
+    /// The nodes and tetrahedra of [`Stuffer::mesh`] without the mesh's groups.
+    pub(crate) fn stuff(&self, h: f64) -> Result<Stuffed> {
         if !(h > 0.0) || !h.is_finite() {
             return Err(Error::param(
                 "h",
@@ -280,10 +289,11 @@ impl Stuffer {
             .iter()
             .flat_map(|t| t.map(|v| used[v as usize]))
             .collect();
-        let mut mesh = Mesh::new(ElementKind::Tet4, nodes, cells);
-        let b = mesh.boundary_nodes();
-        mesh.groups.insert("boundary".into(), b);
-        Ok((mesh, stats))
+        Ok(Stuffed {
+            nodes,
+            cells,
+            stats,
+        })
     }
 
     /// Sign of `f` at every lattice vertex: −1 inside, +1 outside.
@@ -384,6 +394,23 @@ impl Stuffer {
                 found
             })
             .collect()
+    }
+}
+
+/// A stuffed mesh before its groups are built.
+pub(crate) struct Stuffed {
+    pub nodes: Vec<[f64; 3]>,
+    pub cells: Vec<u32>,
+    pub stats: StuffStats,
+}
+
+impl Stuffed {
+    /// The mesh with its `"boundary"` group.
+    pub fn into_mesh(self) -> Mesh {
+        let mut mesh = Mesh::new(ElementKind::Tet4, self.nodes, self.cells);
+        let b = mesh.boundary_nodes();
+        mesh.groups.insert("boundary".into(), b);
+        mesh
     }
 }
 

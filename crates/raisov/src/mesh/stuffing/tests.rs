@@ -350,6 +350,7 @@ fn sphere_levels_halve_the_node_count_with_guaranteed_quality() {
         assert_eq!(r.nodes, m.num_nodes());
         assert!(r.quality_ok());
         assert!(r.max_boundary_distance < 1e-12 * 0.05 + 1e-15);
+        assert!(r.max_surface_distance < 0.5 * r.mean_edge, "{r:?}");
         if i > 0 {
             let ratio = m.num_nodes() as f64 / meshes[i - 1].num_nodes() as f64;
             assert!((ratio - 0.5).abs() <= 0.05, "level {i}: ratio {ratio}");

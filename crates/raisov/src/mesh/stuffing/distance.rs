@@ -90,11 +90,11 @@ impl SurfaceField {
     }
 
     /// The winding numbers of the points `x0 + i dx`, `i = 0..count`, of the row
-    /// `(y, z)` (see the module docs), one per point; the candidate triangles are `cand`.
+    /// `yz = (y, z)` (see the module docs), one per point; the candidate triangles are
+    /// `cand`.
     pub fn row_winding(
         &self,
-        y: f64,
-        z: f64,
+        yz: [f64; 2],
         cand: &[u32],
         x0: f64,
         dx: f64,
@@ -103,7 +103,7 @@ impl SurfaceField {
     ) {
         let mut cross: Vec<(f64, i32)> = Vec::new();
         for &t in cand {
-            if let Some(c) = self.row_crossing(t as usize, y, z) {
+            if let Some(c) = self.row_crossing(t as usize, yz[0], yz[1]) {
                 cross.push(c);
             }
         }
@@ -122,8 +122,8 @@ impl SurfaceField {
         }
     }
 
-    /// Triangles whose `(y, z)` box contains the point, for [`Self::row_winding`]
-    /// (collected by the caller through [`Self::triangle_yz_boxes`]).
+    /// Every triangle's bounding box in `(y, z)`, from which the caller collects the
+    /// candidate triangles of each row for [`Self::row_winding`].
     pub fn triangle_yz_boxes(&self) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
         self.tris.iter().map(|t| {
             let lo = [

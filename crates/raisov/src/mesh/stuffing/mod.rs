@@ -344,7 +344,7 @@ impl Stuffer {
             let y = o[1] + (j as f64 + sh) * h;
             let z = o[2] + (k as f64 + sh) * h;
             let mut w = Vec::with_capacity(cnt);
-            field.row_winding(y, z, &rows[row], x0, h, cnt, &mut w);
+            field.row_winding([y, z], &rows[row], x0, h, cnt, &mut w);
             for (s, w) in chunk.iter_mut().zip(&w) {
                 *s = if *w != 0 { -1 } else { 1 };
             }

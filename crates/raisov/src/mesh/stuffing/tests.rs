@@ -284,7 +284,7 @@ fn guarantee_holds_over_many_lattice_placements() {
     let mut st_k = 0u64;
     for k in 0..24 {
         // Quasi-random centres and radii.
-        let f = |i: u64| ((i as f64 * 0.618_033_988_749_895).fract());
+        let f = |i: u64| (i as f64 * 0.618_033_988_749_895).fract();
         st_k += 3;
         let c = [f(st_k), f(st_k + 1), f(st_k + 2)].map(|x| 0.3 * x);
         let r = 0.5 + 0.45 * f(k as u64 * 7 + 1);

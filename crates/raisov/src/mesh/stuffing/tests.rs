@@ -394,3 +394,27 @@ fn obj_minimal_reads_vertices_and_faces() {
     let e = read_obj_minimal(&p).unwrap_err().to_string();
     assert!(e.contains("line 2") && e.contains("out of range"), "{e}");
 }
+
+/// The liver surface of `data/` (millimetres), read by the minimal OBJ reader and scaled to
+/// metres: two small levels, angles in the guarantee, node ratio 0.5 ± 0.05, volume within
+/// 2 % of the enclosed volume, every boundary node on the surface.
+#[test]
+fn liver_surface_levels_are_guaranteed() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/liver_surface.obj");
+    let mut s = read_obj_minimal(&path).unwrap();
+    s.scale(1e-3);
+    let (m, rep) = mesh_levels_report(&s, 2, 0.5, LevelTarget::Nodes(4000), &mut |_| {}).unwrap();
+    for (i, mesh) in m.iter().enumerate() {
+        assert_clean(mesh);
+        assert_quality(mesh, &format!("liver level {i}"));
+        assert!(rep.levels[i].max_boundary_distance < 1e-12);
+    }
+    let ratio = m[1].num_nodes() as f64 / m[0].num_nodes() as f64;
+    assert!((ratio - 0.5).abs() <= 0.05, "{ratio}");
+    assert!(
+        rep.levels[0].volume_error.abs() < 0.02,
+        "{:?}",
+        rep.levels[0]
+    );
+}

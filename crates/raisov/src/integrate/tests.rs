@@ -204,8 +204,8 @@ fn fictitious_masses_bound_the_stiffness() {
         let mut model = FemModel::new(&mesh, FemParams::new(mat.clone())).unwrap();
         let mass = model.lumped_mass();
         let rho = 1000.0; // FemParams default density
-        let lambda_max =
-            mat.stability_modulus(mesh.kind) / rho * crate::integrate::stability::max_gradient_sum(&mesh);
+        let lambda_max = mat.stability_modulus(mesh.kind) / rho
+            * crate::integrate::stability::max_gradient_sum(&mesh);
         let d = fictitious_mass(&mesh, &mass, lambda_max);
         let n = 3 * mesh.num_nodes();
         let (mut rp, mut rm) = (vec![0.0; n], vec![0.0; n]);

@@ -6,10 +6,10 @@
 
 use crate::error::{Error, Result};
 use crate::integrate::relax::relax;
+use crate::integrate::stability::critical_step_estimate;
 use crate::integrate::statics::{NewtonParams, NewtonSolver};
 use crate::integrate::{Method, State, Stepper};
 use crate::metrics::Meter;
-use crate::integrate::stability::critical_step_estimate;
 use crate::scenario::Scenario;
 use std::path::Path;
 use std::time::Instant;

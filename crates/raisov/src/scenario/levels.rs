@@ -5,7 +5,9 @@
 //! list is carried by nearest node); a prescribed displacement of level 0 goes to the node of
 //! each coarser level nearest to level 0's prescribed node (paper section 3.1).
 
-use super::spec::{defaults, Accelerate, CoarseKind, MeshSpec, MultigridSpec, Scheme, SmootherKind};
+use super::spec::{
+    defaults, Accelerate, CoarseKind, MeshSpec, MultigridSpec, Scheme, SmootherKind,
+};
 use super::{build_system, err, positive, select, BoxCells, Scenario, Selector, Shape};
 use crate::error::Result;
 use crate::hierarchy::Correspondence;
@@ -355,9 +357,8 @@ impl Scenario {
             return Ok(out);
         };
         let src = &self.mesh_source;
-        let level = |shape: &Shape, key: &str| {
-            src.build(shape, &self.path, key).map(|r| (r.0, r.2))
-        };
+        let level =
+            |shape: &Shape, key: &str| src.build(shape, &self.path, key).map(|r| (r.0, r.2));
         match &mg.meshes {
             LevelMeshes::Files(files) => {
                 for (i, f) in files.iter().enumerate() {

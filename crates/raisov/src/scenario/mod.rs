@@ -24,7 +24,6 @@
 //! file's order, since renumbering the liver levels had moved the interactive example's mean
 //! lag from 2.0 to 2.4 mm through that vector.
 
-
 pub mod interactive;
 mod levels;
 pub mod run;
@@ -44,8 +43,8 @@ use crate::mesh::generate::{
 use crate::mesh::{dot, norm, sub, ElementKind, Mesh};
 pub use levels::{LevelConstraints, LevelMeshes, Multigrid, MultigridScheme};
 pub use run::{run, run_with, RunOptions, RunSummary, StopReason};
-use spec::{defaults, Generator, Law, MotionMode, Named, Stop};
 pub use spec::ScenarioSpec;
+use spec::{defaults, Generator, Law, MotionMode, Named, Stop};
 use std::path::{Path, PathBuf};
 
 /// How a run ends.
@@ -114,7 +113,10 @@ pub enum Shape {
         nodes: usize,
     },
     /// A polygonal membrane of about `nodes` nodes.
-    Polygon { outline: Vec<[f64; 2]>, nodes: usize },
+    Polygon {
+        outline: Vec<[f64; 2]>,
+        nodes: usize,
+    },
     /// A tetrahedral box.
     Box {
         size: [f64; 3],
@@ -236,7 +238,8 @@ impl Scenario {
         });
         check_name(path, &name)?;
         let mesh_source = resolve_mesh_source(&spec.mesh, path, base)?;
-        let (mesh, mut notes, file_ids) = mesh_source.build(&mesh_source.shape, path, "mesh.file")?;
+        let (mesh, mut notes, file_ids) =
+            mesh_source.build(&mesh_source.shape, path, "mesh.file")?;
         // Node-id selectors name file ids: into the mesh's order, once, here.
         let new_of = file_ids.as_deref().map(crate::mesh::inverse_order);
         let selector = |r: &spec::RegionSpec, key: &str| -> Result<Selector> {
@@ -518,32 +521,97 @@ fn resolve_mesh_source(m: &spec::MeshSpec, path: &Path, base: &Path) -> Result<M
         }
     };
     let shape = match (&m.file, m.generate) {
-        (Some(_), Some(_)) => return Err(err(path, "[mesh]: give either `file` or `generate`, not both")),
-        (None, None) => return Err(err(path, format!("[mesh]: missing `file` (a .msh, .node/.ele or .vtk mesh) or `generate` ({})", Generator::valid()))),
+        (Some(_), Some(_)) => {
+            return Err(err(
+                path,
+                "[mesh]: give either `file` or `generate`, not both",
+            ))
+        }
+        (None, None) => {
+            return Err(err(
+                path,
+                format!(
+                    "[mesh]: missing `file` (a .msh, .node/.ele or .vtk mesh) or `generate` ({})",
+                    Generator::valid()
+                ),
+            ))
+        }
         (Some(f), None) => {
-            forbid("`file`", &[("size", m.size.is_some()), ("polygon", m.polygon.is_some()), ("nodes", m.nodes.is_some()), ("divisions", m.divisions.is_some()), ("pattern", m.pattern.is_some())])?;
+            forbid(
+                "`file`",
+                &[
+                    ("size", m.size.is_some()),
+                    ("polygon", m.polygon.is_some()),
+                    ("nodes", m.nodes.is_some()),
+                    ("divisions", m.divisions.is_some()),
+                    ("pattern", m.pattern.is_some()),
+                ],
+            )?;
             Shape::File(base.join(f))
         }
         (None, Some(g)) => {
             let what = format!("generate = \"{}\"", g.name());
-            let need_nodes = || m.nodes.ok_or_else(|| err(path, format!("[mesh]: {what} needs `nodes` (target node count)")));
+            let need_nodes = || {
+                m.nodes.ok_or_else(|| {
+                    err(
+                        path,
+                        format!("[mesh]: {what} needs `nodes` (target node count)"),
+                    )
+                })
+            };
             let size = |len: usize| -> Result<Vec<f64>> {
-                let s = m.size.clone().ok_or_else(|| err(path, format!("[mesh]: {what} needs `size` ({len} lengths in m)")))?;
+                let s = m.size.clone().ok_or_else(|| {
+                    err(
+                        path,
+                        format!("[mesh]: {what} needs `size` ({len} lengths in m)"),
+                    )
+                })?;
                 if s.len() != len || s.iter().any(|&x| !(x > 0.0)) {
-                    return Err(err(path, format!("[mesh]: `size` = {s:?}: need {len} positive lengths (m) for {what}")));
+                    return Err(err(
+                        path,
+                        format!(
+                            "[mesh]: `size` = {s:?}: need {len} positive lengths (m) for {what}"
+                        ),
+                    ));
                 }
                 Ok(s)
             };
             match g {
                 Generator::Rectangle => {
-                    forbid(&what, &[("polygon", m.polygon.is_some()), ("divisions", m.divisions.is_some()), ("pattern", m.pattern.is_some())])?;
+                    forbid(
+                        &what,
+                        &[
+                            ("polygon", m.polygon.is_some()),
+                            ("divisions", m.divisions.is_some()),
+                            ("pattern", m.pattern.is_some()),
+                        ],
+                    )?;
                     let s = size(2)?;
-                    Shape::Rectangle { width: s[0], height: s[1], nodes: need_nodes()? }
+                    Shape::Rectangle {
+                        width: s[0],
+                        height: s[1],
+                        nodes: need_nodes()?,
+                    }
                 }
                 Generator::Polygon => {
-                    forbid(&what, &[("size", m.size.is_some()), ("divisions", m.divisions.is_some()), ("pattern", m.pattern.is_some())])?;
-                    let outline = m.polygon.clone().ok_or_else(|| err(path, "[mesh]: generate = \"polygon\" needs `polygon` = [[x, y], ...] (m)"))?;
-                    Shape::Polygon { outline, nodes: need_nodes()? }
+                    forbid(
+                        &what,
+                        &[
+                            ("size", m.size.is_some()),
+                            ("divisions", m.divisions.is_some()),
+                            ("pattern", m.pattern.is_some()),
+                        ],
+                    )?;
+                    let outline = m.polygon.clone().ok_or_else(|| {
+                        err(
+                            path,
+                            "[mesh]: generate = \"polygon\" needs `polygon` = [[x, y], ...] (m)",
+                        )
+                    })?;
+                    Shape::Polygon {
+                        outline,
+                        nodes: need_nodes()?,
+                    }
                 }
                 Generator::Box => {
                     forbid(&what, &[("polygon", m.polygon.is_some())])?;
@@ -553,7 +621,11 @@ fn resolve_mesh_source(m: &spec::MeshSpec, path: &Path, base: &Path) -> Result<M
                         (None, Some(n)) => BoxCells::Nodes(n),
                         _ => return Err(err(path, "[mesh]: generate = \"box\" needs exactly one of `nodes` or `divisions`")),
                     };
-                    Shape::Box { size: [s[0], s[1], s[2]], cells, pattern: m.pattern.unwrap_or(defaults::BOX_PATTERN) }
+                    Shape::Box {
+                        size: [s[0], s[1], s[2]],
+                        cells,
+                        pattern: m.pattern.unwrap_or(defaults::BOX_PATTERN),
+                    }
                 }
             }
         }
@@ -723,27 +795,50 @@ fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> R
     };
     Ok(match m.law {
         Law::StVenantKirchhoff => {
-            forbid(&[("c1", m.c1.is_some()), ("c2", m.c2.is_some()), ("gamma", m.gamma.is_some()), ("kappa", m.kappa.is_some())])?;
+            forbid(&[
+                ("c1", m.c1.is_some()),
+                ("c2", m.c2.is_some()),
+                ("gamma", m.gamma.is_some()),
+                ("kappa", m.kappa.is_some()),
+            ])?;
             let (e, nu) = young_poisson()?;
             Material::StVenantKirchhoff(StVenantKirchhoff::from_young(e, nu))
         }
         Law::NeoHookean => {
-            forbid(&[("c1", m.c1.is_some()), ("c2", m.c2.is_some()), ("gamma", m.gamma.is_some()), ("kappa", m.kappa.is_some())])?;
+            forbid(&[
+                ("c1", m.c1.is_some()),
+                ("c2", m.c2.is_some()),
+                ("gamma", m.gamma.is_some()),
+                ("kappa", m.kappa.is_some()),
+            ])?;
             let (e, nu) = young_poisson()?;
             let (lambda, mu) = lame(e, nu);
             Material::NeoHookean(NeoHookean { lambda, mu })
         }
         Law::MooneyRivlin => {
-            forbid(&[("young", m.young.is_some()), ("poisson", m.poisson.is_some()), ("gamma", m.gamma.is_some())])?;
+            forbid(&[
+                ("young", m.young.is_some()),
+                ("poisson", m.poisson.is_some()),
+                ("gamma", m.gamma.is_some()),
+            ])?;
             let c1 = need("c1", m.c1)?;
             let c2 = need("c2", m.c2)?;
             if !(c1 + c2 > 0.0 && c1 >= 0.0 && c2 >= 0.0) {
-                return Err(err(path, format!("[material]: c1 = {c1}, c2 = {c2}: need c1, c2 >= 0 with c1 + c2 > 0 (Pa)")));
+                return Err(err(
+                    path,
+                    format!(
+                        "[material]: c1 = {c1}, c2 = {c2}: need c1, c2 >= 0 with c1 + c2 > 0 (Pa)"
+                    ),
+                ));
             }
             Material::MooneyRivlin(MooneyRivlin::new(c1, c2, kappa(m.kappa)?))
         }
         Law::VerondaWestmann => {
-            forbid(&[("young", m.young.is_some()), ("poisson", m.poisson.is_some()), ("c2", m.c2.is_some())])?;
+            forbid(&[
+                ("young", m.young.is_some()),
+                ("poisson", m.poisson.is_some()),
+                ("c2", m.c2.is_some()),
+            ])?;
             let c1 = positive(path, "material.c1", need("c1", m.c1)?)?;
             let gamma = positive(path, "material.gamma", need("gamma", m.gamma)?)?;
             Material::VerondaWestmann(VerondaWestmann::new(c1, gamma, kappa(m.kappa)?))

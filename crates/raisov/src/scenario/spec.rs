@@ -228,7 +228,10 @@ pub trait Named: Sized + Copy + 'static {
     }
     /// The valid spellings, quoted: `"a", "b"`.
     fn valid() -> String {
-        let names: Vec<String> = Self::ALL.iter().map(|v| format!("\"{}\"", v.name())).collect();
+        let names: Vec<String> = Self::ALL
+            .iter()
+            .map(|v| format!("\"{}\"", v.name()))
+            .collect();
         names.join(", ")
     }
 }
@@ -679,9 +682,7 @@ fn non_finite(text: &str) -> Option<(String, Option<std::ops::Range<usize>>)> {
                 .iter()
                 .enumerate()
                 .find_map(|(i, v)| value(v, format!("{key}[{i}]"))),
-            Value::InlineTable(t) => t
-                .iter()
-                .find_map(|(k, v)| value(v, join(&key, k))),
+            Value::InlineTable(t) => t.iter().find_map(|(k, v)| value(v, join(&key, k))),
             _ => None,
         }
     }

@@ -551,7 +551,10 @@ fn non_finite_numbers_are_errors_naming_the_key() {
 fn names_that_would_write_outside_the_output_directory_are_errors() {
     for bad in ["../up", "a/b", "a\\\\b", "..", "", "/abs"] {
         let msg = error_of(&format!("name = \"{bad}\"\n{BASE}"));
-        assert!(msg.contains("`name`") && msg.contains("plain file name"), "{bad}: {msg}");
+        assert!(
+            msg.contains("`name`") && msg.contains("plain file name"),
+            "{bad}: {msg}"
+        );
     }
     let sc = parse(&format!("name = \"drape-2.v1\"\n{BASE}")).unwrap();
     assert_eq!(sc.out_dir, PathBuf::from("raisov-out/drape-2.v1"));
@@ -655,7 +658,12 @@ fn documented_defaults_are_the_applied_ones() {
     let d = FasParams::default();
     let numbers: Vec<(&str, &str, &str, f64)> = vec![
         ("mesh", "scale", "1", defaults::SCALE),
-        ("mesh", "pattern", "6", defaults::BOX_PATTERN.tets_per_cube() as f64),
+        (
+            "mesh",
+            "pattern",
+            "6",
+            defaults::BOX_PATTERN.tets_per_cube() as f64,
+        ),
         ("material", "density", "1000", defaults::DENSITY),
         ("material", "thickness", "1e-3", defaults::THICKNESS),
         ("integrator", "safety", "0.5", defaults::SAFETY),
@@ -672,7 +680,12 @@ fn documented_defaults_are_the_applied_ones() {
         ("multigrid", "post_smooth", "4", d.post_smooth as f64),
         ("interactive", "fps", "30", defaults::FPS),
         ("interactive", "cycles", "4", defaults::CYCLES as f64),
-        ("interactive", "reference_tol", "1e-6", defaults::REFERENCE_TOL),
+        (
+            "interactive",
+            "reference_tol",
+            "1e-6",
+            defaults::REFERENCE_TOL,
+        ),
     ];
     for (table, key, text, value) in numbers {
         let e = entry(table, key);
@@ -698,8 +711,16 @@ fn documented_defaults_are_the_applied_ones() {
         ("multigrid", "coarse", "chebyshev"),
         ("multigrid", "scaling", scaling.name()),
         ("multigrid", "transfer", d.weights.name()),
-        ("multigrid", "accelerate", if d.krylov { "cg" } else { "none" }),
-        ("interactive", "reference", spec::StaticReference::default().name()),
+        (
+            "multigrid",
+            "accelerate",
+            if d.krylov { "cg" } else { "none" },
+        ),
+        (
+            "interactive",
+            "reference",
+            spec::StaticReference::default().name(),
+        ),
     ];
     for (table, key, name) in names {
         let e = entry(table, key);

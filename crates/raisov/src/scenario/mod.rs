@@ -1,6 +1,13 @@
 //! Scenarios: a TOML file (format and defaults in [`spec`]) resolved into a mesh, a
 //! [`System`] and run settings, then run with measures and ParaView output ([`run`]).
 //!
+//! [`spec::parse`] reads the text into a [`ScenarioSpec`] whose keys with named values are
+//! typed already (an unknown value is an error naming the key, its line and the valid
+//! values); [`Scenario::resolve`] checks every value, applies the defaults of
+//! [`spec::defaults`], builds the mesh and selects the nodes. The resolved [`Scenario`] holds
+//! typed values only: the multigrid levels are rebuilt from [`Scenario::mesh_source`],
+//! [`Scenario::fix`], [`Scenario::load`] and [`Scenario::multigrid`].
+//!
 //! Units are SI throughout. Paths inside a scenario are relative to the scenario file.
 //!
 //! Node order: a mesh read from a file is renumbered once at load ([`Mesh::spatial_order`],
@@ -20,9 +27,9 @@
 //! the `file_node_id` point field of the frames, the node named by `raisov inspect`
 //! ([`Scenario::file_ids`]). Nor do results follow the numbering beyond round-off: the FAS
 //! multigrid's power-iteration start vector, the one place where an index chose a value,
-//! is keyed by the file's ids ([`crate::multigrid::Level::node_keys`]). Before, FAS kept the
-//! file's order, since renumbering the liver levels had moved the interactive example's mean
-//! lag from 2.0 to 2.4 mm through that vector.
+//! is keyed by the file's ids ([`crate::multigrid::Level::node_keys`]); keyed by the memory
+//! order, renumbering the liver levels moved the interactive example's mean lag from 2.0 to
+//! 2.4 mm.
 
 pub mod interactive;
 mod levels;

@@ -769,8 +769,12 @@ fn documented_defaults_are_the_applied_ones() {
         );
     }
     assert_eq!(Reference::default(), Reference::None);
-    // And the resolved scenario applies them.
+    // The force model's own defaults agree with the scenario's.
     let sc = parse(BASE).unwrap();
+    let fem = FemParams::new(sc.material.clone());
+    assert_eq!(fem.density, defaults::DENSITY);
+    assert_eq!(fem.thickness, defaults::THICKNESS);
+    // And the resolved scenario applies them.
     assert_eq!(sc.safety, defaults::SAFETY);
     assert_eq!(sc.blowup_factor, defaults::BLOWUP_FACTOR);
     assert_eq!(sc.frame_interval, defaults::FRAME_INTERVAL);

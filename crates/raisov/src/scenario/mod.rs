@@ -502,7 +502,7 @@ fn resolve_mesh(
     let mut notes = Vec::new();
     let mut mesh = match (&m.file, &m.generate) {
         (Some(_), Some(_)) => return Err(err(path, "[mesh]: give either `file` or `generate`, not both")),
-        (None, None) => return Err(err(path, "[mesh]: missing `file` (a .msh, .node/.ele or .vtk mesh) or `generate` (\"rectangle\", \"polygon\", \"box\")")),
+        (None, None) => return Err(err(path, "[mesh]: missing `file` (a .msh, .node/.ele, .vtk or .vtu mesh) or `generate` (\"rectangle\", \"polygon\", \"box\")")),
         (Some(f), None) => {
             for (k, set) in [("size", m.size.is_some()), ("polygon", m.polygon.is_some()), ("nodes", m.nodes.is_some()), ("divisions", m.divisions.is_some()), ("pattern", m.pattern.is_some())] {
                 if set {

@@ -542,7 +542,7 @@ fn resolve_mesh_source(m: &spec::MeshSpec, path: &Path, base: &Path) -> Result<M
             return Err(err(
                 path,
                 format!(
-                    "[mesh]: missing `file` (a .msh, .node/.ele or .vtk mesh) or `generate` ({})",
+                    "[mesh]: missing `file` (a .msh, .node/.ele, .vtk or .vtu mesh) or `generate` ({})",
                     Generator::valid()
                 ),
             ))

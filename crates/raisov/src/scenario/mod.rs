@@ -538,15 +538,13 @@ fn resolve_mesh_source(m: &spec::MeshSpec, path: &Path, base: &Path) -> Result<M
                 "[mesh]: give either `file` or `generate`, not both",
             ))
         }
-        (None, None) => {
-            return Err(err(
-                path,
-                format!(
-                    "[mesh]: missing `file` (a .msh, .node/.ele, .vtk or .vtu mesh) or `generate` ({})",
-                    Generator::valid()
-                ),
-            ))
-        }
+        (None, None) => return Err(err(
+            path,
+            format!(
+                "[mesh]: missing `file` (a .msh, .node/.ele, .vtk or .vtu mesh) or `generate` ({})",
+                Generator::valid()
+            ),
+        )),
         (Some(f), None) => {
             forbid(
                 "`file`",

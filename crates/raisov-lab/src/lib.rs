@@ -6,7 +6,7 @@
 //! - [`paper`]: `raisov paper`, the experiments of Wu & Tendick (2004) reproduced, with CSV
 //!   series, PNG and SVG plots and a Markdown report that sets each claim beside what was
 //!   measured;
-//! - [`bench`]: `raisov bench`, the performance benchmark of the standard explicit-dynamics
+//! - [`mod@bench`]: `raisov bench`, the performance benchmark of the standard explicit-dynamics
 //!   work and its roofline;
 //! - [`plot`]: the line charts (plotters, with an embedded font: no system font library).
 

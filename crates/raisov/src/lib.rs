@@ -15,10 +15,23 @@
 //! `u` nodal displacements (m), `M` lumped mass (kg), `R(u)` internal (elastic) forces (N),
 //! `V` external forces (N). Integrators see only [`fem::ForceModel`].
 //!
-//! Layout: [`mesh`] (meshes and generators), [`material`] (strain-energy functions, one per
-//! file), [`fem`] (elements, the force model, nodal stress), [`integrate`] (explicit
-//! integrators), [`hierarchy`] (levels, host elements, weights), [`multigrid`] (RaISoV and the
-//! FAS multigrid), [`scenario`] (TOML scenes), [`metrics`], [`io`] (readers and writers).
+//! Running a scenario (a TOML file, see [`scenario::spec`]) from Rust:
+//!
+//! ```no_run
+//! use raisov::scenario::{run, RunOptions, Scenario};
+//!
+//! let sc = Scenario::load(std::path::Path::new("examples/cantilever.toml"))?;
+//! let summary = run(&sc, RunOptions::default())?;
+//! println!("{summary}");
+//! # Ok::<(), raisov::Error>(())
+//! ```
+//!
+//! Layout, in data-flow order (`ARCHITECTURE.md` has the map): [`io`] (readers and writers),
+//! [`mesh`] (meshes, generators, surfaces, the tetrahedral mesher), [`material`] (strain-energy
+//! functions, one per file), [`fem`] (elements, the force model, nodal stress; the packed
+//! kernels in [`fem::packed`]), [`integrate`] (explicit integrators, constraints, statics,
+//! stability), [`hierarchy`] (levels, host elements, weights), [`multigrid`] (RaISoV and the
+//! FAS multigrid), [`metrics`], [`scenario`] (TOML scenes, typed once).
 
 // `!(x > 0.0)` is written on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

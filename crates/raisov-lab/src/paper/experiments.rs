@@ -664,7 +664,7 @@ pub fn relax_reference(
 /// T∞ by FAS V-cycles on the scenario's own hierarchy (the scenario must use the FAS
 /// multigrid), until the finest residual `‖f_ext − R(u)‖₂` (free nodes) falls below
 /// `rel_tol` of the load `‖f_ext‖₂`, within `wall_cap` seconds. Used where the Newton-Krylov
-/// ladder of [`reference`] costs more than `raisov paper`'s budget (membranes above
+/// ladder of [`fn@reference`] costs more than `raisov paper`'s budget (membranes above
 /// [`super::REFERENCE_MAX_NODES`] nodes). The equilibrium is that of the finest mesh's
 /// discrete equations, the one every method converges to (FAS reaches SLIM's equilibrium to
 /// 1e-8, `multigrid::tests`); how FAS gets there does not enter T∞. Returns T∞, a note, and

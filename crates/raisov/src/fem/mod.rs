@@ -15,7 +15,7 @@
 //! - membrane triangle in 3-D: `Dm` is the 2x2 reference edge matrix in the triangle's own
 //!   orthonormal frame, `F = Ds Dm⁻¹` is 3x2, `C = FᵀF` 2x2, `P = F S` 3x2, measure `h A0`.
 //!
-//! Nodal stress T (paper section 3, from [11]): element Cauchy stress `σ = F S Fᵀ / J`
+//! Nodal stress T (paper section 3, from its reference \[11\]): element Cauchy stress `σ = F S Fᵀ / J`
 //! (membranes: `J = λ3 √det C`, σ in-plane, 3x3), averaged onto nodes weighted by reference
 //! element measure.
 //!

@@ -94,7 +94,7 @@ pub struct Static {
     pub converged: bool,
 }
 
-/// Scratch for [`solve`], reusable between calls on the same system size.
+/// Scratch for [`NewtonSolver::solve`], reusable between calls on the same system size.
 pub struct NewtonSolver {
     r: Vec<f64>,
     d: Vec<f64>,

@@ -16,7 +16,7 @@
 //!   `I1 = tr C + 1/det C`, `I2 = det C + tr C / det C` (design note, "Model"); the reduced
 //!   energy's derivative is exactly the plane-stress S.
 //!
-//! Each law lives in its own file; the test macro [`material_tests!`] checks, for every law and
+//! Each law lives in its own file; the test macro `material_tests!` checks, for every law and
 //! form, that S equals twice the central finite-difference derivative of W, that the reference
 //! state is stress free, and that W is invariant under rotation (W depends on C only, so this
 //! checks the wiring of F → C).

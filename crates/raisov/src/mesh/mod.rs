@@ -67,7 +67,7 @@ pub struct Mesh {
     pub groups: BTreeMap<String, Vec<u32>>,
 }
 
-/// What [`Mesh::orient`] and [`Mesh::check`] find.
+/// What [`Mesh::orient`] find.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct OrientationReport {
     /// Elements whose node order was flipped to make them positive.

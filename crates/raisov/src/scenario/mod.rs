@@ -1,5 +1,5 @@
 //! Scenarios: a TOML file (format and defaults in [`spec`]) resolved into a mesh, a
-//! [`System`] and run settings, then run with measures and ParaView output ([`run`]).
+//! [`System`] and run settings, then run with measures and ParaView output ([`fn@run`]).
 //!
 //! [`spec::parse`] reads the text into a [`ScenarioSpec`] whose keys with named values are
 //! typed already (an unknown value is an error naming the key, its line and the valid
@@ -538,13 +538,15 @@ fn resolve_mesh_source(m: &spec::MeshSpec, path: &Path, base: &Path) -> Result<M
                 "[mesh]: give either `file` or `generate`, not both",
             ))
         }
-        (None, None) => return Err(err(
-            path,
-            format!(
+        (None, None) => {
+            return Err(err(
+                path,
+                format!(
                 "[mesh]: missing `file` (a .msh, .node/.ele, .vtk or .vtu mesh) or `generate` ({})",
                 Generator::valid()
             ),
-        )),
+            ))
+        }
         (Some(f), None) => {
             forbid(
                 "`file`",

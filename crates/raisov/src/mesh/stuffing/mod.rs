@@ -4,11 +4,11 @@
 //!
 //! The domain is `{p : f(p) ≤ 0}` for an implicit function `f`, here the surface's signed
 //! inside/outside indicator: `f < 0` where the winding number of the surface is non-zero
-//! (see [`distance`] for the exact test). The algorithm:
+//! (see `distance` for the exact test). The algorithm:
 //!
 //! 1. **Lattice.** A body-centred cubic lattice of spacing `h` (long edge `h`, short edge
 //!    `(√3/2) h`) covering the surface's bounding box with a margin of at least `1.5 h`
-//!    ([`lattice`]); `f`'s sign at every lattice vertex (by rows along `x`).
+//!    (`lattice`); `f`'s sign at every lattice vertex (by rows along `x`).
 //! 2. **Cut points.** On every lattice edge whose ends have opposite strict signs, the
 //!    point where the edge crosses the surface (segment–triangle intersection; of several,
 //!    the one nearest the inside end).
@@ -18,7 +18,7 @@
 //!    exists moves to the nearest such cut point and becomes a zero vertex; the cut points
 //!    on its other edges disappear (their edges no longer change sign).
 //! 4. **Fill.** Every lattice tetrahedron with an inside vertex is filled by its stencil
-//!    ([`stencils`]): its part with interpolated `f ≤ 0`, split into 1 to 3 tetrahedra with
+//!    (`stencils`): its part with interpolated `f ≤ 0`, split into 1 to 3 tetrahedra with
 //!    quadrilateral diagonals chosen from the lattice face alone, so neighbours agree.
 //!
 //! **Guarantee** (the paper's theorem for these `α`): every output tetrahedron has all its

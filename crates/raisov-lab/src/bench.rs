@@ -49,6 +49,9 @@
 //! rest of the cycle is the mapping), the membrane, the correspondence build of one level pair
 //! (≥ 1M-node fine level); and peak memory per node of the largest box, read right after the
 //! standard-work rows so that the larger hierarchy rows do not count.
+//!
+//! One concern, `raisov bench`: the rows share the standard work, the timing rule and the
+//! roofline bookkeeping, so they stay in one file.
 
 use raisov::fem::{FemModel, FemParams, FusedState, NodeLoad, Precision};
 use raisov::hierarchy::Correspondence;

@@ -1,4 +1,7 @@
 //! The files of `raisov paper`: CSV series, plots and `report.md` with the claims table.
+//!
+//! One concern, the written record of the experiments: one function per experiment's CSV
+//! files, plots and report section, in one file so the report and its series stay in step.
 
 use super::experiments::{fmt_eps, Sim, MEMBRANE_PHYSICS, TISSUE_MATERIAL};
 use super::{outcome_text, rel, tail_mean, Results, STEADY_TARGET};

@@ -12,6 +12,8 @@
 //!
 //! Every generator is deterministic: the same arguments give bit-identical meshes. Triangles
 //! are oriented with normal +z, tetrahedra are positive.
+//!
+//! One concern, the built-in generators; about a third of the file is their tests.
 
 use std::collections::BTreeMap;
 

@@ -32,6 +32,8 @@
 //!
 //! The report counts the flipped triangles (relative to the input order). Vertices no triangle
 //! uses are counted, not removed.
+//!
+//! One concern, the checks of a closed surface, in one file; about a third of it is tests.
 
 use std::collections::VecDeque;
 

@@ -76,9 +76,11 @@
 //!
 //! A prescribed value that moves, [`Stepper::hold_prescribed`] and [`Stepper::finest`] (which
 //! hands out the system) invalidate the fine residual. The states are the same bits with and
-//! without reuse (a test). Liver L0-L3 under gravity to the 1e-3 stress target (`raisov
-//! paper`, time to steady state): 127 cycles, 4519 finest-level force evaluations; before
-//! reuse and warm-started estimates, 123 cycles and 6085.
+//! without reuse (a test); reuse only saves force evaluations, which `raisov run` and
+//! `raisov paper` count.
+//!
+//! One file for one concern, the FAS V-cycle: its steps share the level buffers and the
+//! residual bookkeeping above, so they are not split.
 
 use super::{Level, Links};
 use crate::error::{Divergence, DivergenceCause};

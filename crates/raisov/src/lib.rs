@@ -18,7 +18,8 @@
 //! Layout: [`mesh`] (meshes and generators), [`material`] (strain-energy functions, one per
 //! file), [`fem`] (elements, the force model, nodal stress), [`integrate`] (explicit
 //! integrators), [`hierarchy`] (levels, host elements, weights), [`multigrid`] (RaISoV and the
-//! FAS multigrid), [`scenario`] (TOML scenes), [`metrics`], [`io`] (readers and writers).
+//! FAS multigrid), [`scenario`] (TOML scenes), [`sim`] (the frame-loop API for a host
+//! program: grasps, pins, tool forces), [`metrics`], [`io`] (readers and writers).
 
 // `!(x > 0.0)` is written on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -37,5 +38,6 @@ pub mod metrics;
 pub mod multigrid;
 pub mod paper;
 pub mod scenario;
+pub mod sim;
 
 pub use error::{Error, Result};

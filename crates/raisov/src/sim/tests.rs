@@ -4,6 +4,8 @@ use crate::integrate::Method;
 use crate::material::{lame, Material, NeoHookean};
 use crate::mesh::generate::{box_tets, BoxPattern};
 use crate::multigrid::fas::{CoarseSolve, FasParams};
+use crate::scenario::Scenario;
+use std::path::Path;
 
 const SIDE: f64 = 0.04;
 const G: [f64; 3] = [0.0, 0.0, -9.81];
@@ -336,4 +338,119 @@ duration = 1.0
     // Bad input: errors, no panics.
     assert!(sim.move_grab(g, [f64::NAN, 0.0, 0.0]).is_err());
     assert!(sim.grab([0.0; 3], -1.0).is_err());
+}
+
+fn levels_scenario(scheme: &str) -> Scenario {
+    let text = format!(
+        r#"
+gravity = [0, 0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [6, 6, 6]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}
+[multigrid]
+scheme = "{scheme}"
+levels = 2
+[run]
+duration = 1.0
+"#
+    );
+    Scenario::from_toml(&text, Path::new("./s.toml")).unwrap()
+}
+
+#[test]
+fn runtime_constraints_reach_the_levels_as_the_scheme_carries_them() {
+    use crate::integrate::RuntimeConstraints;
+    use crate::multigrid::fas::Fas;
+    use crate::multigrid::raisov::{Raisov, RaisovParams, Reading};
+    use crate::multigrid::Level;
+    let top = [0.02, 0.02, SIDE];
+    let d = [0.0, 0.0, 0.002];
+    // Level-0 grasped node, the coarse node nearest it, a pinned coarse node.
+    let setup = |levels: &[Level]| {
+        let a = levels[0].mesh.nearest_node(top).unwrap() as u32;
+        let near = levels[1].mesh.nearest_node(top).unwrap();
+        let corner = levels[1].mesh.nearest_node([0.0, 0.0, SIDE]).unwrap() as u32;
+        let rc = RuntimeConstraints {
+            held: vec![(a, d)],
+            pinned: vec![vec![], vec![corner]],
+        };
+        (a as usize, near, corner as usize, rc)
+    };
+    let at = |u: &[f64], a: usize| [u[3 * a], u[3 * a + 1], u[3 * a + 2]];
+
+    // FAS: the grasp on level 0 only; the pinned coarse node held (at the restricted state).
+    let (levels, links) = levels_scenario("fas").build_levels().unwrap();
+    let (a, near, corner, rc) = setup(&levels);
+    let mut fas = Fas::new(levels, links, FasParams::default());
+    fas.set_runtime_constraints(&rc);
+    for _ in 0..3 {
+        fas.advance().unwrap();
+    }
+    assert_eq!(at(&fas.levels[0].state.u, a), d);
+    let c1 = &fas.levels[1].sys.constraints;
+    assert!(c1.is_constrained(corner));
+    assert!(!c1.is_constrained(near), "FAS carries no grasp to coarse levels");
+    // Released: back to the level's own constraints.
+    fas.set_runtime_constraints(&RuntimeConstraints::default());
+    assert!(!fas.levels[1].sys.constraints.is_constrained(corner));
+    assert!(!fas.levels[0].sys.constraints.is_constrained(a));
+
+    // RaISoV: the grasp carried to the nearest coarse node at the same displacement; the
+    // pinned coarse node held where it stood (at rest).
+    let (levels, links) = levels_scenario("raisov-paper").build_levels().unwrap();
+    let (a, near, corner, rc) = setup(&levels);
+    let mut rs = Raisov::new(
+        levels,
+        links,
+        RaisovParams {
+            epsilon: 1e-6,
+            reading: Reading::Correction,
+            kinetic_limit: f64::INFINITY,
+        },
+    );
+    rs.set_runtime_constraints(&rc);
+    for _ in 0..3 {
+        rs.advance().unwrap();
+    }
+    assert_eq!(at(&rs.levels[0].state.u, a), d);
+    assert_eq!(at(&rs.levels[1].state.u, near), d);
+    assert_eq!(at(&rs.levels[1].state.u, corner), [0.0; 3]);
+}
+
+#[test]
+fn restore_returns_every_stepper_to_the_same_bits() {
+    use crate::integrate::Checkpoint;
+    let mut steppers: Vec<Box<dyn Stepper>> = vec![
+        levels_scenario("fas").stepper().unwrap(),
+        levels_scenario("raisov-paper").stepper().unwrap(),
+    ];
+    let mut single = levels_scenario("fas");
+    single.spec.multigrid = None;
+    steppers.push(single.stepper().unwrap());
+    for st in &mut steppers {
+        for _ in 0..2 {
+            st.advance().unwrap();
+        }
+        let mut cp = Checkpoint::default();
+        st.save(&mut cp);
+        let steps = st.steps();
+        let run = |st: &mut Box<dyn Stepper>| {
+            for _ in 0..3 {
+                st.advance().unwrap();
+            }
+            (st.state().u.clone(), st.state().v.clone(), st.state().t)
+        };
+        let first = run(st);
+        st.restore(&cp);
+        assert_eq!(st.steps(), steps);
+        let again = run(st);
+        assert!(first == again, "{}: restored run differs", st.describe());
+    }
 }

@@ -95,8 +95,8 @@ struct FrameData {
 struct SharedPoint([AtomicU64; 3]);
 impl SharedPoint {
     fn store(&self, p: [f64; 3]) {
-        for k in 0..3 {
-            self.0[k].store(p[k].to_bits(), Ordering::Relaxed);
+        for (a, x) in self.0.iter().zip(p) {
+            a.store(x.to_bits(), Ordering::Relaxed);
         }
     }
     fn load(&self) -> [f64; 3] {
@@ -170,7 +170,9 @@ fn main() -> Result<(), raisov::Error> {
         x: x0,
         ..Default::default()
     });
-    let device = Arc::new(SharedPoint([0, 1, 2].map(|k| AtomicU64::new(x0[k].to_bits()))));
+    let device = Arc::new(SharedPoint(
+        [0, 1, 2].map(|k| AtomicU64::new(x0[k].to_bits())),
+    ));
     let stop = Arc::new(AtomicBool::new(false));
     let (kc, fmax) = (500.0, 2.0);
 

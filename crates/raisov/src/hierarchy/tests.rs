@@ -525,14 +525,8 @@ fn read_gmsh22_tets(path: &str) -> Option<Mesh> {
 
 #[test]
 fn liver_levels_0_and_1() {
-    let p0 = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../data/liver_L0.msh"
-    );
-    let p1 = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../data/liver_L1.msh"
-    );
+    let p0 = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/liver_L0.msh");
+    let p1 = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/liver_L1.msh");
     let (Some(l0), Some(l1)) = (read_gmsh22_tets(p0), read_gmsh22_tets(p1)) else {
         panic!("liver levels missing from data/ ({p0}, {p1})");
     };

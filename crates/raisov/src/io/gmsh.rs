@@ -890,10 +890,7 @@ mod tests {
     use super::*;
     use crate::io::load_mesh;
 
-    const LIVER: &str = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../data/liver_L3.msh"
-    );
+    const LIVER: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/liver_L3.msh");
 
     fn write(dir: &Path, name: &str, content: &[u8]) -> std::path::PathBuf {
         let p = dir.join(name);

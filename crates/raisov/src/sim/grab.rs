@@ -28,11 +28,7 @@ impl Grab {
             let x = reference[a as usize];
             out.push((
                 a,
-                [
-                    p[0] + o[0] - x[0],
-                    p[1] + o[1] - x[1],
-                    p[2] + o[2] - x[2],
-                ],
+                [p[0] + o[0] - x[0], p[1] + o[1] - x[1], p[2] + o[2] - x[2]],
             ));
         }
     }
@@ -118,12 +114,8 @@ impl Simulation {
         let x = &self.positions;
         let mut best = (f64::INFINITY, [0.0; 3], [0u32; 3]);
         for f in &self.surface {
-            let q = closest_on_triangle(
-                point,
-                x[f[0] as usize],
-                x[f[1] as usize],
-                x[f[2] as usize],
-            );
+            let q =
+                closest_on_triangle(point, x[f[0] as usize], x[f[1] as usize], x[f[2] as usize]);
             let d = dist2(q, point);
             if d < best.0 {
                 best = (d, q, *f);
@@ -252,9 +244,9 @@ impl Simulation {
 
     /// Remove pin `id`: its nodes are free from now on.
     pub fn unpin(&mut self, id: PinId) -> Result<()> {
-        self.pins.remove(&id).ok_or_else(|| {
-            Error::param("pin", format!("no pin {} (removed already?)", id.0))
-        })?;
+        self.pins
+            .remove(&id)
+            .ok_or_else(|| Error::param("pin", format!("no pin {} (removed already?)", id.0)))?;
         self.constraints_changed();
         Ok(())
     }

@@ -197,7 +197,12 @@ impl Simulation {
     pub fn from_scenario(sc: &Scenario) -> Result<Simulation> {
         let stepper = sc.stepper()?;
         let model = FemModel::new(&sc.mesh, sc.fem_params())?;
-        Self::assemble(stepper, sc.mesh.clone(), sc.file_ids.clone(), Box::new(model))
+        Self::assemble(
+            stepper,
+            sc.mesh.clone(),
+            sc.file_ids.clone(),
+            Box::new(model),
+        )
     }
 
     /// The parts every constructor has: a stepper whose level 0 is `mesh`, and a force model
@@ -250,7 +255,10 @@ impl Simulation {
         sim.observe().map_err(|f| {
             Error::param(
                 "initial state",
-                format!("element {} is inverted (det F = {:.3e})", f.element, f.det_f),
+                format!(
+                    "element {} is inverted (det F = {:.3e})",
+                    f.element, f.det_f
+                ),
             )
         })?;
         Ok(sim)

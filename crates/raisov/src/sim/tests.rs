@@ -64,7 +64,10 @@ fn grab_takes_the_surface_patch_and_holds_it_rigidly() {
     sim.move_grab(g, [top[0] + d[0], top[1] + d[1], top[2] + d[2]])
         .unwrap();
     let rep = sim.step_frame(Budget::Cycles(2));
-    assert!(rep.accepted && rep.target_reached && rep.cycles == 2, "{rep:?}");
+    assert!(
+        rep.accepted && rep.target_reached && rep.cycles == 2,
+        "{rep:?}"
+    );
     // Every grasped node moved by exactly d (to rounding of x + d − X); no other node of the
     // top face did.
     for (a, (p, q)) in before.iter().zip(sim.positions()).enumerate() {
@@ -90,7 +93,8 @@ fn grab_force_balances_reactions_and_body_force_at_equilibrium() {
     let mut sim = static_cube(4);
     let g = sim.grab([0.02, 0.02, 0.06], 0.011).unwrap();
     let p = sim.grab_position(g).unwrap();
-    sim.move_grab(g, [p[0] + 0.002, p[1], p[2] + 0.004]).unwrap();
+    sim.move_grab(g, [p[0] + 0.002, p[1], p[2] + 0.004])
+        .unwrap();
     converge(&mut sim);
     assert!(sim.residual() < 1e-10, "residual {}", sim.residual());
     let f = sim.grab_force(g).unwrap();
@@ -110,7 +114,10 @@ fn grab_force_balances_reactions_and_body_force_at_equilibrium() {
             want[k] += mass[a as usize] * G[k] - r[3 * a as usize + k];
         }
     }
-    assert!(norm(crate::mesh::sub(f, want)) < 1e-12 * norm(want), "{f:?} {want:?}");
+    assert!(
+        norm(crate::mesh::sub(f, want)) < 1e-12 * norm(want),
+        "{f:?} {want:?}"
+    );
     // Lifted and pulled along +x: the tissue pulls the tool down and back.
     assert!(f[2] < 0.0 && f[0] < 0.0, "{f:?}");
     // Equilibrium: what the tool and the supports take from the tissue is the whole load.
@@ -253,7 +260,12 @@ fn pins_hold_their_patch_where_it_stands() {
     converge(&mut sim);
     let moved = pinned
         .iter()
-        .map(|&a| norm(crate::mesh::sub(sim.positions()[a as usize], sim.mesh().nodes[a as usize])))
+        .map(|&a| {
+            norm(crate::mesh::sub(
+                sim.positions()[a as usize],
+                sim.mesh().nodes[a as usize],
+            ))
+        })
         .fold(0.0, f64::max);
     assert!(moved > 1e-5, "unpinned nodes stayed: {moved} m");
 }
@@ -296,7 +308,10 @@ fn cycles_frames_give_the_same_bits_on_one_and_two_threads() {
     ] {
         let a = run(1, scheme.clone(), coarse);
         let b = run(2, scheme, coarse);
-        assert!(a.0 == b.0 && a.1 == b.1, "bits differ between 1 and 2 threads");
+        assert!(
+            a.0 == b.0 && a.1 == b.1,
+            "bits differ between 1 and 2 threads"
+        );
     }
 }
 
@@ -396,7 +411,10 @@ fn runtime_constraints_reach_the_levels_as_the_scheme_carries_them() {
     assert_eq!(at(&fas.levels[0].state.u, a), d);
     let c1 = &fas.levels[1].sys.constraints;
     assert!(c1.is_constrained(corner));
-    assert!(!c1.is_constrained(near), "FAS carries no grasp to coarse levels");
+    assert!(
+        !c1.is_constrained(near),
+        "FAS carries no grasp to coarse levels"
+    );
     // Released: back to the level's own constraints.
     fas.set_runtime_constraints(&RuntimeConstraints::default());
     assert!(!fas.levels[1].sys.constraints.is_constrained(corner));

@@ -349,6 +349,9 @@ duration = 1.0
     let r = sim.step_frame(Budget::Cycles(50));
     assert!(r.accepted, "{r:?}");
     assert!(sim.nodal_stress().iter().flatten().all(|x| x.is_finite()));
+    // A wall-clock budget takes at least one step.
+    let r = sim.step_frame(Budget::Millis(0.5));
+    assert!(r.accepted && r.cycles >= 1, "{r:?}");
     assert!(sim.grab_force(g).unwrap()[2] < 0.0);
     // Bad input: errors, no panics.
     assert!(sim.move_grab(g, [f64::NAN, 0.0, 0.0]).is_err());

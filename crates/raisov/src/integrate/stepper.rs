@@ -74,6 +74,8 @@ pub trait Stepper: Send {
     fn save(&self, cp: &mut Checkpoint);
     /// Return to the state [`Stepper::save`] saved into `cp` (constraints are not part of it).
     fn restore(&mut self, cp: &Checkpoint);
+    /// Replace the kinetic-energy ceiling of divergence detection (J; infinite: none).
+    fn set_kinetic_limit(&mut self, limit: f64);
 }
 
 /// Constraints added at run time on top of a stepper's own ([`Stepper::set_runtime_constraints`]).
@@ -306,6 +308,9 @@ impl Stepper for SingleLevel {
         own.apply(&mut self.sys.constraints, &c.held, pinned, &self.state.u, n);
         let t = self.state.t;
         self.sys.impose(t, &mut self.state.u, &mut self.state.v);
+    }
+    fn set_kinetic_limit(&mut self, limit: f64) {
+        self.params.kinetic_limit = limit;
     }
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();

@@ -933,6 +933,9 @@ impl Stepper for Fas {
         self.kry_zr = 0.0;
         self.kry_p.iter_mut().for_each(|x| *x = 0.0);
     }
+    fn set_kinetic_limit(&mut self, limit: f64) {
+        self.params.kinetic_limit = limit;
+    }
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();
         for l in &self.levels {

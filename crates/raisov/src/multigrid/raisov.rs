@@ -536,6 +536,9 @@ impl Stepper for Raisov {
         let t = lv.state.t;
         lv.sys.impose(t, &mut lv.state.u, &mut lv.state.v);
     }
+    fn set_kinetic_limit(&mut self, limit: f64) {
+        self.params.kinetic_limit = limit;
+    }
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();
         for (l, (pu, pv)) in self.levels.iter().zip(self.prev_u.iter().zip(&self.prev_v)) {

@@ -193,9 +193,13 @@ impl Simulation {
         Self::from_scenario(&Scenario::from_toml(text, &path)?)
     }
 
-    /// Build from a resolved scenario.
+    /// Build from a resolved scenario. The scenario's kinetic-energy ceiling (`[run]
+    /// blowup_factor`) is not used: it is set from the loads and prescribed motions and knows
+    /// nothing of the work run-time grasps do; a frame is rejected on a non-finite value or an
+    /// inverted element instead, as with [`SimulationBuilder`].
     pub fn from_scenario(sc: &Scenario) -> Result<Simulation> {
-        let stepper = sc.stepper()?;
+        let mut stepper = sc.stepper()?;
+        stepper.set_kinetic_limit(f64::INFINITY);
         let model = FemModel::new(&sc.mesh, sc.fem_params())?;
         Self::assemble(
             stepper,

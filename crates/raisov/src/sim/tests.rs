@@ -353,6 +353,20 @@ duration = 1.0
     let r = sim.step_frame(Budget::Millis(0.5));
     assert!(r.accepted && r.cycles >= 1, "{r:?}");
     assert!(sim.grab_force(g).unwrap()[2] < 0.0);
+    // Without loads the scenario's kinetic-energy ceiling would be zero; a grasp still moves
+    // explicit dynamics.
+    let text = text
+        .replace("gravity = [0, 0, -9.81]", "")
+        .replace("[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\n", "");
+    let mut dynamic = Simulation::from_toml(&text, ".").unwrap();
+    assert!(dynamic.stepper().describe().starts_with("single level"));
+    let g2 = dynamic.grab([0.02, 0.02, 0.05], 0.011).unwrap();
+    let p2 = dynamic.grab_position(g2).unwrap();
+    dynamic
+        .move_grab(g2, [p2[0], p2[1], p2[2] + 0.001])
+        .unwrap();
+    let r = dynamic.step_frame(Budget::Cycles(20));
+    assert!(r.accepted && r.retries == 0, "{r:?}");
     // Bad input: errors, no panics.
     assert!(sim.move_grab(g, [f64::NAN, 0.0, 0.0]).is_err());
     assert!(sim.grab([0.0; 3], -1.0).is_err());

@@ -59,9 +59,11 @@
 //! nearest coarse node would zero the correction where the error is largest; level 0 keeps its
 //! real constraints (`P e` is zeroed on them). At a fixed point `r_0 = 0`, so
 //! `F_c = R_c(u_c0)`, the coarse solution is `u_c0` and the correction vanishes: level 0 sits
-//! exactly on SLIM's equilibrium (a test). The fine velocity is kept across the correction;
-//! coarse levels start each visit at rest. Per-cycle work is O(n): each level's work is
-//! proportional to its nodes.
+//! exactly on SLIM's equilibrium (a test). Constraints added at run time
+//! ([`Stepper::set_runtime_constraints`]) follow the same rule: pins join the held nodes of
+//! every level, grasps join level 0's prescribed points only. The fine velocity is kept across
+//! the correction; coarse levels start each visit at rest. Per-cycle work is O(n): each
+//! level's work is proportional to its nodes.
 //!
 //! **Residual reuse** (`FasParams::reuse_residuals`, default). Several steps of a cycle need
 //! the residual at a state another step has just evaluated; each is evaluated once:

@@ -31,7 +31,8 @@
 //! functions, one per file), [`fem`] (elements, the force model, nodal stress; the packed
 //! kernels in [`fem::packed`]), [`integrate`] (explicit integrators, constraints, statics,
 //! stability), [`hierarchy`] (levels, host elements, weights), [`multigrid`] (RaISoV and the
-//! FAS multigrid), [`metrics`], [`scenario`] (TOML scenes, typed once).
+//! FAS multigrid), [`metrics`], [`scenario`] (TOML scenes, typed once), [`sim`] (the frame-loop API for a
+//! host program: grasps, pins, tool forces).
 
 // `!(x > 0.0)` is written on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -48,5 +49,6 @@ pub mod mesh;
 pub mod metrics;
 pub mod multigrid;
 pub mod scenario;
+pub mod sim;
 
 pub use error::{Error, Result};

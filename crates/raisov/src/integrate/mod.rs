@@ -29,8 +29,10 @@ pub mod statics;
 mod stepper;
 
 pub use constraints::{Constraints, Motion};
+pub(crate) use stepper::OwnConstraints;
 pub use stepper::{
-    check_state, energy_limit, energy_limit_for, hold, SingleLevel, Stepper, StepperParams,
+    check_state, energy_limit, energy_limit_for, hold, Checkpoint, RuntimeConstraints, SingleLevel,
+    Stepper, StepperParams,
 };
 
 use crate::fem::{ElementFailure, ForceModel};

@@ -2,7 +2,7 @@
 //! multigrid cycle) and stop with a [`Divergence`] naming the time, step, element and cause
 //! instead of ever producing non-finite numbers.
 
-use super::{Integrator, Method, State, System};
+use super::{Constraints, Integrator, Method, State, System};
 use crate::error::{Divergence, DivergenceCause};
 
 /// Divergence detection and time step of a stepper.
@@ -53,6 +53,180 @@ pub trait Stepper: Send {
     fn diagnostics(&self) -> Option<String> {
         None
     }
+    /// The finest level's state (displacements, velocities, time), read-only.
+    fn state(&self) -> &State;
+    /// Number of levels (1 for single-level integration).
+    fn num_levels(&self) -> usize {
+        1
+    }
+    /// The mesh of `level` where the stepper keeps one (every level of a multigrid; `None`
+    /// for single-level integration, whose caller has the mesh).
+    fn level_mesh(&self, _level: usize) -> Option<&crate::mesh::Mesh> {
+        None
+    }
+    /// Replace the run-time constraints (grasps and pins added while running) by `c`, on top
+    /// of the stepper's own (the scenario's, which keep their motions). Nodes already
+    /// constrained keep their own constraint. See [`RuntimeConstraints`] for how each scheme
+    /// carries them to its levels.
+    fn set_runtime_constraints(&mut self, c: &RuntimeConstraints);
+    /// Save everything [`Stepper::advance`] reads and writes across steps into `cp` (its
+    /// buffers are reused), so that [`Stepper::restore`] can undo the steps since.
+    fn save(&self, cp: &mut Checkpoint);
+    /// Return to the state [`Stepper::save`] saved into `cp` (constraints are not part of it).
+    fn restore(&mut self, cp: &Checkpoint);
+    /// Replace the kinetic-energy ceiling of divergence detection (J; infinite: none).
+    fn set_kinetic_limit(&mut self, limit: f64);
+}
+
+/// Constraints added at run time on top of a stepper's own ([`Stepper::set_runtime_constraints`]).
+///
+/// - `held`: level-0 nodes held at the given displacements (m), a grasp: prescribed points,
+///   carried to coarser levels as the scheme carries prescribed points (RaISoV: to the nearest
+///   node of each coarser level, held at the same displacement; FAS: not at all, a grasp is a
+///   fine-level feature, see [`crate::multigrid::fas`]);
+/// - `pinned[l]`: nodes of level `l` (0 the finest; levels past the end have none) held where
+///   they stand when the constraints are set, like fixed regions: on every level the caller
+///   names nodes for (FAS holds coarse ones at the restricted state, as its fixed regions).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RuntimeConstraints {
+    /// Level-0 nodes and their held displacements (m).
+    pub held: Vec<(u32, [f64; 3])>,
+    /// Per level, nodes held where they stand.
+    pub pinned: Vec<Vec<u32>>,
+}
+
+/// A stepper's saved state ([`Stepper::save`], [`Stepper::restore`]): vectors and numbers in
+/// the order the stepper writes them; the buffers are reused from one save to the next.
+#[derive(Clone, Debug, Default)]
+pub struct Checkpoint {
+    vectors: Vec<Vec<f64>>,
+    numbers: Vec<f64>,
+    counts: Vec<u64>,
+}
+
+/// Writes into a [`Checkpoint`] in order.
+pub(crate) struct CheckpointWriter<'a> {
+    cp: &'a mut Checkpoint,
+    v: usize,
+}
+
+impl Checkpoint {
+    pub(crate) fn writer(&mut self) -> CheckpointWriter<'_> {
+        self.numbers.clear();
+        self.counts.clear();
+        CheckpointWriter { cp: self, v: 0 }
+    }
+    pub(crate) fn reader(&self) -> CheckpointReader<'_> {
+        CheckpointReader {
+            cp: self,
+            v: 0,
+            n: 0,
+            c: 0,
+        }
+    }
+}
+
+impl CheckpointWriter<'_> {
+    pub(crate) fn vector(&mut self, x: &[f64]) {
+        if self.cp.vectors.len() == self.v {
+            self.cp.vectors.push(Vec::new());
+        }
+        let b = &mut self.cp.vectors[self.v];
+        b.clear();
+        b.extend_from_slice(x);
+        self.v += 1;
+    }
+    pub(crate) fn number(&mut self, x: f64) {
+        self.cp.numbers.push(x);
+    }
+    pub(crate) fn count(&mut self, x: u64) {
+        self.cp.counts.push(x);
+    }
+    pub(crate) fn state(&mut self, s: &State) {
+        self.vector(&s.u);
+        self.vector(&s.v);
+        self.number(s.t);
+    }
+}
+
+/// Reads a [`Checkpoint`] in the order it was written.
+pub(crate) struct CheckpointReader<'a> {
+    cp: &'a Checkpoint,
+    v: usize,
+    n: usize,
+    c: usize,
+}
+
+impl CheckpointReader<'_> {
+    pub(crate) fn vector(&mut self, x: &mut [f64]) {
+        x.copy_from_slice(&self.cp.vectors[self.v]);
+        self.v += 1;
+    }
+    pub(crate) fn number(&mut self) -> f64 {
+        self.n += 1;
+        self.cp.numbers[self.n - 1]
+    }
+    pub(crate) fn count(&mut self) -> u64 {
+        self.c += 1;
+        self.cp.counts[self.c - 1]
+    }
+    pub(crate) fn state(&mut self, s: &mut State) {
+        self.vector(&mut s.u);
+        self.vector(&mut s.v);
+        s.t = self.number();
+    }
+}
+
+/// A level's own constraints, remembered when run-time ones are first added, so that each
+/// [`Stepper::set_runtime_constraints`] rebuilds the level's [`Constraints`] from them.
+#[derive(Clone, Debug)]
+pub(crate) struct OwnConstraints {
+    fixed: Vec<u32>,
+    /// The first `prescribed` entries of the level's prescribed list are its own (their
+    /// motions as they stand: [`Stepper::hold_prescribed`] may have changed them).
+    prescribed: usize,
+}
+
+impl OwnConstraints {
+    pub(crate) fn of(c: &Constraints) -> Self {
+        OwnConstraints {
+            fixed: c.fixed.clone(),
+            prescribed: c.prescribed.len(),
+        }
+    }
+    /// `c` rebuilt for `n` nodes: the own fixed and prescribed nodes, then `held` at their
+    /// displacements and `pinned` held at their displacement in `u` (3 per node), each node
+    /// skipped where it is constrained already.
+    pub(crate) fn apply(
+        &self,
+        c: &mut Constraints,
+        held: &[(u32, [f64; 3])],
+        pinned: &[u32],
+        u: &[f64],
+        n: usize,
+    ) {
+        let mut taken = vec![false; n];
+        for &a in &self.fixed {
+            taken[a as usize] = true;
+        }
+        let mut prescribed: Vec<(u32, super::Motion)> = c.prescribed[..self.prescribed].to_vec();
+        for (a, _) in &prescribed {
+            taken[*a as usize] = true;
+        }
+        for &(a, d) in held {
+            if (a as usize) < n && !std::mem::replace(&mut taken[a as usize], true) {
+                prescribed.push((a, super::Motion::Held { d }));
+            }
+        }
+        for &a in pinned {
+            let i = a as usize;
+            if i < n && !std::mem::replace(&mut taken[i], true) {
+                let d = [u[3 * i], u[3 * i + 1], u[3 * i + 2]];
+                prescribed.push((a, super::Motion::Held { d }));
+            }
+        }
+        *c = Constraints::new(self.fixed.clone(), prescribed).with_nodes(n);
+    }
 }
 
 /// Check a state for non-finite values and kinetic-energy blow-up.
@@ -101,6 +275,8 @@ pub struct SingleLevel {
     pub integrator: Box<dyn Integrator>,
     pub params: StepperParams,
     steps: u64,
+    /// The system's own constraints once run-time ones were added.
+    own: Option<OwnConstraints>,
 }
 
 impl SingleLevel {
@@ -114,11 +290,38 @@ impl SingleLevel {
             integrator: method.build(n),
             params,
             steps: 0,
+            own: None,
         }
     }
 }
 
 impl Stepper for SingleLevel {
+    fn state(&self) -> &State {
+        &self.state
+    }
+    fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
+        let own = self
+            .own
+            .get_or_insert_with(|| OwnConstraints::of(&self.sys.constraints));
+        let pinned = c.pinned.first().map_or(&[][..], |p| &p[..]);
+        let n = self.sys.num_nodes();
+        own.apply(&mut self.sys.constraints, &c.held, pinned, &self.state.u, n);
+        let t = self.state.t;
+        self.sys.impose(t, &mut self.state.u, &mut self.state.v);
+    }
+    fn set_kinetic_limit(&mut self, limit: f64) {
+        self.params.kinetic_limit = limit;
+    }
+    fn save(&self, cp: &mut Checkpoint) {
+        let mut w = cp.writer();
+        w.state(&self.state);
+        w.count(self.steps);
+    }
+    fn restore(&mut self, cp: &Checkpoint) {
+        let mut r = cp.reader();
+        r.state(&mut self.state);
+        self.steps = r.count();
+    }
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
         hold(&mut self.sys.constraints, values);
     }

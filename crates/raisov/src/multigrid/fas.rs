@@ -59,9 +59,11 @@
 //! nearest coarse node would zero the correction where the error is largest; level 0 keeps its
 //! real constraints (`P e` is zeroed on them). At a fixed point `r_0 = 0`, so
 //! `F_c = R_c(u_c0)`, the coarse solution is `u_c0` and the correction vanishes: level 0 sits
-//! exactly on SLIM's equilibrium (a test). The fine velocity is kept across the correction;
-//! coarse levels start each visit at rest. Per-cycle work is O(n): each level's work is
-//! proportional to its nodes.
+//! exactly on SLIM's equilibrium (a test). Constraints added at run time
+//! ([`Stepper::set_runtime_constraints`]) follow the same rule: pins join the held nodes of
+//! every level, grasps join level 0's prescribed points only. The fine velocity is kept across
+//! the correction; coarse levels start each visit at rest. Per-cycle work is O(n): each
+//! level's work is proportional to its nodes.
 //!
 //! **Residual reuse** (`FasParams::reuse_residuals`, default). Several steps of a cycle need
 //! the residual at a state another step has just evaluated; each is evaluated once:
@@ -87,7 +89,10 @@ use crate::error::{Divergence, DivergenceCause};
 use crate::fem::ElementFailure;
 use crate::hierarchy::Transfer;
 use crate::integrate::statics::{NewtonParams, NewtonSolver};
-use crate::integrate::{check_state, Constraints, Motion, Stepper};
+use crate::integrate::{
+    check_state, Checkpoint, Constraints, Motion, OwnConstraints, RuntimeConstraints, State,
+    Stepper,
+};
 
 /// The smoother G on each level.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -253,6 +258,8 @@ pub struct Fas {
     /// Per level: `r[l]` holds `R_l(u_l)` at the level's current state, loads and constraints
     /// (see "Residual reuse" in the [`Fas`] docs).
     fresh: Vec<bool>,
+    /// Per level, its own constraints once run-time ones were added (empty before).
+    own: Vec<OwnConstraints>,
 }
 
 /// Cycles between re-estimates of each level's λ_max.
@@ -447,6 +454,7 @@ impl Fas {
             kry_rprev: vec![0.0; n0],
             kry_zr: 0.0,
             fresh: vec![false; m],
+            own: Vec::new(),
         }
     }
 
@@ -896,6 +904,85 @@ fn secant_search(
 }
 
 impl Stepper for Fas {
+    fn state(&self) -> &State {
+        &self.levels[0].state
+    }
+    fn num_levels(&self) -> usize {
+        self.levels.len()
+    }
+    fn level_mesh(&self, level: usize) -> Option<&crate::mesh::Mesh> {
+        self.levels.get(level).map(|l| &l.mesh)
+    }
+    /// Level 0 takes the held (grasped) and pinned nodes; a coarse level takes its pinned nodes
+    /// as it takes its fixed regions, held at the restricted state every visit. Grasps stay on
+    /// level 0 (see the module docs).
+    fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
+        if self.own.is_empty() {
+            self.own = self
+                .levels
+                .iter()
+                .map(|l| OwnConstraints::of(&l.sys.constraints))
+                .collect();
+        }
+        for (l, (lv, own)) in self.levels.iter_mut().zip(&self.own).enumerate() {
+            let held = if l == 0 { &c.held[..] } else { &[] };
+            let pinned = c.pinned.get(l).map_or(&[][..], |p| &p[..]);
+            let n = lv.num_nodes();
+            own.apply(&mut lv.sys.constraints, held, pinned, &lv.state.u, n);
+            let t = lv.state.t;
+            lv.sys.impose(t, &mut lv.state.u, &mut lv.state.v);
+        }
+        self.fresh.iter_mut().for_each(|f| *f = false);
+        // A new problem: restart the conjugate directions.
+        self.kry_zr = 0.0;
+        self.kry_p.iter_mut().for_each(|x| *x = 0.0);
+    }
+    fn set_kinetic_limit(&mut self, limit: f64) {
+        self.params.kinetic_limit = limit;
+    }
+    fn save(&self, cp: &mut Checkpoint) {
+        let mut w = cp.writer();
+        for l in &self.levels {
+            w.state(&l.state);
+        }
+        for e in &self.eig {
+            w.vector(e);
+        }
+        for (&lambda, &visit) in self.lambda.iter().zip(&self.visits) {
+            w.number(lambda);
+            w.count(visit);
+        }
+        for x in [&self.kry_u, &self.kry_r, &self.kry_p, &self.kry_rprev] {
+            w.vector(x);
+        }
+        w.number(self.kry_zr);
+        w.count(self.steps);
+    }
+    fn restore(&mut self, cp: &Checkpoint) {
+        let mut r = cp.reader();
+        for l in &mut self.levels {
+            r.state(&mut l.state);
+        }
+        for e in &mut self.eig {
+            r.vector(e);
+        }
+        for (lambda, visit) in self.lambda.iter_mut().zip(&mut self.visits) {
+            *lambda = r.number();
+            *visit = r.count();
+        }
+        for x in [
+            &mut self.kry_u,
+            &mut self.kry_r,
+            &mut self.kry_p,
+            &mut self.kry_rprev,
+        ] {
+            r.vector(x);
+        }
+        self.kry_zr = r.number();
+        self.steps = r.count();
+        // The residual scratch belongs to the abandoned steps.
+        self.fresh.iter_mut().for_each(|f| *f = false);
+    }
     /// Level 0 only: coarse levels carry no prescribed points (see the module docs).
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
         crate::integrate::hold(&mut self.levels[0].sys.constraints, values);

@@ -23,7 +23,9 @@
 use super::{rows, rows_mut, sub, weighted_n, Above, Diff, Field, Level, Links};
 use crate::error::{Divergence, DivergenceCause};
 use crate::hierarchy::Transfer;
-use crate::integrate::{check_state, Stepper};
+use crate::integrate::{
+    check_state, Checkpoint, OwnConstraints, RuntimeConstraints, State, Stepper,
+};
 use rayon::prelude::*;
 
 /// How the up stroke reads δX^(i+1) (design note, step 2).
@@ -72,6 +74,11 @@ pub struct Raisov {
     steps: u64,
     /// Counts of state / variation transfers in the last cycle (down, up).
     pub last_switches: [(usize, usize); 2],
+    /// Per level, its own constraints once run-time ones were added (empty before).
+    own: Vec<OwnConstraints>,
+    /// Per coarse level `l ≥ 1` (index `l − 1`): the node nearest to each level-0 node a
+    /// run-time grasp has held, computed once.
+    carried: Vec<std::collections::HashMap<u32, u32>>,
 }
 
 impl Raisov {
@@ -96,6 +103,8 @@ impl Raisov {
             levels,
             steps: 0,
             last_switches: [(0, 0); 2],
+            own: Vec::new(),
+            carried: Vec::new(),
         }
     }
 
@@ -479,6 +488,78 @@ fn padded(
 const CHUNK: usize = 4096;
 
 impl Stepper for Raisov {
+    fn state(&self) -> &State {
+        &self.levels[0].state
+    }
+    fn num_levels(&self) -> usize {
+        self.levels.len()
+    }
+    fn level_mesh(&self, level: usize) -> Option<&crate::mesh::Mesh> {
+        self.levels.get(level).map(|l| &l.mesh)
+    }
+    /// Level 0 takes the held and pinned nodes; each coarser level holds the node nearest to
+    /// each held level-0 node (reference positions) at the same displacement, as the scenario
+    /// carries prescribed points (section 3.1), and its own pinned nodes where they stand.
+    fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
+        if self.own.is_empty() {
+            self.own = self
+                .levels
+                .iter()
+                .map(|l| OwnConstraints::of(&l.sys.constraints))
+                .collect();
+            self.carried = vec![Default::default(); self.levels.len() - 1];
+        }
+        let (first, coarse) = self.levels.split_at_mut(1);
+        let fine = &first[0].mesh;
+        let mut held = Vec::new();
+        for (l, lv) in coarse.iter_mut().enumerate() {
+            held.clear();
+            let map = &mut self.carried[l];
+            for &(a, d) in &c.held {
+                let p = fine.nodes[a as usize];
+                let near = *map
+                    .entry(a)
+                    .or_insert_with(|| lv.mesh.nearest_node(p).unwrap_or(0) as u32);
+                held.push((near, d));
+            }
+            let pinned = c.pinned.get(l + 1).map_or(&[][..], |p| &p[..]);
+            let n = lv.num_nodes();
+            self.own[l + 1].apply(&mut lv.sys.constraints, &held, pinned, &lv.state.u, n);
+            let t = lv.state.t;
+            lv.sys.impose(t, &mut lv.state.u, &mut lv.state.v);
+        }
+        let lv = &mut first[0];
+        let pinned = c.pinned.first().map_or(&[][..], |p| &p[..]);
+        let n = lv.num_nodes();
+        self.own[0].apply(&mut lv.sys.constraints, &c.held, pinned, &lv.state.u, n);
+        let t = lv.state.t;
+        lv.sys.impose(t, &mut lv.state.u, &mut lv.state.v);
+    }
+    fn set_kinetic_limit(&mut self, limit: f64) {
+        self.params.kinetic_limit = limit;
+    }
+    fn save(&self, cp: &mut Checkpoint) {
+        let mut w = cp.writer();
+        for (l, (pu, pv)) in self.levels.iter().zip(self.prev_u.iter().zip(&self.prev_v)) {
+            w.state(&l.state);
+            w.vector(pu);
+            w.vector(pv);
+        }
+        w.count(self.steps);
+    }
+    fn restore(&mut self, cp: &Checkpoint) {
+        let mut r = cp.reader();
+        for (l, (pu, pv)) in self
+            .levels
+            .iter_mut()
+            .zip(self.prev_u.iter_mut().zip(self.prev_v.iter_mut()))
+        {
+            r.state(&mut l.state);
+            r.vector(pu);
+            r.vector(pv);
+        }
+        self.steps = r.count();
+    }
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
         super::hold_on_levels(&mut self.levels, values);
     }

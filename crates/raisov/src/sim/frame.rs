@@ -1,0 +1,178 @@
+//! One frame: a budget of steps, the grasps' moves, and recovery from a rejected frame.
+//!
+//! A frame moves every grasp from where it holds now, `p0`, to its target `p1` and runs the
+//! stepper for the [`Budget`]. Try `r = 0, 1, …, max_retries` splits the move into `s = 2^r`
+//! equal sub-moves: sub-move `j = 1 … s` holds the grasps at `p0 + (j/s)(p1 − p0)` for the
+//! `j`-th of `s` equal parts of the budget (at least one step each, so a retried frame of
+//! `Cycles(n)` with `n < s` takes `s` steps). A try is rejected when a step returns a
+//! [`crate::error::Divergence`] (an inverted element, a non-finite value, an energy blow-up)
+//! or when the end state inverts an element; the stepper then returns to the state saved at
+//! the start of the frame ([`crate::integrate::Stepper::save`]) and the next try begins. A
+//! frame whose grasps do not move is not retried. When every try is rejected the simulation
+//! stays at the state before the frame with the grasps where they were (their targets kept,
+//! for the next frame to try again), and the report says `accepted: false`.
+//!
+//! Only [`Budget::Millis`] makes a frame depend on the machine's speed; [`Budget::Cycles`]
+//! frames give the same bits on any thread count.
+
+use super::Simulation;
+use std::time::{Duration, Instant};
+
+/// How much work one frame may do.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Budget {
+    /// This many stepper steps (one integrator step or one V-cycle each).
+    Cycles(u32),
+    /// Steps until this much wall time (ms) has passed since the frame began, at least one.
+    Millis(f64),
+}
+
+/// What a frame did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameReport {
+    /// Steps of the accepted try (0 when none was accepted).
+    pub cycles: u64,
+    /// Steps of the rejected tries, thrown away.
+    pub rejected_cycles: u64,
+    /// Tries rejected before the accepted one (or all of them).
+    pub retries: u32,
+    /// Whether a try was accepted; `false`: the state is the one before the frame.
+    pub accepted: bool,
+    /// Whether every grasp reached its target.
+    pub target_reached: bool,
+    /// The largest nodal residual `|V − R(u)|` over free nodes at the end of the frame (N).
+    pub residual: f64,
+    /// Why the last rejected try was rejected.
+    pub rejection: Option<String>,
+    /// Wall time of the frame.
+    pub wall: Duration,
+}
+
+impl Simulation {
+    /// Run one frame (module docs of [`crate::sim::frame`]): warm-started from the last
+    /// frame, the grasps moved to their targets, recovery from a rejected try.
+    pub fn step_frame(&mut self, budget: Budget) -> FrameReport {
+        let start = Instant::now();
+        let ids: Vec<_> = self.grabs.keys().copied().collect();
+        let from: Vec<[f64; 3]> = self.grabs.values().map(|g| g.position).collect();
+        let to: Vec<[f64; 3]> = self.grabs.values().map(|g| g.target).collect();
+        let moving = from != to;
+        self.stepper.save(&mut self.checkpoint);
+        let tries = if moving { self.max_retries + 1 } else { 1 };
+        let mut report = FrameReport {
+            cycles: 0,
+            rejected_cycles: 0,
+            retries: 0,
+            accepted: false,
+            target_reached: !moving,
+            residual: self.residual,
+            rejection: None,
+            wall: Duration::ZERO,
+        };
+        for attempt in 0..tries {
+            let subs = 1u32 << attempt.min(16);
+            let mut cycles = 0u64;
+            let result = self.try_frame(budget, subs, &ids, &from, &to, start, &mut cycles);
+            let result = result.and_then(|()| {
+                self.observe().map_err(|f| {
+                    format!(
+                        "element {} inverted at the end of the frame (det F = {:.3e})",
+                        f.element, f.det_f
+                    )
+                })
+            });
+            match result {
+                Ok(()) => {
+                    report.cycles = cycles;
+                    report.accepted = true;
+                    report.target_reached = true;
+                    break;
+                }
+                Err(why) => {
+                    report.rejected_cycles += cycles;
+                    report.retries += 1;
+                    report.rejection = Some(why);
+                    self.stepper.restore(&self.checkpoint);
+                    self.set_positions(&ids, &from);
+                    self.apply_constraints();
+                }
+            }
+        }
+        if !report.accepted {
+            report.target_reached = !moving;
+            // The state before the frame, which was accepted: the observation succeeds.
+            let _ = self.observe();
+        }
+        report.residual = self.residual;
+        report.wall = start.elapsed();
+        report
+    }
+
+    fn set_positions(&mut self, ids: &[super::GrabId], p: &[[f64; 3]]) {
+        for (id, &p) in ids.iter().zip(p) {
+            if let Some(g) = self.grabs.get_mut(id) {
+                g.position = p;
+            }
+        }
+    }
+
+    /// One try: `subs` sub-moves from `from` to `to`, each with its part of the budget.
+    #[allow(clippy::too_many_arguments)]
+    fn try_frame(
+        &mut self,
+        budget: Budget,
+        subs: u32,
+        ids: &[super::GrabId],
+        from: &[[f64; 3]],
+        to: &[[f64; 3]],
+        start: Instant,
+        cycles: &mut u64,
+    ) -> Result<(), String> {
+        let moving = from != to;
+        let mut p = from.to_vec();
+        for j in 1..=subs {
+            if moving {
+                let s = j as f64 / subs as f64;
+                for ((p, a), b) in p.iter_mut().zip(from).zip(to) {
+                    *p = if j == subs {
+                        *b
+                    } else {
+                        [
+                            a[0] + s * (b[0] - a[0]),
+                            a[1] + s * (b[1] - a[1]),
+                            a[2] + s * (b[2] - a[2]),
+                        ]
+                    };
+                }
+                self.set_positions(ids, &p);
+                self.apply_constraints();
+            }
+            match budget {
+                Budget::Cycles(n) => {
+                    let n = n as u64;
+                    let (s, j) = (subs as u64, j as u64);
+                    let mut k = n * j / s - n * (j - 1) / s;
+                    if n > 0 {
+                        k = k.max(1);
+                    }
+                    for _ in 0..k {
+                        self.stepper.advance().map_err(|d| d.to_string())?;
+                        *cycles += 1;
+                    }
+                }
+                Budget::Millis(ms) => {
+                    let until = ms.max(0.0) * 1e-3 * j as f64 / subs as f64;
+                    let until = Duration::from_secs_f64(until);
+                    loop {
+                        self.stepper.advance().map_err(|d| d.to_string())?;
+                        *cycles += 1;
+                        if start.elapsed() >= until {
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,403 @@
+//! The library's front door for a host program: a [`Simulation`] that a render or game loop
+//! steps once per frame, with grasps, pins and tool forces at run time.
+//!
+//! ```
+//! use raisov::mesh::generate::{box_tets, BoxPattern};
+//! use raisov::sim::{Budget, SimulationBuilder};
+//!
+//! // A 4 cm cube of soft tissue, fixed at its base (z = 0), default material and scheme.
+//! let mesh = box_tets([0.04; 3], [3, 3, 3], BoxPattern::Six)?;
+//! let mut sim = SimulationBuilder::new(mesh).fix(|p| p[2] <= 0.0).build()?;
+//! // Grasp the top face around its centre and lift it by 5 mm over a few frames.
+//! let g = sim.grab([0.02, 0.02, 0.05], 0.015)?;
+//! let start = sim.grab_position(g)?;
+//! sim.move_grab(g, [start[0], start[1], start[2] + 0.005])?;
+//! for _ in 0..5 {
+//!     let report = sim.step_frame(Budget::Cycles(4));
+//!     assert!(report.accepted);
+//! }
+//! let f = sim.grab_force(g)?;
+//! assert!(f[2] < 0.0, "the stretched tissue pulls the tool down: {f:?}");
+//! # Ok::<(), raisov::Error>(())
+//! ```
+//!
+//! # Equations and sign conventions
+//!
+//! The crate's equation of motion ([`crate::fem`]): `M ü + D u̇ + R(u) = V`, `R = ∂E/∂u` the
+//! internal force resisting deformation, `V` the external (body and nodal) loads. A
+//! constrained node `a` is moved by a constraint force `T_a` (the tool's or the support's
+//! force on the tissue): `M_a ü_a + D_a u̇_a + R_a(u) = V_a + T_a`. At rest
+//! (`ü = u̇ = 0`), `T_a = R_a(u) − V_a`, and by Newton's third law the tissue pushes on
+//! the constraint with `−T_a = V_a − R_a(u)`. So, in newtons:
+//!
+//! ```text
+//! grab_force(g)  = Σ_{a ∈ g} (V_a − R_a(u))       the force the tissue exerts on the tool
+//! reactions()_a  =  V_a − R_a(u)                  the force the tissue exerts on support a
+//! residual       = max_{a free} |V_a − R_a(u)|    (N), zero at equilibrium
+//! ```
+//!
+//! Lifting a grasped patch stretches the tissue, which pulls the tool back down: `grab_force`
+//! points against the displacement. Since `Σ_all R_a = 0` (internal forces are invariant
+//! under translation), at equilibrium the constraints take the whole load:
+//! `Σ_g grab_force(g) + Σ_a reactions()_a = Σ_all V_a` (gravity and nodal loads), a test.
+//! Before equilibrium (a frame that stops early, or explicit dynamics), `V − R` on a
+//! constrained row is the quasi-static part of the constraint force: inertia and damping of
+//! the constrained nodes themselves are not included.
+//!
+//! `grab_stiffness(g)` is `K_g = ∂ grab_force / ∂ x_g`, the change of the tool force when
+//! the grasp moves rigidly by `δx` and the free nodes return to equilibrium: with `K` the
+//! tangent stiffness `∂R/∂u`, `w` the unit rigid move of the grasped nodes along axis `k`
+//! (zero elsewhere) and `F` the free dofs,
+//!
+//! ```text
+//! K_FF x = −(K w)_F,     δu = w + x,     column k of K_g = −Σ_{a ∈ g} (K δu)_a,
+//! ```
+//!
+//! three conjugate-gradient solves (lumped-mass preconditioner) with matrix-free products
+//! `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)`, each warm-started from the grasp's previous
+//! solution. `K_g` is symmetric negative semi-definite at a stable equilibrium; a haptic loop
+//! extrapolates between frames with `f ≈ f_frame + K_g (x_device − x_frame)`.
+//!
+//! # Grasps and pins
+//!
+//! [`Simulation::grab`] takes the point of the deformed surface nearest `point` (the boundary
+//! triangles of a tetrahedral mesh, every triangle of a membrane) and the surface nodes within
+//! `radius` of it (at least the nearest one), leaving out nodes that are constrained already.
+//! Each grasped node keeps its offset from the grasp point: moving the grasp to `x` holds
+//! node `a` at position `x + (x_a − g)`, `g` the grasp point and `x_a` the node's position
+//! when grasped (a rigid translation). A pin holds its patch where it stands. Grasps are
+//! prescribed points of level 0 and pins are fixed regions (each level-0 pinned node carried
+//! to the nearest node of every coarser level), taken to the levels by the scheme as it takes
+//! the scenario's ([`crate::integrate::RuntimeConstraints`]). A new grasp position takes
+//! effect in the next frame.
+//!
+//! # Frames, borrowing and recovery
+//!
+//! [`Simulation::step_frame`] runs the stepper for a [`Budget`] (a number of steps, or wall
+//! time), warm-started from the last frame. The reads ([`Simulation::positions`],
+//! [`Simulation::displacements`], [`Simulation::reactions`], ...) borrow the simulation and
+//! hold until the next call that steps or changes constraints. A frame that diverges, produces
+//! non-finite values or inverts an element is rejected: the state before the frame is
+//! restored and the frame is retried with the grasps moving in 2, 4, ... sub-moves (see
+//! [`frame`]); if every try fails the simulation stays at the state before the frame, the
+//! grasps where they were, and the [`FrameReport`] says so.
+//!
+//! # Node order and units
+//!
+//! Nodes are in the mesh's in-memory order; a scenario may renumber a mesh read from a file
+//! ([`Simulation::file_node_ids`] maps back). Everything is SI: metres, newtons, seconds,
+//! pascals, kilograms.
+
+#![warn(missing_docs)]
+
+mod builder;
+pub mod frame;
+mod grab;
+mod tangent;
+
+pub use builder::{Scheme, SimulationBuilder};
+pub use frame::{Budget, FrameReport};
+
+use crate::fem::{FemModel, ForceModel};
+use crate::integrate::{Checkpoint, Stepper};
+use crate::mesh::{ElementKind, Mesh};
+use crate::scenario::Scenario;
+use crate::{Error, Result};
+use grab::{Grab, Pin};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Identifies a grasp of one [`Simulation`] ([`Simulation::grab`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct GrabId(u64);
+
+/// Identifies a pin of one [`Simulation`] ([`Simulation::pin`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct PinId(u64);
+
+/// The forces the tissue exerts on its supports: every constrained node that no grasp holds
+/// (fixed regions, prescribed points of a scenario, pins), `V − R(u)` per node (N).
+#[derive(Clone, Copy, Debug)]
+pub struct Reactions<'a> {
+    /// The supported nodes, ascending.
+    pub nodes: &'a [u32],
+    /// The force on each (N), in the order of `nodes`.
+    pub forces: &'a [[f64; 3]],
+    /// Their sum (N).
+    pub sum: [f64; 3],
+}
+
+/// A simulation driven frame by frame (module docs: conventions, borrowing, recovery).
+pub struct Simulation {
+    stepper: Box<dyn Stepper>,
+    mesh: Mesh,
+    file_ids: Option<Vec<u32>>,
+    /// The simulation's own force model of level 0 (forces, stresses and tangent products
+    /// without touching the stepper's).
+    model: Box<dyn ForceModel>,
+    mass: Vec<f64>,
+    f_ext: Vec<f64>,
+    /// Level-0 nodes constrained by the stepper's own constraints.
+    own: Vec<bool>,
+    /// Surface triangles for grasps and pins (boundary faces, or a membrane's triangles).
+    surface: Vec<[u32; 3]>,
+    grabs: BTreeMap<GrabId, Grab>,
+    pins: BTreeMap<PinId, Pin>,
+    next_id: u64,
+    /// Level-0 nodes constrained now (own, grasped, pinned).
+    constrained: Vec<bool>,
+    positions: Vec<[f64; 3]>,
+    /// `R(u)` at the current state, 3 per node.
+    r: Vec<f64>,
+    residual: f64,
+    support_nodes: Vec<u32>,
+    support_forces: Vec<[f64; 3]>,
+    stress: Option<Vec<[f64; 9]>>,
+    checkpoint: Checkpoint,
+    /// Retries of a rejected frame (each halving the grasps' sub-moves). Default 4.
+    max_retries: u32,
+    /// Length scale of the finite-difference tangent products (m).
+    length: f64,
+}
+
+impl Simulation {
+    /// Load a scenario file (the TOML format of [`crate::scenario::spec`]) and build its
+    /// stepper; the scenario's `[run]`, `[output]` and `[interactive]` sections are not used.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<Simulation> {
+        Self::from_scenario(&Scenario::load(path.as_ref())?)
+    }
+
+    /// Build from scenario text; relative paths in it (mesh files) are taken from `base_dir`.
+    ///
+    /// ```
+    /// let text = r#"
+    /// [mesh]
+    /// generate = "box"
+    /// size = [0.04, 0.04, 0.04]
+    /// divisions = [3, 3, 3]
+    /// [material]
+    /// law = "neo-hookean"
+    /// young = 5e3
+    /// poisson = 0.45
+    /// [[fix]]
+    /// plane = { point = [0, 0, 0], normal = [0, 0, 1] }
+    /// [run]
+    /// duration = 1.0
+    /// "#;
+    /// let sim = raisov::sim::Simulation::from_toml(text, ".")?;
+    /// assert_eq!(sim.positions().len(), 64);
+    /// # Ok::<(), raisov::Error>(())
+    /// ```
+    pub fn from_toml(text: &str, base_dir: impl AsRef<Path>) -> Result<Simulation> {
+        let path = base_dir.as_ref().join("scenario.toml");
+        Self::from_scenario(&Scenario::from_toml(text, &path)?)
+    }
+
+    /// Build from a resolved scenario. The scenario's kinetic-energy ceiling (`[run]
+    /// blowup_factor`) is not used: it is set from the loads and prescribed motions and knows
+    /// nothing of the work run-time grasps do; a frame is rejected on a non-finite value or an
+    /// inverted element instead, as with [`SimulationBuilder`].
+    pub fn from_scenario(sc: &Scenario) -> Result<Simulation> {
+        let mut stepper = sc.stepper()?;
+        stepper.set_kinetic_limit(f64::INFINITY);
+        let model = FemModel::new(&sc.mesh, sc.fem_params())?;
+        Self::assemble(
+            stepper,
+            sc.mesh.clone(),
+            sc.file_ids.clone(),
+            Box::new(model),
+        )
+    }
+
+    /// The parts every constructor has: a stepper whose level 0 is `mesh`, and a force model
+    /// of the same mesh and physics.
+    pub(crate) fn assemble(
+        mut stepper: Box<dyn Stepper>,
+        mesh: Mesh,
+        file_ids: Option<Vec<u32>>,
+        model: Box<dyn ForceModel>,
+    ) -> Result<Simulation> {
+        let n = mesh.num_nodes();
+        let (sys, _) = stepper.finest();
+        let f_ext = sys.f_ext.clone();
+        let mass = sys.mass.clone();
+        let own = (0..n).map(|a| sys.constraints.is_constrained(a)).collect();
+        let surface = match mesh.kind {
+            ElementKind::Tet4 => mesh.boundary_facets(),
+            ElementKind::Tri3 => mesh
+                .elements()
+                .map(|e| [e[0], e[1], e[2]])
+                .collect::<Vec<_>>(),
+        };
+        let (lo, hi) = mesh.bounding_box();
+        let length = 1e-3 * crate::mesh::norm(crate::mesh::sub(hi, lo));
+        let mut sim = Simulation {
+            stepper,
+            file_ids,
+            model,
+            mass,
+            f_ext,
+            constrained: Vec::new(),
+            own,
+            surface,
+            grabs: BTreeMap::new(),
+            pins: BTreeMap::new(),
+            next_id: 0,
+            positions: vec![[0.0; 3]; n],
+            r: vec![0.0; 3 * n],
+            residual: 0.0,
+            support_nodes: Vec::new(),
+            support_forces: Vec::new(),
+            stress: None,
+            checkpoint: Checkpoint::default(),
+            max_retries: 4,
+            length: if length > 0.0 { length } else { 1e-3 },
+            mesh,
+        };
+        sim.constrained = sim.own.clone();
+        sim.supports();
+        sim.observe().map_err(|f| {
+            Error::param(
+                "initial state",
+                format!(
+                    "element {} is inverted (det F = {:.3e})",
+                    f.element, f.det_f
+                ),
+            )
+        })?;
+        Ok(sim)
+    }
+
+    /// Retries of a rejected frame, each halving the grasps' sub-moves (default 4: down to
+    /// 16 sub-moves). 0 rejects a failing frame at once.
+    pub fn set_max_retries(&mut self, retries: u32) {
+        self.max_retries = retries;
+    }
+
+    /// The stepper (for what this API does not cover: its description, diagnostics).
+    pub fn stepper(&self) -> &dyn Stepper {
+        &*self.stepper
+    }
+
+    /// Level 0's mesh (reference configuration).
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.stepper.state().t
+    }
+
+    /// Current node positions `X + u` (m), in the mesh's node order.
+    pub fn positions(&self) -> &[[f64; 3]] {
+        &self.positions
+    }
+
+    /// Current displacements `u` (m), 3 per node.
+    pub fn displacements(&self) -> &[f64] {
+        &self.stepper.state().u
+    }
+
+    /// Current velocities `u̇` (m/s), 3 per node (zero under the static smoothers of FAS).
+    pub fn velocities(&self) -> &[f64] {
+        &self.stepper.state().v
+    }
+
+    /// The file's id of each node where the scenario renumbered the mesh at load (node `a` is
+    /// node `file_node_ids()[a]` of the file), else `None` (the ids are the file's).
+    pub fn file_node_ids(&self) -> Option<&[u32]> {
+        self.file_ids.as_deref()
+    }
+
+    /// Nodal Cauchy stress (Pa, 9 per node, row-major), computed on first call after a step.
+    pub fn nodal_stress(&mut self) -> &[[f64; 9]] {
+        let n = self.mesh.num_nodes();
+        let (model, u) = (&self.model, &self.stepper.state().u);
+        self.stress.get_or_insert_with(|| {
+            let mut t = vec![0.0; 9 * n];
+            model.nodal_stress(u, &mut t);
+            t.chunks_exact(9)
+                .map(|c| c.try_into().expect("9 entries"))
+                .collect()
+        })
+    }
+
+    /// The largest nodal residual force `|V − R(u)|` over free nodes (N) at the current state.
+    pub fn residual(&self) -> f64 {
+        self.residual
+    }
+
+    /// Forces the tissue exerts on its supports at the current state (module docs).
+    pub fn reactions(&self) -> Reactions<'_> {
+        let mut sum = [0.0; 3];
+        for f in &self.support_forces {
+            for k in 0..3 {
+                sum[k] += f[k];
+            }
+        }
+        Reactions {
+            nodes: &self.support_nodes,
+            forces: &self.support_forces,
+            sum,
+        }
+    }
+
+    /// Total external load `Σ V` (N): gravity and nodal loads.
+    pub fn total_load(&self) -> [f64; 3] {
+        let mut s = [0.0; 3];
+        for f in self.f_ext.chunks_exact(3) {
+            for k in 0..3 {
+                s[k] += f[k];
+            }
+        }
+        s
+    }
+
+    /// After a state change: positions, `R(u)`, the residual and the support forces.
+    /// Fails (changing nothing but these caches) on an inverted element.
+    fn observe(&mut self) -> std::result::Result<(), crate::fem::ElementFailure> {
+        self.stress = None;
+        let u = &self.stepper.state().u;
+        self.model.internal_forces(u, &mut self.r)?;
+        for (a, p) in self.positions.iter_mut().enumerate() {
+            let x = self.mesh.nodes[a];
+            *p = [x[0] + u[3 * a], x[1] + u[3 * a + 1], x[2] + u[3 * a + 2]];
+        }
+        let mut res = 0.0f64;
+        for (a, c) in self.constrained.iter().enumerate() {
+            if !c {
+                let f = self.net(a);
+                res = res.max((f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt());
+            }
+        }
+        self.residual = res;
+        for (i, &a) in self.support_nodes.iter().enumerate() {
+            self.support_forces[i] = self.net(a as usize);
+        }
+        Ok(())
+    }
+
+    /// `V_a − R_a(u)` of node `a` at the last observed state.
+    fn net(&self, a: usize) -> [f64; 3] {
+        let (f, r) = (&self.f_ext[3 * a..3 * a + 3], &self.r[3 * a..3 * a + 3]);
+        [f[0] - r[0], f[1] - r[1], f[2] - r[2]]
+    }
+
+    /// The supported nodes: constrained, not grasped.
+    fn supports(&mut self) {
+        let mut grasped = vec![false; self.mesh.num_nodes()];
+        for g in self.grabs.values() {
+            for &a in &g.nodes {
+                grasped[a as usize] = true;
+            }
+        }
+        self.support_nodes = (0..self.mesh.num_nodes() as u32)
+            .filter(|&a| self.constrained[a as usize] && !grasped[a as usize])
+            .collect();
+        self.support_forces = vec![[0.0; 3]; self.support_nodes.len()];
+    }
+}
+
+#[cfg(test)]
+mod tests;

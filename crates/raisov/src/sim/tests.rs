@@ -1,0 +1,491 @@
+use super::*;
+use crate::fem::{FemModel, FemParams};
+use crate::integrate::Method;
+use crate::material::{lame, Material, NeoHookean};
+use crate::mesh::generate::{box_tets, BoxPattern};
+use crate::multigrid::fas::{CoarseSolve, FasParams};
+use crate::scenario::Scenario;
+use std::path::Path;
+
+const SIDE: f64 = 0.04;
+const G: [f64; 3] = [0.0, 0.0, -9.81];
+
+fn cube(div: usize) -> Mesh {
+    box_tets([SIDE; 3], [div; 3], BoxPattern::Six).unwrap()
+}
+
+/// A cube fixed at its base under gravity, solved by Newton at every step: each frame ends
+/// at the static equilibrium (to the solver's tolerance).
+fn static_cube(div: usize) -> Simulation {
+    SimulationBuilder::new(cube(div))
+        .gravity(G)
+        .fix(|p| p[2] <= 0.0)
+        .scheme(Scheme::Fas(FasParams {
+            coarse: CoarseSolve::Newton { rel_tol: 1e-11 },
+            ..FasParams::default()
+        }))
+        .build()
+        .unwrap()
+}
+
+fn converge(sim: &mut Simulation) {
+    for _ in 0..10 {
+        let r = sim.step_frame(Budget::Cycles(1));
+        assert!(r.accepted, "{r:?}");
+        if r.residual < 1e-11 {
+            break;
+        }
+    }
+}
+
+fn norm(x: [f64; 3]) -> f64 {
+    (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
+}
+
+#[test]
+fn grab_takes_the_surface_patch_and_holds_it_rigidly() {
+    let mut sim = static_cube(4);
+    let r = 0.011;
+    let g = sim.grab([0.02, 0.0205, 0.05], r).unwrap();
+    // The nearest surface point is straight below on the top face; the patch is the top-face
+    // nodes within r of it (node spacing 1 cm: the centre and its 4 neighbours).
+    let top = [0.02, 0.0205, SIDE];
+    let expected: Vec<u32> = (0..sim.mesh().num_nodes() as u32)
+        .filter(|&a| {
+            let p = sim.mesh().nodes[a as usize];
+            (p[2] - SIDE).abs() < 1e-12 && norm(crate::mesh::sub(p, top)) <= r
+        })
+        .collect();
+    assert_eq!(expected.len(), 5);
+    assert_eq!(sim.grab_nodes(g).unwrap(), &expected[..]);
+    assert_eq!(sim.grab_position(g).unwrap(), top);
+    let before: Vec<[f64; 3]> = sim.positions().to_vec();
+    let d = [0.001, -0.002, 0.004];
+    sim.move_grab(g, [top[0] + d[0], top[1] + d[1], top[2] + d[2]])
+        .unwrap();
+    let rep = sim.step_frame(Budget::Cycles(2));
+    assert!(
+        rep.accepted && rep.target_reached && rep.cycles == 2,
+        "{rep:?}"
+    );
+    // Every grasped node moved by exactly d (to rounding of x + d − X); no other node of the
+    // top face did.
+    for (a, (p, q)) in before.iter().zip(sim.positions()).enumerate() {
+        let moved = crate::mesh::sub(*q, *p);
+        let err = norm(crate::mesh::sub(moved, d));
+        if expected.contains(&(a as u32)) {
+            assert!(err < 1e-15, "node {a}: moved {moved:?}");
+        } else if (p[2] - SIDE).abs() < 1e-12 {
+            assert!(err > 1e-5, "node {a} outside the patch moved with it");
+        }
+    }
+    // Released nodes are free: the residual there drops at the next equilibrium.
+    sim.release(g).unwrap();
+    assert!(sim.grab_force(g).is_err());
+    converge(&mut sim);
+    for &a in &expected {
+        assert!(!sim.constrained[a as usize]);
+    }
+}
+
+#[test]
+fn grab_force_balances_reactions_and_body_force_at_equilibrium() {
+    let mut sim = static_cube(4);
+    let g = sim.grab([0.02, 0.02, 0.06], 0.011).unwrap();
+    let p = sim.grab_position(g).unwrap();
+    sim.move_grab(g, [p[0] + 0.002, p[1], p[2] + 0.004])
+        .unwrap();
+    converge(&mut sim);
+    assert!(sim.residual() < 1e-10, "residual {}", sim.residual());
+    let f = sim.grab_force(g).unwrap();
+    // Independently: Σ over the grasped nodes of V − R(u), V = m g from the lumped mass.
+    let (lambda, mu) = lame(5e3, 0.45);
+    let mut model = FemModel::new(
+        sim.mesh(),
+        FemParams::new(Material::NeoHookean(NeoHookean { lambda, mu })),
+    )
+    .unwrap();
+    let mass = model.lumped_mass();
+    let mut r = vec![0.0; sim.displacements().len()];
+    model.internal_forces(sim.displacements(), &mut r).unwrap();
+    let mut want = [0.0; 3];
+    for &a in sim.grab_nodes(g).unwrap() {
+        for k in 0..3 {
+            want[k] += mass[a as usize] * G[k] - r[3 * a as usize + k];
+        }
+    }
+    assert!(
+        norm(crate::mesh::sub(f, want)) < 1e-12 * norm(want),
+        "{f:?} {want:?}"
+    );
+    // Lifted and pulled along +x: the tissue pulls the tool down and back.
+    assert!(f[2] < 0.0 && f[0] < 0.0, "{f:?}");
+    // Equilibrium: what the tool and the supports take from the tissue is the whole load.
+    let react = sim.reactions();
+    let load = sim.total_load();
+    let total: f64 = sim.mass.iter().sum();
+    assert!((load[2] - total * G[2]).abs() < 1e-15);
+    let mut imbalance = [0.0; 3];
+    for k in 0..3 {
+        imbalance[k] = f[k] + react.sum[k] - load[k];
+    }
+    // Bounded by the free nodes' residual (≤ 1e-10 N each, 64 − 21 nodes) plus rounding.
+    let scale = norm(load) + norm(f);
+    assert!(
+        norm(imbalance) < 1e-9 * scale,
+        "imbalance {imbalance:?} N, load {load:?}, grab {f:?}, supports {:?}",
+        react.sum
+    );
+}
+
+#[test]
+fn grab_stiffness_matches_finite_differences_of_the_grab_force() {
+    let mut sim = static_cube(3);
+    let g = sim.grab([0.02, 0.02, 0.06], 0.01).unwrap();
+    let p0 = sim.grab_position(g).unwrap();
+    let x0 = [p0[0], p0[1], p0[2] + 0.004];
+    sim.move_grab(g, x0).unwrap();
+    converge(&mut sim);
+    let k = sim.grab_stiffness(g).unwrap();
+    // Warm-started again at the same state: the same tangent to the solve's tolerance.
+    let k2 = sim.grab_stiffness(g).unwrap();
+    let kmax = k.iter().flatten().fold(0.0f64, |a, &b| a.max(b.abs()));
+    assert!(kmax > 10.0, "{k:?}");
+    let h = 1e-4;
+    for axis in 0..3 {
+        let mut f = [[0.0; 3]; 2];
+        for (s, side) in [1.0, -1.0].into_iter().enumerate() {
+            let mut x = x0;
+            x[axis] += side * h;
+            sim.move_grab(g, x).unwrap();
+            converge(&mut sim);
+            f[s] = sim.grab_force(g).unwrap();
+        }
+        for i in 0..3 {
+            let fd = (f[0][i] - f[1][i]) / (2.0 * h);
+            assert!(
+                (fd - k[i][axis]).abs() < 2e-3 * kmax,
+                "K[{i}][{axis}] = {} against FD {fd} (max |K| {kmax})",
+                k[i][axis]
+            );
+            assert!((k2[i][axis] - k[i][axis]).abs() < 1e-5 * kmax);
+        }
+    }
+    // Symmetric (a conservative system) and negative definite along the diagonal.
+    for i in 0..3 {
+        assert!(k[i][i] < 0.0);
+        for j in 0..3 {
+            assert!((k[i][j] - k[j][i]).abs() < 2e-3 * kmax, "{k:?}");
+        }
+    }
+}
+
+#[test]
+fn a_violent_move_is_recovered_and_never_poisons_the_state() {
+    let mut sim = SimulationBuilder::new(cube(3))
+        .scheme(Scheme::SingleLevel(Method::SymplecticEuler))
+        .damping(50.0)
+        .fix(|p| p[2] <= 0.0)
+        .build()
+        .unwrap();
+    let g = sim.grab([0.02, 0.02, 0.05], 0.02).unwrap();
+    for _ in 0..3 {
+        assert!(sim.step_frame(Budget::Cycles(5)).accepted);
+    }
+    let before_u = sim.displacements().to_vec();
+    let before_t = sim.time();
+    let p = sim.grab_position(g).unwrap();
+    // Through the fixed base: the top face would pass the bottom one.
+    sim.move_grab(g, [p[0], p[1], -0.03]).unwrap();
+    let rep = sim.step_frame(Budget::Cycles(5));
+    assert!(rep.retries > 0, "{rep:?}");
+    assert!(rep.rejection.is_some());
+    assert!(sim.displacements().iter().all(|x| x.is_finite()));
+    assert!(sim.velocities().iter().all(|x| x.is_finite()));
+    assert!(sim.positions().iter().flatten().all(|x| x.is_finite()));
+    assert!(sim.residual().is_finite());
+    if rep.accepted {
+        assert!(rep.target_reached);
+    } else {
+        // Back to the state before the frame, bit for bit, the grasp where it was.
+        assert!(!rep.target_reached);
+        assert_eq!(sim.displacements(), &before_u[..]);
+        assert_eq!(sim.time(), before_t);
+        assert_eq!(sim.grab_position(g).unwrap(), p);
+    }
+    // A gentle move afterwards still works.
+    sim.move_grab(g, [p[0], p[1], p[2] + 0.001]).unwrap();
+    let rep = sim.step_frame(Budget::Cycles(20));
+    assert!(rep.accepted && rep.target_reached, "{rep:?}");
+}
+
+#[test]
+fn a_small_violent_move_is_split_into_sub_moves() {
+    // Explicit dynamics without damping of a 2 mm jump of a 1 cm element: the single jump
+    // inverts, halves do not.
+    let mut sim = SimulationBuilder::new(cube(4))
+        .scheme(Scheme::SingleLevel(Method::SymplecticEuler))
+        .damping(100.0)
+        .fix(|p| p[2] <= 0.0)
+        .build()
+        .unwrap();
+    let g = sim.grab([0.02, 0.02, 0.05], 0.0).unwrap();
+    assert_eq!(sim.grab_nodes(g).unwrap().len(), 1);
+    let p = sim.grab_position(g).unwrap();
+    sim.move_grab(g, [p[0], p[1], p[2] - 0.012]).unwrap();
+    let rep = sim.step_frame(Budget::Cycles(64));
+    assert!(rep.accepted, "{rep:?}");
+    assert!(rep.retries >= 1, "{rep:?}");
+    assert!(rep.target_reached);
+    assert_eq!(sim.grab_position(g).unwrap(), [p[0], p[1], p[2] - 0.012]);
+}
+
+#[test]
+fn pins_hold_their_patch_where_it_stands() {
+    let mut sim = static_cube(4);
+    let g = sim.grab([0.02, 0.02, 0.05], 0.005).unwrap();
+    let p = sim.grab_position(g).unwrap();
+    // Pin a corner region of the top face first (where it stands: at rest).
+    let pin = sim.pin([0.0, 0.0, 0.05], 0.011).unwrap();
+    let pinned = sim.pin_nodes(pin).unwrap().to_vec();
+    assert!(pinned.len() >= 3);
+    sim.move_grab(g, [p[0], p[1], p[2] + 0.004]).unwrap();
+    converge(&mut sim);
+    for &a in &pinned {
+        let u = &sim.displacements()[3 * a as usize..3 * a as usize + 3];
+        assert_eq!(u, &[0.0; 3][..], "pinned node {a} moved");
+        assert!(sim.reactions().nodes.contains(&a));
+    }
+    sim.unpin(pin).unwrap();
+    converge(&mut sim);
+    let moved = pinned
+        .iter()
+        .map(|&a| {
+            norm(crate::mesh::sub(
+                sim.positions()[a as usize],
+                sim.mesh().nodes[a as usize],
+            ))
+        })
+        .fold(0.0, f64::max);
+    assert!(moved > 1e-5, "unpinned nodes stayed: {moved} m");
+}
+
+#[test]
+fn cycles_frames_give_the_same_bits_on_one_and_two_threads() {
+    let run = |threads: usize, scheme: Scheme, coarse: bool| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            // 34992 elements: the packed force pass runs slabs in parallel.
+            let mesh = box_tets([SIDE; 3], [18; 3], BoxPattern::Six).unwrap();
+            let mut b = SimulationBuilder::new(mesh)
+                .gravity(G)
+                .damping(30.0)
+                .fix(|p| p[2] <= 0.0)
+                .scheme(scheme);
+            if coarse {
+                b = b.levels(vec![cube(9)]);
+            }
+            let mut sim = b.build().unwrap();
+            let g = sim.grab([0.02, 0.02, 0.05], 0.006).unwrap();
+            let p = sim.grab_position(g).unwrap();
+            let mut out = Vec::new();
+            for k in 1..=3 {
+                sim.move_grab(g, [p[0], p[1], p[2] + 0.001 * k as f64])
+                    .unwrap();
+                let r = sim.step_frame(Budget::Cycles(3));
+                assert!(r.accepted, "{r:?}");
+                out.push(sim.grab_force(g).unwrap());
+            }
+            (sim.displacements().to_vec(), out)
+        })
+    };
+    for (scheme, coarse) in [
+        (Scheme::SingleLevel(Method::SymplecticEuler), false),
+        (Scheme::Fas(FasParams::default()), true),
+    ] {
+        let a = run(1, scheme.clone(), coarse);
+        let b = run(2, scheme, coarse);
+        assert!(
+            a.0 == b.0 && a.1 == b.1,
+            "bits differ between 1 and 2 threads"
+        );
+    }
+}
+
+#[test]
+fn scenario_text_builds_a_simulation_with_its_constraints() {
+    let text = r#"
+gravity = [0, 0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [4, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = { point = [0, 0, 0], normal = [0, 0, 1] }
+[multigrid]
+scheme = "raisov-paper"
+levels = 2
+[run]
+duration = 1.0
+"#;
+    let mut sim = Simulation::from_toml(text, ".").unwrap();
+    assert!(sim.file_node_ids().is_none());
+    assert_eq!(sim.stepper().num_levels(), 2);
+    // The base is supported: 25 fixed nodes.
+    assert_eq!(sim.reactions().nodes.len(), 25);
+    let g = sim.grab([0.02, 0.02, 0.05], 0.011).unwrap();
+    // Grabbing fixed nodes only is an error naming the reason.
+    let e = sim.grab([0.02, 0.02, -0.01], 0.005).unwrap_err();
+    assert!(e.to_string().contains("constrained already"), "{e}");
+    let p = sim.grab_position(g).unwrap();
+    sim.move_grab(g, [p[0], p[1], p[2] + 0.002]).unwrap();
+    let r = sim.step_frame(Budget::Cycles(50));
+    assert!(r.accepted, "{r:?}");
+    assert!(sim.nodal_stress().iter().flatten().all(|x| x.is_finite()));
+    // A wall-clock budget takes at least one step.
+    let r = sim.step_frame(Budget::Millis(0.5));
+    assert!(r.accepted && r.cycles >= 1, "{r:?}");
+    assert!(sim.grab_force(g).unwrap()[2] < 0.0);
+    // Without loads the scenario's kinetic-energy ceiling would be zero; a grasp still moves
+    // explicit dynamics.
+    let text = text
+        .replace("gravity = [0, 0, -9.81]", "")
+        .replace("[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\n", "");
+    let mut dynamic = Simulation::from_toml(&text, ".").unwrap();
+    assert!(dynamic.stepper().describe().starts_with("single level"));
+    let g2 = dynamic.grab([0.02, 0.02, 0.05], 0.011).unwrap();
+    let p2 = dynamic.grab_position(g2).unwrap();
+    dynamic
+        .move_grab(g2, [p2[0], p2[1], p2[2] + 0.001])
+        .unwrap();
+    let r = dynamic.step_frame(Budget::Cycles(20));
+    assert!(r.accepted && r.retries == 0, "{r:?}");
+    // Bad input: errors, no panics.
+    assert!(sim.move_grab(g, [f64::NAN, 0.0, 0.0]).is_err());
+    assert!(sim.grab([0.0; 3], -1.0).is_err());
+}
+
+fn levels_scenario(scheme: &str) -> Scenario {
+    let text = format!(
+        r#"
+gravity = [0, 0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [6, 6, 6]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}
+[multigrid]
+scheme = "{scheme}"
+levels = 2
+[run]
+duration = 1.0
+"#
+    );
+    Scenario::from_toml(&text, Path::new("./s.toml")).unwrap()
+}
+
+#[test]
+fn runtime_constraints_reach_the_levels_as_the_scheme_carries_them() {
+    use crate::integrate::RuntimeConstraints;
+    use crate::multigrid::fas::Fas;
+    use crate::multigrid::raisov::{Raisov, RaisovParams, Reading};
+    use crate::multigrid::Level;
+    let top = [0.02, 0.02, SIDE];
+    let d = [0.0, 0.0, 0.002];
+    // Level-0 grasped node, the coarse node nearest it, a pinned coarse node.
+    let setup = |levels: &[Level]| {
+        let a = levels[0].mesh.nearest_node(top).unwrap() as u32;
+        let near = levels[1].mesh.nearest_node(top).unwrap();
+        let corner = levels[1].mesh.nearest_node([0.0, 0.0, SIDE]).unwrap() as u32;
+        let rc = RuntimeConstraints {
+            held: vec![(a, d)],
+            pinned: vec![vec![], vec![corner]],
+        };
+        (a as usize, near, corner as usize, rc)
+    };
+    let at = |u: &[f64], a: usize| [u[3 * a], u[3 * a + 1], u[3 * a + 2]];
+
+    // FAS: the grasp on level 0 only; the pinned coarse node held (at the restricted state).
+    let (levels, links) = levels_scenario("fas").build_levels().unwrap();
+    let (a, near, corner, rc) = setup(&levels);
+    let mut fas = Fas::new(levels, links, FasParams::default());
+    fas.set_runtime_constraints(&rc);
+    for _ in 0..3 {
+        fas.advance().unwrap();
+    }
+    assert_eq!(at(&fas.levels[0].state.u, a), d);
+    let c1 = &fas.levels[1].sys.constraints;
+    assert!(c1.is_constrained(corner));
+    assert!(
+        !c1.is_constrained(near),
+        "FAS carries no grasp to coarse levels"
+    );
+    // Released: back to the level's own constraints.
+    fas.set_runtime_constraints(&RuntimeConstraints::default());
+    assert!(!fas.levels[1].sys.constraints.is_constrained(corner));
+    assert!(!fas.levels[0].sys.constraints.is_constrained(a));
+
+    // RaISoV: the grasp carried to the nearest coarse node at the same displacement; the
+    // pinned coarse node held where it stood (at rest).
+    let (levels, links) = levels_scenario("raisov-paper").build_levels().unwrap();
+    let (a, near, corner, rc) = setup(&levels);
+    let mut rs = Raisov::new(
+        levels,
+        links,
+        RaisovParams {
+            epsilon: 1e-6,
+            reading: Reading::Correction,
+            kinetic_limit: f64::INFINITY,
+        },
+    );
+    rs.set_runtime_constraints(&rc);
+    for _ in 0..3 {
+        rs.advance().unwrap();
+    }
+    assert_eq!(at(&rs.levels[0].state.u, a), d);
+    assert_eq!(at(&rs.levels[1].state.u, near), d);
+    assert_eq!(at(&rs.levels[1].state.u, corner), [0.0; 3]);
+}
+
+#[test]
+fn restore_returns_every_stepper_to_the_same_bits() {
+    use crate::integrate::Checkpoint;
+    let mut steppers: Vec<Box<dyn Stepper>> = vec![
+        levels_scenario("fas").stepper().unwrap(),
+        levels_scenario("raisov-paper").stepper().unwrap(),
+    ];
+    let mut single = levels_scenario("fas");
+    single.multigrid = None;
+    steppers.push(single.stepper().unwrap());
+    for st in &mut steppers {
+        for _ in 0..2 {
+            st.advance().unwrap();
+        }
+        let mut cp = Checkpoint::default();
+        st.save(&mut cp);
+        let steps = st.steps();
+        let run = |st: &mut Box<dyn Stepper>| {
+            for _ in 0..3 {
+                st.advance().unwrap();
+            }
+            (st.state().u.clone(), st.state().v.clone(), st.state().t)
+        };
+        let first = run(st);
+        st.restore(&cp);
+        assert_eq!(st.steps(), steps);
+        let again = run(st);
+        assert!(first == again, "{}: restored run differs", st.describe());
+    }
+}

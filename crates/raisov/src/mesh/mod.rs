@@ -21,6 +21,7 @@
 use std::collections::BTreeMap;
 
 pub mod generate;
+pub mod stuffing;
 pub mod surface;
 pub mod surface_check;
 

@@ -1,0 +1,322 @@
+//! Scenarios on a closed surface (`[mesh] surface`): the levels generated at load, their
+//! cache, and the visual surface written with every frame.
+//!
+//! **Levels.** The surface is read ([`crate::io::load_surface`]), scaled by `[mesh] scale`,
+//! checked and its orientation repaired ([`check_surface`]), then meshed by isosurface
+//! stuffing into `levels` independent meshes whose node counts form the series
+//! `n_0 ratioᶦ` ([`mesh_levels`]); `n_0` is `[mesh] nodes`, or level 0 has the lattice
+//! spacing `[mesh] size` (m). Without `[multigrid]` one level is meshed.
+//!
+//! **Cache.** The levels are written as Gmsh 2.2 files `OUT/cache/STEM-KEY/L0.msh ...`
+//! (coordinates in metres, bit-exact) with `key.txt` last, and the scenario reads those
+//! files back, on the first run as on every rerun, so that both see the same bits. `KEY` is
+//! the 128-bit FNV-1a hash of the surface file's bytes followed by the parameters (scale,
+//! nodes or size as IEEE bits, levels, ratio, [`MESHER_VERSION`] and the crate version);
+//! `key.txt` holds them in words and must match for a directory to be reused. Nothing else
+//! under `cache/` is read or removed.
+//!
+//! **Visual surface.** The surface's vertices `p_θ` are embedded in the finest level:
+//! host element `e(θ)` and barycentric weights `ω_θj` with `p_θ = Σ_j ω_θj x_j`
+//! ([`Transfer::build`]; vertices just outside the mesh boundary, where the lattice cuts
+//! corners, take the extrapolating weights of eq. 7, so a rigid motion of the mesh moves the
+//! surface rigidly). A frame writes the surface's reference vertices with the point field
+//! `displacement` `u(p_θ) = Σ_j ω_θj u_j` ([`Transfer::interpolate`]) as
+//! `frames/NAME_surface_NNNNNN.vtp` ([`crate::io::write_vtp`]), in the volume frames'
+//! storage, listed in `NAME_surface.pvd`.
+
+use super::spec::{defaults, MeshSize, MeshSpec, MultigridSpec};
+use super::err;
+use crate::error::Result;
+use crate::hierarchy::Transfer;
+use crate::io::{load_mesh, load_surface, write_atomic, write_msh22, write_vtp, Field, FieldData};
+use crate::io::{PvdWriter, VtuFormat};
+use crate::mesh::stuffing::{mesh_levels, LevelTarget};
+use crate::mesh::{check_surface, looks_like_millimetres, Mesh, Surface};
+use crate::Error;
+use std::path::{Path, PathBuf};
+
+/// Version of the meshes the stuffing mesher makes, part of the cache key: increase it when
+/// [`crate::mesh::stuffing`] changes its output for the same input.
+pub const MESHER_VERSION: u32 = 1;
+
+/// The folder under the output directory that holds generated levels.
+pub const CACHE_DIR: &str = "cache";
+
+/// The surface a scenario's mesh was generated from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VisualSurface {
+    /// The surface file.
+    pub path: PathBuf,
+    /// Checked and oriented, coordinates in metres (after `[mesh] scale`).
+    pub surface: Surface,
+    /// The cache folder of the levels.
+    pub cache: PathBuf,
+    /// Whether the levels were read from an earlier run's cache (no meshing).
+    pub from_cache: bool,
+}
+
+/// The levels of a `[mesh] surface`: their files (finest first) and the surface.
+pub(super) struct SurfaceLevels {
+    pub files: Vec<PathBuf>,
+    pub visual: VisualSurface,
+    pub notes: Vec<String>,
+}
+
+/// 128-bit FNV-1a.
+struct Fnv(u128);
+
+impl Fnv {
+    const PRIME: u128 = 0x0000_0000_0100_0000_0000_0000_0000_013B;
+    fn new() -> Fnv {
+        Fnv(0x6c62_272e_07bb_0142_62b8_2175_6295_c58d)
+    }
+    fn eat(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= b as u128;
+            self.0 = self.0.wrapping_mul(Self::PRIME);
+        }
+    }
+}
+
+/// Read, check and mesh (or read from the cache) the levels of `[mesh] surface`.
+pub(super) fn prepare(
+    m: &MeshSpec,
+    mg: Option<&MultigridSpec>,
+    path: &Path,
+    base: &Path,
+    out_dir: &Path,
+) -> Result<SurfaceLevels> {
+    let rel = m.surface.as_deref().expect("a surface scenario");
+    let file = base.join(rel);
+    let key = "mesh.surface";
+    for (k, set) in [
+        ("polygon", m.polygon.is_some()),
+        ("divisions", m.divisions.is_some()),
+        ("pattern", m.pattern.is_some()),
+    ] {
+        if set {
+            return Err(err(
+                path,
+                format!("[mesh]: `{k}` does not apply to `surface`"),
+            ));
+        }
+    }
+    let scale = super::positive(path, "mesh.scale", m.scale.unwrap_or(defaults::SCALE))?;
+    let target = match (m.nodes, &m.size) {
+        (Some(n), None) if n >= 4 => LevelTarget::Nodes(n),
+        (Some(n), None) => {
+            return Err(err(
+                path,
+                format!("`mesh.nodes` = {n}: a surface's level 0 needs at least 4 nodes"),
+            ))
+        }
+        (None, Some(MeshSize::Length(h))) => {
+            LevelTarget::Size(super::positive(path, "mesh.size", *h)?)
+        }
+        (None, Some(MeshSize::Lengths(v))) => {
+            return Err(err(
+                path,
+                format!("`mesh.size` = {v:?}: with `surface`, give one length (m, the lattice spacing of level 0), e.g. size = 0.005"),
+            ))
+        }
+        (Some(_), Some(_)) => {
+            return Err(err(
+                path,
+                "[mesh]: give `nodes` or `size` with `surface`, not both",
+            ))
+        }
+        (None, None) => {
+            return Err(err(
+                path,
+                "[mesh]: `surface` needs `nodes` (level 0's target node count) or `size` (its lattice spacing, m)",
+            ))
+        }
+    };
+    let (levels, ratio) = match mg {
+        None => (1, defaults::LEVEL_RATIO),
+        Some(mg) => {
+            if mg.files.is_some() || mg.level_nodes.is_some() {
+                return Err(err(path, "[multigrid]: with [mesh] surface the levels are generated: give `levels` (and `ratio`), not `files` or `level_nodes`"));
+            }
+            let levels = match mg.levels {
+                Some(n) if n >= 1 => n,
+                Some(_) => return Err(err(path, "`multigrid.levels` must be at least 1")),
+                None => {
+                    return Err(err(
+                        path,
+                        "[multigrid]: with [mesh] surface give `levels` (the number of generated levels)",
+                    ))
+                }
+            };
+            let ratio = match mg.ratio {
+                Some(r) if !(r > 0.0 && r < 1.0) => {
+                    return Err(err(
+                        path,
+                        format!("`multigrid.ratio` = {r}: must be in (0, 1)"),
+                    ))
+                }
+                Some(r) => r,
+                None => defaults::LEVEL_RATIO,
+            };
+            (levels, ratio)
+        }
+    };
+    let bytes = std::fs::read(&file)
+        .map_err(|e| err(path, format!("`{key}` = \"{}\": {}", file.display(), Error::io(&file, e))))?;
+    let mut surface = load_surface(&file)
+        .map_err(|e| err(path, format!("`{key}` = \"{}\": {e}", file.display())))?;
+    surface.scale(scale);
+    let report = check_surface(&mut surface)
+        .map_err(|e| err(path, format!("`{key}` = \"{}\": {e}", file.display())))?;
+    let mut notes = Vec::new();
+    if report.flipped > 0 {
+        notes.push(format!(
+            "{}: reoriented {} triangles (normals out of the solid)",
+            file.display(),
+            report.flipped
+        ));
+    }
+    if looks_like_millimetres((report.bbox_min, report.bbox_max), 1.0) {
+        notes.push(format!(
+            "warning: {} spans more than {} m after scale = {scale}; if its coordinates are millimetres, set [mesh] scale = 0.001",
+            file.display(),
+            crate::mesh::surface_check::MAX_ORGAN_EXTENT_M
+        ));
+    }
+    // The cache key.
+    let (target_words, target_bits) = match target {
+        LevelTarget::Nodes(n) => (format!("nodes {n}"), n as u64),
+        LevelTarget::Size(h) => (format!("size {h:e} m"), h.to_bits()),
+    };
+    let words = format!(
+        "surface {}\nsurface bytes {}\nscale {scale:e}\n{target_words}\nlevels {levels}\nratio {ratio:e}\nmesher version {MESHER_VERSION}\nraisov {}\n",
+        file.display(),
+        bytes.len(),
+        env!("CARGO_PKG_VERSION")
+    );
+    let mut h = Fnv::new();
+    h.eat(&bytes);
+    h.eat(&scale.to_bits().to_le_bytes());
+    h.eat(&[matches!(target, LevelTarget::Size(_)) as u8]);
+    h.eat(&target_bits.to_le_bytes());
+    h.eat(&(levels as u64).to_le_bytes());
+    h.eat(&ratio.to_bits().to_le_bytes());
+    h.eat(&MESHER_VERSION.to_le_bytes());
+    h.eat(env!("CARGO_PKG_VERSION").as_bytes());
+    let stem = file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "surface".into());
+    let stem: String = stem
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() || c == '_' || c == '-' { c } else { '_' })
+        .collect();
+    let cache = out_dir.join(CACHE_DIR).join(format!("{stem}-{:032x}", h.0));
+    let files: Vec<PathBuf> = (0..levels).map(|i| cache.join(format!("L{i}.msh"))).collect();
+    let key_file = cache.join("key.txt");
+    // Only the key's words after the path: the same surface moved keeps its cache.
+    let words_key = |w: &str| w.split_once('\n').map(|(_, r)| r.to_string());
+    let cached = std::fs::read_to_string(&key_file)
+        .ok()
+        .is_some_and(|k| words_key(&k) == words_key(&words))
+        && files.iter().all(|f| f.is_file());
+    if !cached {
+        let meshes: Vec<Mesh> = mesh_levels(&surface, levels, ratio, target).map_err(|e| {
+            err(
+                path,
+                format!("`{key}` = \"{}\": meshing failed: {e}", file.display()),
+            )
+        })?;
+        std::fs::create_dir_all(&cache).map_err(|e| Error::io(&cache, e))?;
+        for (m, f) in meshes.iter().zip(&files) {
+            write_msh22(f, m)?;
+        }
+        write_atomic(&key_file, |w| w.write_all(words.as_bytes()))?;
+        notes.push(format!(
+            "{}: meshed {levels} level(s), cached in {}",
+            file.display(),
+            cache.display()
+        ));
+    } else {
+        notes.push(format!(
+            "{}: {levels} level(s) read from the cache {}",
+            file.display(),
+            cache.display()
+        ));
+    }
+    // Check that the files read back (a damaged cache is meshed again on the next run).
+    for f in &files {
+        load_mesh(f).map_err(|e| {
+            err(
+                path,
+                format!("cached level {}: {e}; remove {} to mesh again", f.display(), cache.display()),
+            )
+        })?;
+    }
+    Ok(SurfaceLevels {
+        files,
+        visual: VisualSurface {
+            path: file,
+            surface,
+            cache,
+            from_cache: cached,
+        },
+        notes,
+    })
+}
+
+/// Writes the visual surface with every frame (see the module docs).
+pub(crate) struct SurfaceFrames<'a> {
+    surface: &'a Surface,
+    transfer: Transfer,
+    dir: PathBuf,
+    name: String,
+    pvd: PvdWriter,
+    u: Vec<f64>,
+    format: VtuFormat,
+}
+
+impl<'a> SurfaceFrames<'a> {
+    /// Embed `visual` in `mesh` (the finest level) and prepare `out/NAME_surface.pvd`.
+    pub fn new(
+        visual: &'a VisualSurface,
+        mesh: &Mesh,
+        out: &Path,
+        name: &str,
+        format: VtuFormat,
+    ) -> Result<Self> {
+        let transfer = Transfer::build(&visual.surface.points, mesh)?;
+        Ok(SurfaceFrames {
+            surface: &visual.surface,
+            u: vec![0.0; 3 * transfer.len()],
+            transfer,
+            dir: out.join("frames"),
+            name: format!("{name}_surface"),
+            pvd: PvdWriter::new(out.join(format!("{name}_surface.pvd"))),
+            format,
+        })
+    }
+
+    /// Write frame `count` at time `t` for the finest level's displacement `u`.
+    pub fn write(&mut self, t: f64, count: usize, u: &[f64]) -> Result<()> {
+        self.transfer.interpolate(u, 3, &mut self.u)?;
+        let file = format!("{}_{count:06}.vtp", self.name);
+        write_vtp(
+            &self.dir.join(&file),
+            &self.surface.points,
+            &self.surface.triangles,
+            &[Field {
+                name: "displacement",
+                data: FieldData::Vector(&self.u),
+            }],
+            self.format,
+        )?;
+        self.pvd.add(t, &format!("frames/{file}"))
+    }
+
+    /// The `.pvd` path.
+    pub fn pvd_path(&self) -> &Path {
+        self.pvd.path()
+    }
+}
+

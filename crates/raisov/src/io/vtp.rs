@@ -93,3 +93,68 @@ pub fn write_vtp(
         format,
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::{read_vtp, read_vtu_array};
+    use crate::mesh::Surface;
+
+    fn tetra() -> Surface {
+        Surface {
+            points: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 1e-300],
+                [0.0, 1.0 / 3.0, 0.0],
+                [0.0, 0.0, -2.5],
+            ],
+            triangles: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+        }
+    }
+
+    /// Both storages read back bit-exact: points, triangles, the displacement field.
+    #[test]
+    fn vtp_reads_back_bit_exact_in_both_formats() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = tetra();
+        let u: Vec<f64> = (0..12).map(|i| (i as f64 * 0.3).sin() * 1e-3).collect();
+        for format in [VtuFormat::Binary, VtuFormat::Ascii] {
+            let p = dir.path().join(format!("s_{}.vtp", format.name()));
+            let f = [Field {
+                name: "displacement",
+                data: FieldData::Vector(&u),
+            }];
+            write_vtp(&p, &s.points, &s.triangles, &f, format).unwrap();
+            assert_eq!(read_vtp(&p).unwrap(), s);
+            assert_eq!(read_vtu_array(&p, "displacement").unwrap(), (3, u.clone()));
+            let text = String::from_utf8_lossy(&std::fs::read(&p).unwrap()).to_string();
+            assert!(text.contains("<PointData Vectors=\"displacement\">"), "{text}");
+            assert!(text.contains("NumberOfPolys=\"4\""), "{text}");
+            assert_eq!(
+                text.contains("compressor=\"vtkZLibDataCompressor\""),
+                format == VtuFormat::Binary
+            );
+        }
+    }
+
+    #[test]
+    fn vtp_refuses_bad_input() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("bad.vtp");
+        let s = tetra();
+        let e = write_vtp(&p, &s.points, &[[0, 1, 4]], &[], VtuFormat::Binary)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("triangle 0 has corner 4"), "{e}");
+        let u = vec![f64::NAN; 12];
+        let f = [Field {
+            name: "displacement",
+            data: FieldData::Vector(&u),
+        }];
+        let e = write_vtp(&p, &s.points, &s.triangles, &f, VtuFormat::Ascii)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("displacement") && e.contains("item 0"), "{e}");
+        assert!(!p.exists());
+    }
+}

@@ -320,3 +320,222 @@ impl<'a> SurfaceFrames<'a> {
     }
 }
 
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::{read_vtp, read_vtu_array};
+    use crate::mesh::surface_check::tests::icosphere;
+    use crate::scenario::{run, RunOptions, Scenario};
+    use std::fmt::Write as _;
+
+    /// A unit icosphere as OBJ text (radius 1; the scenarios scale it to 5 cm), with its
+    /// triangles turned inside out so that the check has something to repair.
+    fn write_sphere(dir: &Path) -> PathBuf {
+        let s = icosphere(2);
+        let mut o = String::new();
+        for p in &s.points {
+            writeln!(o, "v {:?} {:?} {:?}", p[0], p[1], p[2]).unwrap();
+        }
+        for t in &s.triangles {
+            writeln!(o, "f {} {} {}", t[0] + 1, t[2] + 1, t[1] + 1).unwrap();
+        }
+        let p = dir.join("ball.obj");
+        std::fs::write(&p, o).unwrap();
+        p
+    }
+
+    /// A sphere of radius 5 cm held on its top cap, under gravity, two generated levels,
+    /// five FAS cycles (8 steps of 1 ms each).
+    fn scenario_text(mesh_extra: &str, multigrid: &str) -> String {
+        format!(
+            r#"
+name = "ball"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+surface = "ball.obj"
+scale = 0.05
+{mesh_extra}
+[material]
+law = "neo-hookean"
+young = 5000.0
+poisson = 0.45
+density = 1060.0
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.035], normal = [0.0, 0.0, -1.0] }}
+[integrator]
+dt = 1e-3
+[run]
+duration = 0.04
+[output]
+dir = "out"
+frame_interval = 0.016
+{multigrid}
+"#
+        )
+    }
+
+    fn setup(mesh_extra: &str, multigrid: &str) -> (tempfile::TempDir, PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        write_sphere(dir.path());
+        let p = dir.path().join("ball.toml");
+        std::fs::write(&p, scenario_text(mesh_extra, multigrid)).unwrap();
+        (dir, p)
+    }
+
+    fn load_err(mesh_extra: &str, multigrid: &str) -> String {
+        let (_dir, p) = setup(mesh_extra, multigrid);
+        Scenario::load(&p).err().expect("refused").to_string()
+    }
+
+    #[test]
+    fn surface_levels_are_cached_reused_and_give_the_same_bits() {
+        let (dir, p) = setup("nodes = 600", "[multigrid]\nlevels = 2\nratio = 0.5");
+        let out = dir.path().join("out");
+        let sc = Scenario::load(&p).unwrap();
+        let vs = sc.surface.clone().unwrap();
+        assert!(!vs.from_cache);
+        assert_eq!(sc.num_levels(), 2);
+        // Level 0 near its target, the coarser one about half as many nodes.
+        let n0 = sc.mesh.num_nodes();
+        assert!((n0 as f64 / 600.0 - 1.0).abs() < 0.05, "{n0}");
+        let l1 = sc.level_meshes().unwrap()[1].num_nodes();
+        assert!((l1 as f64 / n0 as f64 - 0.5).abs() < 0.06, "{l1} / {n0}");
+        // The surface was checked and reoriented (outward, radius 5 cm), and the note says so.
+        assert!(vs.surface.enclosed_volume() > 0.0);
+        assert!(sc.notes.iter().any(|n| n.contains("reoriented")), "{:?}", sc.notes);
+        let r = vs.surface.points.iter().map(|p| crate::mesh::norm(*p)).fold(0.0, f64::max);
+        assert!((r - 0.05).abs() < 1e-12, "{r}");
+        // The cache: under OUT/cache, one folder with the levels and the key.
+        assert!(vs.cache.starts_with(out.join(CACHE_DIR)));
+        let l0 = vs.cache.join("L0.msh");
+        for f in ["L0.msh", "L1.msh", "key.txt"] {
+            assert!(vs.cache.join(f).is_file(), "{f}");
+        }
+        let mtime = std::fs::metadata(&l0).unwrap().modified().unwrap();
+        let first = run(&sc, RunOptions::default()).unwrap();
+        let frames = out.join("frames");
+        let last_vtu = frames.join("ball_000003.vtu");
+        let last_vtp = frames.join("ball_surface_000003.vtp");
+        let listing: Vec<_> = std::fs::read_dir(&frames).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert!(last_vtu.is_file() && last_vtp.is_file(), "{listing:?} {first}");
+        assert!(out.join("ball_surface.pvd").is_file());
+        assert!(first.files.contains(&out.join("ball_surface.pvd")));
+        // The VTP frame: the surface's reference points and triangles, and the displacement
+        // interpolated from the volume frame's.
+        let s = read_vtp(&last_vtp).unwrap();
+        assert_eq!(s, vs.surface);
+        let (k, u_vol) = read_vtu_array(&last_vtu, "displacement").unwrap();
+        assert_eq!(k, 3);
+        let t = Transfer::build(&vs.surface.points, &sc.mesh).unwrap();
+        let mut want = vec![0.0; 3 * t.len()];
+        t.interpolate(&u_vol, 3, &mut want).unwrap();
+        let (k, got) = read_vtu_array(&last_vtp, "displacement").unwrap();
+        assert_eq!(k, 3);
+        assert_eq!(got, want);
+        // The body sags: the interpolated surface moves down, and by no more than the mesh.
+        let max_vol = u_vol.chunks(3).map(|u| -u[2]).fold(0.0, f64::max);
+        let max_surf = got.chunks(3).map(|u| -u[2]).fold(0.0, f64::max);
+        assert!(max_surf > 0.0 && max_surf <= 1.05 * max_vol, "{max_surf} {max_vol}");
+        let stress1 = std::fs::read(out.join("nodal_stress.csv")).unwrap();
+        let vtu1 = std::fs::read(&last_vtu).unwrap();
+        let vtp1 = std::fs::read(&last_vtp).unwrap();
+        // A stale frame of an earlier, longer run goes; the cache stays.
+        std::fs::write(frames.join("ball_000099.vtu"), "old").unwrap();
+        std::fs::write(frames.join("ball_surface_000099.vtp"), "old").unwrap();
+        std::fs::write(frames.join("other_000099.vtu"), "other scenario").unwrap();
+        // The rerun reads the cache: no meshing (the files are untouched), the same bits.
+        let sc2 = Scenario::load(&p).unwrap();
+        assert!(sc2.surface.as_ref().unwrap().from_cache);
+        assert!(sc2.notes.iter().any(|n| n.contains("read from the cache")));
+        assert_eq!(std::fs::metadata(&l0).unwrap().modified().unwrap(), mtime);
+        assert_eq!(sc2.mesh.nodes, sc.mesh.nodes);
+        assert_eq!(sc2.mesh.cells, sc.mesh.cells);
+        run(&sc2, RunOptions::default()).unwrap();
+        assert_eq!(std::fs::read(out.join("nodal_stress.csv")).unwrap(), stress1);
+        assert_eq!(std::fs::read(&last_vtu).unwrap(), vtu1);
+        assert_eq!(std::fs::read(&last_vtp).unwrap(), vtp1);
+        assert!(!frames.join("ball_000099.vtu").exists());
+        assert!(!frames.join("ball_surface_000099.vtp").exists());
+        assert!(frames.join("other_000099.vtu").exists());
+        assert!(l0.is_file());
+        assert_eq!(std::fs::metadata(&l0).unwrap().modified().unwrap(), mtime);
+        // Other parameters: another key, another folder, meshed anew.
+        std::fs::write(
+            &p,
+            scenario_text("nodes = 500", "[multigrid]\nlevels = 2\nratio = 0.5"),
+        )
+        .unwrap();
+        let sc3 = Scenario::load(&p).unwrap();
+        let vs3 = sc3.surface.unwrap();
+        assert!(!vs3.from_cache);
+        assert_ne!(vs3.cache, vs.cache);
+        assert!(l0.is_file());
+    }
+
+    #[test]
+    fn one_level_by_size_without_multigrid_and_ascii_frames() {
+        let (dir, p) = setup("size = 0.02", "");
+        let text = scenario_text("size = 0.02", "").replace(
+            "frame_interval = 0.016",
+            "frame_interval = 0.016\nvtu = \"ascii\"",
+        );
+        std::fs::write(&p, text).unwrap();
+        let sc = Scenario::load(&p).unwrap();
+        assert_eq!(sc.num_levels(), 1);
+        assert!(sc.multigrid.is_none());
+        run(&sc, RunOptions::default()).unwrap();
+        let f = dir.path().join("out/frames/ball_surface_000000.vtp");
+        let text = std::fs::read_to_string(&f).unwrap();
+        assert!(text.contains("type=\"PolyData\"") && text.contains("format=\"ascii\""));
+        assert_eq!(read_vtp(&f).unwrap(), sc.surface.unwrap().surface);
+    }
+
+    #[test]
+    fn bad_surface_scenarios_are_named() {
+        let e = load_err("nodes = 600\nfile = \"ball.msh\"", "");
+        assert!(e.contains("one of `file`, `generate` or `surface`"), "{e}");
+        let e = load_err("nodes = 600\ngenerate = \"box\"", "");
+        assert!(e.contains("one of `file`, `generate` or `surface`"), "{e}");
+        let e = load_err("", "");
+        assert!(e.contains("needs `nodes`") && e.contains("or `size`"), "{e}");
+        let e = load_err("nodes = 600\nsize = 0.01", "");
+        assert!(e.contains("`nodes` or `size`") && e.contains("not both"), "{e}");
+        let e = load_err("size = [0.1, 0.1]", "");
+        assert!(e.contains("give one length"), "{e}");
+        let e = load_err("nodes = 600", "[multigrid]\nfiles = [\"L1.msh\"]");
+        assert!(e.contains("levels are generated"), "{e}");
+        let e = load_err("nodes = 600", "[multigrid]\nlevels = 2\nratio = 1.5");
+        assert!(e.contains("`multigrid.ratio` = 1.5"), "{e}");
+        // A missing file, a malformed one, an open one: the message names the file.
+        let (dir, p) = setup("nodes = 600", "");
+        std::fs::remove_file(dir.path().join("ball.obj")).unwrap();
+        let e = Scenario::load(&p).err().unwrap().to_string();
+        assert!(e.contains("mesh.surface") && e.contains("ball.obj"), "{e}");
+        std::fs::write(dir.path().join("ball.obj"), "v 0 0 zero\nf 1 2 3\n").unwrap();
+        let e = Scenario::load(&p).err().unwrap().to_string();
+        assert!(e.contains("ball.obj") && e.contains("line 1"), "{e}");
+        std::fs::write(
+            dir.path().join("ball.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n",
+        )
+        .unwrap();
+        let e = Scenario::load(&p).err().unwrap().to_string();
+        assert!(e.contains("ball.obj") && e.contains("edge"), "{e}");
+        assert!(!dir.path().join("out/cache").exists());
+    }
+
+    #[test]
+    fn millimetre_surfaces_in_a_metre_scene_are_warned_about() {
+        let (dir, p) = setup("nodes = 300", "");
+        let text = scenario_text("nodes = 300", "").replace("scale = 0.05", "scale = 100.0");
+        std::fs::write(&p, text).unwrap();
+        let sc = Scenario::load(&p).unwrap();
+        assert!(
+            sc.notes.iter().any(|n| n.starts_with("warning") && n.contains("scale = 0.001")),
+            "{:?}",
+            sc.notes
+        );
+        drop(dir);
+    }
+}

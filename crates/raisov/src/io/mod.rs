@@ -46,8 +46,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 pub use gmsh::write_msh22;
 pub use surface::{is_surface_path, load_surface, SURFACE_EXTENSIONS};
-pub use vtu::{write_vtu, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
 pub use vtp::write_vtp;
+pub use vtu::{write_vtu, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
 pub use vtu_read::{read_vtp, read_vtu, read_vtu_array};
 
 use crate::mesh::{ElementKind, Mesh};

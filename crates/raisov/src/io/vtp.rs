@@ -128,7 +128,10 @@ mod tests {
             assert_eq!(read_vtp(&p).unwrap(), s);
             assert_eq!(read_vtu_array(&p, "displacement").unwrap(), (3, u.clone()));
             let text = String::from_utf8_lossy(&std::fs::read(&p).unwrap()).to_string();
-            assert!(text.contains("<PointData Vectors=\"displacement\">"), "{text}");
+            assert!(
+                text.contains("<PointData Vectors=\"displacement\">"),
+                "{text}"
+            );
             assert!(text.contains("NumberOfPolys=\"4\""), "{text}");
             assert_eq!(
                 text.contains("compressor=\"vtkZLibDataCompressor\""),

@@ -137,7 +137,13 @@ fn xml_escape(s: &str) -> String {
 }
 
 /// Check that `values` has `items * k` entries, all finite.
-pub(super) fn check_values(name: &str, what: &str, values: &[f64], k: usize, items: usize) -> Result<()> {
+pub(super) fn check_values(
+    name: &str,
+    what: &str,
+    values: &[f64],
+    k: usize,
+    items: usize,
+) -> Result<()> {
     check_len(name, what, values.len(), k, items)?;
     if let Some(i) = values.iter().position(|v| !v.is_finite()) {
         return Err(Error::param(

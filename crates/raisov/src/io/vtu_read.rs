@@ -68,10 +68,21 @@ pub fn read_vtu_array(path: &Path, name: &str) -> Result<(usize, Vec<f64>)> {
     let cx = Context::new(path, &doc, appended, &["UnstructuredGrid", "PolyData"])?;
     let root = doc.root_element();
     let poly = root.attribute("type") == Some("PolyData");
-    let grid = child(&cx, root, if poly { "PolyData" } else { "UnstructuredGrid" })?;
+    let grid = child(
+        &cx,
+        root,
+        if poly { "PolyData" } else { "UnstructuredGrid" },
+    )?;
     let piece = child(&cx, grid, "Piece")?;
     let np = cx.count_attr(piece, "NumberOfPoints")?;
-    let nc = cx.count_attr(piece, if poly { "NumberOfPolys" } else { "NumberOfCells" })?;
+    let nc = cx.count_attr(
+        piece,
+        if poly {
+            "NumberOfPolys"
+        } else {
+            "NumberOfCells"
+        },
+    )?;
     for (group, items) in [("PointData", np), ("CellData", nc)] {
         let Some(g) = piece.children().find(|n| n.has_tag_name(group)) else {
             continue;

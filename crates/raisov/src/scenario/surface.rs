@@ -24,8 +24,8 @@
 //! `frames/NAME_surface_NNNNNN.vtp` ([`crate::io::write_vtp`]), in the volume frames'
 //! storage, listed in `NAME_surface.pvd`.
 
-use super::spec::{defaults, MeshSize, MeshSpec, MultigridSpec};
 use super::err;
+use super::spec::{defaults, MeshSize, MeshSpec, MultigridSpec};
 use crate::error::Result;
 use crate::hierarchy::Transfer;
 use crate::io::{load_mesh, load_surface, write_atomic, write_msh22, write_vtp, Field, FieldData};
@@ -161,8 +161,12 @@ pub(super) fn prepare(
             (levels, ratio)
         }
     };
-    let bytes = std::fs::read(&file)
-        .map_err(|e| err(path, format!("`{key}` = \"{}\": {}", file.display(), Error::io(&file, e))))?;
+    let bytes = std::fs::read(&file).map_err(|e| {
+        err(
+            path,
+            format!("`{key}` = \"{}\": {}", file.display(), Error::io(&file, e)),
+        )
+    })?;
     let mut surface = load_surface(&file)
         .map_err(|e| err(path, format!("`{key}` = \"{}\": {e}", file.display())))?;
     surface.scale(scale);
@@ -209,10 +213,18 @@ pub(super) fn prepare(
         .unwrap_or_else(|| "surface".into());
     let stem: String = stem
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '_' || c == '-' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect();
     let cache = out_dir.join(CACHE_DIR).join(format!("{stem}-{:032x}", h.0));
-    let files: Vec<PathBuf> = (0..levels).map(|i| cache.join(format!("L{i}.msh"))).collect();
+    let files: Vec<PathBuf> = (0..levels)
+        .map(|i| cache.join(format!("L{i}.msh")))
+        .collect();
     let key_file = cache.join("key.txt");
     // Only the key's words after the path: the same surface moved keeps its cache.
     let words_key = |w: &str| w.split_once('\n').map(|(_, r)| r.to_string());
@@ -249,7 +261,11 @@ pub(super) fn prepare(
         load_mesh(f).map_err(|e| {
             err(
                 path,
-                format!("cached level {}: {e}; remove {} to mesh again", f.display(), cache.display()),
+                format!(
+                    "cached level {}: {e}; remove {} to mesh again",
+                    f.display(),
+                    cache.display()
+                ),
             )
         })?;
     }
@@ -320,7 +336,6 @@ impl<'a> SurfaceFrames<'a> {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -385,7 +400,7 @@ frame_interval = 0.016
 
     fn load_err(mesh_extra: &str, multigrid: &str) -> String {
         let (_dir, p) = setup(mesh_extra, multigrid);
-        Scenario::load(&p).err().expect("refused").to_string()
+        Scenario::load(&p).expect_err("refused").to_string()
     }
 
     #[test]
@@ -403,8 +418,17 @@ frame_interval = 0.016
         assert!((l1 as f64 / n0 as f64 - 0.5).abs() < 0.06, "{l1} / {n0}");
         // The surface was checked and reoriented (outward, radius 5 cm), and the note says so.
         assert!(vs.surface.enclosed_volume() > 0.0);
-        assert!(sc.notes.iter().any(|n| n.contains("reoriented")), "{:?}", sc.notes);
-        let r = vs.surface.points.iter().map(|p| crate::mesh::norm(*p)).fold(0.0, f64::max);
+        assert!(
+            sc.notes.iter().any(|n| n.contains("reoriented")),
+            "{:?}",
+            sc.notes
+        );
+        let r = vs
+            .surface
+            .points
+            .iter()
+            .map(|p| crate::mesh::norm(*p))
+            .fold(0.0, f64::max);
         assert!((r - 0.05).abs() < 1e-12, "{r}");
         // The cache: under OUT/cache, one folder with the levels and the key.
         assert!(vs.cache.starts_with(out.join(CACHE_DIR)));
@@ -417,8 +441,14 @@ frame_interval = 0.016
         let frames = out.join("frames");
         let last_vtu = frames.join("ball_000003.vtu");
         let last_vtp = frames.join("ball_surface_000003.vtp");
-        let listing: Vec<_> = std::fs::read_dir(&frames).unwrap().map(|e| e.unwrap().file_name()).collect();
-        assert!(last_vtu.is_file() && last_vtp.is_file(), "{listing:?} {first}");
+        let listing: Vec<_> = std::fs::read_dir(&frames)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert!(
+            last_vtu.is_file() && last_vtp.is_file(),
+            "{listing:?} {first}"
+        );
         assert!(out.join("ball_surface.pvd").is_file());
         assert!(first.files.contains(&out.join("ball_surface.pvd")));
         // The VTP frame: the surface's reference points and triangles, and the displacement
@@ -436,7 +466,10 @@ frame_interval = 0.016
         // The body sags: the interpolated surface moves down, and by no more than the mesh.
         let max_vol = u_vol.chunks(3).map(|u| -u[2]).fold(0.0, f64::max);
         let max_surf = got.chunks(3).map(|u| -u[2]).fold(0.0, f64::max);
-        assert!(max_surf > 0.0 && max_surf <= 1.05 * max_vol, "{max_surf} {max_vol}");
+        assert!(
+            max_surf > 0.0 && max_surf <= 1.05 * max_vol,
+            "{max_surf} {max_vol}"
+        );
         let stress1 = std::fs::read(out.join("nodal_stress.csv")).unwrap();
         let vtu1 = std::fs::read(&last_vtu).unwrap();
         let vtp1 = std::fs::read(&last_vtp).unwrap();
@@ -452,7 +485,10 @@ frame_interval = 0.016
         assert_eq!(sc2.mesh.nodes, sc.mesh.nodes);
         assert_eq!(sc2.mesh.cells, sc.mesh.cells);
         run(&sc2, RunOptions::default()).unwrap();
-        assert_eq!(std::fs::read(out.join("nodal_stress.csv")).unwrap(), stress1);
+        assert_eq!(
+            std::fs::read(out.join("nodal_stress.csv")).unwrap(),
+            stress1
+        );
         assert_eq!(std::fs::read(&last_vtu).unwrap(), vtu1);
         assert_eq!(std::fs::read(&last_vtp).unwrap(), vtp1);
         assert!(!frames.join("ball_000099.vtu").exists());
@@ -498,9 +534,15 @@ frame_interval = 0.016
         let e = load_err("nodes = 600\ngenerate = \"box\"", "");
         assert!(e.contains("one of `file`, `generate` or `surface`"), "{e}");
         let e = load_err("", "");
-        assert!(e.contains("needs `nodes`") && e.contains("or `size`"), "{e}");
+        assert!(
+            e.contains("needs `nodes`") && e.contains("or `size`"),
+            "{e}"
+        );
         let e = load_err("nodes = 600\nsize = 0.01", "");
-        assert!(e.contains("`nodes` or `size`") && e.contains("not both"), "{e}");
+        assert!(
+            e.contains("`nodes` or `size`") && e.contains("not both"),
+            "{e}"
+        );
         let e = load_err("size = [0.1, 0.1]", "");
         assert!(e.contains("give one length"), "{e}");
         let e = load_err("nodes = 600", "[multigrid]\nfiles = [\"L1.msh\"]");
@@ -532,7 +574,9 @@ frame_interval = 0.016
         std::fs::write(&p, text).unwrap();
         let sc = Scenario::load(&p).unwrap();
         assert!(
-            sc.notes.iter().any(|n| n.starts_with("warning") && n.contains("scale = 0.001")),
+            sc.notes
+                .iter()
+                .any(|n| n.starts_with("warning") && n.contains("scale = 0.001")),
             "{:?}",
             sc.notes
         );

@@ -567,6 +567,33 @@ frame_interval = 0.016
         assert!(!dir.path().join("out/cache").exists());
     }
 
+    /// Interactive mode writes the surface with every frame too.
+    #[test]
+    fn interactive_frames_hold_the_surface() {
+        let (dir, p) = setup("nodes = 300", "");
+        let text = scenario_text("nodes = 300", "").replace("duration = 0.04", "duration = 0.1")
+            + "[[displace]]\npoint = [0.0, 0.0, -0.05]\nmode = \"ramp\"\n\
+               displacement = [0.0, 0.0, -0.005]\nduration = 0.1\n\
+               [interactive]\nfps = 30.0\ncycles = 2\nreference = \"none\"\n";
+        std::fs::write(&p, text).unwrap();
+        let sc = Scenario::load(&p).unwrap();
+        let mut st = sc.stepper().unwrap();
+        let s =
+            crate::scenario::interactive::run_interactive(&sc, st.as_mut(), RunOptions::default())
+                .unwrap();
+        assert_eq!(s.frames.len(), 3);
+        let frames = dir.path().join("out/frames");
+        let vtp = frames.join("ball_surface_000003.vtp");
+        let (_, u_vol) = read_vtu_array(&frames.join("ball_000003.vtu"), "displacement").unwrap();
+        let vs = sc.surface.as_ref().unwrap();
+        let t = Transfer::build(&vs.surface.points, &sc.mesh).unwrap();
+        let mut want = vec![0.0; 3 * t.len()];
+        t.interpolate(&u_vol, 3, &mut want).unwrap();
+        assert_eq!(read_vtu_array(&vtp, "displacement").unwrap(), (3, want));
+        let pvd = std::fs::read_to_string(dir.path().join("out/ball_surface.pvd")).unwrap();
+        assert_eq!(pvd.matches("<DataSet ").count(), 3, "{pvd}");
+    }
+
     #[test]
     fn millimetre_surfaces_in_a_metre_scene_are_warned_about() {
         let (dir, p) = setup("nodes = 300", "");

@@ -30,7 +30,8 @@
 //! divisions = [10, 4, 4]          # box: cells per side instead of `nodes`
 //! pattern = 6                     # box: 5 or 6 tets per cube, default 6
 //! renumber = true                 # nodes in a banded order for the force pass's memory
-//!                                 # locality; default true for `file` (and the level files),
+//!                                 # locality; default true for `file` and `surface` (and the
+//!                                 # level files),
 //!                                 # false for `generate` (numbered along the axes). Node ids
 //!                                 # that a scenario or output shows stay the file's, and
 //!                                 # results change only by round-off.

@@ -594,6 +594,30 @@ frame_interval = 0.016
         assert_eq!(pvd.matches("<DataSet ").count(), 3, "{pvd}");
     }
 
+    /// The shipped liver examples parse, on the shipped data, with the same physics.
+    #[test]
+    fn liver_examples_parse() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let spec = |f: &str| {
+            let p = root.join("examples").join(f);
+            crate::scenario::spec::parse(&std::fs::read_to_string(&p).unwrap(), &p).unwrap()
+        };
+        let a = spec("liver_surface.toml");
+        let b = spec("liver_levels_sag.toml");
+        let surface = a.mesh.surface.as_deref().unwrap();
+        assert!(root.join("examples").join(surface).is_file(), "{surface}");
+        assert_eq!(a.mesh.nodes, Some(16700));
+        assert_eq!(a.multigrid.as_ref().unwrap().levels, Some(4));
+        for f in b.multigrid.as_ref().unwrap().files.as_ref().unwrap() {
+            assert!(root.join("examples").join(f).is_file(), "{f}");
+        }
+        assert_eq!(format!("{:?}", a.material), format!("{:?}", b.material));
+        assert_eq!(format!("{:?}", a.fix), format!("{:?}", b.fix));
+        assert_eq!(format!("{:?}", a.run), format!("{:?}", b.run));
+        assert_eq!(a.gravity, b.gravity);
+        assert_eq!(a.mesh.scale, b.mesh.scale);
+    }
+
     #[test]
     fn millimetre_surfaces_in_a_metre_scene_are_warned_about() {
         let (dir, p) = setup("nodes = 300", "");

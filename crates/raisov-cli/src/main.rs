@@ -130,10 +130,10 @@ enum MeshCmd {
         #[arg(long, default_value_t = defaults::BOX_PATTERN.tets_per_cube() as u32)]
         pattern: u32,
     },
-    /// Tetrahedral multigrid levels of a closed surface (OBJ) by isosurface stuffing:
-    /// writes DIR/NAME_L0.msh ... (Gmsh 2.2) and prints each level's quality.
+    /// Tetrahedral multigrid levels of a closed surface (OBJ, STL, PLY) by isosurface
+    /// stuffing: writes DIR/NAME_L0.msh ... (Gmsh 2.2) and prints each level's quality.
     Levels {
-        /// Closed, outward-oriented triangle surface (.obj).
+        /// Closed triangle surface (.obj, .stl, .ply); checked, orientation repaired.
         surface: PathBuf,
         /// Number of levels.
         #[arg(long, default_value_t = 4)]
@@ -263,13 +263,16 @@ fn real_main(cli: Cli) -> Result<()> {
     }
 }
 
-fn load_scenario(path: Option<&Path>) -> Result<Scenario> {
+/// The scenario at `path` (or the built-in one), its output directory `out` where given
+/// (generated surface levels are cached under it).
+fn load_scenario(path: Option<&Path>, out: Option<&Path>) -> Result<Scenario> {
     Ok(match path {
-        Some(p) => Scenario::load(p)?,
-        None => Scenario::from_toml(
-            BUILTIN,
-            Path::new("examples/membrane_lift_multigrid.toml (built-in)"),
-        )?,
+        Some(p) => Scenario::load_with_out(p, out)?,
+        None => {
+            let name = Path::new("examples/membrane_lift_multigrid.toml (built-in)");
+            let spec = raisov::scenario::spec::parse(BUILTIN, name)?;
+            Scenario::resolve_with_out(spec, name, out)?
+        }
     })
 }
 
@@ -279,7 +282,7 @@ fn cmd_run(
     quiet: bool,
     ascii_vtu: bool,
 ) -> Result<()> {
-    let mut sc = load_scenario(scenario.as_deref())?;
+    let mut sc = load_scenario(scenario.as_deref(), out.as_deref())?;
     if ascii_vtu {
         sc.vtu = raisov::io::VtuFormat::Ascii;
     }
@@ -708,30 +711,38 @@ struct LevelsArgs {
 }
 
 fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
-    use raisov::mesh::stuffing::{mesh_levels_report, read_obj_minimal, LevelTarget};
+    use raisov::mesh::stuffing::{mesh_levels_report, LevelTarget};
     let t0 = std::time::Instant::now();
     if !(a.scale > 0.0 && a.scale.is_finite()) {
         bail!("--scale {}: must be positive", a.scale);
     }
-    // Surface reader: the minimal OBJ reader until the io surface readers land.
-    let mut surface = read_obj_minimal(&a.surface)?;
+    let mut surface = raisov::io::load_surface(&a.surface)?;
     surface.scale(a.scale);
-    let (lo, hi) = surface
-        .bounding_box()
-        .context("the surface has no points")?;
-    let diag = raisov::mesh::norm(raisov::mesh::sub(hi, lo));
+    let check = raisov::mesh::check_surface(&mut surface)
+        .with_context(|| format!("{}: not a closed surface to mesh", a.surface.display()))?;
+    let diag = raisov::mesh::norm(raisov::mesh::sub(check.bbox_max, check.bbox_min));
     println!(
-        "surface {}: {} points, {} triangles, bounding box diagonal {:.4e} m, enclosed volume {:.4e} m^3",
+        "surface {}: {} points, {} triangles, {} component(s), bounding box diagonal {:.4e} m, \
+         enclosed volume {:.4e} m^3",
         a.surface.display(),
         surface.points.len(),
         surface.triangles.len(),
+        check.components.len(),
         diag,
-        surface.enclosed_volume()
+        check.enclosed_volume
     );
-    if diag > 10.0 && a.scale == 1.0 {
+    if check.flipped > 0 {
         eprintln!(
-            "warning: the surface is {diag:.1} m across; if its coordinates are millimetres, \
-             pass --scale 0.001"
+            "note: reoriented {} triangles so that the normals point out of the solid",
+            check.flipped
+        );
+    }
+    if raisov::mesh::looks_like_millimetres((check.bbox_min, check.bbox_max), 1.0) {
+        eprintln!(
+            "warning: the surface spans more than {} m after --scale {}; if its coordinates \
+             are millimetres, pass --scale 0.001",
+            raisov::mesh::surface_check::MAX_ORGAN_EXTENT_M,
+            a.scale
         );
     }
     let target = match (a.nodes, a.size) {

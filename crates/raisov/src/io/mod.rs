@@ -25,7 +25,8 @@
 //! and PLY, see [`surface`].
 //!
 //! Writing: [`write_msh22`] (Gmsh 2.2 ASCII), [`write_vtu`] / [`write_vtu_as`] (binary
-//! appended zlib by default, ASCII on request, see [`vtu`]) and [`PvdWriter`] (ParaView). All
+//! appended zlib by default, ASCII on request, see [`vtu`]), [`write_vtp`] (surfaces, the
+//! same encodings, see [`vtp`]) and [`PvdWriter`] (ParaView). All
 //! writers go through [`write_atomic`]: the file appears complete or not at all, and none of
 //! them writes a non-finite number.
 
@@ -34,6 +35,7 @@ pub mod surface;
 mod text;
 pub mod triangle;
 pub mod vtk;
+pub mod vtp;
 pub mod vtu;
 pub mod vtu_read;
 
@@ -44,8 +46,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 pub use gmsh::write_msh22;
 pub use surface::{is_surface_path, load_surface, parse_surface, SURFACE_EXTENSIONS};
+pub use vtp::write_vtp;
 pub use vtu::{write_vtu, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
-pub use vtu_read::{read_vtu, read_vtu_array};
+pub use vtu_read::{read_vtp, read_vtu, read_vtu_array};
 
 use crate::mesh::{ElementKind, Mesh};
 use crate::{Error, Result};

@@ -137,7 +137,13 @@ fn xml_escape(s: &str) -> String {
 }
 
 /// Check that `values` has `items * k` entries, all finite.
-fn check_values(name: &str, what: &str, values: &[f64], k: usize, items: usize) -> Result<()> {
+pub(super) fn check_values(
+    name: &str,
+    what: &str,
+    values: &[f64],
+    k: usize,
+    items: usize,
+) -> Result<()> {
     check_len(name, what, values.len(), k, items)?;
     if let Some(i) = values.iter().position(|v| !v.is_finite()) {
         return Err(Error::param(
@@ -166,7 +172,7 @@ fn check_len(name: &str, what: &str, len: usize, k: usize, items: usize) -> Resu
     Ok(())
 }
 
-fn check_fields(fields: &[Field], items: usize, what: &str) -> Result<()> {
+pub(super) fn check_fields(fields: &[Field], items: usize, what: &str) -> Result<()> {
     for f in fields {
         if f.name.is_empty() {
             return Err(Error::param(what, "a field has an empty name"));
@@ -182,7 +188,7 @@ fn check_fields(fields: &[Field], items: usize, what: &str) -> Result<()> {
 }
 
 /// The values of one array to write.
-enum Values<'a> {
+pub(super) enum Values<'a> {
     F64(&'a [f64]),
     I64(Cow<'a, [i64]>),
     U8(Vec<u8>),
@@ -229,16 +235,16 @@ impl Values<'_> {
 }
 
 /// One `<DataArray>`.
-struct Array<'a> {
-    name: Option<&'a str>,
-    components: usize,
-    values: Values<'a>,
+pub(super) struct Array<'a> {
+    pub name: Option<&'a str>,
+    pub components: usize,
+    pub values: Values<'a>,
     /// Values per line in ASCII.
-    per_line: usize,
+    pub per_line: usize,
 }
 
 impl<'a> Array<'a> {
-    fn of_field(f: &Field<'a>) -> Self {
+    pub(super) fn of_field(f: &Field<'a>) -> Self {
         let k = f.data.components();
         let values = match f.data {
             FieldData::Scalar(v) | FieldData::Vector(v) | FieldData::Tensor(v) => Values::F64(v),
@@ -401,12 +407,59 @@ pub fn write_vtu_as(
         .iter()
         .find(|f| matches!(f.data, FieldData::Vector(_)))
         .map(|f| f.name);
+    write_vtk_xml(
+        path,
+        "UnstructuredGrid",
+        &format!("NumberOfPoints=\"{nn}\" NumberOfCells=\"{ne}\""),
+        &[
+            Section {
+                tag: "PointData",
+                vectors: active_vectors,
+                arrays: &point_arrays,
+            },
+            Section {
+                tag: "CellData",
+                vectors: None,
+                arrays: &cell_arrays,
+            },
+            Section {
+                tag: "Points",
+                vectors: None,
+                arrays: &points,
+            },
+            Section {
+                tag: "Cells",
+                vectors: None,
+                arrays: &cells,
+            },
+        ],
+        format,
+    )
+}
+
+/// One element of a `<Piece>` holding `<DataArray>`s (`PointData`, `Points`, `Cells`, ...);
+/// `vectors` names the active vectors of a data section.
+pub(super) struct Section<'a> {
+    pub tag: &'static str,
+    pub vectors: Option<&'a str>,
+    pub arrays: &'a [Array<'a>],
+}
+
+/// Write a VTK XML file of one `<Piece>` of `dataset` (`UnstructuredGrid`, `PolyData`):
+/// the sections in order (those without arrays left out) in `format`, atomically.
+pub(super) fn write_vtk_xml(
+    path: &Path,
+    dataset: &str,
+    piece_attrs: &str,
+    sections: &[Section],
+    format: VtuFormat,
+) -> Result<()> {
     write_atomic(path, |w: &mut dyn Write| {
         let mut appended = Vec::new();
         writeln!(w, "<?xml version=\"1.0\"?>")?;
         write!(
             w,
-            "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\""
+            "<VTKFile type=\"{dataset}\" version=\"1.0\" byte_order=\"LittleEndian\""
         )?;
         if format == VtuFormat::Binary {
             write!(
@@ -415,32 +468,18 @@ pub fn write_vtu_as(
             )?;
         }
         writeln!(w, ">")?;
-        writeln!(w, "  <UnstructuredGrid>")?;
-        writeln!(
-            w,
-            "    <Piece NumberOfPoints=\"{nn}\" NumberOfCells=\"{ne}\">"
-        )?;
-        if !point_arrays.is_empty() {
-            match active_vectors {
-                Some(v) => writeln!(w, "      <PointData Vectors=\"{}\">", xml_escape(v))?,
-                None => writeln!(w, "      <PointData>")?,
+        writeln!(w, "  <{dataset}>")?;
+        writeln!(w, "    <Piece {piece_attrs}>")?;
+        for s in sections.iter().filter(|s| !s.arrays.is_empty()) {
+            match s.vectors {
+                Some(v) => writeln!(w, "      <{} Vectors=\"{}\">", s.tag, xml_escape(v))?,
+                None => writeln!(w, "      <{}>", s.tag)?,
             }
-            write_arrays(w, &point_arrays, format, &mut appended)?;
-            writeln!(w, "      </PointData>")?;
+            write_arrays(w, s.arrays, format, &mut appended)?;
+            writeln!(w, "      </{}>", s.tag)?;
         }
-        if !cell_arrays.is_empty() {
-            writeln!(w, "      <CellData>")?;
-            write_arrays(w, &cell_arrays, format, &mut appended)?;
-            writeln!(w, "      </CellData>")?;
-        }
-        writeln!(w, "      <Points>")?;
-        write_arrays(w, &points, format, &mut appended)?;
-        writeln!(w, "      </Points>")?;
-        writeln!(w, "      <Cells>")?;
-        write_arrays(w, &cells, format, &mut appended)?;
-        writeln!(w, "      </Cells>")?;
         writeln!(w, "    </Piece>")?;
-        writeln!(w, "  </UnstructuredGrid>")?;
+        writeln!(w, "  </{dataset}>")?;
         if format == VtuFormat::Binary {
             writeln!(w, "  <AppendedData encoding=\"raw\">")?;
             w.write_all(b"   _")?;

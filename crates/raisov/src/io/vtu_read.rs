@@ -57,18 +57,32 @@ fn parse_xml<'x>(path: &Path, xml: &'x str) -> Result<Document<'x>> {
     })
 }
 
-/// Read the point or cell data array `name` of the first `<Piece>` of a `.vtu` file:
+/// Read the point or cell data array `name` of the first `<Piece>` of a `.vtu` file (or a
+/// `.vtp` file, its polygons as the cells):
 /// (components per item, values as `f64`, integers converted). Any storage the module docs
 /// list; errors as for [`read_vtu`], and when there is no such array.
 pub fn read_vtu_array(path: &Path, name: &str) -> Result<(usize, Vec<f64>)> {
     let bytes = read_bytes(path)?;
     let (xml, appended) = split_appended(path, &bytes)?;
     let doc = parse_xml(path, &xml)?;
-    let cx = Context::new(path, &doc, appended)?;
-    let grid = child(&cx, doc.root_element(), "UnstructuredGrid")?;
+    let cx = Context::new(path, &doc, appended, &["UnstructuredGrid", "PolyData"])?;
+    let root = doc.root_element();
+    let poly = root.attribute("type") == Some("PolyData");
+    let grid = child(
+        &cx,
+        root,
+        if poly { "PolyData" } else { "UnstructuredGrid" },
+    )?;
     let piece = child(&cx, grid, "Piece")?;
     let np = cx.count_attr(piece, "NumberOfPoints")?;
-    let nc = cx.count_attr(piece, "NumberOfCells")?;
+    let nc = cx.count_attr(
+        piece,
+        if poly {
+            "NumberOfPolys"
+        } else {
+            "NumberOfCells"
+        },
+    )?;
     for (group, items) in [("PointData", np), ("CellData", nc)] {
         let Some(g) = piece.children().find(|n| n.has_tag_name(group)) else {
             continue;
@@ -101,12 +115,68 @@ pub fn read_vtu_array(path: &Path, name: &str) -> Result<(usize, Vec<f64>)> {
     ))
 }
 
+/// Read the points and triangles of the first `<Piece>` of a VTK XML PolyData file (`.vtp`,
+/// as [`crate::io::write_vtp`] writes it): `<Points>` and the `connectivity` and `offsets`
+/// of `<Polys>`, every polygon a triangle. Any storage the module docs list; errors name the
+/// file and line, and a polygon that is not a triangle.
+pub fn read_vtp(path: &Path) -> Result<crate::mesh::Surface> {
+    let bytes = read_bytes(path)?;
+    let (xml, appended) = split_appended(path, &bytes)?;
+    let doc = parse_xml(path, &xml)?;
+    let cx = Context::new(path, &doc, appended, &["PolyData"])?;
+    let grid = child(&cx, doc.root_element(), "PolyData")?;
+    let piece = child(&cx, grid, "Piece")?;
+    let np = cx.count_attr(piece, "NumberOfPoints")?;
+    let nt = cx.count_attr(piece, "NumberOfPolys")?;
+    let pts_el = child(&cx, piece, "Points")?;
+    let pts = pts_el
+        .children()
+        .find(|n| n.has_tag_name("DataArray"))
+        .ok_or_else(|| cx.err(pts_el, "`<Points>` has no `<DataArray>`"))?;
+    let points = cx.read_f64(pts, "Points", &[3 * np])?;
+    let polys = child(&cx, piece, "Polys")?;
+    let named = |name: &str| {
+        polys
+            .children()
+            .find(|n| n.has_tag_name("DataArray") && n.attribute("Name") == Some(name))
+            .ok_or_else(|| {
+                cx.err(
+                    polys,
+                    format!("`<Polys>` has no `<DataArray Name=\"{name}\">`"),
+                )
+            })
+    };
+    let offs_el = named("offsets")?;
+    let offs = cx.read_u64(offs_el, "offsets", &[nt])?;
+    if let Some(t) = (0..nt).find(|&t| offs[t] != 3 * (t as u64 + 1)) {
+        return Err(cx.err(
+            offs_el,
+            format!("polygon {t} is not a triangle (`offsets` = {})", offs[t]),
+        ));
+    }
+    let conn_el = named("connectivity")?;
+    let conn = cx.read_u64(conn_el, "connectivity", &[3 * nt])?;
+    if let Some((c, &bad)) = conn.iter().enumerate().find(|(_, &v)| v >= np as u64) {
+        return Err(cx.err(
+            conn_el,
+            format!("`connectivity` value {c} is point {bad}, but there are {np} points"),
+        ));
+    }
+    Ok(crate::mesh::Surface {
+        points: points.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        triangles: conn
+            .chunks(3)
+            .map(|c| [c[0] as u32, c[1] as u32, c[2] as u32])
+            .collect(),
+    })
+}
+
 /// Read a `.vtu` file (see the module docs).
 pub fn read_vtu(path: &Path) -> Result<LoadedMesh> {
     let bytes = read_bytes(path)?;
     let (xml, appended) = split_appended(path, &bytes)?;
     let doc = parse_xml(path, &xml)?;
-    let cx = Context::new(path, &doc, appended)?;
+    let cx = Context::new(path, &doc, appended, &["UnstructuredGrid"])?;
     let root = doc.root_element();
     let grid = child(&cx, root, "UnstructuredGrid")?;
     let pieces: Vec<Node> = grid
@@ -374,7 +444,12 @@ struct Context<'a> {
 }
 
 impl<'a> Context<'a> {
-    fn new(path: &'a Path, doc: &'a Document<'a>, appended: Option<&'a [u8]>) -> Result<Self> {
+    fn new(
+        path: &'a Path,
+        doc: &'a Document<'a>,
+        appended: Option<&'a [u8]>,
+        types: &[&str],
+    ) -> Result<Self> {
         let root = doc.root_element();
         let at = |n: Node, msg: String| {
             format_err(path, doc.text_pos_at(n.range().start).row as usize, msg)
@@ -389,13 +464,18 @@ impl<'a> Context<'a> {
             ));
         }
         match root.attribute("type") {
-            Some("UnstructuredGrid") => {}
+            Some(t) if types.contains(&t) => {}
             other => {
                 return Err(at(
                     root,
                     format!(
-                        "`<VTKFile type=..>` is {}; only \"UnstructuredGrid\" is read",
-                        show(other.unwrap_or("(missing)"))
+                        "`<VTKFile type=..>` is {}; only {} is read",
+                        show(other.unwrap_or("(missing)")),
+                        types
+                            .iter()
+                            .map(|t| format!("\"{t}\""))
+                            .collect::<Vec<_>>()
+                            .join(" or ")
                     ),
                 ))
             }

@@ -20,7 +20,9 @@
 //! output): `fps = frames / Σ frame wall`. Written atomically under the output directory:
 //! `frames.csv` (one row per frame), `NAME.pvd` + `frames/*.vtu` (reference points with
 //! fields `displacement`, `static` and `lag`, and `file_node_id` where `[mesh] renumber`
-//! reordered the nodes; format per `[output] vtu`), `summary.txt`.
+//! reordered the nodes; format per `[output] vtu`), with `[mesh] surface` also
+//! `NAME_surface.pvd` + `frames/NAME_surface_*.vtp` (the surface with its interpolated
+//! `displacement`, see [`super::surface`]), `summary.txt`.
 
 use super::run::RunOptions;
 use super::spec::{defaults, InteractiveSpec, StaticReference};
@@ -226,6 +228,12 @@ pub fn run_interactive(
     let mut rows = Vec::with_capacity(frames_n);
     let frames_dir = out.join("frames");
     std::fs::create_dir_all(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
+    super::run::clear_old_frames(&out, &sc.name)?;
+    let mut surface_frames = sc
+        .surface
+        .as_ref()
+        .map(|v| super::surface::SurfaceFrames::new(v, &sc.mesh, &out, &sc.name, sc.vtu))
+        .transpose()?;
     let mut pvd = PvdWriter::new(out.join(format!("{}.pvd", sc.name)));
     let mut lag = vec![0.0; 3 * n];
     let file_node_id: Option<Vec<i64>> = sc
@@ -358,6 +366,9 @@ pub fn run_interactive(
             sc.vtu,
         )?;
         pvd.add(t, &format!("frames/{file}"))?;
+        if let Some(sf) = &mut surface_frames {
+            sf.write(t, k, &s.u)?;
+        }
         if let Some(p) = opts.progress.as_mut() {
             let sample = crate::metrics::Sample {
                 step: total_steps,

@@ -64,7 +64,8 @@ impl LevelMeshes {
     }
 }
 
-/// Check a `[multigrid]` section and resolve it; `mesh` is level 0.
+/// Check a `[multigrid]` section and resolve it; `mesh` is level 0, `surface_files` the
+/// coarser levels generated from `[mesh] surface`.
 pub(super) fn resolve(
     mg: &MultigridSpec,
     mesh_spec: &MeshSpec,
@@ -72,8 +73,13 @@ pub(super) fn resolve(
     method: Method,
     path: &Path,
     base: &Path,
+    surface_files: Option<Vec<std::path::PathBuf>>,
 ) -> Result<Multigrid> {
-    let meshes = resolve_meshes(mg, mesh_spec, path, base)?;
+    // Levels generated from `[mesh] surface` (checked there) are files by now.
+    let meshes = match surface_files {
+        Some(f) => LevelMeshes::Files(f),
+        None => resolve_meshes(mg, mesh_spec, path, base)?,
+    };
     let m = meshes.count();
     let methods = match &mg.level_methods {
         None => vec![method; m],

@@ -35,6 +35,7 @@ pub mod interactive;
 mod levels;
 pub mod run;
 pub mod spec;
+pub mod surface;
 
 use crate::error::{Error, Result};
 use crate::fem::{FemModel, FemParams, Precision};
@@ -191,6 +192,9 @@ pub struct Scenario {
     pub multigrid: Option<Multigrid>,
     /// `[interactive]`: a budget per frame along the displacement paths; `None` for a plain run.
     pub interactive: Option<interactive::Interactive>,
+    /// `[mesh] surface`: the surface the levels were generated from, written with every
+    /// frame ([`surface`]); `None` for other meshes.
+    pub surface: Option<surface::VisualSurface>,
 }
 
 fn err(path: &Path, msg: impl Into<String>) -> Error {
@@ -227,8 +231,14 @@ fn check_name(path: &Path, name: &str) -> Result<()> {
 impl Scenario {
     /// Read, parse and resolve a scenario file.
     pub fn load(path: &Path) -> Result<Scenario> {
+        Self::load_with_out(path, None)
+    }
+
+    /// [`Scenario::load`] with the output directory `out` instead of `[output] dir` (as
+    /// `raisov run --out`); the levels of `[mesh] surface` are cached under it.
+    pub fn load_with_out(path: &Path, out: Option<&Path>) -> Result<Scenario> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        Self::from_toml(&text, path)
+        Self::resolve_with_out(spec::parse(&text, path)?, path, out)
     }
 
     /// Parse and resolve scenario text; `path` names it in messages and anchors relative paths.
@@ -239,6 +249,15 @@ impl Scenario {
     /// Resolve a parsed spec: check every value, apply the defaults ([`spec::defaults`]),
     /// build the mesh and select the constrained and loaded nodes.
     pub fn resolve(spec: ScenarioSpec, path: &Path) -> Result<Scenario> {
+        Self::resolve_with_out(spec, path, None)
+    }
+
+    /// [`Scenario::resolve`] with the output directory `out` instead of `[output] dir`.
+    pub fn resolve_with_out(
+        spec: ScenarioSpec,
+        path: &Path,
+        out: Option<&Path>,
+    ) -> Result<Scenario> {
         let base = path.parent().unwrap_or(Path::new("."));
         let name = spec.name.clone().unwrap_or_else(|| {
             path.file_stem()
@@ -246,9 +265,45 @@ impl Scenario {
                 .unwrap_or_else(|| defaults::NAME.into())
         });
         check_name(path, &name)?;
-        let mesh_source = resolve_mesh_source(&spec.mesh, path, base)?;
+        let out_dir = match out {
+            Some(o) => o.to_path_buf(),
+            None => spec
+                .output
+                .dir
+                .as_ref()
+                .map(|d| base.join(d))
+                .unwrap_or_else(|| PathBuf::from(defaults::OUTPUT_ROOT).join(&name)),
+        };
+        let surface_levels = match &spec.mesh.surface {
+            Some(_) if spec.mesh.file.is_some() || spec.mesh.generate.is_some() => {
+                return Err(err(
+                    path,
+                    "[mesh]: give one of `file`, `generate` or `surface`, not several",
+                ))
+            }
+            Some(_) => Some(surface::prepare(
+                &spec.mesh,
+                spec.multigrid.as_ref(),
+                path,
+                base,
+                &out_dir,
+            )?),
+            None => None,
+        };
+        let mesh_source = match &surface_levels {
+            Some(sl) => MeshSource {
+                shape: Shape::File(sl.files[0].clone()),
+                scale: 1.0,
+                renumber_files: spec.mesh.renumber.unwrap_or(defaults::RENUMBER_FILES),
+                renumber_generated: spec.mesh.renumber.unwrap_or(defaults::RENUMBER_GENERATED),
+            },
+            None => resolve_mesh_source(&spec.mesh, path, base)?,
+        };
         let (mesh, mut notes, file_ids) =
             mesh_source.build(&mesh_source.shape, path, "mesh.file")?;
+        if let Some(sl) = &surface_levels {
+            notes.splice(0..0, sl.notes.iter().cloned());
+        }
         // Node-id selectors name file ids: into the mesh's order, once, here.
         let new_of = file_ids.as_deref().map(crate::mesh::inverse_order);
         let selector = |r: &spec::RegionSpec, key: &str| -> Result<Selector> {
@@ -386,12 +441,6 @@ impl Scenario {
             "run.blowup_factor",
             spec.run.blowup_factor.unwrap_or(defaults::BLOWUP_FACTOR),
         )?;
-        let out_dir = spec
-            .output
-            .dir
-            .as_ref()
-            .map(|d| base.join(d))
-            .unwrap_or_else(|| PathBuf::from(defaults::OUTPUT_ROOT).join(&name));
         let frame_interval = spec
             .output
             .frame_interval
@@ -405,7 +454,10 @@ impl Scenario {
         let multigrid = spec
             .multigrid
             .as_ref()
-            .map(|mg| levels::resolve(mg, &spec.mesh, &mesh, method, path, base))
+            .map(|mg| {
+                let surface_files = surface_levels.as_ref().map(|sl| sl.files[1..].to_vec());
+                levels::resolve(mg, &spec.mesh, &mesh, method, path, base, surface_files)
+            })
             .transpose()?;
         let interactive = spec
             .interactive
@@ -461,6 +513,7 @@ impl Scenario {
             reference,
             multigrid,
             interactive,
+            surface: surface_levels.map(|sl| sl.visual),
         })
     }
 
@@ -542,9 +595,9 @@ fn resolve_mesh_source(m: &spec::MeshSpec, path: &Path, base: &Path) -> Result<M
             return Err(err(
                 path,
                 format!(
-                "[mesh]: missing `file` (a .msh, .node/.ele, .vtk or .vtu mesh) or `generate` ({})",
-                Generator::valid()
-            ),
+                    "[mesh]: missing `file` (a .msh, .node/.ele, .vtk or .vtu mesh), `surface` (a closed .obj, .stl or .ply surface to mesh) or `generate` ({})",
+                    Generator::valid()
+                ),
             ))
         }
         (Some(f), None) => {
@@ -571,12 +624,16 @@ fn resolve_mesh_source(m: &spec::MeshSpec, path: &Path, base: &Path) -> Result<M
                 })
             };
             let size = |len: usize| -> Result<Vec<f64>> {
-                let s = m.size.clone().ok_or_else(|| {
-                    err(
-                        path,
-                        format!("[mesh]: {what} needs `size` ({len} lengths in m)"),
-                    )
-                })?;
+                let s = match m.size.clone() {
+                    Some(spec::MeshSize::Lengths(s)) => s,
+                    Some(spec::MeshSize::Length(x)) => vec![x],
+                    None => {
+                        return Err(err(
+                            path,
+                            format!("[mesh]: {what} needs `size` ({len} lengths in m)"),
+                        ))
+                    }
+                };
                 if s.len() != len || s.iter().any(|&x| !(x > 0.0)) {
                     return Err(err(
                         path,

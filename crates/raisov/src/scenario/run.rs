@@ -8,13 +8,21 @@
 //!   `file_node_id` (`Int64`, each point's node id in the mesh file) where `[mesh] renumber`
 //!   reordered the nodes; binary appended zlib or ASCII per `[output] vtu`
 //!   ([`crate::io::vtu`]);
+//! - with `[mesh] surface`, `NAME_surface.pvd` + `frames/NAME_surface_NNNNNN.vtp`: the input
+//!   surface embedded in the finest level, its reference points with the interpolated
+//!   `displacement`, one file per volume frame ([`super::surface`]);
 //! - `nodal_stress.csv`: the final nodal stress per node, in file order, `node` the file's id
 //!   (usable as a later run's `output.reference`);
 //! - `summary.txt`: what the closing summary says.
 //!
+//! A run first removes the numbered frames of the same scenario name that an earlier run left
+//! in `frames/` ([`clear_old_frames`]); everything else stays, the level cache `cache/`
+//! included.
+//!
 //! A diverging run writes what it measured up to the last finite state, then returns
 //! [`Error::Diverged`] naming time, step, element and cause. Nothing non-finite is written.
 
+use super::surface::SurfaceFrames;
 use super::{Reference, Scenario, StopRule};
 use crate::error::{Error, Result};
 use crate::integrate::relax::relax;
@@ -267,8 +275,39 @@ fn write_nodal_stress(
     })
 }
 
-/// Writes VTU frames and the PVD collection.
-struct Frames {
+/// Remove the frames an earlier run of scenario `name` left in `out/frames`
+/// (`NAME_NNNNNN.vtu`, `NAME_surface_NNNNNN.vtp`), so that the collection holds this run's
+/// frames only. Nothing else is touched: other scenarios' frames and `out/cache` stay.
+pub(crate) fn clear_old_frames(out: &Path, name: &str) -> Result<()> {
+    let dir = out.join("frames");
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return Ok(());
+    };
+    let numbered = |rest: &str, ext: &str| {
+        rest.strip_suffix(ext)
+            .is_some_and(|n| n.len() == 6 && n.bytes().all(|b| b.is_ascii_digit()))
+    };
+    for e in entries {
+        let e = e.map_err(|e| Error::io(&dir, e))?;
+        let file = e.file_name();
+        let Some(f) = file.to_str() else { continue };
+        let Some(rest) = f.strip_prefix(name).and_then(|r| r.strip_prefix('_')) else {
+            continue;
+        };
+        let ours = numbered(rest, ".vtu")
+            || rest
+                .strip_prefix("surface_")
+                .is_some_and(|r| numbered(r, ".vtp"));
+        if ours {
+            let p = e.path();
+            std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes VTU frames (and the visual surface's VTP frames) and the PVD collections.
+struct Frames<'a> {
     dir: PathBuf,
     name: String,
     pvd: PvdWriter,
@@ -277,19 +316,27 @@ struct Frames {
     stress: Vec<f64>,
     /// Each point's node id in the mesh file, where the scenario renumbered the nodes.
     file_ids: Option<Vec<i64>>,
+    surface: Option<SurfaceFrames<'a>>,
 }
 
-impl Frames {
-    fn new(
-        out: &Path,
-        name: &str,
-        n: usize,
-        file_ids: Option<&[u32]>,
-        format: VtuFormat,
-    ) -> Result<Self> {
+impl<'a> Frames<'a> {
+    fn new(sc: &'a Scenario, out: &Path) -> Result<Self> {
+        let (name, n, file_ids, format) = (
+            sc.name.as_str(),
+            sc.mesh.num_nodes(),
+            sc.file_ids.as_deref(),
+            sc.vtu,
+        );
         let dir = out.join("frames");
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        clear_old_frames(out, name)?;
+        let surface = sc
+            .surface
+            .as_ref()
+            .map(|v| SurfaceFrames::new(v, &sc.mesh, out, name, format))
+            .transpose()?;
         Ok(Frames {
+            surface,
             dir,
             name: name.to_string(),
             pvd: PvdWriter::new(out.join(format!("{name}.pvd"))),
@@ -329,6 +376,9 @@ impl Frames {
             self.format,
         )?;
         self.pvd.add(s.t, &format!("frames/{file}"))?;
+        if let Some(sf) = &mut self.surface {
+            sf.write(s.t, self.count, &s.u)?;
+        }
         self.count += 1;
         Ok(())
     }
@@ -362,7 +412,7 @@ pub fn run_with(
         ),
     };
     let mut meter = Meter::new(n, t_inf);
-    let mut frames = Frames::new(&out, &sc.name, n, sc.file_ids.as_deref(), sc.vtu)?;
+    let mut frames = Frames::new(sc, &out)?;
     let mut rows: Vec<Sample> = Vec::new();
     let start = Instant::now();
     let dt = stepper.dt();
@@ -460,7 +510,11 @@ pub fn run_with(
         reason,
         last,
         out_dir: out.clone(),
-        files: vec![csv, frames.pvd.path().to_path_buf(), stress_path],
+        files: {
+            let mut f = vec![csv, frames.pvd.path().to_path_buf(), stress_path];
+            f.extend(frames.surface.as_ref().map(|s| s.pvd_path().to_path_buf()));
+            f
+        },
         reference_note,
         diagnostics: stepper.diagnostics(),
     };

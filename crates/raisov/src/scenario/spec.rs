@@ -10,9 +10,19 @@
 //!                                 # the output directory
 //! gravity = [0.0, 0.0, -9.81]     # m/s², default none
 //!
-//! [mesh]                          # one of `file` or `generate`
+//! [mesh]                          # one of `file`, `generate` or `surface`
 //! file = "liver_L3.msh"           # .msh (Gmsh 2.2/4.1), .node/.ele, .vtk, .vtu; relative to this file
 //! scale = 1e-3                    # coordinate factor to metres (1e-3 for mm), default 1
+//! surface = "liver.obj"           # closed triangle surface (.obj, .stl, .ply), relative to this
+//!                                 # file: checked (orientation repaired), meshed at load by
+//!                                 # isosurface stuffing (crate::mesh::stuffing), one level, or
+//!                                 # `[multigrid] levels`; the levels are cached as Gmsh 2.2
+//!                                 # files in `cache/` under the output directory, keyed by a
+//!                                 # hash of the surface's bytes and the meshing parameters,
+//!                                 # and read back on a rerun. Frames then also hold the surface
+//!                                 # (`frames/NAME_surface_NNNNNN.vtp`, `NAME_surface.pvd`)
+//! size = 0.005                    # surface: lattice spacing (m, after `scale`) of level 0, or
+//! nodes = 20000                   # surface: level 0's target node count (one of the two)
 //! generate = "rectangle"          # "rectangle" | "polygon" | "box"
 //! size = [0.1, 0.1]               # rectangle [w, h] or box [x, y, z], m
 //! polygon = [[0,0],[0.1,0],[0,0.1]]  # polygon outline, m
@@ -20,7 +30,8 @@
 //! divisions = [10, 4, 4]          # box: cells per side instead of `nodes`
 //! pattern = 6                     # box: 5 or 6 tets per cube, default 6
 //! renumber = true                 # nodes in a banded order for the force pass's memory
-//!                                 # locality; default true for `file` (and the level files),
+//!                                 # locality; default true for `file` and `surface` (and the
+//!                                 # level files),
 //!                                 # false for `generate` (numbered along the axes). Node ids
 //!                                 # that a scenario or output shows stay the file's, and
 //!                                 # results change only by round-off.
@@ -100,7 +111,8 @@
 //!
 //! [multigrid]                     # optional: integrate over a hierarchy of independent meshes
 //! scheme = "fas"                  # "fas" (default; converges) | "raisov-paper" (the literal method)
-//! levels = 4                      # with [mesh] generate: level count, node counts a geometric series
+//! levels = 4                      # with [mesh] generate or surface: level count, node counts
+//!                                 # a geometric series (surface without [multigrid]: 1 level)
 //! ratio = 0.5                     # node-count ratio between levels, default 0.5 (the paper's)
 //! level_nodes = [186, 103, 55, 31] # or explicit node targets per generated level, level 0
 //!                                 # first (must equal [mesh] nodes); instead of levels/ratio
@@ -547,13 +559,42 @@ pub struct InteractiveSpec {
     pub reference_tol: Option<f64>,
 }
 
+/// `[mesh] size`: one length (`surface`: the lattice spacing) or several (`generate`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum MeshSize {
+    /// `size = 0.005`.
+    Length(f64),
+    /// `size = [0.1, 0.1]`.
+    Lengths(Vec<f64>),
+}
+
+impl<'de> Deserialize<'de> for MeshSize {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            One(f64),
+            Many(Vec<f64>),
+        }
+        match Raw::deserialize(d) {
+            Ok(Raw::One(x)) => Ok(MeshSize::Length(x)),
+            Ok(Raw::Many(v)) => Ok(MeshSize::Lengths(v)),
+            Err(_) => Err(D::Error::custom(format!(
+                "{VALUE_ERROR}not a length: valid are a number (m, `surface`) or a list of \
+                 numbers (m, `generate`)"
+            ))),
+        }
+    }
+}
+
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MeshSpec {
     pub file: Option<String>,
     pub scale: Option<f64>,
+    pub surface: Option<String>,
     pub generate: Option<Generator>,
-    pub size: Option<Vec<f64>>,
+    pub size: Option<MeshSize>,
     pub polygon: Option<Vec<[f64; 2]>>,
     pub nodes: Option<usize>,
     pub divisions: Option<[usize; 3]>,

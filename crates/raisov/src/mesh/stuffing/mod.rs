@@ -38,7 +38,6 @@
 pub(crate) mod distance;
 pub(crate) mod lattice;
 mod levels;
-mod obj_minimal;
 pub(crate) mod stencils;
 
 #[cfg(test)]
@@ -47,7 +46,6 @@ mod tests;
 pub use levels::{
     mesh_levels, mesh_levels_report, tet_dihedral_range, LevelReport, LevelTarget, LevelsReport,
 };
-pub use obj_minimal::read_obj_minimal;
 
 use crate::mesh::{norm, sub, tet_volume, ElementKind, Mesh, Surface};
 use crate::{Error, Result};
@@ -56,6 +54,11 @@ use lattice::{edge_key, Lattice};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use stencils::{fill, FillCtx, Filled};
+
+/// Version of the meshes this mesher makes, part of the cache key of scenarios that mesh a
+/// surface at load (`scenario::surface`): increase it whenever the output for the same input
+/// changes, so that cached levels are meshed again.
+pub const MESHER_VERSION: u32 = 1;
 
 /// Warping threshold on long edges, as a fraction of the edge length.
 pub const ALPHA_LONG: f64 = 0.24046;

@@ -376,33 +376,14 @@ fn size_target_fixes_level_zero_spacing() {
     assert!(Stuffer::new(&Surface::default()).is_err());
 }
 
-/// The minimal OBJ reader: vertices, faces with `/` forms and negative indices, polygons
-/// fanned; errors name the line.
-#[test]
-fn obj_minimal_reads_vertices_and_faces() {
-    let dir = tempfile::tempdir().unwrap();
-    let p = dir.path().join("q.obj");
-    std::fs::write(
-        &p,
-        "# quad and triangle\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nf 1/1/1 2//1 3 4\nf -1 -2 -3\n",
-    )
-    .unwrap();
-    let s = read_obj_minimal(&p).unwrap();
-    assert_eq!(s.points.len(), 4);
-    assert_eq!(s.triangles, vec![[0, 1, 2], [0, 2, 3], [3, 2, 1]]);
-    std::fs::write(&p, "v 0 0 0\nf 1 2 3\n").unwrap();
-    let e = read_obj_minimal(&p).unwrap_err().to_string();
-    assert!(e.contains("line 2") && e.contains("out of range"), "{e}");
-}
-
-/// The liver surface of `data/` (millimetres), read by the minimal OBJ reader and scaled to
+/// The liver surface of `data/` (millimetres), read by `io::load_surface` and scaled to
 /// metres: two small levels, angles in the guarantee, node ratio 0.5 ± 0.05, volume within
 /// 2 % of the enclosed volume, every boundary node on the surface.
 #[test]
 fn liver_surface_levels_are_guaranteed() {
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/liver_surface.obj");
-    let mut s = read_obj_minimal(&path).unwrap();
+    let mut s = crate::io::load_surface(&path).unwrap();
     s.scale(1e-3);
     let (m, rep) = mesh_levels_report(&s, 2, 0.5, LevelTarget::Nodes(4000), &mut |_| {}).unwrap();
     for (i, mesh) in m.iter().enumerate() {

@@ -772,15 +772,14 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let mut step = 0u64;
-    let mut t_levels = 0.0;
     let (meshes, report) = mesh_levels_report(&surface, a.levels, a.ratio, target, &mut |msg| {
-        if msg == "links" {
-            t_levels = t0.elapsed().as_secs_f64();
-        }
         bar.set_position(step);
         bar.set_message(msg.to_string());
         step += 1;
     })?;
+    let t_levels = t0.elapsed().as_secs_f64();
+    bar.set_message("links");
+    let links = raisov::hierarchy::link_reports(&meshes)?;
     bar.finish_and_clear();
     let t_mesh = t0.elapsed().as_secs_f64();
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
@@ -790,6 +789,9 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
         println!("wrote {}", f.display());
     }
     print!("{report}");
+    for (i, l) in links.iter().enumerate() {
+        println!("link {i}-{}: {l}", i + 1);
+    }
     let bad: Vec<usize> = report
         .levels
         .iter()

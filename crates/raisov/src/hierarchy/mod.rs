@@ -60,6 +60,16 @@
 mod correspondence;
 mod tree;
 
+/// The covering report of each link of `levels` (finest first): `[i]` is level `i` (fine)
+/// against level `i + 1` (coarse), the correspondence the multigrid set-up builds, without
+/// building the whole hierarchy. `raisov mesh levels` prints them under its level table.
+pub fn link_reports(levels: &[Mesh]) -> Result<Vec<CorrespondenceReport>> {
+    levels
+        .windows(2)
+        .map(|w| Correspondence::build(&w[0], &w[1]).map(|c| c.report))
+        .collect()
+}
+
 #[cfg(test)]
 mod tests;
 

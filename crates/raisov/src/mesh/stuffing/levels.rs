@@ -13,7 +13,6 @@
 
 use super::distance::SurfaceField;
 use super::{mean_edge, StuffStats, Stuffed, Stuffer, DIHEDRAL_BOUNDS};
-use crate::hierarchy::{Correspondence, CorrespondenceReport};
 use crate::mesh::{cross, dot, norm, sub, tet_radius_ratio, Mesh, Surface};
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -65,13 +64,12 @@ pub struct LevelReport {
     pub stats: StuffStats,
 }
 
-/// The levels' reports, the links' covering reports and the surface's volume.
+/// The levels' reports and the surface's volume. The links' covering condition is the
+/// hierarchy's concern: [`crate::hierarchy::link_reports`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct LevelsReport {
     pub enclosed_volume: f64,
     pub levels: Vec<LevelReport>,
-    /// `links[i]`: level `i` (fine) and `i + 1` (coarse), as the multigrid set-up builds it.
-    pub links: Vec<CorrespondenceReport>,
 }
 
 /// Smallest and largest dihedral angle of the tetrahedron, degrees.
@@ -187,17 +185,11 @@ pub fn mesh_levels_report(
         meshes.push(mesh);
         reports.push(rep);
     }
-    progress("links");
-    let links = meshes
-        .windows(2)
-        .map(|w| Correspondence::build(&w[0], &w[1]).map(|c| c.report))
-        .collect::<Result<Vec<_>>>()?;
     Ok((
         meshes,
         LevelsReport {
             enclosed_volume: stuffer.enclosed_volume,
             levels: reports,
-            links,
         },
     ))
 }
@@ -359,9 +351,6 @@ impl fmt::Display for LevelsReport {
             "enclosed volume of the surface: {:.6e}",
             self.enclosed_volume
         )?;
-        for (i, l) in self.links.iter().enumerate() {
-            writeln!(f, "link {i}-{}: {l}", i + 1)?;
-        }
         Ok(())
     }
 }

@@ -342,7 +342,7 @@ fn sphere_levels_halve_the_node_count_with_guaranteed_quality() {
     let (meshes, rep) =
         mesh_levels_report(&s, 4, 0.5, LevelTarget::Nodes(4000), &mut |_| {}).unwrap();
     assert_eq!(meshes.len(), 4);
-    assert_eq!(rep.links.len(), 3);
+    assert_eq!(crate::hierarchy::link_reports(&meshes).unwrap().len(), 3);
     for (i, m) in meshes.iter().enumerate() {
         assert_clean(m);
         assert_quality(m, &format!("sphere level {i}"));

@@ -401,6 +401,32 @@ frame_interval = 0.016
         Scenario::load(&p).expect_err("refused").to_string()
     }
 
+    /// The Simulation API carries the visual surface: after frames of sagging every surface
+    /// vertex sits at its reference point plus the interpolated volume displacement (the same
+    /// bits), and the surface moved down.
+    #[test]
+    fn simulation_surface_positions_follow_the_volume() {
+        let (_dir, p) = setup("nodes = 600", "[multigrid]\nlevels = 2\nratio = 0.5");
+        let sc = Scenario::load(&p).unwrap();
+        let vs = sc.surface.clone().unwrap();
+        let mut sim = crate::sim::Simulation::from_scenario(&sc).unwrap();
+        assert_eq!(sim.surface_positions(), &vs.surface.points[..]);
+        assert_eq!(sim.surface_triangles(), &vs.surface.triangles[..]);
+        let rep = sim.step_frame(crate::sim::Budget::Cycles(3));
+        assert!(rep.accepted, "{rep:?}");
+        let t = Transfer::build(&vs.surface.points, &sc.mesh).unwrap();
+        let mut want = vec![0.0; 3 * t.len()];
+        t.interpolate(sim.displacements(), 3, &mut want).unwrap();
+        let mut lowest = 0.0f64;
+        for (i, x) in sim.surface_positions().iter().enumerate() {
+            for k in 0..3 {
+                assert_eq!(x[k], vs.surface.points[i][k] + want[3 * i + k]);
+            }
+            lowest = lowest.min(want[3 * i + 2]);
+        }
+        assert!(lowest < 0.0, "{lowest}");
+    }
+
     #[test]
     fn surface_levels_are_cached_reused_and_give_the_same_bits() {
         let (dir, p) = setup("nodes = 600", "[multigrid]\nlevels = 2\nratio = 0.5");

@@ -158,6 +158,17 @@ pub struct Simulation {
     max_retries: u32,
     /// Length scale of the finite-difference tangent products (m).
     length: f64,
+    /// The visual surface carried by level 0, when the mesh came from one.
+    visual: Option<Visual>,
+}
+
+/// A visual surface embedded in level 0: `x(p) = p + Σ_j ω_j u_j` over its host element.
+struct Visual {
+    surface: crate::mesh::Surface,
+    transfer: crate::hierarchy::Transfer,
+    /// Interpolated displacement, 3 per vertex (scratch).
+    u: Vec<f64>,
+    positions: Vec<[f64; 3]>,
 }
 
 impl Simulation {
@@ -201,12 +212,41 @@ impl Simulation {
         let mut stepper = sc.stepper()?;
         stepper.set_kinetic_limit(f64::INFINITY);
         let model = FemModel::new(&sc.mesh, sc.fem_params())?;
-        Self::assemble(
+        let mut sim = Self::assemble(
             stepper,
             sc.mesh.clone(),
             sc.file_ids.clone(),
             Box::new(model),
-        )
+        )?;
+        if let Some(vs) = &sc.surface {
+            let transfer = crate::hierarchy::Transfer::build(&vs.surface.points, &sc.mesh)?;
+            let nv = vs.surface.points.len();
+            sim.visual = Some(Visual {
+                surface: vs.surface.clone(),
+                transfer,
+                u: vec![0.0; 3 * nv],
+                positions: vs.surface.points.clone(),
+            });
+            sim.update_visual();
+        }
+        Ok(sim)
+    }
+
+    /// Carry the visual surface (if any) to the current displacement.
+    fn update_visual(&mut self) {
+        let u = &self.stepper.state().u;
+        if let Some(v) = self.visual.as_mut() {
+            if v.transfer.interpolate(u, 3, &mut v.u).is_ok() {
+                for (i, p) in v.positions.iter_mut().enumerate() {
+                    let x = v.surface.points[i];
+                    *p = [
+                        x[0] + v.u[3 * i],
+                        x[1] + v.u[3 * i + 1],
+                        x[2] + v.u[3 * i + 2],
+                    ];
+                }
+            }
+        }
     }
 
     /// The parts every constructor has: a stepper whose level 0 is `mesh`, and a force model
@@ -253,6 +293,7 @@ impl Simulation {
             max_retries: 4,
             length: if length > 0.0 { length } else { 1e-3 },
             mesh,
+            visual: None,
         };
         sim.constrained = sim.own.clone();
         sim.supports();
@@ -292,6 +333,26 @@ impl Simulation {
     /// Current node positions `X + u` (m), in the mesh's node order.
     pub fn positions(&self) -> &[[f64; 3]] {
         &self.positions
+    }
+
+    /// The surface a viewer draws, at the current state (m): the visual surface's vertices
+    /// when the mesh was meshed from a surface (`[mesh] surface`, carried barycentrically by
+    /// level 0), else the mesh's own node positions ([`Simulation::positions`]). Pair it with
+    /// [`Simulation::surface_triangles`].
+    pub fn surface_positions(&self) -> &[[f64; 3]] {
+        match &self.visual {
+            Some(v) => &v.positions,
+            None => &self.positions,
+        }
+    }
+
+    /// The triangles of [`Simulation::surface_positions`], outward: the visual surface's, or
+    /// the mesh's boundary faces (a membrane's own triangles).
+    pub fn surface_triangles(&self) -> &[[u32; 3]] {
+        match &self.visual {
+            Some(v) => &v.surface.triangles,
+            None => &self.surface,
+        }
     }
 
     /// Current displacements `u` (m), 3 per node.
@@ -375,6 +436,7 @@ impl Simulation {
         for (i, &a) in self.support_nodes.iter().enumerate() {
             self.support_forces[i] = self.net(a as usize);
         }
+        self.update_visual();
         Ok(())
     }
 

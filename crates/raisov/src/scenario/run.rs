@@ -16,7 +16,7 @@
 //! - `summary.txt`: what the closing summary says.
 //!
 //! A run first removes the numbered frames of the same scenario name that an earlier run left
-//! in `frames/` ([`clear_old_frames`]); everything else stays, the level cache `cache/`
+//! in `frames/` (`clear_old_frames`); everything else stays, the level cache `cache/`
 //! included.
 //!
 //! A diverging run writes what it measured up to the last finite state, then returns

@@ -1,0 +1,113 @@
+"""raisov: nonlinear hyperelastic soft-tissue simulation with multigrid explicit integration,
+stepped frame by frame. SI units (m, N, s, Pa).
+
+Every array returned is a read-only float64 (or int64) copy taken when it is read: it keeps its
+values after later frames.
+"""
+
+from os import PathLike
+from typing import Iterable, Optional, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+Point = Union[Iterable[float], npt.NDArray[np.float64]]
+
+class Grab:
+    """A grasp of one Simulation (returned by Simulation.grab)."""
+
+class Pin:
+    """A pin of one Simulation (returned by Simulation.pin)."""
+
+class FrameReport:
+    """What a frame did."""
+
+    cycles: int
+    """Steps of the accepted try (0 when none was accepted)."""
+    rejected_cycles: int
+    """Steps of the rejected tries, thrown away."""
+    retries: int
+    """Tries rejected before the accepted one (or all of them)."""
+    accepted: bool
+    """Whether a try was accepted; False: the state is the one before the frame."""
+    target_reached: bool
+    """Whether every grasp reached its target."""
+    residual: float
+    """Largest nodal residual |V - R(u)| over free nodes at the end of the frame (N)."""
+    rejection: Optional[str]
+    """Why the last rejected try was rejected."""
+    wall_s: float
+    """Wall time of the frame (s)."""
+
+class Reactions:
+    """Forces the tissue exerts on its supports (constrained nodes no grasp holds)."""
+
+    nodes: npt.NDArray[np.int64]
+    """Supported nodes, ascending, shape (m,)."""
+    forces: npt.NDArray[np.float64]
+    """Force on each (N), shape (m, 3)."""
+    sum: npt.NDArray[np.float64]
+    """Their sum (N), shape (3,)."""
+
+class Simulation:
+    """A simulation stepped frame by frame.
+
+    Sign conventions: grab_force(g) = sum over the grasped nodes of (V - R(u)), the force the
+    tissue exerts on the tool; at equilibrium sum of grab forces + reactions.sum = total_load.
+    """
+
+    def __init__(self, path: Union[str, PathLike[str]]) -> None:
+        """Load a scenario file (raisov's TOML format). Raises ValueError (bad scenario) or
+        OSError (unreadable file) with the library's message."""
+    @staticmethod
+    def from_toml(text: str, base_dir: Union[str, PathLike[str]] = ".") -> Simulation:
+        """Build from scenario text; relative paths in it are taken from base_dir."""
+    def step_frame(
+        self, cycles: Optional[int] = None, ms: Optional[float] = None
+    ) -> FrameReport:
+        """One frame of `cycles` steps or `ms` milliseconds of wall time (exactly one)."""
+    def grab(self, point: Point, radius: float) -> Grab:
+        """Grasp the surface patch within `radius` (m) of the surface point nearest `point`."""
+    def move_grab(self, g: Grab, target: Point) -> None:
+        """Move grasp g to target (m) over the next frame."""
+    def release(self, g: Grab) -> None: ...
+    def grab_position(self, g: Grab) -> npt.NDArray[np.float64]:
+        """Where g holds its nodes now (m), shape (3,)."""
+    def grab_nodes(self, g: Grab) -> npt.NDArray[np.int64]: ...
+    def grab_force(self, g: Grab) -> npt.NDArray[np.float64]:
+        """Force the tissue exerts on the tool of g (N), shape (3,)."""
+    def grab_stiffness(self, g: Grab) -> npt.NDArray[np.float64]:
+        """d grab_force / d grasp position (N/m), shape (3, 3): K[i, j] = dF_i / dx_j."""
+    def pin(self, point: Point, radius: float) -> Pin:
+        """Pin the patch grab would take, where it stands."""
+    def unpin(self, p: Pin) -> None: ...
+    def pin_nodes(self, p: Pin) -> npt.NDArray[np.int64]: ...
+    def set_max_retries(self, retries: int) -> None: ...
+    def describe(self) -> str: ...
+    @property
+    def num_nodes(self) -> int: ...
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+    @property
+    def positions(self) -> npt.NDArray[np.float64]:
+        """Node positions X + u (m), shape (n, 3): a read-only copy taken now."""
+    @property
+    def displacements(self) -> npt.NDArray[np.float64]:
+        """Displacements u (m), shape (n, 3): a read-only copy taken now."""
+    @property
+    def rest_positions(self) -> npt.NDArray[np.float64]:
+        """Reference positions X (m), shape (n, 3)."""
+    @property
+    def nodal_stress(self) -> npt.NDArray[np.float64]:
+        """Nodal Cauchy stress (Pa), shape (n, 3, 3)."""
+    @property
+    def residual(self) -> float:
+        """Largest nodal residual over free nodes (N)."""
+    @property
+    def reactions(self) -> Reactions: ...
+    @property
+    def total_load(self) -> npt.NDArray[np.float64]:
+        """Total external load: gravity and nodal loads (N), shape (3,)."""

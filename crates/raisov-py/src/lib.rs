@@ -1,0 +1,422 @@
+//! Python bindings of [`raisov::sim`]: the module `raisov` with a `Simulation` class stepped
+//! frame by frame from a Python loop, grasps and pins at run time, the tool force and its
+//! stiffness, node positions as NumPy arrays.
+//!
+//! Conventions are the Rust API's (module docs of [`raisov::sim`]), in SI units:
+//!
+//! ```text
+//! grab_force(g) = Σ_{a ∈ g} (V_a − R_a(u))   the force the tissue exerts on the tool (N)
+//! reactions     = V_a − R_a(u) per support   the force the tissue exerts on its supports (N)
+//! at equilibrium: Σ_g grab_force(g) + Σ_a reactions_a = total_load = Σ_all V_a
+//! grab_stiffness(g) = ∂ grab_force / ∂ x_g   (3×3, N/m)
+//! ```
+//!
+//! Every array handed to Python is a read-only copy (`flags.writeable` false): it keeps the
+//! values of the moment it was read, whatever the simulation does afterwards. Errors of the
+//! library become `ValueError` (bad input, scenario), `OSError` (files) or `RuntimeError`
+//! (divergence), with the library's message. A frame releases the GIL while it steps; the
+//! simulation sits behind a mutex, so calls from several Python threads take turns.
+
+use numpy::ndarray::{Array1, Array2, Array3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
+use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use raisov::sim::{Budget, GrabId, PinId, Simulation as Sim};
+use std::path::PathBuf;
+use std::sync::{Mutex, MutexGuard};
+
+/// The library's error as a Python exception with the same message.
+fn to_py(e: raisov::Error) -> PyErr {
+    let msg = e.to_string();
+    match e {
+        raisov::Error::Io { .. } => PyOSError::new_err(msg),
+        raisov::Error::Diverged(_) => PyRuntimeError::new_err(msg),
+        _ => PyValueError::new_err(msg),
+    }
+}
+
+/// Three finite coordinates from any iterable of numbers (list, tuple, NumPy array).
+fn point3(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<[f64; 3]> {
+    let mut p = [0.0; 3];
+    let mut n = 0usize;
+    for item in obj.try_iter()? {
+        let x: f64 = item?.extract()?;
+        if n < 3 {
+            p[n] = x;
+        }
+        n += 1;
+    }
+    if n != 3 {
+        return Err(PyValueError::new_err(format!(
+            "`{what}` must have 3 coordinates (x, y, z in metres), got {n}"
+        )));
+    }
+    Ok(p)
+}
+
+/// Mark a freshly made array read-only (it is a copy: writing to it would change nothing).
+fn read_only<'py, T>(a: Bound<'py, T>) -> PyResult<Bound<'py, T>> {
+    let kw = PyDict::new(a.py());
+    kw.set_item("write", false)?;
+    a.as_any().call_method("setflags", (), Some(&kw))?;
+    Ok(a)
+}
+
+fn vec3<'py>(py: Python<'py>, v: [f64; 3]) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    read_only(Array1::from(v.to_vec()).into_pyarray(py))
+}
+
+fn rows3<'py>(py: Python<'py>, rows: &[[f64; 3]]) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let flat = rows.as_flattened().to_vec();
+    let a = Array2::from_shape_vec((rows.len(), 3), flat).expect("3 per row");
+    read_only(a.into_pyarray(py))
+}
+
+/// A grasp of one `Simulation` (returned by `Simulation.grab`).
+#[pyclass(frozen, eq, hash, module = "raisov")]
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+struct Grab {
+    id: GrabId,
+}
+
+#[pymethods]
+impl Grab {
+    fn __repr__(&self) -> String {
+        format!("raisov.{:?}", self.id)
+    }
+}
+
+/// A pin of one `Simulation` (returned by `Simulation.pin`).
+#[pyclass(frozen, eq, hash, module = "raisov")]
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+struct Pin {
+    id: PinId,
+}
+
+#[pymethods]
+impl Pin {
+    fn __repr__(&self) -> String {
+        format!("raisov.{:?}", self.id)
+    }
+}
+
+/// What a frame did (`Simulation.step_frame`).
+#[pyclass(frozen, get_all, module = "raisov")]
+struct FrameReport {
+    /// Steps of the accepted try (0 when none was accepted).
+    cycles: u64,
+    /// Steps of the rejected tries, thrown away.
+    rejected_cycles: u64,
+    /// Tries rejected before the accepted one (or all of them).
+    retries: u32,
+    /// Whether a try was accepted; False: the state is the one before the frame.
+    accepted: bool,
+    /// Whether every grasp reached its target.
+    target_reached: bool,
+    /// The largest nodal residual |V − R(u)| over free nodes at the end of the frame (N).
+    residual: f64,
+    /// Why the last rejected try was rejected, or None.
+    rejection: Option<String>,
+    /// Wall time of the frame (s).
+    wall_s: f64,
+}
+
+#[pymethods]
+impl FrameReport {
+    fn __repr__(&self) -> String {
+        format!(
+            "FrameReport(cycles={}, rejected_cycles={}, retries={}, accepted={}, target_reached={}, residual={:e}, rejection={:?}, wall_s={:e})",
+            self.cycles,
+            self.rejected_cycles,
+            self.retries,
+            if self.accepted { "True" } else { "False" },
+            if self.target_reached { "True" } else { "False" },
+            self.residual,
+            self.rejection,
+            self.wall_s
+        )
+    }
+}
+
+/// The forces the tissue exerts on its supports (`Simulation.reactions`): every constrained
+/// node that no grasp holds.
+#[pyclass(frozen, get_all, module = "raisov")]
+struct Reactions {
+    /// The supported nodes, ascending (int64, shape (m,)).
+    nodes: Py<PyArray1<i64>>,
+    /// The force on each (N, shape (m, 3)).
+    forces: Py<PyArray2<f64>>,
+    /// Their sum (N, shape (3,)).
+    sum: Py<PyArray1<f64>>,
+}
+
+/// A simulation stepped frame by frame: build it from a scenario file (`Simulation(path)`) or
+/// text (`Simulation.from_toml(text, base_dir)`), grasp and pin the surface, step frames,
+/// read positions and forces. Units are SI (m, N, s, Pa).
+#[pyclass(frozen, module = "raisov")]
+struct Simulation {
+    inner: Mutex<Sim>,
+}
+
+impl Simulation {
+    fn sim(&self) -> PyResult<MutexGuard<'_, Sim>> {
+        self.inner.lock().map_err(|_| {
+            PyRuntimeError::new_err(
+                "the simulation is unusable: an earlier call panicked while changing it",
+            )
+        })
+    }
+}
+
+#[pymethods]
+impl Simulation {
+    /// Load a scenario file (raisov's TOML format); its [run], [output] and [interactive]
+    /// sections are not used.
+    #[new]
+    fn new(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let sim = py.detach(|| Sim::from_file(&path)).map_err(to_py)?;
+        Ok(Simulation {
+            inner: Mutex::new(sim),
+        })
+    }
+
+    /// Build from scenario text; relative paths in it (mesh files) are taken from `base_dir`.
+    #[staticmethod]
+    #[pyo3(signature = (text, base_dir = PathBuf::from(".")))]
+    fn from_toml(py: Python<'_>, text: String, base_dir: PathBuf) -> PyResult<Self> {
+        let sim = py
+            .detach(|| Sim::from_toml(&text, &base_dir))
+            .map_err(to_py)?;
+        Ok(Simulation {
+            inner: Mutex::new(sim),
+        })
+    }
+
+    /// Run one frame of `cycles` stepper steps (deterministic) or of `ms` milliseconds of
+    /// wall time (at least one step); exactly one of the two. Grasps move to their targets;
+    /// a rejected try is retried with smaller sub-moves (`FrameReport`).
+    #[pyo3(signature = (cycles = None, ms = None))]
+    fn step_frame(
+        &self,
+        py: Python<'_>,
+        cycles: Option<u32>,
+        ms: Option<f64>,
+    ) -> PyResult<FrameReport> {
+        let budget = match (cycles, ms) {
+            (Some(n), None) => Budget::Cycles(n),
+            (None, Some(ms)) if ms.is_finite() && ms >= 0.0 => Budget::Millis(ms),
+            (None, Some(ms)) => {
+                return Err(PyValueError::new_err(format!(
+                    "`ms` must be a finite number of milliseconds >= 0, got {ms}"
+                )))
+            }
+            _ => {
+                return Err(PyValueError::new_err(
+                    "give exactly one of `cycles` (stepper steps) or `ms` (wall-time budget)",
+                ))
+            }
+        };
+        // The lock is taken and dropped without the GIL, so that another thread waiting for
+        // the simulation while holding the GIL cannot deadlock with this one.
+        let r = py.detach(|| self.sim().map(|mut s| s.step_frame(budget)))?;
+        Ok(FrameReport {
+            cycles: r.cycles,
+            rejected_cycles: r.rejected_cycles,
+            retries: r.retries,
+            accepted: r.accepted,
+            target_reached: r.target_reached,
+            residual: r.residual,
+            rejection: r.rejection,
+            wall_s: r.wall.as_secs_f64(),
+        })
+    }
+
+    /// Grasp the surface near `point` (m): the surface nodes within `radius` (m) of the
+    /// surface point nearest `point` (at least the nearest node), held rigidly from the next
+    /// frame on.
+    fn grab(&self, point: &Bound<'_, PyAny>, radius: f64) -> PyResult<Grab> {
+        let p = point3(point, "point")?;
+        let id = self.sim()?.grab(p, radius).map_err(to_py)?;
+        Ok(Grab { id })
+    }
+
+    /// Move grasp `g` to `target` (m); its nodes follow rigidly over the next frame.
+    fn move_grab(&self, g: &Grab, target: &Bound<'_, PyAny>) -> PyResult<()> {
+        let p = point3(target, "target")?;
+        self.sim()?.move_grab(g.id, p).map_err(to_py)
+    }
+
+    /// Let go of grasp `g`: its nodes are free from now on.
+    fn release(&self, g: &Grab) -> PyResult<()> {
+        self.sim()?.release(g.id).map_err(to_py)
+    }
+
+    /// Where grasp `g` holds its nodes now (m, shape (3,)).
+    fn grab_position<'py>(&self, py: Python<'py>, g: &Grab) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = self.sim()?.grab_position(g.id).map_err(to_py)?;
+        vec3(py, p)
+    }
+
+    /// The grasped nodes of `g` (ascending, int64).
+    fn grab_nodes<'py>(&self, py: Python<'py>, g: &Grab) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let nodes: Vec<i64> = self
+            .sim()?
+            .grab_nodes(g.id)
+            .map_err(to_py)?
+            .iter()
+            .map(|&a| a as i64)
+            .collect();
+        read_only(nodes.into_pyarray(py))
+    }
+
+    /// The force the tissue exerts on the tool of grasp `g` (N, shape (3,)).
+    fn grab_force<'py>(&self, py: Python<'py>, g: &Grab) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let f = self.sim()?.grab_force(g.id).map_err(to_py)?;
+        vec3(py, f)
+    }
+
+    /// `d grab_force / d x_g` (N/m, shape (3, 3)): the change of the tool force when the
+    /// grasp moves and the free nodes return to equilibrium; `K[i, j]` is the change of force
+    /// component i per metre along axis j. Three warm-started linear solves.
+    fn grab_stiffness<'py>(
+        &self,
+        py: Python<'py>,
+        g: &Grab,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let id = g.id;
+        let k = py.detach(|| self.sim().map(|mut s| s.grab_stiffness(id)))?;
+        rows3(py, &k.map_err(to_py)?)
+    }
+
+    /// Pin the surface near `point` (m): the patch `grab` would take, held where it stands.
+    fn pin(&self, point: &Bound<'_, PyAny>, radius: f64) -> PyResult<Pin> {
+        let p = point3(point, "point")?;
+        let id = self.sim()?.pin(p, radius).map_err(to_py)?;
+        Ok(Pin { id })
+    }
+
+    /// Remove pin `p`: its nodes are free from now on.
+    fn unpin(&self, p: &Pin) -> PyResult<()> {
+        self.sim()?.unpin(p.id).map_err(to_py)
+    }
+
+    /// The pinned nodes of `p` (ascending, int64).
+    fn pin_nodes<'py>(&self, py: Python<'py>, p: &Pin) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let nodes: Vec<i64> = self
+            .sim()?
+            .pin_nodes(p.id)
+            .map_err(to_py)?
+            .iter()
+            .map(|&a| a as i64)
+            .collect();
+        read_only(nodes.into_pyarray(py))
+    }
+
+    /// Retries of a rejected frame, each halving the grasps' sub-moves (default 4).
+    fn set_max_retries(&self, retries: u32) -> PyResult<()> {
+        self.sim()?.set_max_retries(retries);
+        Ok(())
+    }
+
+    /// Number of nodes.
+    #[getter]
+    fn num_nodes(&self) -> PyResult<usize> {
+        Ok(self.sim()?.positions().len())
+    }
+
+    /// Simulated time (s).
+    #[getter]
+    fn time(&self) -> PyResult<f64> {
+        Ok(self.sim()?.time())
+    }
+
+    /// Current node positions X + u (m, float64, shape (n, 3)), in the mesh's node order.
+    /// A read-only copy taken now: it keeps these values after later frames (read it again
+    /// for the new ones).
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let s = self.sim()?;
+        rows3(py, s.positions())
+    }
+
+    /// Current displacements u (m, float64, shape (n, 3)); a read-only copy, as `positions`.
+    #[getter]
+    fn displacements<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let s = self.sim()?;
+        let u = s.displacements();
+        let a = Array2::from_shape_vec((u.len() / 3, 3), u.to_vec()).expect("3 per node");
+        read_only(a.into_pyarray(py))
+    }
+
+    /// Reference node positions X (m, shape (n, 3)); a read-only copy.
+    #[getter]
+    fn rest_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let s = self.sim()?;
+        rows3(py, &s.mesh().nodes)
+    }
+
+    /// Nodal Cauchy stress (Pa, shape (n, 3, 3)); a read-only copy.
+    #[getter]
+    fn nodal_stress<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let mut s = self.sim()?;
+        let t = s.nodal_stress();
+        let a =
+            Array3::from_shape_vec((t.len(), 3, 3), t.as_flattened().to_vec()).expect("9 per node");
+        read_only(a.into_pyarray(py))
+    }
+
+    /// The largest nodal residual |V − R(u)| over free nodes at the current state (N).
+    #[getter]
+    fn residual(&self) -> PyResult<f64> {
+        Ok(self.sim()?.residual())
+    }
+
+    /// Forces the tissue exerts on its supports at the current state (`Reactions`).
+    #[getter]
+    fn reactions(&self, py: Python<'_>) -> PyResult<Reactions> {
+        let s = self.sim()?;
+        let r = s.reactions();
+        let nodes: Vec<i64> = r.nodes.iter().map(|&a| a as i64).collect();
+        Ok(Reactions {
+            nodes: read_only(nodes.into_pyarray(py))?.unbind(),
+            forces: rows3(py, r.forces)?.unbind(),
+            sum: vec3(py, r.sum)?.unbind(),
+        })
+    }
+
+    /// Total external load (gravity and nodal loads, N, shape (3,)).
+    #[getter]
+    fn total_load<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let l = self.sim()?.total_load();
+        vec3(py, l)
+    }
+
+    /// The stepper's description (scheme, levels, step).
+    fn describe(&self) -> PyResult<String> {
+        Ok(self.sim()?.stepper().describe())
+    }
+
+    fn __repr__(&self) -> PyResult<String> {
+        let s = self.sim()?;
+        Ok(format!(
+            "raisov.Simulation({} nodes, t = {} s; {})",
+            s.positions().len(),
+            s.time(),
+            s.stepper().describe()
+        ))
+    }
+}
+
+/// raisov: nonlinear hyperelastic soft-tissue simulation with multigrid explicit
+/// integration, stepped frame by frame.
+#[pymodule(name = "raisov")]
+fn raisov_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Simulation>()?;
+    m.add_class::<Grab>()?;
+    m.add_class::<Pin>()?;
+    m.add_class::<FrameReport>()?;
+    m.add_class::<Reactions>()?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,182 @@
+"""The Python API against the physics the Rust sim tests check: grasps move exactly their
+patch, the tool force and the support reactions balance the load at equilibrium, the grasp
+stiffness matches finite differences of the grasp force, bad input raises with the library's
+message."""
+
+import numpy as np
+import pytest
+
+import raisov
+
+SIDE = 0.04
+G = -9.81
+
+# A 4 cm cube (4 cells per side, 125 nodes) fixed at its base under gravity, solved by Newton
+# on one FAS level: each frame goes to the static equilibrium.
+CUBE = """
+gravity = [0, 0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [4, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = { point = [0, 0, 0], normal = [0, 0, 1] }
+[multigrid]
+scheme = "fas"
+levels = 1
+coarse = "newton"
+[run]
+duration = 1.0
+"""
+
+
+def static_cube():
+    return raisov.Simulation.from_toml(CUBE)
+
+
+def converge(sim, tol=1e-10):
+    for _ in range(30):
+        r = sim.step_frame(cycles=1)
+        assert r.accepted, r
+        if r.residual < tol:
+            return
+    raise AssertionError(f"no convergence: residual {sim.residual} N")
+
+
+def test_grab_moves_exactly_the_patch_and_positions_are_copies():
+    sim = static_cube()
+    assert sim.num_nodes == 125
+    r = 0.011
+    g = sim.grab([0.02, 0.0205, 0.05], r)
+    top = np.array([0.02, 0.0205, SIDE])
+    x0 = sim.rest_positions
+    expected = [
+        a
+        for a in range(sim.num_nodes)
+        if abs(x0[a, 2] - SIDE) < 1e-12 and np.linalg.norm(x0[a] - top) <= r
+    ]
+    assert len(expected) == 5
+    assert list(sim.grab_nodes(g)) == expected
+    np.testing.assert_array_equal(sim.grab_position(g), top)
+    before = sim.positions
+    assert before.shape == (125, 3) and before.dtype == np.float64
+    assert not before.flags.writeable
+    with pytest.raises(ValueError):
+        before[0, 0] = 1.0
+    d = np.array([0.001, -0.002, 0.004])
+    sim.move_grab(g, top + d)
+    rep = sim.step_frame(cycles=2)
+    assert rep.accepted and rep.target_reached and rep.cycles == 2, rep
+    after = sim.positions
+    # The array read before the frame is a copy: the frame left it as it was.
+    np.testing.assert_array_equal(before, x0)
+    moved = after - before
+    for a in range(sim.num_nodes):
+        err = np.linalg.norm(moved[a] - d)
+        if a in expected:
+            assert err < 1e-15, (a, moved[a])
+        elif abs(before[a, 2] - SIDE) < 1e-12:
+            assert err > 1e-5, f"node {a} outside the patch moved with it"
+    np.testing.assert_allclose(sim.displacements, after - x0, rtol=0, atol=1e-17)
+
+
+def test_grab_force_and_reactions_balance_the_load_at_equilibrium():
+    sim = static_cube()
+    g = sim.grab([0.02, 0.02, 0.06], 0.011)
+    p = sim.grab_position(g)
+    sim.move_grab(g, p + [0.002, 0.0, 0.004])
+    converge(sim)
+    f = sim.grab_force(g)
+    assert f.shape == (3,)
+    # Lifted and pulled along +x: the tissue pulls the tool down and back.
+    assert f[2] < 0.0 and f[0] < 0.0, f
+    load = sim.total_load
+    # Gravity on the cube's mass: 1000 kg/m3 (the default density) x 0.04^3 m3.
+    np.testing.assert_allclose(load, [0.0, 0.0, 1000.0 * SIDE**3 * G], rtol=1e-12, atol=1e-15)
+    react = sim.reactions
+    assert len(react.nodes) == 25 and react.forces.shape == (25, 3)
+    np.testing.assert_allclose(react.sum, react.forces.sum(axis=0), rtol=1e-12, atol=1e-15)
+    imbalance = f + react.sum - load
+    scale = np.linalg.norm(load) + np.linalg.norm(f)
+    assert np.linalg.norm(imbalance) < 1e-8 * scale, (imbalance, load, f, react.sum)
+
+
+def test_grab_stiffness_matches_finite_differences_of_the_grab_force():
+    sim = static_cube()
+    g = sim.grab([0.02, 0.02, 0.06], 0.01)
+    x0 = sim.grab_position(g) + [0.0, 0.0, 0.004]
+    sim.move_grab(g, x0)
+    # Newton's 1e-6 relative tolerance per visit stalls near 5e-9 N here; a residual of 2e-8 N
+    # puts an error of 1e-4 N/m on the differences below, far inside their tolerance.
+    tol = 2e-8
+    converge(sim, tol)
+    k = sim.grab_stiffness(g)
+    assert k.shape == (3, 3)
+    kmax = np.abs(k).max()
+    assert kmax > 10.0, k
+    h = 1e-4
+    for axis in range(3):
+        f = []
+        for side in (1.0, -1.0):
+            x = x0.copy()
+            x[axis] += side * h
+            sim.move_grab(g, x)
+            converge(sim, tol)
+            f.append(sim.grab_force(g))
+        fd = (f[0] - f[1]) / (2 * h)
+        np.testing.assert_allclose(k[:, axis], fd, rtol=0, atol=2e-3 * kmax)
+    assert np.all(np.diag(k) < 0.0)
+    np.testing.assert_allclose(k, k.T, rtol=0, atol=2e-3 * kmax)
+
+
+def test_pins_release_and_wall_time_frames():
+    sim = static_cube()
+    g = sim.grab([0.02, 0.02, 0.05], 0.005)
+    pin = sim.pin([0.0, 0.0, 0.05], 0.011)
+    pinned = sim.pin_nodes(pin)
+    assert len(pinned) >= 3
+    sim.move_grab(g, sim.grab_position(g) + [0.0, 0.0, 0.004])
+    converge(sim)
+    u = sim.displacements
+    assert np.all(u[pinned] == 0.0)
+    assert set(pinned) <= set(sim.reactions.nodes)
+    sim.unpin(pin)
+    sim.release(g)
+    rep = sim.step_frame(ms=0.5)
+    assert rep.accepted and rep.cycles >= 1, rep
+    with pytest.raises(ValueError, match="no grasp"):
+        sim.grab_force(g)
+
+
+def test_bad_input_raises_with_the_library_message(tmp_path):
+    bad = CUBE.replace("young = 5e3", "young = -5e3")
+    with pytest.raises(ValueError) as e:
+        raisov.Simulation.from_toml(bad)
+    msg = str(e.value)
+    assert "young" in msg, msg
+    # The same message from a file, which the message names.
+    path = tmp_path / "bad.toml"
+    path.write_text(bad)
+    with pytest.raises(ValueError) as e2:
+        raisov.Simulation(path)
+    assert str(path) in str(e2.value) and "young" in str(e2.value)
+    with pytest.raises(OSError, match="missing.toml"):
+        raisov.Simulation(tmp_path / "missing.toml")
+    sim = static_cube()
+    with pytest.raises(ValueError, match="constrained already"):
+        sim.grab([0.02, 0.02, -0.01], 0.005)
+    with pytest.raises(ValueError, match="3 coordinates"):
+        sim.grab([0.02, 0.02], 0.005)
+    with pytest.raises(ValueError):
+        sim.grab([0.0, 0.0, 0.0], -1.0)
+    g = sim.grab([0.02, 0.02, 0.05], 0.01)
+    with pytest.raises(ValueError):
+        sim.move_grab(g, [float("nan"), 0.0, 0.0])
+    with pytest.raises(ValueError, match="exactly one"):
+        sim.step_frame()
+    with pytest.raises(ValueError, match="exactly one"):
+        sim.step_frame(cycles=1, ms=1.0)

@@ -3,7 +3,7 @@
  *
  *   cargo build --release -p raisov-capi
  *   cc crates/raisov-capi/examples/grab.c -I crates/raisov-capi/include \
- *      target/release/libraisov_capi.a -lm -lpthread -ldl -llzma -o target/grab-c
+ *      target/release/libraisov_capi.a -lm -lpthread -ldl -o target/grab-c
  *   target/grab-c [scenario.toml]     (default: writes a small box scenario to target/) */
 #include <stdio.h>
 #include <stdlib.h>

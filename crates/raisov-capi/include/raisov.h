@@ -1,7 +1,7 @@
 /* raisov.h: a small C ABI over raisov's frame-loop API (crate raisov-capi).
  *
- * Link the static library (target/release/libraisov_capi.a) with -lm -lpthread -ldl (and
- * -llzma where the build found the system's liblzma), or the shared one (libraisov_capi.so). Units are SI: metres, newtons, seconds.
+ * Link the static library (target/release/libraisov_capi.a) with -lm -lpthread -ldl, or the
+ * shared one (libraisov_capi.so). Units are SI: metres, newtons, seconds.
  *
  * Errors: a call that fails returns NULL or -1 (see each function), and raisov_last_error()
  * gives the message of the last failure on the calling thread. No call panics or aborts on bad

@@ -50,6 +50,7 @@ levels = 4
         RunOptions {
             out_dir: Some(dir.path().to_path_buf()),
             progress: None,
+            stop: None,
         },
     )
     .unwrap();

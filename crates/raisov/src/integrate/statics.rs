@@ -197,6 +197,7 @@ impl NewtonSolver {
             for i in 0..n {
                 self.z[i] = self.inv_m[i] * self.d[i];
             }
+            sys.constraints.zero_constrained(&mut self.z);
             self.p.copy_from_slice(&self.z);
             let mut rz: f64 = self.d.iter().zip(&self.z).map(|(a, b)| a * b).sum();
             let dn0 = res;
@@ -218,6 +219,7 @@ impl NewtonSolver {
                 for i in 0..n {
                     self.z[i] = self.inv_m[i] * self.d[i];
                 }
+                sys.constraints.zero_constrained(&mut self.z);
                 let rz_new: f64 = self.d.iter().zip(&self.z).map(|(a, b)| a * b).sum();
                 let beta = rz_new / rz;
                 rz = rz_new;

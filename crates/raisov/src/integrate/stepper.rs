@@ -182,6 +182,7 @@ impl CheckpointReader<'_> {
 #[derive(Clone, Debug)]
 pub(crate) struct OwnConstraints {
     fixed: Vec<u32>,
+    sliding: Vec<(u32, [f64; 3])>,
     /// The first `prescribed` entries of the level's prescribed list are its own (their
     /// motions as they stand: [`Stepper::hold_prescribed`] may have changed them).
     prescribed: usize,
@@ -191,6 +192,7 @@ impl OwnConstraints {
     pub(crate) fn of(c: &Constraints) -> Self {
         OwnConstraints {
             fixed: c.fixed.clone(),
+            sliding: c.sliding().to_vec(),
             prescribed: c.prescribed.len(),
         }
     }
@@ -225,7 +227,9 @@ impl OwnConstraints {
                 prescribed.push((a, super::Motion::Held { d }));
             }
         }
-        *c = Constraints::new(self.fixed.clone(), prescribed).with_nodes(n);
+        *c = Constraints::new(self.fixed.clone(), prescribed)
+            .with_sliding(&self.sliding)
+            .with_nodes(n);
     }
 }
 

@@ -26,9 +26,9 @@
 //!
 //! Writing: [`write_msh22`] (Gmsh 2.2 ASCII), [`write_vtu`] / [`write_vtu_as`] (binary
 //! appended zlib by default, ASCII on request, see [`vtu`]), [`write_vtp`] (surfaces, the
-//! same encodings, see [`vtp`]) and [`PvdWriter`] (ParaView). All
-//! writers go through [`write_atomic`]: the file appears complete or not at all, and none of
-//! them writes a non-finite number.
+//! same encodings, see [`vtp`]) and [`PvdWriter`] (ParaView, appended in place). The file
+//! writers go through [`write_atomic`]: the file appears complete or not at all. None of
+//! them writes a non-finite number. [`OutputLock`] keeps two runs out of one directory.
 
 pub mod gmsh;
 pub mod surface;
@@ -157,6 +157,54 @@ pub fn write_atomic(
         let _ = std::fs::remove_file(&tmp);
         Error::io(path, e)
     })
+}
+
+/// An advisory lock on an output directory: the file `.raisov.lock` in it, locked
+/// exclusively (`flock` on Unix, `LockFileEx` on Windows) for as long as the value lives.
+/// The kernel drops the lock when the process dies, however it dies; the file itself stays.
+#[derive(Debug)]
+pub struct OutputLock {
+    _file: std::fs::File,
+    path: std::path::PathBuf,
+}
+
+impl OutputLock {
+    /// The lock file's name inside the directory.
+    pub const FILE: &'static str = ".raisov.lock";
+
+    /// Lock `dir` (created if missing). Errors, naming the directory and the lock file, when
+    /// another process holds it.
+    pub fn acquire(dir: &Path) -> Result<OutputLock> {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        let path = dir.join(Self::FILE);
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(|e| Error::io(&path, e))?;
+        match file.try_lock() {
+            Ok(()) => Ok(OutputLock { _file: file, path }),
+            Err(std::fs::TryLockError::WouldBlock) => Err(Error::io(
+                &path,
+                std::io::Error::new(
+                    std::io::ErrorKind::WouldBlock,
+                    format!(
+                        "another run is writing to the output directory {} (it holds the lock \
+                         file {}); wait for it, or give this run another directory (`--out`)",
+                        dir.display(),
+                        path.display()
+                    ),
+                ),
+            )),
+            Err(std::fs::TryLockError::Error(e)) => Err(Error::io(&path, e)),
+        }
+    }
+
+    /// The lock file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
 }
 
 /// What every reader produces before the common post-processing in [`finish`].
@@ -331,6 +379,18 @@ mod tests {
         assert!(s.contains("degenerate tetrahedron 1"), "{s}");
         assert!(s.contains("id 8") && s.contains("nodes 1 2 3 5"), "{s}");
         assert!(s.contains("volume ") && s.contains("0e0"), "{s}");
+    }
+
+    #[test]
+    fn output_lock_excludes_a_second_holder() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run");
+        let a = OutputLock::acquire(&out).unwrap();
+        let e = OutputLock::acquire(&out).unwrap_err().to_string();
+        assert!(e.contains("another run") && e.contains(OutputLock::FILE), "{e}");
+        assert!(e.contains(&out.display().to_string()), "{e}");
+        drop(a);
+        OutputLock::acquire(&out).unwrap();
     }
 
     #[test]

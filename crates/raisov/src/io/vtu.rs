@@ -22,8 +22,9 @@
 //!   shortest round-trip representation (`{:e}`), so they also read back bit-exact.
 //!
 //! Cells: `connectivity` and `offsets` as `Int64`, `types` as `UInt8`. [`PvdWriter`]
-//! maintains a `.pvd` collection listing frames and their times, rewritten after every
-//! [`PvdWriter::add`]. Both write atomically and refuse non-finite values ([`Error::Param`]
+//! maintains a `.pvd` collection listing frames and their times, appended in constant time
+//! per [`PvdWriter::add`] (complete after each). The frames are written atomically; both
+//! refuse non-finite values ([`Error::Param`]
 //! naming the field and the item). [`read_vtu`](super::vtu_read::read_vtu) reads the files
 //! back.
 
@@ -491,21 +492,32 @@ pub(super) fn write_vtk_xml(
     })
 }
 
-/// A ParaView `.pvd` collection of frames, rewritten atomically after each [`add`].
+/// A ParaView `.pvd` collection of frames, appended in constant time per [`add`]: the file
+/// stays open, each frame's `<DataSet>` line is written over the closing tags, which follow it
+/// again, so that after every `add` the file is a complete collection of the frames so far.
 ///
 /// [`add`]: PvdWriter::add
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct PvdWriter {
     path: PathBuf,
-    entries: Vec<(f64, String)>,
+    file: Option<std::fs::File>,
+    /// Where the closing tags start.
+    end: u64,
+    count: usize,
 }
 
+/// The closing tags of a collection.
+const PVD_TAIL: &str = "  </Collection>\n</VTKFile>\n";
+
 impl PvdWriter {
-    /// A collection to be written at `path` (nothing is written until the first `add`).
+    /// A collection to be written at `path` (created, replacing any earlier one, at the
+    /// first `add`).
     pub fn new(path: impl Into<PathBuf>) -> Self {
         PvdWriter {
             path: path.into(),
-            entries: Vec::new(),
+            file: None,
+            end: 0,
+            count: 0,
         }
     }
 
@@ -514,48 +526,52 @@ impl PvdWriter {
         &self.path
     }
 
-    /// The frames so far: (time, file name relative to the `.pvd`).
-    pub fn entries(&self) -> &[(f64, String)] {
-        &self.entries
+    /// The number of frames so far.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// Whether no frame was added yet.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
     }
 
     /// Add a frame at `time` (seconds) stored in `vtu_file_name_relative` (relative to the
-    /// directory of the `.pvd`), and rewrite the collection.
+    /// directory of the `.pvd`): its line and the closing tags are written at the end.
     pub fn add(&mut self, time: f64, vtu_file_name_relative: &str) -> Result<()> {
+        use std::io::{Seek, SeekFrom};
         if !time.is_finite() {
             return Err(Error::param(
                 "time",
                 format!(
                     "frame {} (`{vtu_file_name_relative}`) has time {time}; refusing to write \
                      non-finite values",
-                    self.entries.len()
+                    self.count
                 ),
             ));
         }
-        self.entries
-            .push((time, vtu_file_name_relative.to_string()));
-        let entries = &self.entries;
-        let res = write_atomic(&self.path, |w: &mut dyn Write| {
-            writeln!(w, "<?xml version=\"1.0\"?>")?;
-            writeln!(
-                w,
-                "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">"
-            )?;
-            writeln!(w, "  <Collection>")?;
-            for (t, f) in entries {
-                writeln!(
-                    w,
-                    "    <DataSet timestep=\"{t:e}\" group=\"\" part=\"0\" file=\"{}\"/>",
-                    xml_escape(f)
-                )?;
-            }
-            writeln!(w, "  </Collection>")?;
-            writeln!(w, "</VTKFile>")
-        });
-        if res.is_err() {
-            self.entries.pop();
+        let io = |e| Error::io(&self.path, e);
+        if self.file.is_none() {
+            let mut f = std::fs::File::create(&self.path).map_err(io)?;
+            let head = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" \
+                        byte_order=\"LittleEndian\">\n  <Collection>\n";
+            f.write_all(head.as_bytes()).map_err(io)?;
+            self.end = head.len() as u64;
+            self.file = Some(f);
         }
-        res
+        let line = format!(
+            "    <DataSet timestep=\"{time:e}\" group=\"\" part=\"0\" file=\"{}\"/>\n",
+            xml_escape(vtu_file_name_relative)
+        );
+        let f = self.file.as_mut().expect("opened above");
+        let mut buf = line.into_bytes();
+        buf.extend_from_slice(PVD_TAIL.as_bytes());
+        f.seek(SeekFrom::Start(self.end))
+            .and_then(|_| f.write_all(&buf))
+            .map_err(|e| Error::io(&self.path, e))?;
+        self.end += (buf.len() - PVD_TAIL.len()) as u64;
+        self.count += 1;
+        Ok(())
     }
 }
 
@@ -822,7 +838,15 @@ mod tests {
         assert_eq!(text.matches("<DataSet ").count(), 2, "{text}");
         assert!(text.contains("timestep=\"2.5e-2\""), "{text}");
         assert!(text.contains("file=\"frames/frame_0001.vtu\""), "{text}");
-        assert_eq!(pvd.entries().len(), 2);
+        assert_eq!(pvd.len(), 2);
+        // Constant work per frame: the file grows by one line each time.
+        let before = std::fs::metadata(&p).unwrap().len();
+        pvd.add(0.05, "frames/frame_0002.vtu").unwrap();
+        let after = std::fs::read_to_string(&p).unwrap();
+        let line = "    <DataSet timestep=\"5e-2\" group=\"\" part=\"0\" file=\"frames/frame_0002.vtu\"/>\n";
+        assert_eq!(after.len() as u64 - before, line.len() as u64, "{after}");
+        assert!(after.contains(line), "{after}");
+        assert!(after.ends_with("  </Collection>\n</VTKFile>\n"), "{after}");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 }

@@ -2,12 +2,25 @@
 //!
 //! Per sample: time, kinetic energy `½ Σ m |u̇|²`, residual norm `‖V − R(u)‖₂` over free
 //! nodes, `max |u|`, and, when a steady-state reference `T∞` is known, the max and mean over
-//! non-fixed nodes of `|T − T∞|` (Frobenius norm of the nodal stress tensor difference, Pa).
+//! non-fixed nodes of `|T − T∞|` (Frobenius norm of the nodal stress tensor difference, Pa),
+//! and the reactions: the force the supports exert on the body,
+//!
+//! ```text
+//! F_fixed = Σ_{a fixed} P_a (R_a(u) − V_a),   F_prescribed = Σ_{a prescribed} (R_a(u) − V_a),
+//! ```
+//!
+//! `P_a` the projection onto the constrained directions of node `a` (all three for a fixed
+//! node, the normals of a sliding one). At equilibrium the free nodes satisfy `R = V` and
+//! `Σ_a R_a = 0` (internal forces are self-equilibrated), so `F_fixed + F_prescribed + Σ_a V_a
+//! = 0`: the reactions balance the applied loads and body forces. (The inertia of a moving
+//! prescribed node, `M g̈`, is not included.)
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::integrate::{State, System};
 use crate::io::write_atomic;
-use std::path::Path;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
 
 /// One row of the measures CSV.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -25,6 +38,10 @@ pub struct Sample {
     pub force_evals: f64,
     /// Wall time since the start of the run (s).
     pub wall: f64,
+    /// Reaction at the fixed nodes and fixed components, `F_fixed` (N).
+    pub reaction_fixed: [f64; 3],
+    /// Reaction at the prescribed nodes, `F_prescribed` (N).
+    pub reaction_prescribed: [f64; 3],
 }
 
 /// `max |T − T∞|` and mean over nodes where `mask` is false (free nodes).
@@ -57,6 +74,7 @@ pub fn max_displacement(u: &[f64]) -> f64 {
 /// Computes samples; owns scratch so sampling allocates nothing after creation.
 pub struct Meter {
     residual: Vec<f64>,
+    internal: Vec<f64>,
     stress: Vec<f64>,
     /// Steady-state nodal stress T∞ (9 per node), if known.
     pub t_inf: Option<Vec<f64>>,
@@ -66,6 +84,7 @@ impl Meter {
     pub fn new(n: usize, t_inf: Option<Vec<f64>>) -> Self {
         Meter {
             residual: vec![0.0; 3 * n],
+            internal: vec![0.0; 3 * n],
             stress: vec![0.0; 9 * n],
             t_inf,
         }
@@ -81,6 +100,7 @@ impl Meter {
             }
             None => (f64::NAN, f64::NAN),
         };
+        let (reaction_fixed, reaction_prescribed) = reactions(sys, &s.u, &mut self.internal);
         Sample {
             step,
             time: s.t,
@@ -91,6 +111,8 @@ impl Meter {
             stress_err_mean: ea,
             force_evals: 0.0,
             wall: 0.0,
+            reaction_fixed,
+            reaction_prescribed,
         }
     }
 
@@ -100,38 +122,132 @@ impl Meter {
     }
 }
 
+/// The reactions `(F_fixed, F_prescribed)` of `sys` at `u` (see the module documentation);
+/// `scratch` holds 3 per node. Zero where an element is inverted.
+pub fn reactions(sys: &mut System, u: &[f64], scratch: &mut [f64]) -> ([f64; 3], [f64; 3]) {
+    if sys.force.internal_forces(u, scratch).is_err() {
+        return ([0.0; 3], [0.0; 3]);
+    }
+    let c = &sys.constraints;
+    let f = &sys.f_ext;
+    let at = |a: usize| -> [f64; 3] {
+        [
+            scratch[3 * a] - f[3 * a],
+            scratch[3 * a + 1] - f[3 * a + 1],
+            scratch[3 * a + 2] - f[3 * a + 2],
+        ]
+    };
+    let add = |s: &mut [f64; 3], r: [f64; 3]| {
+        for k in 0..3 {
+            s[k] += r[k];
+        }
+    };
+    let (mut fixed, mut prescribed) = ([0.0; 3], [0.0; 3]);
+    for &a in &c.fixed {
+        add(&mut fixed, at(a as usize));
+    }
+    for &(a, n) in c.sliding() {
+        if c.is_constrained(a as usize) {
+            continue;
+        }
+        let r = at(a as usize);
+        let rn = r[0] * n[0] + r[1] * n[1] + r[2] * n[2];
+        add(&mut fixed, [rn * n[0], rn * n[1], rn * n[2]]);
+    }
+    for (a, _) in &c.prescribed {
+        add(&mut prescribed, at(*a as usize));
+    }
+    (fixed, prescribed)
+}
+
 /// Header of the measures CSV.
 pub const CSV_HEADER: &str =
-    "step,time_s,kinetic_J,residual_N,max_u_m,stress_err_max_Pa,stress_err_mean_Pa,force_evals,wall_s";
+    "step,time_s,kinetic_J,residual_N,max_u_m,stress_err_max_Pa,stress_err_mean_Pa,force_evals,wall_s,\
+reaction_fixed_x_N,reaction_fixed_y_N,reaction_fixed_z_N,\
+reaction_prescribed_x_N,reaction_prescribed_y_N,reaction_prescribed_z_N";
 
-/// Write samples as CSV, atomically. Missing stress errors are written as empty fields.
+/// One CSV row of `r` (no newline). Missing stress errors are empty fields.
+fn csv_row(w: &mut dyn Write, r: &Sample) -> std::io::Result<()> {
+    let opt = |x: f64| {
+        if x.is_finite() {
+            format!("{x:.9e}")
+        } else {
+            String::new()
+        }
+    };
+    write!(
+        w,
+        "{},{:.9e},{:.9e},{},{:.9e},{},{},{},{:.6}",
+        r.step,
+        r.time,
+        r.kinetic,
+        opt(r.residual),
+        r.max_u,
+        opt(r.stress_err_max),
+        opt(r.stress_err_mean),
+        r.force_evals,
+        r.wall
+    )?;
+    for x in r.reaction_fixed.iter().chain(&r.reaction_prescribed) {
+        write!(w, ",{}", opt(*x))?;
+    }
+    Ok(())
+}
+
+/// Write samples as CSV, atomically.
 pub fn write_csv(path: &Path, rows: &[Sample]) -> Result<()> {
     write_atomic(path, |w| {
         writeln!(w, "{CSV_HEADER}")?;
-        let opt = |x: f64| {
-            if x.is_finite() {
-                format!("{x:.9e}")
-            } else {
-                String::new()
-            }
-        };
         for r in rows {
-            writeln!(
-                w,
-                "{},{:.9e},{:.9e},{},{:.9e},{},{},{},{:.6}",
-                r.step,
-                r.time,
-                r.kinetic,
-                opt(r.residual),
-                r.max_u,
-                opt(r.stress_err_max),
-                opt(r.stress_err_mean),
-                r.force_evals,
-                r.wall
-            )?;
+            csv_row(w, r)?;
+            writeln!(w)?;
         }
         Ok(())
     })
+}
+
+/// `measures.csv` written as the rows come: the header at creation, each [`CsvStream::push`]
+/// buffered, [`CsvStream::flush`] hands the rows so far to the operating system (a process
+/// killed after a flush leaves them in the file). Nothing is kept in memory but the buffer.
+pub struct CsvStream {
+    path: PathBuf,
+    w: BufWriter<File>,
+    rows: u64,
+}
+
+impl CsvStream {
+    /// Create (truncate) `path` and write the header.
+    pub fn create(path: &Path) -> Result<CsvStream> {
+        let f = File::create(path).map_err(|e| Error::io(path, e))?;
+        let mut s = CsvStream {
+            path: path.to_path_buf(),
+            w: BufWriter::new(f),
+            rows: 0,
+        };
+        writeln!(s.w, "{CSV_HEADER}").map_err(|e| Error::io(path, e))?;
+        s.flush()?;
+        Ok(s)
+    }
+    /// Append one row.
+    pub fn push(&mut self, r: &Sample) -> Result<()> {
+        csv_row(&mut self.w, r)
+            .and_then(|_| writeln!(self.w))
+            .map_err(|e| Error::io(&self.path, e))?;
+        self.rows += 1;
+        Ok(())
+    }
+    /// Write the buffered rows to the file.
+    pub fn flush(&mut self) -> Result<()> {
+        self.w.flush().map_err(|e| Error::io(&self.path, e))
+    }
+    /// Rows written so far.
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+    /// The file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
 }
 
 #[cfg(test)]

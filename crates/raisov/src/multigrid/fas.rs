@@ -379,7 +379,12 @@ impl Fas {
                 .into_iter()
                 .map(|a| (a, Motion::Held { d: [0.0; 3] }))
                 .collect();
-            l.sys.constraints = Constraints::new(vec![], held).with_nodes(l.num_nodes());
+            // Sliding directions stay: the coarse state approximates the fine one, whose
+            // constrained components are zero.
+            let sliding = c.sliding().to_vec();
+            l.sys.constraints = Constraints::new(vec![], held)
+                .with_sliding(&sliding)
+                .with_nodes(l.num_nodes());
         }
         let m = levels.len();
         let n0 = 3 * levels[0].num_nodes();

@@ -17,8 +17,18 @@
 //! ```
 //!
 //! The frame rate counts the stepper's own wall time only (not the reference solve nor the
-//! output): `fps = frames / Σ frame wall`. Written atomically under the output directory:
-//! `frames.csv` (one row per frame), `NAME.pvd` + `frames/*.vtu` (reference points with
+//! output): `fps = frames / Σ frame wall`. The run *keeps up with real time* when that rate
+//! is at least `fps` and every frame's relative lag `lag_rel` is within `lag_tol` (default
+//! 5 %): fast frames far from the static solution do not count. A reference solve that fails
+//! (an inverted element, or no convergence to `reference_tol`) is reported with its frame;
+//! that frame's lag is not measured (empty in `frames.csv`) and the summary says so instead
+//! of quoting a lag against it; without a reference the summary does not claim to keep up.
+//!
+//! The output directory is locked as in [`super::run`]; `frames.csv` is streamed (one row per
+//! frame, flushed per frame) and the summary keeps running totals only, so memory does not
+//! grow with the number of frames. [`RunOptions::stop`] ends the run after the current frame
+//! with a summary that says it was interrupted. Under the output directory:
+//! `frames.csv`, `NAME.pvd` + `frames/*.vtu` (reference points with
 //! fields `displacement`, `static` and `lag`, and `file_node_id` where `[mesh] renumber`
 //! reordered the nodes; format per `[output] vtu`), with `[mesh] surface` also
 //! `NAME_surface.pvd` + `frames/NAME_surface_*.vtp` (the surface with its interpolated
@@ -30,7 +40,8 @@ use super::{err, positive, Scenario, StopRule};
 use crate::error::{Error, Result};
 use crate::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
 use crate::integrate::{hold, Stepper};
-use crate::io::{write_atomic, write_vtu_as, Field, FieldData, PvdWriter};
+use crate::io::{write_atomic, write_vtu_as, Field, FieldData, OutputLock, PvdWriter};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -54,6 +65,9 @@ pub struct Interactive {
     pub reference: bool,
     /// Relative residual of the reference solve. Default 1e-6.
     pub reference_tol: f64,
+    /// The largest relative lag (`lag_max / max|u*|`) under which a run that is fast enough
+    /// keeps up with real time. Default 0.05.
+    pub lag_tol: f64,
 }
 
 impl Interactive {
@@ -78,11 +92,17 @@ impl Interactive {
             "interactive.reference_tol",
             s.reference_tol.unwrap_or(defaults::REFERENCE_TOL),
         )?;
+        let lag_tol = positive(
+            path,
+            "interactive.lag_tol",
+            s.lag_tol.unwrap_or(defaults::LAG_TOL),
+        )?;
         Ok(Interactive {
             fps,
             budget,
             reference,
             reference_tol,
+            lag_tol,
         })
     }
 }
@@ -115,30 +135,72 @@ impl FrameRow {
     }
 }
 
-/// What an interactive run reports.
+/// What an interactive run reports: running totals over the frames, not the frames
+/// themselves (those are in `frames.csv`).
 #[derive(Clone, Debug)]
 pub struct InteractiveSummary {
     pub name: String,
     pub stepper: String,
     pub nodes: usize,
     pub settings: Interactive,
-    pub frames: Vec<FrameRow>,
+    /// Frames run.
+    pub frames: usize,
+    /// Frames the path asked for.
+    pub frames_planned: usize,
+    /// Σ frame wall time of the stepper (s).
+    pub wall: f64,
+    /// Over the frames with a reference: the count, Σ lag_max, max lag_max, max lag_rel.
+    pub lag_frames: usize,
+    pub lag_sum: f64,
+    pub lag_max: f64,
+    pub lag_rel_max: f64,
+    /// The last frame.
+    pub last: Option<FrameRow>,
+    /// Frames whose reference solve failed, and what the first failure was.
+    pub reference_failures: usize,
+    pub first_failure: Option<String>,
+    /// [`RunOptions::stop`] ended the run early.
+    pub interrupted: bool,
     pub out_dir: PathBuf,
 }
 
 impl InteractiveSummary {
     /// Frames per second of stepper wall time.
     pub fn fps(&self) -> f64 {
-        let wall: f64 = self.frames.iter().map(|f| f.wall).sum();
-        self.frames.len() as f64 / wall.max(1e-12)
+        self.frames as f64 / self.wall.max(1e-12)
     }
-    /// Mean and largest `lag_max` over the frames (m), and the largest relative lag.
+    /// Mean and largest `lag_max` over the frames with a reference (m), and the largest
+    /// relative lag; NaN where no frame has one.
     pub fn lag(&self) -> (f64, f64, f64) {
-        let n = self.frames.len().max(1) as f64;
-        let mean = self.frames.iter().map(|f| f.lag_max).sum::<f64>() / n;
-        let max = self.frames.iter().map(|f| f.lag_max).fold(0.0, f64::max);
-        let rel = self.frames.iter().map(|f| f.lag_rel()).fold(0.0, f64::max);
-        (mean, max, rel)
+        if self.lag_frames == 0 {
+            return (f64::NAN, f64::NAN, f64::NAN);
+        }
+        (
+            self.lag_sum / self.lag_frames as f64,
+            self.lag_max,
+            self.lag_rel_max,
+        )
+    }
+    /// Whether the run kept up with real time: fast enough, every frame's lag measured and
+    /// within [`Interactive::lag_tol`].
+    pub fn keeps_up(&self) -> bool {
+        self.settings.reference
+            && self.reference_failures == 0
+            && self.lag_frames == self.frames
+            && self.frames > 0
+            && self.fps() >= self.settings.fps
+            && self.lag_rel_max <= self.settings.lag_tol
+    }
+    fn add(&mut self, row: &FrameRow) {
+        self.frames += 1;
+        self.wall += row.wall;
+        if row.lag_max.is_finite() {
+            self.lag_frames += 1;
+            self.lag_sum += row.lag_max;
+            self.lag_max = self.lag_max.max(row.lag_max);
+            self.lag_rel_max = self.lag_rel_max.max(row.lag_rel());
+        }
+        self.last = Some(*row);
     }
 }
 
@@ -154,30 +216,58 @@ impl std::fmt::Display for InteractiveSummary {
         };
         writeln!(
             f,
-            "frames          {} at {} fps of path time, {budget}",
-            self.frames.len(),
-            s.fps
+            "frames          {} of {} at {} fps of path time, {budget}",
+            self.frames, self.frames_planned, s.fps
         )?;
-        let fps = self.fps();
-        writeln!(
-            f,
-            "frame rate      {fps:.1} fps of stepper wall time ({})",
-            if fps >= s.fps {
-                "keeps up with real time"
-            } else {
-                "slower than real time"
-            }
-        )?;
-        if s.reference {
-            let (mean, max, rel) = self.lag();
+        if self.interrupted {
             writeln!(
                 f,
-                "lag             mean {:.3e} m, max {:.3e} m over frames; worst {:.2} % of max |u*|",
-                mean,
-                max,
-                100.0 * rel
+                "stopped         interrupted (by a signal) after frame {}",
+                self.frames
             )?;
-            if let Some(last) = self.frames.last() {
+        }
+        let fps = self.fps();
+        let verdict = if !s.reference {
+            "lag not measured (reference = \"none\"): cannot tell whether it keeps up".to_string()
+        } else if self.reference_failures > 0 {
+            "reference solve failed: cannot tell whether it keeps up".to_string()
+        } else if self.keeps_up() {
+            format!(
+                "keeps up with real time: at least {} fps with every lag within {:.1} % of max |u*|",
+                s.fps,
+                100.0 * s.lag_tol
+            )
+        } else if fps < s.fps {
+            format!("slower than real time ({} fps)", s.fps)
+        } else {
+            format!(
+                "fast enough, but lags more than {:.1} % of max |u*|: does not keep up",
+                100.0 * s.lag_tol
+            )
+        };
+        writeln!(f, "frame rate      {fps:.1} fps of stepper wall time ({verdict})")?;
+        if s.reference {
+            if self.reference_failures > 0 {
+                writeln!(
+                    f,
+                    "reference       FAILED in {} of {} frames; first: {}",
+                    self.reference_failures,
+                    self.frames,
+                    self.first_failure.as_deref().unwrap_or("?")
+                )?;
+            }
+            if self.lag_frames > 0 {
+                let (mean, max, rel) = self.lag();
+                writeln!(
+                    f,
+                    "lag             mean {:.3e} m, max {:.3e} m over {} frames with a reference; worst {:.2} % of max |u*|",
+                    mean,
+                    max,
+                    self.lag_frames,
+                    100.0 * rel
+                )?;
+            }
+            if let Some(last) = self.last.filter(|l| l.lag_max.is_finite()) {
                 writeln!(
                     f,
                     "last frame      lag {:.3e} m ({:.2} % of max |u*| = {:.3e} m)",
@@ -212,7 +302,7 @@ pub fn run_interactive(
         return Err(err(&sc.path, "no [interactive] section"));
     };
     let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
-    std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
+    let _lock = OutputLock::acquire(&out)?;
     let n = sc.mesh.num_nodes();
     let frames_n = (duration(sc) * settings.fps).ceil().max(1.0) as usize;
     // The reference system, its solver and solution.
@@ -225,7 +315,25 @@ pub fn run_interactive(
     let free: Vec<bool> = (0..n)
         .map(|a| !ref_sys.constraints.is_constrained(a))
         .collect();
-    let mut rows = Vec::with_capacity(frames_n);
+    let mut summary = InteractiveSummary {
+        name: sc.name.clone(),
+        stepper: stepper.describe(),
+        nodes: n,
+        settings,
+        frames: 0,
+        frames_planned: frames_n,
+        wall: 0.0,
+        lag_frames: 0,
+        lag_sum: 0.0,
+        lag_max: 0.0,
+        lag_rel_max: 0.0,
+        last: None,
+        reference_failures: 0,
+        first_failure: None,
+        interrupted: false,
+        out_dir: out.clone(),
+    };
+    let mut rows = FrameRows::create(&out.join("frames.csv"))?;
     let frames_dir = out.join("frames");
     std::fs::create_dir_all(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
     super::run::clear_old_frames(&out, &sc.name)?;
@@ -242,6 +350,13 @@ pub fn run_interactive(
         .map(|f| f.iter().map(|&a| a as i64).collect());
     let mut diverged = None;
     for k in 1..=frames_n {
+        if opts
+            .stop
+            .is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed))
+        {
+            summary.interrupted = true;
+            break;
+        }
         let t = k as f64 / settings.fps;
         for (v, (_, m)) in values.iter_mut().zip(&sc.prescribed) {
             *v = m.displacement(t);
@@ -272,30 +387,40 @@ pub fn run_interactive(
         }
         let wall = start.elapsed().as_secs_f64();
         if let Some(mut d) = diverged {
-            write_rows(&out.join("frames.csv"), &rows)?;
+            rows.flush()?;
             // The stepper's own clock counts its pseudo-time steps; the user's clock is the
             // path time of the frame.
             d.time = t;
             return Err(Error::Diverged(d));
         }
         let total_steps = stepper.steps();
+        let mut reference_ok = settings.reference;
         if settings.reference {
             hold(&mut ref_sys.constraints, &values);
             let p = NewtonParams {
                 rel_tol: settings.reference_tol,
                 ..Default::default()
             };
-            newton.solve(&mut ref_sys, t, &mut u_star, p).map_err(|f| {
-                err(
-                    &sc.path,
-                    format!(
-                        "interactive frame {k} (t = {t:.4} s): the reference static solve \
-                             inverted element {} (det F = {:.3e}); give `reference = \"none\"` \
-                             or a gentler path",
-                        f.element, f.det_f
-                    ),
-                )
-            })?;
+            let failure = match newton.solve(&mut ref_sys, t, &mut u_star, p) {
+                Ok(st) if st.converged => None,
+                Ok(st) => Some(format!(
+                    "frame {k} (t = {t:.4} s): the static solve stopped at a relative \
+                     residual of {:.2e} after {} Newton steps (asked: {:.1e})",
+                    st.residual / st.initial_residual.max(f64::MIN_POSITIVE),
+                    st.newton_steps,
+                    settings.reference_tol
+                )),
+                Err(f) => Some(format!(
+                    "frame {k} (t = {t:.4} s): the static solve inverted element {} \
+                     (det F = {:.3e})",
+                    f.element, f.det_f
+                )),
+            };
+            if let Some(msg) = failure {
+                reference_ok = false;
+                summary.reference_failures += 1;
+                summary.first_failure.get_or_insert(msg);
+            }
         }
         let (sys, s) = stepper.finest();
         let residual = sys.residual(&s.u, &mut r).unwrap_or(f64::NAN);
@@ -315,7 +440,7 @@ pub fn run_interactive(
                 count += 1;
             }
         }
-        let (lag_max, lag_rms) = if settings.reference {
+        let (lag_max, lag_rms) = if reference_ok {
             (lag_max, (lag_sq / count.max(1) as f64).sqrt())
         } else {
             (f64::NAN, f64::NAN)
@@ -329,19 +454,20 @@ pub fn run_interactive(
             max_u,
             lag_max,
             lag_rms,
-            static_max_u: if settings.reference {
+            static_max_u: if reference_ok {
                 static_max_u
             } else {
                 f64::NAN
             },
         };
-        rows.push(row);
+        rows.push(&row)?;
+        summary.add(&row);
         let file = format!("{}_{:06}.vtu", sc.name, k);
         let mut fields = vec![Field {
             name: "displacement",
             data: FieldData::Vector(&s.u),
         }];
-        if settings.reference {
+        if reference_ok {
             fields.push(Field {
                 name: "static",
                 data: FieldData::Vector(&u_star),
@@ -369,6 +495,7 @@ pub fn run_interactive(
         if let Some(sf) = &mut surface_frames {
             sf.write(t, k, &s.u)?;
         }
+        rows.flush()?;
         if let Some(p) = opts.progress.as_mut() {
             let sample = crate::metrics::Sample {
                 step: total_steps,
@@ -380,19 +507,13 @@ pub fn run_interactive(
                 stress_err_mean: f64::NAN,
                 force_evals: stepper.force_evaluations(),
                 wall,
+                reaction_fixed: [f64::NAN; 3],
+                reaction_prescribed: [f64::NAN; 3],
             };
             p(k as f64 / frames_n as f64, &sample);
         }
     }
-    write_rows(&out.join("frames.csv"), &rows)?;
-    let summary = InteractiveSummary {
-        name: sc.name.clone(),
-        stepper: stepper.describe(),
-        nodes: n,
-        settings,
-        frames: rows,
-        out_dir: out.clone(),
-    };
+    rows.flush()?;
     let text = summary.to_string();
     write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;
     Ok(summary)
@@ -402,27 +523,81 @@ pub fn run_interactive(
 pub const FRAMES_HEADER: &str =
     "frame,time_s,steps,wall_s,residual_N,max_u_m,lag_max_m,lag_rms_m,static_max_u_m,lag_rel";
 
-fn write_rows(path: &Path, rows: &[FrameRow]) -> Result<()> {
-    write_atomic(path, |w| {
-        writeln!(w, "{FRAMES_HEADER}")?;
-        for r in rows {
-            writeln!(
-                w,
-                "{},{:.6},{},{:.6e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.6e}",
-                r.frame,
-                r.time,
-                r.steps,
-                r.wall,
-                r.residual,
-                r.max_u,
-                r.lag_max,
-                r.lag_rms,
-                r.static_max_u,
-                r.lag_rel()
-            )?;
-        }
-        Ok(())
-    })
+/// `frames.csv` written as the frames come.
+struct FrameRows {
+    path: PathBuf,
+    w: std::io::BufWriter<std::fs::File>,
+}
+
+impl FrameRows {
+    fn create(path: &Path) -> Result<FrameRows> {
+        let f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
+        let mut r = FrameRows {
+            path: path.to_path_buf(),
+            w: std::io::BufWriter::new(f),
+        };
+        writeln!(r.w, "{FRAMES_HEADER}").map_err(|e| Error::io(path, e))?;
+        Ok(r)
+    }
+    fn push(&mut self, r: &FrameRow) -> Result<()> {
+        let opt = |x: f64| {
+            if x.is_finite() {
+                format!("{x:.9e}")
+            } else {
+                String::new()
+            }
+        };
+        writeln!(
+            self.w,
+            "{},{:.6},{},{:.6e},{:.9e},{:.9e},{},{},{},{}",
+            r.frame,
+            r.time,
+            r.steps,
+            r.wall,
+            r.residual,
+            r.max_u,
+            opt(r.lag_max),
+            opt(r.lag_rms),
+            opt(r.static_max_u),
+            opt(r.lag_rel())
+        )
+        .map_err(|e| Error::io(&self.path, e))
+    }
+    fn flush(&mut self) -> Result<()> {
+        self.w.flush().map_err(|e| Error::io(&self.path, e))
+    }
+}
+
+/// The rows of a `frames.csv` (lags NaN where the file has none).
+pub fn read_frames_csv(path: &Path) -> Result<Vec<FrameRow>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let num = |j: usize| -> Result<f64> {
+            let x = f.get(j).copied().unwrap_or("");
+            if x.is_empty() {
+                return Ok(f64::NAN);
+            }
+            x.parse().map_err(|_| Error::Scenario {
+                path: path.to_path_buf(),
+                line: Some(i + 1),
+                msg: format!("bad number `{x}` in column {}", j + 1),
+            })
+        };
+        out.push(FrameRow {
+            frame: num(0)? as usize,
+            time: num(1)?,
+            steps: num(2)? as u64,
+            wall: num(3)?,
+            residual: num(4)?,
+            max_u: num(5)?,
+            lag_max: num(6)?,
+            lag_rms: num(7)?,
+            static_max_u: num(8)?,
+        });
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -461,7 +636,7 @@ fps = 30.0
         Scenario::from_toml(&text, Path::new("interactive-test.toml")).unwrap()
     }
 
-    fn lags(multigrid: &str, cycles: usize) -> InteractiveSummary {
+    fn lags(multigrid: &str, cycles: usize) -> Vec<FrameRow> {
         let sc = scenario(multigrid, &format!("cycles = {cycles}"));
         let dir = std::env::temp_dir().join(format!(
             "raisov-interactive-{}-{cycles}-{}",
@@ -474,14 +649,23 @@ fps = 30.0
             st.as_mut(),
             RunOptions {
                 out_dir: Some(dir.clone()),
-                progress: None,
+                ..Default::default()
             },
         )
         .unwrap();
-        let csv = std::fs::read_to_string(dir.join("frames.csv")).unwrap();
-        assert_eq!(csv.lines().count(), 1 + s.frames.len());
+        let rows = read_frames_csv(&dir.join("frames.csv")).unwrap();
+        assert_eq!(rows.len(), s.frames);
+        let last = rows.last().unwrap();
+        assert_eq!(s.last.unwrap().lag_max, last.lag_max);
+        // The summary's verdict agrees with its bound.
+        let text = s.to_string();
+        assert_eq!(
+            text.contains("keeps up with real time"),
+            s.fps() >= 30.0 && s.lag_rel_max <= 0.05,
+            "{text}"
+        );
         let _ = std::fs::remove_dir_all(&dir);
-        s
+        rows
     }
 
     /// More work per frame, less lag; with enough, the multigrid sits on the static solution
@@ -491,18 +675,18 @@ fps = 30.0
         let fas = "[multigrid]\nscheme = \"fas\"\nlevels = 3";
         let few = lags(fas, 1);
         let many = lags(fas, 60);
-        assert_eq!(few.frames.len(), 6);
-        for (a, b) in few.frames.iter().zip(&many.frames) {
+        assert_eq!(few.len(), 6);
+        for (a, b) in few.iter().zip(&many) {
             assert!(b.lag_max < a.lag_max, "frame {}: {b:?} vs {a:?}", a.frame);
             assert_eq!(a.static_max_u, b.static_max_u);
         }
-        let last = many.frames.last().unwrap();
+        let last = many.last().unwrap();
         // The grasp itself is 1 cm; the static solution moves it exactly.
         assert!((last.static_max_u - 0.01).abs() < 1e-12);
         assert!(last.lag_rel() < 1e-4, "{last:?}");
         // Single level: damped dynamics lags far behind with a few steps per frame.
         let slim = lags("", 4);
-        assert!(slim.frames.last().unwrap().lag_rel() > 0.1);
+        assert!(slim.last().unwrap().lag_rel() > 0.1);
     }
 
     #[test]

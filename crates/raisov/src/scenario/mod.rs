@@ -66,6 +66,9 @@ pub enum StopRule {
         kinetic_tol: f64,
         residual_tol: f64,
         max: f64,
+        /// Checks (rows of `measures.csv`) without progress after which the run gives up;
+        /// 0 never (see [`run`](fn@run)).
+        stagnation: u64,
     },
 }
 
@@ -410,6 +413,7 @@ impl Scenario {
                 for (k, set) in [
                     ("kinetic_tol", spec.run.kinetic_tol.is_some()),
                     ("residual_tol", spec.run.residual_tol.is_some()),
+                    ("stagnation", spec.run.stagnation.is_some()),
                 ] {
                     if set {
                         return Err(err(path, format!("`run.{k}` applies to stop = \"steady\"")));
@@ -434,6 +438,7 @@ impl Scenario {
                     spec.run.residual_tol.unwrap_or(defaults::RESIDUAL_TOL),
                 )?,
                 max: duration.unwrap_or(defaults::STEADY_CAP),
+                stagnation: spec.run.stagnation.unwrap_or(defaults::STAGNATION),
             },
         };
         let blowup_factor = positive(

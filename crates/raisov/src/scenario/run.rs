@@ -1,7 +1,11 @@
 //! Running a scenario: step, measure, write.
 //!
-//! Files written under the output directory, each atomically (temp file + rename):
-//! - `measures.csv`: one row per `csv_every` steps ([`crate::metrics::CSV_HEADER`]);
+//! The output directory is locked for the run ([`crate::io::OutputLock`], `.raisov.lock`):
+//! a second run on the same directory stops with an error naming it. Files written under it:
+//! - `measures.csv`: one row per `csv_every` steps ([`crate::metrics::CSV_HEADER`]), the
+//!   reactions included ([`crate::metrics`]), streamed as the rows come and flushed with every
+//!   frame: a killed run leaves the rows up to its last frame. Nothing of it is kept in memory;
+//!   the steady-state test keeps the peaks and the best value so far;
 //! - `NAME.pvd` + `frames/NAME_NNNNNN.vtu`: ParaView time series, points in the reference
 //!   configuration with point fields `displacement` (m; the active vectors, so *Warp By
 //!   Vector* shows the deformed body), `velocity` (m/s), `stress` (nodal Cauchy T, Pa), and
@@ -13,7 +17,21 @@
 //!   `displacement`, one file per volume frame ([`super::surface`]);
 //! - `nodal_stress.csv`: the final nodal stress per node, in file order, `node` the file's id
 //!   (usable as a later run's `output.reference`);
-//! - `summary.txt`: what the closing summary says.
+//! - `summary.txt`: what the closing summary says, how the run stopped included.
+//!
+//! Frames, `nodal_stress.csv` and `summary.txt` are written atomically (temp file + rename,
+//! no temp file stays); the `.pvd` collections are appended in place
+//! ([`crate::io::PvdWriter`]).
+//!
+//! How a run stops ([`StopReason`]): after `duration`; at steady state (`stop = "steady"`:
+//! kinetic energy and residual below their tolerances times their peaks, once every
+//! prescribed motion has ended); `stop = "steady"` without reaching it, at the time cap or
+//! when the steady measure `m = max(KE / (kinetic_tol · KE_peak), |r| / (residual_tol ·
+//! |r|_peak))` has not fallen below `(1 − 1e-3)` times its best value for `stagnation`
+//! checks in a row (a check is a row of `measures.csv`; counted after the motions end); or
+//! when [`RunOptions::stop`] is raised (`raisov run` raises it on SIGINT and SIGTERM): the
+//! run ends at the next step boundary, writes its last row, frame, `nodal_stress.csv` and a
+//! summary that says it was interrupted.
 //!
 //! A run first removes the numbered frames of the same scenario name that an earlier run left
 //! in `frames/` (`clear_old_frames`); everything else stays, the level cache `cache/`
@@ -27,8 +45,8 @@ use super::{Reference, Scenario, StopRule};
 use crate::error::{Error, Result};
 use crate::integrate::relax::relax;
 use crate::integrate::{State, Stepper};
-use crate::io::{write_atomic, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
-use crate::metrics::{write_csv, Meter, Sample};
+use crate::io::{write_atomic, write_vtu_as, Field, FieldData, OutputLock, PvdWriter, VtuFormat};
+use crate::metrics::{CsvStream, Meter, Sample};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -41,15 +59,33 @@ pub enum StopReason {
     Steady,
     /// `stop = "steady"` but the cap on simulated time came first.
     NotSteadyBeforeCap,
+    /// `stop = "steady"` but the steady measure made no progress for this many checks.
+    Stagnated(u64),
+    /// [`RunOptions::stop`] was raised (SIGINT, SIGTERM).
+    Interrupted,
+}
+
+impl StopReason {
+    /// Whether the run did what it was asked: the duration, or steady state.
+    pub fn is_success(self) -> bool {
+        matches!(self, StopReason::Duration | StopReason::Steady)
+    }
 }
 
 impl std::fmt::Display for StopReason {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            StopReason::Duration => "reached the requested duration",
-            StopReason::Steady => "reached steady state",
-            StopReason::NotSteadyBeforeCap => "hit the time cap before reaching steady state",
-        })
+        match self {
+            StopReason::Duration => f.write_str("reached the requested duration"),
+            StopReason::Steady => f.write_str("reached steady state"),
+            StopReason::NotSteadyBeforeCap => {
+                f.write_str("did not reach steady state: hit the time cap (`run.duration`)")
+            }
+            StopReason::Stagnated(n) => write!(
+                f,
+                "did not reach steady state: no progress in {n} checks (`run.stagnation`)"
+            ),
+            StopReason::Interrupted => f.write_str("interrupted (by a signal) before the end"),
+        }
     }
 }
 
@@ -63,6 +99,9 @@ pub struct RunOptions<'a> {
     pub out_dir: Option<PathBuf>,
     /// Called after every sample.
     pub progress: Option<Progress<'a>>,
+    /// Raised from outside (a signal handler): the run stops at the next step boundary and
+    /// reports [`StopReason::Interrupted`].
+    pub stop: Option<&'a std::sync::atomic::AtomicBool>,
 }
 
 /// What a finished run reports.
@@ -84,6 +123,11 @@ pub struct RunSummary {
     pub reference_note: Option<String>,
     /// The stepper's closing counters ([`Stepper::diagnostics`]).
     pub diagnostics: Option<String>,
+    /// Rows written to `measures.csv`.
+    pub rows: u64,
+    /// The applied loads and body forces, `Σ_a V_a` (N): the reactions balance it at
+    /// equilibrium ([`crate::metrics`]).
+    pub applied: [f64; 3],
 }
 
 impl std::fmt::Display for RunSummary {
@@ -111,6 +155,14 @@ impl std::fmt::Display for RunSummary {
         writeln!(f, "kinetic energy  {:.4e} J", self.last.kinetic)?;
         writeln!(f, "residual        {:.4e} N", self.last.residual)?;
         writeln!(f, "max |u|         {:.4e} m", self.last.max_u)?;
+        let v = |x: [f64; 3]| format!("[{:.4e}, {:.4e}, {:.4e}] N", x[0], x[1], x[2]);
+        writeln!(f, "reactions       fixed {}", v(self.last.reaction_fixed))?;
+        writeln!(
+            f,
+            "                prescribed {}",
+            v(self.last.reaction_prescribed)
+        )?;
+        writeln!(f, "applied loads   {} (loads and body force)", v(self.applied))?;
         if self.last.stress_err_max.is_finite() {
             writeln!(
                 f,
@@ -398,7 +450,7 @@ pub fn run_with(
     mut opts: RunOptions,
 ) -> Result<RunSummary> {
     let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
-    std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
+    let _lock = OutputLock::acquire(&out)?;
     let n = sc.mesh.num_nodes();
     let (t_inf, reference_note) = match &sc.reference {
         Reference::None => (None, None),
@@ -413,7 +465,8 @@ pub fn run_with(
     };
     let mut meter = Meter::new(n, t_inf);
     let mut frames = Frames::new(sc, &out)?;
-    let mut rows: Vec<Sample> = Vec::new();
+    let csv = out.join("measures.csv");
+    let mut rows = CsvStream::create(&csv)?;
     let start = Instant::now();
     let dt = stepper.dt();
     let (t_end, steady) = match sc.stop {
@@ -422,7 +475,8 @@ pub fn run_with(
             kinetic_tol,
             residual_tol,
             max,
-        } => (max, Some((kinetic_tol, residual_tol))),
+            stagnation,
+        } => (max, Some((kinetic_tol, residual_tol, stagnation))),
     };
     let total_steps = (t_end / dt).ceil() as u64;
     let frame_every = if sc.frame_interval > 0.0 {
@@ -439,52 +493,83 @@ pub fn run_with(
         row.wall = start.elapsed().as_secs_f64();
         row
     };
-    rows.push(sample(stepper, &mut meter));
+    let interrupted = || {
+        opts.stop
+            .is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed))
+    };
+    let mut last = sample(stepper, &mut meter);
+    rows.push(&last)?;
     frames.write(sc, stepper)?;
-    let (mut ke_peak, mut res_peak) = (rows[0].kinetic, rows[0].residual);
+    rows.flush()?;
+    let mut framed = stepper.steps();
+    let (mut ke_peak, mut res_peak) = (last.kinetic, last.residual);
+    let (mut best, mut since_best) = (f64::INFINITY, 0u64);
+    let motion_end = sc.motion_end();
     let mut reason = StopReason::Duration;
     let mut result = Ok(());
     while stepper.steps() < total_steps {
+        if interrupted() {
+            reason = StopReason::Interrupted;
+            break;
+        }
         if let Err(d) = stepper.advance() {
             result = Err(Error::Diverged(d));
             break;
         }
         let k = stepper.steps();
-        let last = k == total_steps;
-        if k.is_multiple_of(sc.csv_every) || last {
+        let end = k == total_steps;
+        if k.is_multiple_of(sc.csv_every) || end {
             let row = sample(stepper, &mut meter);
             ke_peak = ke_peak.max(row.kinetic);
             res_peak = res_peak.max(row.residual);
-            rows.push(row);
+            rows.push(&row)?;
+            last = row;
             if let Some(p) = opts.progress.as_mut() {
                 p(k as f64 / total_steps as f64, &row);
             }
-            if let Some((kt, rt)) = steady {
-                if row.kinetic <= kt * ke_peak
-                    && row.residual <= rt * res_peak
-                    && row.time >= sc.motion_end()
-                {
-                    reason = StopReason::Steady;
-                    if !k.is_multiple_of(frame_every) {
-                        frames.write(sc, stepper)?;
+            if let Some((kt, rt, stagnation)) = steady {
+                if row.time >= motion_end {
+                    let m = (row.kinetic / (kt * ke_peak)).max(row.residual / (rt * res_peak));
+                    if m <= 1.0 {
+                        reason = StopReason::Steady;
+                        break;
                     }
-                    break;
+                    if m < (1.0 - 1e-3) * best {
+                        (best, since_best) = (m, 0);
+                    } else {
+                        since_best += 1;
+                        if stagnation > 0 && since_best >= stagnation {
+                            reason = StopReason::Stagnated(stagnation);
+                            break;
+                        }
+                    }
                 }
             }
         }
-        if k.is_multiple_of(frame_every) || last {
+        if k.is_multiple_of(frame_every) || end {
+            frames.write(sc, stepper)?;
+            rows.flush()?;
+            framed = k;
+        }
+    }
+    if steady.is_some() && reason == StopReason::Duration && result.is_ok() {
+        reason = StopReason::NotSteadyBeforeCap;
+    }
+    let k = stepper.steps();
+    if result.is_ok() {
+        if last.step != k {
+            last = sample(stepper, &mut meter);
+            rows.push(&last)?;
+        }
+        if framed != k {
             frames.write(sc, stepper)?;
         }
     }
-    if steady.is_some() && reason != StopReason::Steady && result.is_ok() {
-        reason = StopReason::NotSteadyBeforeCap;
-    }
+    rows.flush()?;
     let wall = start.elapsed().as_secs_f64();
-    let csv = out.join("measures.csv");
-    write_csv(&csv, &rows)?;
     result?;
     let stress_path = out.join("nodal_stress.csv");
-    {
+    let applied = {
         let (sys, s) = stepper.finest();
         let mut t = vec![0.0; 9 * n];
         sys.force.nodal_stress(&s.u, &mut t);
@@ -495,8 +580,12 @@ pub fn run_with(
             &t,
             sc.file_ids.as_deref(),
         )?;
-    }
-    let last = *rows.last().expect("at least the initial sample");
+        let mut v = [0.0; 3];
+        for (i, f) in sys.f_ext.iter().enumerate() {
+            v[i % 3] += f;
+        }
+        v
+    };
     let summary = RunSummary {
         name: sc.name.clone(),
         stepper: stepper.describe(),
@@ -517,6 +606,8 @@ pub fn run_with(
         },
         reference_note,
         diagnostics: stepper.diagnostics(),
+        rows: rows.rows(),
+        applied,
     };
     let text = summary.to_string();
     write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;

@@ -92,6 +92,9 @@
 //!                                 # for "steady", default 60
 //! kinetic_tol = 1e-8              # steady: kinetic energy below this × its peak, default 1e-8
 //! residual_tol = 1e-4             # steady: residual norm below this × its peak, default 1e-4
+//! stagnation = 1000               # steady: give up after this many rows of measures.csv
+//!                                 # without progress (the steady measure not 0.1 % below its
+//!                                 # best), counted once the motions end; 0 never. Default 1000
 //! blowup_factor = 1e3             # energy blow-up threshold factor (see integrate::stepper),
 //!                                 # default 1e3
 //!
@@ -151,6 +154,8 @@
 //! budget_ms = 33.0                # wall-time budget per frame (ms): as many as fit
 //! reference = "newton"            # static solution per frame: "newton" (default) | "none"
 //! reference_tol = 1e-6            # its relative residual, default 1e-6
+//! lag_tol = 0.05                  # "keeps up with real time" needs every frame's lag within
+//!                                 # this fraction of max |u*| (and the frame rate), default 0.05
 //! ```
 
 use super::Reference;
@@ -201,6 +206,8 @@ pub mod defaults {
     pub const KINETIC_TOL: f64 = 1e-8;
     /// `[run] residual_tol`.
     pub const RESIDUAL_TOL: f64 = 1e-4;
+    /// `[run] stagnation` (checks, i.e. rows of `measures.csv`).
+    pub const STAGNATION: u64 = 1000;
     /// `[run] blowup_factor`.
     pub const BLOWUP_FACTOR: f64 = 1e3;
     /// The directory under which `[output] dir` defaults to `OUTPUT_ROOT/NAME`.
@@ -225,6 +232,8 @@ pub mod defaults {
     pub const CYCLES: usize = 4;
     /// `[interactive] reference_tol`.
     pub const REFERENCE_TOL: f64 = 1e-6;
+    /// `[interactive] lag_tol`: the relative lag within which a fast run keeps up.
+    pub const LAG_TOL: f64 = 0.05;
 }
 
 /// A closed set of values that a scenario key names by string.
@@ -557,6 +566,7 @@ pub struct InteractiveSpec {
     pub budget_ms: Option<f64>,
     pub reference: Option<StaticReference>,
     pub reference_tol: Option<f64>,
+    pub lag_tol: Option<f64>,
 }
 
 /// `[mesh] size`: one length (`surface`: the lattice spacing) or several (`generate`).
@@ -685,6 +695,7 @@ pub struct RunSpec {
     pub duration: Option<f64>,
     pub kinetic_tol: Option<f64>,
     pub residual_tol: Option<f64>,
+    pub stagnation: Option<u64>,
     pub blowup_factor: Option<f64>,
 }
 

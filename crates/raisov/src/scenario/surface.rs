@@ -605,7 +605,7 @@ frame_interval = 0.016
         let s =
             crate::scenario::interactive::run_interactive(&sc, st.as_mut(), RunOptions::default())
                 .unwrap();
-        assert_eq!(s.frames.len(), 3);
+        assert_eq!(s.frames, 3);
         let frames = dir.path().join("out/frames");
         let vtp = frames.join("ball_surface_000003.vtp");
         let (_, u_vol) = read_vtu_array(&frames.join("ball_000003.vtu"), "displacement").unwrap();

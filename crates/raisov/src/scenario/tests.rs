@@ -193,6 +193,7 @@ fn draping_membrane_settles() {
         RunOptions {
             out_dir: Some(dir.path().to_path_buf()),
             progress: None,
+            stop: None,
         },
     )
     .unwrap();
@@ -221,6 +222,7 @@ fn frames_hold_reference_points_and_displacement() {
             RunOptions {
                 out_dir: Some(dir.path().to_path_buf()),
                 progress: None,
+                stop: None,
             },
         )
         .unwrap();
@@ -256,6 +258,7 @@ fn diverging_run_stops_and_says_where() {
         RunOptions {
             out_dir: Some(dir.path().to_path_buf()),
             progress: None,
+            stop: None,
         },
     )
     .unwrap_err();
@@ -371,6 +374,7 @@ fn renumbered_file_mesh_moves_like_the_file_order() {
             RunOptions {
                 out_dir: Some(out.clone()),
                 progress: None,
+                stop: None,
             },
         )
         .unwrap();

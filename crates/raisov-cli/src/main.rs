@@ -15,11 +15,22 @@ use std::path::{Path, PathBuf};
 /// over the paper's four levels (the fastest to steady state, measured): the built-in default.
 const BUILTIN: &str = include_str!("../../../examples/membrane_lift_multigrid.toml");
 
+/// Exit status: the run diverged, or something failed while running (writing output, the
+/// output directory locked by another run).
+const EXIT_FAILED: i32 = 1;
+/// Exit status: bad input (scenario, mesh, command line).
+const EXIT_BAD_INPUT: i32 = 2;
+/// Exit status: `stop = "steady"` did not reach steady state (time cap or stagnation).
+const EXIT_NOT_CONVERGED: i32 = 3;
+/// Exit status: interrupted by SIGINT or SIGTERM (128 + 2, the shell's convention for SIGINT).
+const EXIT_INTERRUPTED: i32 = 130;
+
 #[derive(Parser)]
 #[command(
     name = "raisov",
     version,
-    about = "Nonlinear FEM soft-tissue simulation with multigrid explicit integration (Wu & Tendick 2004)"
+    about = "Nonlinear FEM soft-tissue simulation with multigrid explicit integration (Wu & Tendick 2004)",
+    after_help = "Exit status:\n  0    ok\n  1    the run diverged, or failed while running (output not writable, output directory locked by another run)\n  2    bad input (scenario, mesh file, command line)\n  3    not converged: stop = \"steady\" did not reach steady state (time cap or stagnation)\n  130  interrupted by SIGINT (Ctrl-C) or SIGTERM: stopped at a step boundary, measures and summary written"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -169,10 +180,61 @@ fn main() {
     let _ = rayon::ThreadPoolBuilder::new()
         .stack_size(8 << 20)
         .build_global();
-    if let Err(e) = real_main(cli) {
-        eprintln!("error: {e:#}");
-        std::process::exit(1);
+    match real_main(cli) {
+        Ok(code) => std::process::exit(code),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::exit(exit_code_of(&e));
+        }
     }
+}
+
+/// A failure to read the input (the scenario or its files): exit status 2.
+#[derive(Debug)]
+struct BadInput(raisov::Error);
+
+impl std::fmt::Display for BadInput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::error::Error for BadInput {}
+
+/// The exit status of an error (see [`EXIT_BAD_INPUT`] and the others).
+fn exit_code_of(e: &anyhow::Error) -> i32 {
+    use raisov::Error as E;
+    for c in e.chain() {
+        if c.is::<BadInput>() {
+            return EXIT_BAD_INPUT;
+        }
+        if let Some(r) = c.downcast_ref::<E>() {
+            return match r {
+                E::Scenario { .. }
+                | E::MeshFormat { .. }
+                | E::BadMesh { .. }
+                | E::BadSurface { .. }
+                | E::Param { .. } => EXIT_BAD_INPUT,
+                E::Io { .. } | E::Diverged(_) => EXIT_FAILED,
+            };
+        }
+    }
+    EXIT_FAILED
+}
+
+/// A flag raised by the first SIGINT or SIGTERM; a second one exits at once with status 130.
+fn stop_flag() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>> {
+    let flag = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    #[cfg(unix)]
+    for sig in [
+        signal_hook::consts::SIGINT,
+        signal_hook::consts::SIGTERM,
+    ] {
+        signal_hook::flag::register_conditional_shutdown(sig, EXIT_INTERRUPTED, flag.clone())
+            .context("installing the signal handler")?;
+        signal_hook::flag::register(sig, flag.clone()).context("installing the signal handler")?;
+    }
+    Ok(flag)
 }
 
 /// Run `f` on a worker thread of rayon's global pool. Every force pass of a simulation is a
@@ -184,7 +246,8 @@ fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     rayon::scope(|_| f())
 }
 
-fn real_main(cli: Cli) -> Result<()> {
+fn real_main(cli: Cli) -> Result<i32> {
+    let ok = |r: Result<()>| r.map(|()| 0);
     match cli.cmd {
         Cmd::Run {
             scenario,
@@ -192,7 +255,7 @@ fn real_main(cli: Cli) -> Result<()> {
             quiet,
             ascii_vtu,
         } => on_pool(|| cmd_run(scenario, out, quiet, ascii_vtu)),
-        Cmd::Check { scenario } => cmd_check(&scenario),
+        Cmd::Check { scenario } => ok(cmd_check(&scenario)),
         Cmd::Bench {
             sizes,
             threads,
@@ -202,7 +265,7 @@ fn real_main(cli: Cli) -> Result<()> {
             check,
             standard_only,
             precision,
-        } => cmd_bench(
+        } => ok(cmd_bench(
             &sizes,
             threads,
             quick,
@@ -211,17 +274,17 @@ fn real_main(cli: Cli) -> Result<()> {
             check,
             standard_only,
             &precision,
-        ),
+        )),
         Cmd::Paper {
             out,
             quick,
             meshes,
             quiet,
             slim_cap,
-        } => on_pool(|| cmd_paper(out, quick, meshes, quiet, slim_cap)),
+        } => ok(on_pool(|| cmd_paper(out, quick, meshes, quiet, slim_cap))),
         Cmd::Mesh {
             cmd: MeshCmd::Info { file },
-        } => cmd_mesh_info(&file),
+        } => ok(cmd_mesh_info(&file)),
         Cmd::Mesh {
             cmd:
                 MeshCmd::Generate {
@@ -233,7 +296,9 @@ fn real_main(cli: Cli) -> Result<()> {
                     divisions,
                     pattern,
                 },
-        } => cmd_generate(&kind, &out, nodes, &size, &polygon, &divisions, pattern),
+        } => ok(cmd_generate(
+            &kind, &out, nodes, &size, &polygon, &divisions, pattern,
+        )),
         Cmd::Mesh {
             cmd:
                 MeshCmd::Levels {
@@ -247,7 +312,7 @@ fn real_main(cli: Cli) -> Result<()> {
                     name,
                     quiet,
                 },
-        } => on_pool(|| {
+        } => ok(on_pool(|| {
             cmd_mesh_levels(&LevelsArgs {
                 surface,
                 levels,
@@ -259,21 +324,22 @@ fn real_main(cli: Cli) -> Result<()> {
                 name,
                 quiet,
             })
-        }),
+        })),
     }
 }
 
 /// The scenario at `path` (or the built-in one), its output directory `out` where given
 /// (generated surface levels are cached under it).
 fn load_scenario(path: Option<&Path>, out: Option<&Path>) -> Result<Scenario> {
-    Ok(match path {
-        Some(p) => Scenario::load_with_out(p, out)?,
+    let sc = match path {
+        Some(p) => Scenario::load_with_out(p, out),
         None => {
             let name = Path::new("examples/membrane_lift_multigrid.toml (built-in)");
-            let spec = raisov::scenario::spec::parse(BUILTIN, name)?;
-            Scenario::resolve_with_out(spec, name, out)?
+            raisov::scenario::spec::parse(BUILTIN, name)
+                .and_then(|spec| Scenario::resolve_with_out(spec, name, out))
         }
-    })
+    };
+    sc.map_err(|e| BadInput(e).into())
 }
 
 fn cmd_run(
@@ -281,13 +347,17 @@ fn cmd_run(
     out: Option<PathBuf>,
     quiet: bool,
     ascii_vtu: bool,
-) -> Result<()> {
+) -> Result<i32> {
+    let stop = stop_flag()?;
     let mut sc = load_scenario(scenario.as_deref(), out.as_deref())?;
     if ascii_vtu {
         sc.vtu = raisov::io::VtuFormat::Ascii;
     }
     for n in &sc.notes {
         eprintln!("note: {n}");
+    }
+    for w in &sc.warnings {
+        eprintln!("warning: {w}");
     }
     let show = !quiet && std::io::stderr().is_terminal();
     let bar = if show {
@@ -314,23 +384,39 @@ fn cmd_run(
             s.time, s.kinetic, s.residual
         ));
     };
-    let mut stepper = sc.stepper()?;
+    let mut stepper = sc.stepper().map_err(BadInput)?;
     eprint!("{}", stepper.report());
     let opts = RunOptions {
         out_dir: out,
         progress: Some(&mut progress),
+        stop: Some(&stop),
     };
     // An [interactive] scenario plays its paths frame by frame; any other runs in time.
     let res = if sc.interactive.is_some() {
-        raisov::scenario::interactive::run_interactive(&sc, stepper.as_mut(), opts)
-            .map(|s| s.to_string())
+        raisov::scenario::interactive::run_interactive(&sc, stepper.as_mut(), opts).map(|s| {
+            let code = if s.interrupted { EXIT_INTERRUPTED } else { 0 };
+            (s.to_string(), code)
+        })
     } else {
-        run_with(&sc, stepper.as_mut(), opts).map(|s| s.to_string())
+        run_with(&sc, stepper.as_mut(), opts).map(|s| {
+            use raisov::scenario::StopReason as R;
+            let code = match s.reason {
+                R::Duration | R::Steady => 0,
+                R::NotSteadyBeforeCap | R::Stagnated(_) => EXIT_NOT_CONVERGED,
+                R::Interrupted => EXIT_INTERRUPTED,
+            };
+            (s.to_string(), code)
+        })
     };
     bar.finish_and_clear();
-    let summary = res.with_context(|| format!("run of {} stopped", sc.name))?;
+    let (summary, code) = res.with_context(|| format!("run of {} stopped", sc.name))?;
     println!("{summary}");
-    Ok(())
+    match code {
+        EXIT_NOT_CONVERGED => eprintln!("raisov: {}: did not reach steady state", sc.name),
+        EXIT_INTERRUPTED => eprintln!("raisov: {}: interrupted; what was measured is written", sc.name),
+        _ => {}
+    }
+    Ok(code)
 }
 
 fn cmd_paper(
@@ -400,11 +486,14 @@ fn cmd_paper(
 }
 
 fn cmd_check(path: &Path) -> Result<()> {
-    let sc = Scenario::load(path)?;
-    let sys = sc.build_system()?;
+    let sc = Scenario::load(path).map_err(BadInput)?;
+    let sys = sc.build_system().map_err(BadInput)?;
     println!("scenario      {} ({})", sc.name, path.display());
     for n in &sc.notes {
         println!("note          {n}");
+    }
+    for w in &sc.warnings {
+        println!("warning       {w}");
     }
     println!(
         "mesh          {} nodes, {} {} elements",
@@ -440,7 +529,7 @@ fn cmd_check(path: &Path) -> Result<()> {
     if let Some(i) = &sc.interactive {
         println!("interactive   {i:?}");
     }
-    let stepper = sc.stepper()?;
+    let stepper = sc.stepper().map_err(BadInput)?;
     println!("stepping      {}", stepper.describe());
     print!("{}", stepper.report());
     println!("output        {}", sc.out_dir.display());

@@ -66,6 +66,9 @@ pub struct LoadedMesh {
     pub reoriented: Vec<usize>,
     /// Nodes in the file that no mesh element uses, dropped before renumbering.
     pub unused_nodes_dropped: usize,
+    /// The id the file gives each node of [`LoadedMesh::mesh`] (Gmsh, Triangle and TetGen
+    /// files number their nodes themselves, often from 1; VTK formats by position from 0).
+    pub node_ids: Vec<u64>,
 }
 
 /// Read a mesh, choosing the reader by extension (see the module docs).
@@ -326,7 +329,12 @@ pub(crate) fn finish(raw: RawMesh, path: &Path, format: &'static str) -> Result<
             mesh.element_max_edge(e),
         )));
     }
+    let node_ids = old_of_new
+        .iter()
+        .map(|&o| raw.node_ids[o as usize])
+        .collect();
     Ok(LoadedMesh {
+        node_ids,
         unused_nodes_dropped: n - mesh.nodes.len(),
         mesh,
         format,
@@ -430,6 +438,7 @@ mod tests {
         raw.groups.insert("g".into(), vec![0, 2, 2]);
         let l = finish(raw, Path::new("x"), "test").unwrap();
         assert_eq!(l.unused_nodes_dropped, 1);
+        assert_eq!(l.node_ids, vec![2, 3, 4]);
         assert_eq!(l.mesh.nodes.len(), 3);
         assert_eq!(l.mesh.groups["g"], vec![1]);
         assert_eq!(l.reoriented, vec![0]);

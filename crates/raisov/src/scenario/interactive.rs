@@ -29,8 +29,8 @@
 //! grow with the number of frames. [`RunOptions::stop`] ends the run after the current frame
 //! with a summary that says it was interrupted. Under the output directory:
 //! `frames.csv`, `NAME.pvd` + `frames/*.vtu` (reference points with
-//! fields `displacement`, `static` and `lag`, and `file_node_id` where `[mesh] renumber`
-//! reordered the nodes; format per `[output] vtu`), with `[mesh] surface` also
+//! fields `displacement`, `static` and `lag`, and `file_node_id` where a node's id in the mesh
+//! file differs from its position; format per `[output] vtu`), with `[mesh] surface` also
 //! `NAME_surface.pvd` + `frames/NAME_surface_*.vtp` (the surface with its interpolated
 //! `displacement`, see [`super::surface`]), `summary.txt`.
 
@@ -344,10 +344,7 @@ pub fn run_interactive(
         .transpose()?;
     let mut pvd = PvdWriter::new(out.join(format!("{}.pvd", sc.name)));
     let mut lag = vec![0.0; 3 * n];
-    let file_node_id: Option<Vec<i64>> = sc
-        .file_ids
-        .as_ref()
-        .map(|f| f.iter().map(|&a| a as i64).collect());
+    let file_node_id: Option<Vec<i64>> = sc.output_node_ids();
     let mut diverged = None;
     for k in 1..=frames_n {
         if opts

@@ -320,6 +320,8 @@ fn resolve_meshes(
 #[derive(Clone, Debug, Default)]
 pub struct LevelConstraints {
     pub fixed: Vec<u32>,
+    /// Nodes with held directions: `(node, unit direction)`.
+    pub sliding: Vec<(u32, [f64; 3])>,
     pub prescribed: Vec<(u32, Motion)>,
     pub loads: Vec<(u32, [f64; 3])>,
 }
@@ -420,6 +422,7 @@ impl Scenario {
         if level == 0 {
             return Ok(LevelConstraints {
                 fixed: self.fixed.clone(),
+                sliding: self.sliding.clone(),
                 prescribed: self.prescribed.clone(),
                 loads: self.loads.clone(),
             });
@@ -436,15 +439,10 @@ impl Scenario {
                 s => s.clone(),
             }
         };
-        let mut fixed = Vec::new();
-        for (i, s) in self.fix.iter().enumerate() {
-            fixed.extend(select(
-                mesh,
-                &carry(s),
-                &self.path,
-                &format!("level {level}: fix[{i}]"),
-            )?);
-        }
+        let fix: Vec<(Selector, super::Fixing)> =
+            self.fix.iter().map(|(s, f)| (carry(s), f.clone())).collect();
+        let (fixed, sliding) =
+            super::select_fixed(mesh, &fix, &self.path, &format!("level {level}: "))?;
         let mut loads = Vec::new();
         for (i, (s, force)) in self.load.iter().enumerate() {
             for n in select(
@@ -466,6 +464,7 @@ impl Scenario {
         }
         Ok(LevelConstraints {
             fixed,
+            sliding,
             prescribed,
             loads,
         })
@@ -511,7 +510,7 @@ impl Scenario {
             let sys = if i == 0 {
                 self.build_system()?
             } else {
-                build_system(self, &mesh, &c.fixed, &c.prescribed, &c.loads)?
+                build_system(self, &mesh, &c.fixed, &c.sliding, &c.prescribed, &c.loads)?
             };
             let lambda_max = lambda_max_bound(&mesh, &self.material, self.density);
             let mut level = Level::new(mesh, sys, methods[i], dts[i], lambda_max);

@@ -100,6 +100,16 @@ pub enum Selector {
     Point([f64; 3]),
 }
 
+/// Which displacement components a `[[fix]]` holds at zero.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Fixing {
+    /// All three: the node is fixed.
+    All,
+    /// `u·n = 0` along each unit direction (`components = ["x", "z"]` gives e_x, e_z; `normal`
+    /// one direction): rollers, symmetry planes, sliding on a plane.
+    Directions(Vec<[f64; 3]>),
+}
+
 /// What `[mesh]` builds; the coarser `[multigrid]` levels are built the same way.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshSource {
@@ -155,17 +165,23 @@ pub struct Scenario {
     pub mesh_source: MeshSource,
     /// Notes from loading (reoriented elements, dropped nodes), for the user.
     pub notes: Vec<String>,
+    /// What looks wrong but is allowed: a step far above the estimated critical one, a run
+    /// too long to finish, a point selector far from the mesh, a mesh whose size suggests
+    /// the wrong unit.
+    pub warnings: Vec<String>,
     pub material: Material,
     pub density: f64,
     pub thickness: f64,
     pub alpha: f64,
     pub gravity: [f64; 3],
-    /// `[[fix]]` selectors, selected again on every multigrid level.
-    pub fix: Vec<Selector>,
+    /// `[[fix]]` selectors and what each holds, selected again on every multigrid level.
+    pub fix: Vec<(Selector, Fixing)>,
     /// `[[load]]` selectors and the force on each selected node (N).
     pub load: Vec<(Selector, [f64; 3])>,
-    /// The nodes `fix` selects on [`Scenario::mesh`].
+    /// The nodes `fix` selects on [`Scenario::mesh`] with all components held.
     pub fixed: Vec<u32>,
+    /// The nodes `fix` selects with some directions held: `(node, unit direction)`.
+    pub sliding: Vec<(u32, [f64; 3])>,
     /// The nodes `load` selects on [`Scenario::mesh`], each with its force.
     pub loads: Vec<(u32, [f64; 3])>,
     pub prescribed: Vec<(u32, Motion)>,
@@ -173,6 +189,10 @@ pub struct Scenario {
     /// (in file order after unused nodes are dropped, the ids `nodes = [..]` selectors and
     /// the outputs use); `None` where the mesh keeps the file's order.
     pub file_ids: Option<Vec<u32>>,
+    /// The id the mesh file gives each node, in file order (index as in
+    /// [`Scenario::file_ids`]); `None` for generated meshes, whose ids are the 0-based
+    /// positions. `nodes = [..]` selectors and the outputs use these ids.
+    pub node_labels: Option<Vec<u64>>,
     pub method: Method,
     /// Time step (s), given or estimated.
     pub dt: f64,
@@ -302,33 +322,77 @@ impl Scenario {
             },
             None => resolve_mesh_source(&spec.mesh, path, base)?,
         };
-        let (mesh, mut notes, file_ids) =
+        let (mesh, mut notes, file_ids, node_labels) =
             mesh_source.build(&mesh_source.shape, path, "mesh.file")?;
+        let mut warnings = Vec::new();
+        let (lo, hi) = mesh.bounding_box();
+        let diag = norm(sub(hi, lo));
+        if diag > 20.0 || diag < 1e-3 {
+            warnings.push(format!(
+                "the mesh spans {diag:.3e} m (bounding-box diagonal): {}; coordinates are \
+                 multiplied by [mesh] scale = {} to get metres",
+                if diag > 20.0 {
+                    "millimetres read as metres? (scale = 1e-3 converts mm)"
+                } else {
+                    "a unit too small? (scale = 1e-3 means mm, 1e-2 cm)"
+                },
+                mesh_source.scale
+            ));
+        }
+        // A point selector far outside the mesh picks a node nobody meant.
+        let far = |p: [f64; 3], key: &str, warnings: &mut Vec<String>| {
+            let out = (0..3)
+                .map(|k| (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0))
+                .map(|d| d * d)
+                .sum::<f64>()
+                .sqrt();
+            if out > 0.1 * diag {
+                let near = mesh.nearest_node(p).map(|a| mesh.nodes[a]);
+                warnings.push(format!(
+                    "{key}: point {p:?} lies {out:.3e} m outside the mesh's bounding box \
+                     (diagonal {diag:.3e} m); it selects the nearest node, at {near:?}"
+                ));
+            }
+        };
         if let Some(sl) = &surface_levels {
             notes.splice(0..0, sl.notes.iter().cloned());
         }
-        // Node-id selectors name file ids: into the mesh's order, once, here.
+        // Node-id selectors name the file's ids: into the mesh's order, once, here.
         let new_of = file_ids.as_deref().map(crate::mesh::inverse_order);
-        let selector = |r: &spec::RegionSpec, key: &str| -> Result<Selector> {
+        let ids = NodeIds::new(node_labels.as_deref(), mesh.num_nodes(), &mesh_source.shape);
+        let mut selector = |r: &spec::RegionSpec, key: &str| -> Result<Selector> {
             let s = resolve_selector(r, path, key)?;
             Ok(match s {
                 Selector::Nodes(ns) => {
-                    check_node_ids(&ns, mesh.num_nodes(), path, key)?;
+                    let ks = ids.index_of(&r.nodes.clone().unwrap_or_default(), path, key)?;
+                    debug_assert_eq!(ks.len(), ns.len());
                     Selector::Nodes(match &new_of {
-                        Some(new_of) => ns.iter().map(|&a| new_of[a as usize]).collect(),
-                        None => ns,
+                        Some(new_of) => ks.iter().map(|&a| new_of[a as usize]).collect(),
+                        None => ks,
                     })
+                }
+                Selector::Point(p) => {
+                    far(p, key, &mut warnings);
+                    s
                 }
                 s => s,
             })
         };
         let mut fix = Vec::with_capacity(spec.fix.len());
         for (i, r) in spec.fix.iter().enumerate() {
-            fix.push(selector(r, &format!("fix[{i}]"))?);
+            let key = format!("fix[{i}]");
+            fix.push((selector(r, &key)?, resolve_fixing(r, path, &key)?));
         }
         let mut load = Vec::with_capacity(spec.load.len());
         for (i, l) in spec.load.iter().enumerate() {
-            load.push((selector(&l.at, &format!("load[{i}].at"))?, l.force));
+            let key = format!("load[{i}].at");
+            if l.at.components.is_some() || l.at.normal.is_some() {
+                return Err(err(
+                    path,
+                    format!("{key}: `components` and `normal` belong to [[fix]], not to a load's selector"),
+                ));
+            }
+            load.push((selector(&l.at, &key)?, l.force));
         }
         let material = resolve_material(&spec.material, mesh.kind, path)?;
         let density = positive(
@@ -360,10 +424,7 @@ impl Scenario {
             }
         };
         let gravity = spec.gravity.unwrap_or(defaults::GRAVITY);
-        let mut fixed = Vec::new();
-        for (i, s) in fix.iter().enumerate() {
-            fixed.extend(select(&mesh, s, path, &format!("fix[{i}]"))?);
-        }
+        let (fixed, sliding) = select_fixed(&mesh, &fix, path, "")?;
         let mut loads = Vec::new();
         for (i, (s, force)) in load.iter().enumerate() {
             for n in select(&mesh, s, path, &format!("load[{i}].at"))? {
@@ -373,12 +434,14 @@ impl Scenario {
         let mut prescribed: Vec<(u32, Motion)> = Vec::new();
         for (i, d) in spec.displace.iter().enumerate() {
             let key = format!("displace[{i}]");
+            far(d.point, &key, &mut warnings);
             let node = mesh
                 .nearest_node(d.point)
                 .ok_or_else(|| err(path, "the mesh has no nodes"))? as u32;
             let motion = resolve_motion(d, path, &key)?;
             if prescribed.iter().any(|(n, _)| *n == node) {
-                let shown = file_ids.as_ref().map_or(node, |f| f[node as usize]);
+                let k = file_ids.as_ref().map_or(node, |f| f[node as usize]);
+                let shown = node_labels.as_ref().map_or(k as u64, |l| l[k as usize]);
                 return Err(err(path, format!("{key}: node {shown} (nearest to {:?}) is already prescribed by an earlier [[displace]]", d.point)));
             }
             prescribed.push((node, motion));
@@ -403,6 +466,22 @@ impl Scenario {
             Some(dt) => positive(path, "integrator.dt", dt)?,
             None => safety * dt_crit,
         };
+        // FAS relaxes rather than integrates: its level-0 step is a smoother's, not bound
+        // by the explicit stability limit in the same way.
+        let explicit_limit = spec
+            .multigrid
+            .as_ref()
+            .is_none_or(|m| m.scheme == Some(spec::Scheme::RaisovPaper));
+        if explicit_limit && dt > TOO_LARGE_STEP * dt_crit {
+            warnings.push(format!(
+                "integrator.dt = {dt:.3e} s is {:.1} times the estimated critical step \
+                 {dt_crit:.3e} s of {}: an explicit run this coarse usually diverges \
+                 (leave `dt` out to take {} of the estimate)",
+                dt / dt_crit,
+                method.name(),
+                safety
+            ));
+        }
         let duration = spec
             .run
             .duration
@@ -476,6 +555,24 @@ impl Scenario {
                 "`output.csv_every` = 0: must be at least 1 (steps)",
             ));
         }
+        if spec.interactive.is_none() {
+            let t_end = match stop {
+                StopRule::Duration(d) => d,
+                StopRule::Steady { max, .. } => max,
+            };
+            let steps = t_end / dt;
+            let work = steps * mesh.num_nodes() as f64;
+            if work > TOO_LONG_WORK {
+                warnings.push(format!(
+                    "{steps:.3e} steps of dt = {dt:.3e} s to simulate {t_end} s on {} nodes: \
+                     about {:.0} hours at {:.0e} node-steps/s (a fast single thread); raise \
+                     `integrator.dt` or shorten `run.duration`",
+                    mesh.num_nodes(),
+                    work / NODE_STEPS_PER_SECOND / 3600.0,
+                    NODE_STEPS_PER_SECOND
+                ));
+            }
+        }
         let vtu = spec.output.vtu.unwrap_or_default();
         let reference = match spec.output.reference.clone().unwrap_or_default() {
             Reference::File(p) => {
@@ -487,12 +584,13 @@ impl Scenario {
             }
             r => r,
         };
-        Ok(Scenario {
+        let sc = Scenario {
             name,
             path: path.to_path_buf(),
             mesh,
             mesh_source,
             notes,
+            warnings,
             material,
             density,
             thickness,
@@ -501,9 +599,11 @@ impl Scenario {
             fix,
             load,
             fixed,
+            sliding,
             loads,
             prescribed,
             file_ids,
+            node_labels,
             method,
             dt,
             dt_critical_estimate: dt_crit,
@@ -519,12 +619,29 @@ impl Scenario {
             multigrid,
             interactive,
             surface: surface_levels.map(|sl| sl.visual),
-        })
+        };
+        // A reference file is read (and its numbers checked) now, not when the run needs it.
+        if let Reference::File(p) = &sc.reference {
+            run::read_nodal_stress(p, &sc)?;
+        }
+        Ok(sc)
     }
 
-    /// The file's id of node `a` of [`Scenario::mesh`] (see [`Scenario::file_ids`]).
-    pub fn file_node(&self, a: u32) -> u32 {
-        self.file_ids.as_ref().map_or(a, |f| f[a as usize])
+    /// The file's id of node `a` of [`Scenario::mesh`] (see [`Scenario::file_ids`] and
+    /// [`Scenario::node_labels`]).
+    pub fn file_node(&self, a: u32) -> u64 {
+        let k = self.file_ids.as_ref().map_or(a, |f| f[a as usize]);
+        self.node_labels
+            .as_ref()
+            .map_or(k as u64, |l| l[k as usize])
+    }
+
+    /// The file's id of every node of [`Scenario::mesh`], where it differs from the node's
+    /// position (a renumbered mesh, or a file whose ids are not 0, 1, 2, ...).
+    pub fn output_node_ids(&self) -> Option<Vec<i64>> {
+        let n = self.mesh.num_nodes();
+        let ids: Vec<i64> = (0..n as u32).map(|a| self.file_node(a) as i64).collect();
+        (ids.iter().enumerate().any(|(a, &id)| id != a as i64)).then_some(ids)
     }
 
     /// FE parameters of this scenario.
@@ -538,7 +655,14 @@ impl Scenario {
 
     /// Assemble the system M ü + α M u̇ + R(u) = V of the finest mesh.
     pub fn build_system(&self) -> Result<System> {
-        build_system(self, &self.mesh, &self.fixed, &self.prescribed, &self.loads)
+        build_system(
+            self,
+            &self.mesh,
+            &self.fixed,
+            &self.sliding,
+            &self.prescribed,
+            &self.loads,
+        )
     }
 
     /// Total mass (kg).
@@ -559,6 +683,7 @@ pub fn build_system(
     sc: &Scenario,
     mesh: &Mesh,
     fixed: &[u32],
+    sliding: &[(u32, [f64; 3])],
     prescribed: &[(u32, Motion)],
     loads: &[(u32, [f64; 3])],
 ) -> Result<System> {
@@ -570,7 +695,7 @@ pub fn build_system(
         mass,
         sc.alpha,
         vec![0.0; 3 * n],
-        Constraints::new(fixed.to_vec(), prescribed.to_vec()),
+        Constraints::new(fixed.to_vec(), prescribed.to_vec()).with_sliding(sliding),
     );
     sys.add_gravity(sc.gravity);
     for &(a, f) in loads {
@@ -722,8 +847,9 @@ impl MeshSource {
         shape: &Shape,
         path: &Path,
         key: &str,
-    ) -> Result<(Mesh, Vec<String>, Option<Vec<u32>>)> {
+    ) -> Result<(Mesh, Vec<String>, Option<Vec<u32>>, Option<Vec<u64>>)> {
         let mut notes = Vec::new();
+        let mut labels = None;
         let mut mesh = match shape {
             Shape::File(p) => {
                 let loaded = load_mesh(p)
@@ -743,6 +869,7 @@ impl MeshSource {
                         loaded.unused_nodes_dropped
                     ));
                 }
+                labels = Some(loaded.node_ids);
                 loaded.mesh
             }
             Shape::Rectangle {
@@ -772,7 +899,142 @@ impl MeshSource {
             mesh.renumber(&order);
             order
         });
-        Ok((mesh, notes, file_ids))
+        Ok((mesh, notes, file_ids, labels))
+    }
+}
+
+/// A given `dt` above this many estimated critical steps warns.
+const TOO_LARGE_STEP: f64 = 2.0;
+/// Node-steps per second of a fast single thread (the standard force pass measures 2-4e7,
+/// `raisov bench`): the rate behind the "too long" warning.
+const NODE_STEPS_PER_SECOND: f64 = 2e7;
+/// Node-steps (steps × nodes) above which a run warns that it takes too long: a day at
+/// [`NODE_STEPS_PER_SECOND`].
+const TOO_LONG_WORK: f64 = 24.0 * 3600.0 * NODE_STEPS_PER_SECOND;
+
+/// The file's node ids and where each sits in file order.
+struct NodeIds<'a> {
+    labels: Option<&'a [u64]>,
+    index: Option<std::collections::HashMap<u64, u32>>,
+    n: usize,
+    file: Option<&'a Path>,
+}
+
+impl<'a> NodeIds<'a> {
+    fn new(labels: Option<&'a [u64]>, n: usize, shape: &'a Shape) -> Self {
+        NodeIds {
+            labels,
+            index: labels.map(|l| l.iter().enumerate().map(|(k, &id)| (id, k as u32)).collect()),
+            n,
+            file: match shape {
+                Shape::File(p) => Some(p.as_path()),
+                _ => None,
+            },
+        }
+    }
+    /// The file-order position of each id; an id the mesh does not have is an error naming
+    /// the valid range.
+    fn index_of(&self, ids: &[u64], path: &Path, key: &str) -> Result<Vec<u32>> {
+        ids.iter()
+            .map(|&id| {
+                let k = match &self.index {
+                    Some(m) => m.get(&id).copied(),
+                    None => (id < self.n as u64).then_some(id as u32),
+                };
+                k.ok_or_else(|| {
+                    let (lo, hi) = match self.labels {
+                        Some(l) => (
+                            l.iter().copied().min().unwrap_or(0),
+                            l.iter().copied().max().unwrap_or(0),
+                        ),
+                        None => (0, self.n.saturating_sub(1) as u64),
+                    };
+                    let whose = match self.file {
+                        Some(f) => format!("the ids of {}", f.display()),
+                        None => "the generated mesh's ids".to_string(),
+                    };
+                    let gaps = if (hi - lo + 1) as usize != self.n {
+                        format!(", {} of them used by elements", self.n)
+                    } else {
+                        String::new()
+                    };
+                    err(
+                        path,
+                        format!(
+                            "{key}.nodes: node {id} does not exist ({whose} run {lo}..={hi}{gaps}; \
+                             ids are as the file numbers them)"
+                        ),
+                    )
+                })
+            })
+            .collect()
+    }
+}
+
+/// The fixed nodes and the sliding directions `fix` selects on `mesh` (`level` names it in
+/// messages: empty for level 0).
+pub(crate) fn select_fixed(
+    mesh: &Mesh,
+    fix: &[(Selector, Fixing)],
+    path: &Path,
+    level: &str,
+) -> Result<(Vec<u32>, Vec<(u32, [f64; 3])>)> {
+    let (mut fixed, mut sliding) = (Vec::new(), Vec::new());
+    for (i, (s, how)) in fix.iter().enumerate() {
+        let nodes = select(mesh, s, path, &format!("{level}fix[{i}]"))?;
+        match how {
+            Fixing::All => fixed.extend(nodes),
+            Fixing::Directions(dirs) => {
+                for a in nodes {
+                    sliding.extend(dirs.iter().map(|&n| (a, n)));
+                }
+            }
+        }
+    }
+    Ok((fixed, sliding))
+}
+
+/// What a `[[fix]]` holds: `components` or `normal`, else everything.
+fn resolve_fixing(r: &spec::RegionSpec, path: &Path, key: &str) -> Result<Fixing> {
+    match (&r.components, r.normal) {
+        (None, None) => Ok(Fixing::All),
+        (Some(_), Some(_)) => Err(err(
+            path,
+            format!("{key}: give `components` or `normal`, not both"),
+        )),
+        (Some(c), None) => {
+            let mut dirs = Vec::new();
+            for name in c {
+                let k = match name.as_str() {
+                    "x" => 0,
+                    "y" => 1,
+                    "z" => 2,
+                    other => {
+                        return Err(err(
+                            path,
+                            format!("`{key}.components`: \"{other}\" is not a component (valid: \"x\", \"y\", \"z\")"),
+                        ))
+                    }
+                };
+                let mut e = [0.0; 3];
+                e[k] = 1.0;
+                if dirs.contains(&e) {
+                    return Err(err(path, format!("`{key}.components`: \"{name}\" given twice")));
+                }
+                dirs.push(e);
+            }
+            if dirs.is_empty() {
+                return Err(err(path, format!("`{key}.components` is empty: list \"x\", \"y\" and/or \"z\", or leave it out to fix all three")));
+            }
+            Ok(if dirs.len() == 3 { Fixing::All } else { Fixing::Directions(dirs) })
+        }
+        (None, Some(n)) => {
+            let l = norm(n);
+            if !(l > 0.0) {
+                return Err(err(path, format!("`{key}.normal` must be non-zero")));
+            }
+            Ok(Fixing::Directions(vec![[n[0] / l, n[1] / l, n[2] / l]]))
+        }
     }
 }
 
@@ -821,7 +1083,8 @@ fn resolve_selector(r: &spec::RegionSpec, path: &Path, key: &str) -> Result<Sele
         found.push(Selector::Group(g.clone()));
     }
     if let Some(ns) = &r.nodes {
-        found.push(Selector::Nodes(ns.clone()));
+        // The ids become mesh indices in `resolve`.
+        found.push(Selector::Nodes(vec![0; ns.len()]));
     }
     if let Some(p) = r.point {
         found.push(Selector::Point(p));

@@ -9,8 +9,8 @@
 //! - `NAME.pvd` + `frames/NAME_NNNNNN.vtu`: ParaView time series, points in the reference
 //!   configuration with point fields `displacement` (m; the active vectors, so *Warp By
 //!   Vector* shows the deformed body), `velocity` (m/s), `stress` (nodal Cauchy T, Pa), and
-//!   `file_node_id` (`Int64`, each point's node id in the mesh file) where `[mesh] renumber`
-//!   reordered the nodes; binary appended zlib or ASCII per `[output] vtu`
+//!   `file_node_id` (`Int64`, each point's node id in the mesh file) where that differs from
+//!   its position (`[mesh] renumber` reordered the nodes, or the file numbers from 1); binary appended zlib or ASCII per `[output] vtu`
 //!   ([`crate::io::vtu`]);
 //! - with `[mesh] surface`, `NAME_surface.pvd` + `frames/NAME_surface_NNNNNN.vtp`: the input
 //!   surface embedded in the finest level, its reference points with the interpolated
@@ -227,8 +227,8 @@ impl Scenario {
     }
 }
 
-/// Mesh index of each file node id (the inverse of [`Scenario::file_ids`]; the identity
-/// where the mesh keeps the file's order).
+/// The mesh index of each node in file order (the inverse of [`Scenario::file_ids`]; the
+/// identity where the mesh keeps the file's order).
 fn mesh_index_of_file(file_ids: Option<&[u32]>, n: usize) -> Vec<usize> {
     match file_ids {
         Some(f) => crate::mesh::inverse_order(f)
@@ -239,11 +239,17 @@ fn mesh_index_of_file(file_ids: Option<&[u32]>, n: usize) -> Vec<usize> {
     }
 }
 
-/// Read a `nodal_stress.csv` written by an earlier run on a mesh of `n` nodes; its `node`
-/// column holds file ids, mapped to the mesh's order by `file_ids` (see
-/// [`Scenario::file_ids`]).
-pub fn read_nodal_stress(path: &Path, n: usize, file_ids: Option<&[u32]>) -> Result<Vec<f64>> {
-    let at = mesh_index_of_file(file_ids, n);
+/// Read a `nodal_stress.csv` written by an earlier run on the mesh of `sc`; its `node` column
+/// holds the file's ids ([`Scenario::file_node`]). Every number must be finite.
+pub fn read_nodal_stress(path: &Path, sc: &Scenario) -> Result<Vec<f64>> {
+    let n = sc.mesh.num_nodes();
+    let at = mesh_index_of_file(sc.file_ids.as_deref(), n);
+    let position: std::collections::HashMap<u64, usize> = (0..n)
+        .map(|k| {
+            let id = sc.node_labels.as_ref().map_or(k as u64, |l| l[k]);
+            (id, at[k])
+        })
+        .collect();
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let bad = |line: usize, msg: String| Error::Scenario {
         path: path.to_path_buf(),
@@ -266,22 +272,30 @@ pub fn read_nodal_stress(path: &Path, n: usize, file_ids: Option<&[u32]>) -> Res
                 ),
             ));
         }
-        let a: usize = f[0]
+        let id: u64 = f[0]
             .trim()
             .parse()
             .map_err(|_| bad(i + 1, format!("bad node id `{}`", f[0])))?;
-        if a >= n {
-            return Err(bad(
+        let a = *position.get(&id).ok_or_else(|| {
+            bad(
                 i + 1,
-                format!("node {a} does not exist in this mesh of {n} nodes"),
-            ));
-        }
-        let a = at[a];
-        for k in 0..9 {
-            t[9 * a + k] = f[7 + k]
+                format!("node {id} is not a node of this mesh ({n} nodes, ids as in its file)"),
+            )
+        })?;
+        for (col, field) in f.iter().enumerate().skip(1) {
+            let x: f64 = field
                 .trim()
                 .parse()
-                .map_err(|_| bad(i + 1, format!("bad number `{}`", f[7 + k])))?;
+                .map_err(|_| bad(i + 1, format!("bad number `{field}` in column {}", col + 1)))?;
+            if !x.is_finite() {
+                return Err(bad(
+                    i + 1,
+                    format!("column {} is `{field}`: numbers must be finite (not nan or inf)", col + 1),
+                ));
+            }
+            if col >= 7 {
+                t[9 * a + col - 7] = x;
+            }
         }
         rows += 1;
     }
@@ -294,20 +308,15 @@ pub fn read_nodal_stress(path: &Path, n: usize, file_ids: Option<&[u32]>) -> Res
     Ok(t)
 }
 
-/// One row per node in file order, the `node` column its file id (see
-/// [`Scenario::file_ids`]).
-fn write_nodal_stress(
-    path: &Path,
-    x0: &[[f64; 3]],
-    u: &[f64],
-    t: &[f64],
-    file_ids: Option<&[u32]>,
-) -> Result<()> {
-    let at = mesh_index_of_file(file_ids, x0.len());
+/// One row per node in file order, the `node` column its file id ([`Scenario::file_node`]).
+fn write_nodal_stress(path: &Path, sc: &Scenario, u: &[f64], t: &[f64]) -> Result<()> {
+    let x0 = &sc.mesh.nodes;
+    let at = mesh_index_of_file(sc.file_ids.as_deref(), x0.len());
     write_atomic(path, |w| {
         writeln!(w, "node,x,y,z,ux,uy,uz,T00,T01,T02,T10,T11,T12,T20,T21,T22")?;
-        for (id, &a) in at.iter().enumerate() {
+        for (k, &a) in at.iter().enumerate() {
             let p = x0[a];
+            let id = sc.node_labels.as_ref().map_or(k as u64, |l| l[k]);
             write!(
                 w,
                 "{id},{:e},{:e},{:e},{:e},{:e},{:e}",
@@ -373,12 +382,7 @@ struct Frames<'a> {
 
 impl<'a> Frames<'a> {
     fn new(sc: &'a Scenario, out: &Path) -> Result<Self> {
-        let (name, n, file_ids, format) = (
-            sc.name.as_str(),
-            sc.mesh.num_nodes(),
-            sc.file_ids.as_deref(),
-            sc.vtu,
-        );
+        let (name, n, format) = (sc.name.as_str(), sc.mesh.num_nodes(), sc.vtu);
         let dir = out.join("frames");
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         clear_old_frames(out, name)?;
@@ -395,7 +399,7 @@ impl<'a> Frames<'a> {
             count: 0,
             format,
             stress: vec![0.0; 9 * n],
-            file_ids: file_ids.map(|f| f.iter().map(|&a| a as i64).collect()),
+            file_ids: sc.output_node_ids(),
         })
     }
     fn write(&mut self, sc: &Scenario, stepper: &mut dyn Stepper) -> Result<()> {
@@ -459,7 +463,7 @@ pub fn run_with(
             (Some(t), Some(note))
         }
         Reference::File(p) => (
-            Some(read_nodal_stress(p, n, sc.file_ids.as_deref())?),
+            Some(read_nodal_stress(p, sc)?),
             Some(format!("T_inf from {}", p.display())),
         ),
     };
@@ -573,13 +577,7 @@ pub fn run_with(
         let (sys, s) = stepper.finest();
         let mut t = vec![0.0; 9 * n];
         sys.force.nodal_stress(&s.u, &mut t);
-        write_nodal_stress(
-            &stress_path,
-            &sc.mesh.nodes,
-            &s.u,
-            &t,
-            sc.file_ids.as_deref(),
-        )?;
+        write_nodal_stress(&stress_path, sc, &s.u, &t)?;
         let mut v = [0.0; 3];
         for (i, f) in sys.f_ext.iter().enumerate() {
             v[i % 3] += f;

@@ -53,13 +53,20 @@
 //! ratio = 1.0                     # ζ, with
 //! omega = 20.0                    # rad/s reference frequency: alpha = 2 ζ ω
 //!
-//! [[fix]]                         # fixed nodes; exactly one selector per entry:
+//! [[fix]]                         # fixed nodes; exactly one selector per entry, and what
+//!                                 # is held (default: all three components):
+//! components = ["z"]              # hold only these of "x", "y", "z" (a roller; a z-clamped
+//!                                 # slab of tets is plane strain), or
+//! normal = [0.0, 0.0, 1.0]        # hold only the displacement along this direction: the
+//!                                 # nodes slide on the plane normal to it (a symmetry plane)
 //! boundary = true                 # every boundary node
 //! box = { min = [..], max = [..] }          # nodes inside an axis-aligned box
 //! plane = { point = [..], normal = [..] }   # nodes with (x − point)·normal ≤ 0
 //! group = "boundary"              # a physical group of the mesh file
-//! nodes = [0, 5, 7]               # node ids, 0-based, in file order after unused nodes are dropped
-//!                                 # (whether or not [mesh] renumber reorders them in memory)
+//! nodes = [1, 5, 7]               # node ids as the mesh file numbers them (Gmsh, Triangle and
+//!                                 # TetGen files their own ids, often from 1; VTK files and
+//!                                 # generated meshes by position from 0); an id the mesh lacks
+//!                                 # is an error naming the valid range. Outputs use the same ids
 //! point = [0.0, 0.0, 0.0]         # the node nearest this point
 //!
 //! [[load]]                        # constant nodal force
@@ -657,8 +664,13 @@ pub struct RegionSpec {
     pub aabb: Option<BoxSpec>,
     pub plane: Option<PlaneSpec>,
     pub group: Option<String>,
-    pub nodes: Option<Vec<u32>>,
+    pub nodes: Option<Vec<u64>>,
     pub point: Option<[f64; 3]>,
+    /// `[[fix]]` only: the components held, `["x", "z"]`; default all three.
+    pub components: Option<Vec<String>>,
+    /// `[[fix]]` only: hold the displacement along this direction (sliding on the plane
+    /// normal to it).
+    pub normal: Option<[f64; 3]>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]

@@ -328,9 +328,12 @@ fn renumbered_file_mesh_moves_like_the_file_order() {
         .filter(|&a| m.nodes[a as usize][0] == 0.0)
         .collect();
     let tip = m.nearest_node([0.1, 0.0, 0.0]).unwrap();
+    // The scenario names nodes as the file does: Gmsh ids, from 1.
+    let fixed_ids: Vec<u64> = fixed.iter().map(|&a| a as u64 + 1).collect();
+    let tip_id = tip as u64 + 1;
     let scenario = |renumber: bool| {
         let text = format!(
-            "[mesh]\nfile = \"shuffled.msh\"\nrenumber = {renumber}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nnodes = {fixed:?}\n[[load]]\nat = {{ nodes = [{tip}] }}\nforce = [0.0, -0.05, 0.0]\n[run]\nduration = 0.003\n[output]\nframe_interval = 0.0\n"
+            "[mesh]\nfile = \"shuffled.msh\"\nrenumber = {renumber}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nnodes = {fixed_ids:?}\n[[load]]\nat = {{ nodes = [{tip_id}] }}\nforce = [0.0, -0.05, 0.0]\n[run]\nduration = 0.003\n[output]\nframe_interval = 0.0\n"
         );
         Scenario::from_toml(&text, &dir.path().join(format!("r{renumber}.toml"))).unwrap()
     };
@@ -344,11 +347,11 @@ fn renumbered_file_mesh_moves_like_the_file_order() {
     for (k, &a) in ids.iter().enumerate() {
         assert_eq!(sr.mesh.nodes[k], m.nodes[a as usize]);
     }
-    let mut fixed_r: Vec<u32> = sr.fixed.iter().map(|&a| sr.file_node(a)).collect();
+    let mut fixed_r: Vec<u64> = sr.fixed.iter().map(|&a| sr.file_node(a)).collect();
     fixed_r.sort_unstable();
-    assert_eq!(fixed_r, fixed);
+    assert_eq!(fixed_r, fixed_ids);
     assert_eq!(sr.loads.len(), 1);
-    assert_eq!(sr.file_node(sr.loads[0].0), tip as u32);
+    assert_eq!(sr.file_node(sr.loads[0].0), tip_id);
     // The same motion, node by node in file order.
     let state = |sc: &Scenario| {
         let mut st = sc.stepper().unwrap();
@@ -389,8 +392,8 @@ fn renumbered_file_mesh_moves_like_the_file_order() {
             .collect()
     };
     assert_eq!(columns(&pr), columns(&pf), "node ids and positions per row");
-    let tr = super::run::read_nodal_stress(&pr, n, sr.file_ids.as_deref()).unwrap();
-    let tf = super::run::read_nodal_stress(&pf, n, None).unwrap();
+    let tr = super::run::read_nodal_stress(&pr, &sr).unwrap();
+    let tf = super::run::read_nodal_stress(&pf, &sf).unwrap();
     let tscale = tf.iter().fold(0.0f64, |a, &x| a.max(x.abs()));
     assert!(tscale > 0.0);
     for (k, &a) in ids.iter().enumerate() {
@@ -409,16 +412,14 @@ fn node_selector_out_of_range_names_the_file_range() {
     let n = write_box(&dir.path().join("b.msh"), [4, 2, 2]).num_nodes();
     for renumber in [true, false] {
         let text = format!(
-            "[mesh]\nfile = \"b.msh\"\nrenumber = {renumber}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nnodes = [0, {n}]\n[run]\nduration = 0.01\n"
+            "[mesh]\nfile = \"b.msh\"\nrenumber = {renumber}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nnodes = [{n}, 0]\n[run]\nduration = 0.01\n"
         );
         let e = Scenario::from_toml(&text, &dir.path().join("s.toml"))
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains(&format!(
-                "fix[0].nodes: node {n} does not exist (valid: 0..{})",
-                n - 1
-            )),
+            e.contains(&format!("fix[0].nodes: node 0 does not exist"))
+                && e.contains(&format!("b.msh run 1..={n}")),
             "{e}"
         );
     }
@@ -445,7 +446,7 @@ fn fas_on_renumbered_files_follows_the_file_order_run() {
     };
     let fine = shuffled("b.msh", [10, 4, 4]);
     let coarse = shuffled("c.msh", [5, 2, 2]);
-    let tip = fine.nearest_node([0.1, 0.0, 0.0]).unwrap();
+    let tip = fine.nearest_node([0.1, 0.0, 0.0]).unwrap() + 1; // Gmsh ids from 1
     let resolve = |mesh_extra: &str| {
         let text = format!(
             "[mesh]\nfile = \"b.msh\"\n{mesh_extra}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}\n[[load]]\nat = {{ nodes = [{tip}] }}\nforce = [0.0, -0.05, 0.0]\n[run]\nduration = 0.01\n[multigrid]\nfiles = [\"c.msh\"]\n"
@@ -785,4 +786,183 @@ fn documented_defaults_are_the_applied_ones() {
     assert_eq!(sc.csv_every, defaults::CSV_EVERY);
     assert_eq!(sc.reference, Reference::None);
     assert_eq!(sc.mesh_source.scale, defaults::SCALE);
+}
+
+/// A slab of tetrahedra under gravity along y, its end x = 0 fixed and every node's z held
+/// (`components = ["z"]`): plane strain. The held component stays exactly 0 (bit for bit),
+/// the free ones move; the same on two FAS levels (the coarse level holds z too) and for a
+/// tilted sliding plane (`normal`), where `u·n` stays at round-off.
+#[test]
+fn fixed_components_stay_exactly_and_free_ones_move() {
+    let slab = |extra: &str, fix2: &str| {
+        format!(
+            "gravity = [0.0, -9.81, 0.0]\n[mesh]\ngenerate = \"box\"\nsize = [0.1, 0.02, 0.01]\n\
+             divisions = [10, 2, 1]\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.3\n\
+             [damping]\nalpha = 50.0\n[[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}\n\
+             [[fix]]\nbox = {{ min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }}\n{fix2}\n\
+             [run]\nduration = 0.02\n{extra}"
+        )
+    };
+    for extra in ["", "[multigrid]\nlevels = 2\n"] {
+        let sc = parse(&slab(extra, "components = [\"z\"]")).unwrap();
+        assert_eq!(sc.sliding.len(), sc.mesh.num_nodes());
+        let mut st = sc.stepper().unwrap();
+        for _ in 0..200 {
+            st.advance().unwrap();
+        }
+        let u = &st.finest().1.u;
+        let (mut max_xy, mut max_z) = (0.0f64, 0.0f64);
+        for a in 0..sc.mesh.num_nodes() {
+            max_xy = max_xy.max(u[3 * a].abs()).max(u[3 * a + 1].abs());
+            max_z = max_z.max(u[3 * a + 2].abs());
+        }
+        assert_eq!(max_z, 0.0, "{extra}: z moved");
+        assert!(max_xy > 1e-6, "{extra}: nothing moved ({max_xy})");
+    }
+    // Sliding on a tilted plane: u·n = 0 to round-off, the node still moves.
+    let n = [0.0, 0.6, 0.8];
+    let sc = parse(&slab("", &format!("normal = {n:?}"))).unwrap();
+    let mut st = sc.stepper().unwrap();
+    for _ in 0..200 {
+        st.advance().unwrap();
+    }
+    let u = &st.finest().1.u;
+    let umax = crate::metrics::max_displacement(u);
+    assert!(umax > 1e-6);
+    for a in 0..sc.mesh.num_nodes() {
+        let un = u[3 * a] * n[0] + u[3 * a + 1] * n[1] + u[3 * a + 2] * n[2];
+        assert!(un.abs() <= 1e-15 * umax.max(1e-3), "node {a}: u·n = {un}");
+    }
+    for (extra, want) in [
+        ("components = [\"w\"]", "not a component (valid: \"x\", \"y\", \"z\")"),
+        ("components = []", "is empty"),
+        ("normal = [0.0, 0.0, 0.0]", "must be non-zero"),
+        (
+            "components = [\"x\"]\nnormal = [1.0, 0.0, 0.0]",
+            "`components` or `normal`, not both",
+        ),
+    ] {
+        let e = error_of(&slab("", extra));
+        assert!(e.contains(want), "{extra}: {e}");
+    }
+}
+
+/// A TetGen pair numbered from 1: `nodes = [1]` is the file's first node, `nodes = [0]` an
+/// error naming the range, and `nodal_stress.csv` lists the file's ids.
+#[test]
+fn node_ids_are_the_files_own() {
+    let dir = tempfile::tempdir().unwrap();
+    // The unit cube in 5 tetrahedra, ids 1..8; node 1 at the origin.
+    let pts = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [1.0, 1.0, 1.0],
+        [0.0, 1.0, 1.0],
+    ];
+    let mut node = String::from("8 3 0 0\n");
+    for (i, p) in pts.iter().enumerate() {
+        node.push_str(&format!("{} {} {} {}\n", i + 1, p[0], p[1], p[2]));
+    }
+    std::fs::write(dir.path().join("cube.node"), node).unwrap();
+    std::fs::write(
+        dir.path().join("cube.ele"),
+        "5 4 0\n1 1 2 4 5\n2 2 3 4 7\n3 2 5 6 7\n4 4 5 7 8\n5 2 4 5 7\n",
+    )
+    .unwrap();
+    let text = |ids: &str| {
+        format!(
+            "[mesh]\nfile = \"cube.node\"\nscale = 0.01\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\n\
+             poisson = 0.3\n[[fix]]\nnodes = {ids}\n[[load]]\nat = {{ nodes = [7] }}\nforce = [0.0, 0.0, 1e-3]\n\
+             [run]\nduration = 0.001\n[output]\nframe_interval = 0.0\n"
+        )
+    };
+    let p = dir.path().join("cube.toml");
+    let sc = Scenario::from_toml(&text("[1, 2, 3, 4]"), &p).unwrap();
+    let mut fixed: Vec<[f64; 3]> = sc.fixed.iter().map(|&a| sc.mesh.nodes[a as usize]).collect();
+    fixed.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    assert!(fixed.iter().all(|x| x[2] == 0.0) && fixed.len() == 4, "{fixed:?}");
+    assert_eq!(sc.mesh.nodes[sc.loads[0].0 as usize], [0.01, 0.01, 0.01]);
+    assert_eq!(sc.file_node(sc.loads[0].0), 7);
+    let e = Scenario::from_toml(&text("[0]"), &p).unwrap_err().to_string();
+    assert!(
+        e.contains("fix[0].nodes: node 0 does not exist") && e.contains("cube.node run 1..=8"),
+        "{e}"
+    );
+    let e = Scenario::from_toml(&text("[9]"), &p).unwrap_err().to_string();
+    assert!(e.contains("node 9 does not exist"), "{e}");
+    let out = dir.path().join("out");
+    run(
+        &sc,
+        RunOptions {
+            out_dir: Some(out.clone()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let csv = std::fs::read_to_string(out.join("nodal_stress.csv")).unwrap();
+    let ids: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    assert_eq!(ids, ["1", "2", "3", "4", "5", "6", "7", "8"]);
+    // The file reads back as a reference of the same mesh.
+    run::read_nodal_stress(&out.join("nodal_stress.csv"), &sc).unwrap();
+}
+
+/// At steady state the reactions balance the applied loads and body force:
+/// `F_fixed + F_prescribed + Σ V = 0`, to 1e-6 of `|Σ V|` (the steady residual bounds it).
+/// A membrane draped under gravity with its boundary fixed, and a point load; FAS.
+#[test]
+fn reactions_balance_the_applied_loads() {
+    let text = format!(
+        "gravity = [0.0, 0.0, -9.81]\n{}\n[[load]]\nat = {{ point = [0.02, 0.0, 0.0] }}\nforce = [1e-4, 0.0, -2e-3]\n\
+         [damping]\nratio = 1.0\nomega = 177.7\n[multigrid]\nlevels = 3\n",
+        BASE.replace(
+            "duration = 0.01",
+            "stop = \"steady\"\nduration = 2.0\nkinetic_tol = 1e-14\nresidual_tol = 1e-10"
+        )
+    );
+    let sc = parse(&text).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let s = run(
+        &sc,
+        RunOptions {
+            out_dir: Some(dir.path().to_path_buf()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(s.reason, StopReason::Steady, "{s}");
+    let v = s.applied;
+    let vn = crate::mesh::norm(v);
+    assert!(vn > 1e-3, "{v:?}");
+    let f = s.last.reaction_fixed;
+    for k in 0..3 {
+        let gap = f[k] + s.last.reaction_prescribed[k] + v[k];
+        assert!(gap.abs() <= 1e-6 * vn, "component {k}: {f:?} + {v:?} = {gap:e}");
+    }
+    // The summary and the last row of measures.csv say the same.
+    assert!(s.to_string().contains("reactions       fixed"));
+    let csv = std::fs::read_to_string(dir.path().join("measures.csv")).unwrap();
+    let last: Vec<&str> = csv.lines().last().unwrap().split(',').collect();
+    assert_eq!(last.len(), 15);
+    let fz: f64 = last[11].parse().unwrap();
+    assert!((fz - f[2]).abs() <= 1e-9 * f[2].abs(), "{fz} vs {}", f[2]);
+}
+
+/// Warnings: a step far above the estimated critical one, a run too long to finish, a point
+/// far outside the mesh, a mesh in millimetres read as metres.
+#[test]
+fn absurd_settings_warn() {
+    let w = |text: &str| parse(text).unwrap().warnings.join("\n");
+    let s = w(&BASE.replace("[run]", "[integrator]\ndt = 1.0\n[run]"));
+    assert!(s.contains("times the estimated critical step"), "{s}");
+    let s = w(&BASE.replace("[run]", "[integrator]\ndt = 1e-14\n[run]"));
+    assert!(s.contains("hours at"), "{s}");
+    let s = w(&BASE.replace("boundary = true", "point = [5.0, 0.0, 0.0]"));
+    assert!(s.contains("fix[0]: point [5.0, 0.0, 0.0] lies"), "{s}");
+    let s = w(&BASE.replace("size = [0.1, 0.1]", "size = [100.0, 100.0]"));
+    assert!(s.contains("millimetres read as metres"), "{s}");
+    assert_eq!(w(BASE), "");
 }

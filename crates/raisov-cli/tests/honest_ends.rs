@@ -1,0 +1,215 @@
+//! How `raisov run` ends, tested on the built binary: exit codes, real signals, the output
+//! lock, bad numbers in a reference file.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn raisov() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_raisov"))
+}
+
+/// A small membrane lift (120 nodes); `run` and `extra` are appended.
+fn scenario(dir: &Path, name: &str, run: &str, extra: &str) -> PathBuf {
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(
+        &p,
+        format!(
+            r#"
+[mesh]
+generate = "rectangle"
+size = [0.1, 0.1]
+nodes = 120
+[material]
+law = "mooney-rivlin"
+c1 = 1000.0
+c2 = 1000.0
+[damping]
+ratio = 1.0
+omega = 177.7
+[[fix]]
+boundary = true
+[[displace]]
+point = [0.0, 0.0, 0.0]
+displacement = [0.0, 0.0, 0.01]
+mode = "ramp"
+duration = 0.01
+[run]
+{run}
+[output]
+frame_interval = 0.002
+{extra}
+"#
+        ),
+    )
+    .unwrap();
+    p
+}
+
+fn run(p: &Path, out: &Path) -> Output {
+    raisov()
+        .args(["run", "--quiet", "--out"])
+        .arg(out)
+        .arg(p)
+        .output()
+        .unwrap()
+}
+
+/// Every file under `dir` whose name ends in `.tmp`.
+fn tmp_files(dir: &Path) -> Vec<PathBuf> {
+    let mut found = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.to_string_lossy().ends_with(".tmp") {
+                found.push(p);
+            }
+        }
+    }
+    found
+}
+
+fn csv_rows(out: &Path) -> usize {
+    std::fs::read_to_string(out.join("measures.csv"))
+        .map(|t| t.lines().count().saturating_sub(1))
+        .unwrap_or(0)
+}
+
+/// Start a long run, wait until it has written some rows, and send it `signal`; it stops at a
+/// step boundary with exit status 130, a summary that says so, its measures and no temp files.
+/// While it runs, a second run on the same directory is refused by the lock.
+fn interrupt_with(signal: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scenario(dir.path(), "long", "duration = 1000.0", "");
+    let out = dir.path().join("out");
+    let mut child = raisov()
+        .args(["run", "--quiet", "--out"])
+        .arg(&out)
+        .arg(&p)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while csv_rows(&out) < 20 {
+        assert!(start.elapsed() < Duration::from_secs(60), "no rows after 60 s");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // The lock: a second run on the same directory stops at once, naming it.
+    let second = run(&p, &out);
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert_eq!(second.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(".raisov.lock") && err.contains(&out.display().to_string()),
+        "{err}"
+    );
+    let status = Command::new("kill")
+        .args([signal, &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let start = Instant::now();
+    let code = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s.code();
+        }
+        assert!(start.elapsed() < Duration::from_secs(30), "did not stop");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let o = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(code, Some(130), "{stderr}");
+    let summary = std::fs::read_to_string(out.join("summary.txt")).unwrap();
+    assert!(summary.contains("interrupted"), "{summary}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("interrupted"));
+    let rows = csv_rows(&out);
+    assert!(rows >= 20, "{rows} rows");
+    // The last row is the state the run stopped in, and the PVD is complete.
+    let pvd = std::fs::read_to_string(out.join("long.pvd")).unwrap();
+    assert!(pvd.trim_end().ends_with("</VTKFile>"), "{pvd}");
+    assert!(out.join("nodal_stress.csv").is_file());
+    assert_eq!(tmp_files(&out), Vec::<PathBuf>::new());
+    // The lock is released: a rerun may write there (and clears the old frames).
+    let frames_before = std::fs::read_dir(out.join("frames")).unwrap().count();
+    assert!(frames_before > 2);
+    let short = scenario(dir.path(), "long", "duration = 0.002", "");
+    let o = run(&short, &out);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read_dir(out.join("frames")).unwrap().count(), 2);
+}
+
+#[test]
+fn sigint_stops_at_a_step_boundary_with_status_130() {
+    interrupt_with("-INT");
+}
+
+#[test]
+fn sigterm_stops_at_a_step_boundary_with_status_130() {
+    interrupt_with("-TERM");
+}
+
+/// `stop = "steady"` that reaches its cap says so and exits with 3; so does stagnation.
+#[test]
+fn not_steady_exits_with_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scenario(dir.path(), "cap", "stop = \"steady\"\nduration = 0.02", "");
+    let o = run(&p, &dir.path().join("cap"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(err.contains("did not reach steady state"), "{err}");
+    let summary = std::fs::read_to_string(dir.path().join("cap/summary.txt")).unwrap();
+    assert!(summary.contains("did not reach steady state: hit the time cap"), "{summary}");
+    // An undamped membrane never settles: one check without progress ends it.
+    let p = scenario(
+        dir.path(),
+        "stag",
+        "stop = \"steady\"\nduration = 5.0\nstagnation = 1",
+        "",
+    );
+    let text = std::fs::read_to_string(&p)
+        .unwrap()
+        .replace("ratio = 1.0\nomega = 177.7", "alpha = 0.0");
+    std::fs::write(&p, text).unwrap();
+    let o = run(&p, &dir.path().join("stag"));
+    assert_eq!(o.status.code(), Some(3));
+    let summary = std::fs::read_to_string(dir.path().join("stag/summary.txt")).unwrap();
+    assert!(summary.contains("no progress in 1 checks"), "{summary}");
+}
+
+/// A reference CSV with `nan` is an error of `raisov check` (exit 2) naming file and line.
+#[test]
+fn nan_in_reference_csv_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("ref.csv");
+    let mut text = String::from("node,x,y,z,ux,uy,uz,T00,T01,T02,T10,T11,T12,T20,T21,T22\n");
+    text.push_str("0,0,0,0,0,0,0,1,0,0,0,1,0,0,0,1\n");
+    text.push_str("1,0,0,0,0,0,0,NaN,0,0,0,1,0,0,0,1\n");
+    std::fs::write(&csv, text).unwrap();
+    let p = scenario(dir.path(), "nan", "duration = 0.01", "reference = \"ref.csv\"");
+    let o = raisov().arg("check").arg(&p).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("ref.csv, line 3") && err.contains("finite"), "{err}");
+    // The same for `inf` in the scenario itself.
+    let bad = dir.path().join("inf.toml");
+    let text = std::fs::read_to_string(&p)
+        .unwrap()
+        .replace("c2 = 1000.0", "c2 = inf");
+    std::fs::write(&bad, text).unwrap();
+    let o = raisov().arg("check").arg(&bad).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("finite"));
+}
+
+/// `raisov --help` documents the exit codes.
+#[test]
+fn help_lists_exit_codes() {
+    let o = raisov().arg("--help").output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    for want in ["Exit status", "130", "not converged", "bad input", "diverged"] {
+        assert!(text.contains(want), "{want}: {text}");
+    }
+}

@@ -369,14 +369,23 @@ fn cmd_run(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
             .expect("valid template"),
     );
-    eprintln!(
-        "running {} ({} nodes, {} elements, {}, dt = {:.3e} s)",
-        sc.name,
-        sc.mesh.num_nodes(),
-        sc.mesh.num_elements(),
-        sc.method.name(),
-        sc.dt
-    );
+    if sc.statics.is_some() {
+        eprintln!(
+            "solving {} for static equilibrium ({} nodes, {} elements, newton)",
+            sc.name,
+            sc.mesh.num_nodes(),
+            sc.mesh.num_elements()
+        );
+    } else {
+        eprintln!(
+            "running {} ({} nodes, {} elements, {}, dt = {:.3e} s)",
+            sc.name,
+            sc.mesh.num_nodes(),
+            sc.mesh.num_elements(),
+            sc.method.name(),
+            sc.dt
+        );
+    }
     let mut progress = |f: f64, s: &raisov::metrics::Sample| {
         bar.set_position((f * 1000.0) as u64);
         bar.set_message(format!(
@@ -384,6 +393,20 @@ fn cmd_run(
             s.time, s.kinetic, s.residual
         ));
     };
+    if sc.statics.is_some() {
+        let opts = RunOptions {
+            out_dir: out,
+            ..Default::default()
+        };
+        let s = raisov::scenario::run_static(&sc, opts)
+            .with_context(|| format!("static solve of {} stopped", sc.name))?;
+        println!("{s}");
+        if !s.converged() {
+            eprintln!("raisov: {}: the static solve did not converge", sc.name);
+            return Ok(EXIT_NOT_CONVERGED);
+        }
+        return Ok(0);
+    }
     let mut stepper = sc.stepper().map_err(BadInput)?;
     eprint!("{}", stepper.report());
     let opts = RunOptions {

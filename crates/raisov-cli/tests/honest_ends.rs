@@ -138,7 +138,10 @@ fn interrupt_with(signal: &str) {
     let short = scenario(dir.path(), "long", "duration = 0.002", "");
     let o = run(&short, &out);
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_eq!(std::fs::read_dir(out.join("frames")).unwrap().count(), 2);
+    let frames = std::fs::read_dir(out.join("frames")).unwrap().count();
+    let pvd = std::fs::read_to_string(out.join("long.pvd")).unwrap();
+    assert_eq!(frames, pvd.matches("<DataSet ").count(), "{pvd}");
+    assert!(frames < frames_before, "{frames} of {frames_before}");
 }
 
 #[test]
@@ -212,4 +215,38 @@ fn help_lists_exit_codes() {
     for want in ["Exit status", "130", "not converged", "bad input", "diverged"] {
         assert!(text.contains(want), "{want}: {text}");
     }
+}
+
+/// SIGKILL cannot be caught: the directory still holds the rows up to the last flushed
+/// frame, a complete PVD, and the kernel has dropped the lock, so a rerun may write there.
+#[test]
+fn sigkill_leaves_rows_up_to_the_last_frame_and_no_lock() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scenario(dir.path(), "killed", "duration = 1000.0", "");
+    let out = dir.path().join("out");
+    let mut child = raisov()
+        .args(["run", "--quiet", "--out"])
+        .arg(&out)
+        .arg(&p)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while csv_rows(&out) < 20 {
+        assert!(start.elapsed() < Duration::from_secs(60), "no rows after 60 s");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child.kill().unwrap();
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), None, "killed by a signal");
+    let csv = std::fs::read_to_string(out.join("measures.csv")).unwrap();
+    assert!(csv.ends_with('\n'), "rows end whole at a flush");
+    let rows = csv.lines().count() - 1;
+    assert!(rows >= 20, "{rows}");
+    let pvd = std::fs::read_to_string(out.join("killed.pvd")).unwrap();
+    assert!(pvd.trim_end().ends_with("</VTKFile>"), "{pvd}");
+    let short = scenario(dir.path(), "killed", "duration = 0.002", "");
+    let o = run(&short, &out);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
 }

@@ -212,6 +212,9 @@ pub fn write_csv(path: &Path, rows: &[Sample]) -> Result<()> {
 pub struct CsvStream {
     path: PathBuf,
     w: BufWriter<File>,
+    /// The row being formatted: handed to the buffer whole, so that the file only ever
+    /// ends at a row boundary.
+    line: Vec<u8>,
     rows: u64,
 }
 
@@ -221,7 +224,8 @@ impl CsvStream {
         let f = File::create(path).map_err(|e| Error::io(path, e))?;
         let mut s = CsvStream {
             path: path.to_path_buf(),
-            w: BufWriter::new(f),
+            w: BufWriter::with_capacity(1 << 16, f),
+            line: Vec::with_capacity(512),
             rows: 0,
         };
         writeln!(s.w, "{CSV_HEADER}").map_err(|e| Error::io(path, e))?;
@@ -230,8 +234,10 @@ impl CsvStream {
     }
     /// Append one row.
     pub fn push(&mut self, r: &Sample) -> Result<()> {
-        csv_row(&mut self.w, r)
-            .and_then(|_| writeln!(self.w))
+        self.line.clear();
+        csv_row(&mut self.line, r)
+            .and_then(|_| writeln!(self.line))
+            .and_then(|_| self.w.write_all(&self.line))
             .map_err(|e| Error::io(&self.path, e))?;
         self.rows += 1;
         Ok(())

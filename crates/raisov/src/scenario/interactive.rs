@@ -544,9 +544,9 @@ impl FrameRows {
                 String::new()
             }
         };
-        writeln!(
-            self.w,
-            "{},{:.6},{},{:.6e},{:.9e},{:.9e},{},{},{},{}",
+        // One write per row: the file only ever ends at a row boundary.
+        let line = format!(
+            "{},{:.6},{},{:.6e},{:.9e},{:.9e},{},{},{},{}\n",
             r.frame,
             r.time,
             r.steps,
@@ -557,8 +557,10 @@ impl FrameRows {
             opt(r.lag_rms),
             opt(r.static_max_u),
             opt(r.lag_rel())
-        )
-        .map_err(|e| Error::io(&self.path, e))
+        );
+        self.w
+            .write_all(line.as_bytes())
+            .map_err(|e| Error::io(&self.path, e))
     }
     fn flush(&mut self) -> Result<()> {
         self.w.flush().map_err(|e| Error::io(&self.path, e))

@@ -50,7 +50,7 @@ use crate::mesh::generate::{
 };
 use crate::mesh::{dot, norm, sub, ElementKind, Mesh};
 pub use levels::{LevelConstraints, LevelMeshes, Multigrid, MultigridScheme};
-pub use run::{run, run_with, RunOptions, RunSummary, StopReason};
+pub use run::{run, run_static, run_with, RunOptions, RunSummary, StaticSummary, StopReason};
 pub use spec::ScenarioSpec;
 use spec::{defaults, Generator, Law, MotionMode, Named, Stop};
 use std::path::{Path, PathBuf};
@@ -218,6 +218,21 @@ pub struct Scenario {
     /// `[mesh] surface`: the surface the levels were generated from, written with every
     /// frame ([`surface`]); `None` for other meshes.
     pub surface: Option<surface::VisualSurface>,
+    /// `[integrator] method = "newton"`: solve for static equilibrium instead of integrating
+    /// ([`run::run_static`]); `None` for a dynamic run.
+    pub statics: Option<StaticSolve>,
+}
+
+/// The settings of a static solve (`method = "newton"`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StaticSolve {
+    /// Stop when `‖V − R(u)‖ ≤ rel_tol · max(‖V − R(0)‖, ‖V‖)` (`[run] residual_tol`,
+    /// default 1e-7).
+    pub rel_tol: f64,
+    /// Newton steps at most per increment (`[integrator] max_newton`, default 50).
+    pub max_newton: usize,
+    /// Load increments (`[integrator] increments`, default 10).
+    pub increments: usize,
 }
 
 fn err(path: &Path, msg: impl Into<String>) -> Error {
@@ -446,7 +461,55 @@ impl Scenario {
             }
             prescribed.push((node, motion));
         }
-        let method = spec.integrator.method.unwrap_or(defaults::METHOD);
+        let (method, newton) = match spec.integrator.method {
+            Some(spec::Solve::Dynamic(m)) => (m, false),
+            Some(spec::Solve::Newton) => (defaults::METHOD, true),
+            None => (defaults::METHOD, false),
+        };
+        for (k, set) in [
+            ("max_newton", spec.integrator.max_newton.is_some()),
+            ("increments", spec.integrator.increments.is_some()),
+        ] {
+            if set && !newton {
+                return Err(err(
+                    path,
+                    format!("`integrator.{k}` applies to method = \"newton\""),
+                ));
+            }
+        }
+        let statics = if newton {
+            for (k, set) in [
+                ("[multigrid]", spec.multigrid.is_some()),
+                ("[interactive]", spec.interactive.is_some()),
+            ] {
+                if set {
+                    return Err(err(
+                        path,
+                        format!("`{k}` does not apply to method = \"newton\" (a static solve)"),
+                    ));
+                }
+            }
+            let rel_tol = positive(
+                path,
+                "run.residual_tol",
+                spec.run.residual_tol.unwrap_or(defaults::NEWTON_TOL),
+            )?;
+            let max_newton = spec.integrator.max_newton.unwrap_or(defaults::MAX_NEWTON);
+            if max_newton == 0 {
+                return Err(err(path, "`integrator.max_newton` = 0: must be at least 1"));
+            }
+            let increments = spec.integrator.increments.unwrap_or(defaults::INCREMENTS);
+            if increments == 0 {
+                return Err(err(path, "`integrator.increments` = 0: must be at least 1"));
+            }
+            Some(StaticSolve {
+                rel_tol,
+                max_newton,
+                increments,
+            })
+        } else {
+            None
+        };
         let precision = spec.integrator.precision.unwrap_or_default();
         if precision != Precision::F64
             && !(mesh.kind == ElementKind::Tet4 && matches!(material, Material::NeoHookean(_)))
@@ -468,10 +531,11 @@ impl Scenario {
         };
         // FAS relaxes rather than integrates: its level-0 step is a smoother's, not bound
         // by the explicit stability limit in the same way.
-        let explicit_limit = spec
-            .multigrid
-            .as_ref()
-            .is_none_or(|m| m.scheme == Some(spec::Scheme::RaisovPaper));
+        let explicit_limit = !newton
+            && spec
+                .multigrid
+                .as_ref()
+                .is_none_or(|m| m.scheme == Some(spec::Scheme::RaisovPaper));
         if explicit_limit && dt > TOO_LARGE_STEP * dt_crit {
             warnings.push(format!(
                 "integrator.dt = {dt:.3e} s is {:.1} times the estimated critical step \
@@ -488,6 +552,8 @@ impl Scenario {
             .map(|d| positive(path, "run.duration", d))
             .transpose()?;
         let stop = match spec.run.stop.unwrap_or_default() {
+            // A static solve has no time: the motions are taken at their end.
+            _ if newton => StopRule::Duration(duration.unwrap_or(0.0)),
             Stop::Duration => {
                 for (k, set) in [
                     ("kinetic_tol", spec.run.kinetic_tol.is_some()),
@@ -555,7 +621,7 @@ impl Scenario {
                 "`output.csv_every` = 0: must be at least 1 (steps)",
             ));
         }
-        if spec.interactive.is_none() {
+        if spec.interactive.is_none() && !newton {
             let t_end = match stop {
                 StopRule::Duration(d) => d,
                 StopRule::Steady { max, .. } => max,
@@ -619,6 +685,7 @@ impl Scenario {
             multigrid,
             interactive,
             surface: surface_levels.map(|sl| sl.visual),
+            statics,
         };
         // A reference file is read (and its numbers checked) now, not when the run needs it.
         if let Reference::File(p) = &sc.reference {

@@ -611,3 +611,225 @@ pub fn run_with(
     write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;
     Ok(summary)
 }
+
+/// What a static solve (`method = "newton"`) reports.
+#[derive(Clone, Debug)]
+pub struct StaticSummary {
+    pub name: String,
+    pub nodes: usize,
+    pub elements: usize,
+    /// The solver's own report: residuals, Newton steps, force evaluations, convergence.
+    pub report: crate::integrate::statics::Static,
+    /// The relative residual asked for (of each increment's solve).
+    pub rel_tol: f64,
+    /// Load increments.
+    pub increments: usize,
+    /// The element that inverted, where the solve stopped on one.
+    pub inverted: Option<(usize, f64)>,
+    pub wall: f64,
+    /// The state solved for: reactions and `max |u|` ([`crate::metrics::Sample`]).
+    pub last: Sample,
+    pub applied: [f64; 3],
+    pub out_dir: PathBuf,
+}
+
+impl StaticSummary {
+    /// Whether the residual reached the tolerance.
+    pub fn converged(&self) -> bool {
+        self.inverted.is_none() && self.report.converged
+    }
+}
+
+impl std::fmt::Display for StaticSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let r = &self.report;
+        writeln!(f, "scenario        {} (static)", self.name)?;
+        writeln!(
+            f,
+            "mesh            {} nodes, {} elements",
+            self.nodes, self.elements
+        )?;
+        writeln!(
+            f,
+            "solve           Newton-Krylov, matrix-free (finite-difference tangent, CG), \
+             {} load increments",
+            self.increments
+        )?;
+        let rel = r.residual / r.initial_residual.max(f64::MIN_POSITIVE);
+        match self.inverted {
+            Some((e, det)) => writeln!(
+                f,
+                "stopped         did not converge: element {e} would invert (det F = {det:.3e})"
+            )?,
+            None if r.converged => writeln!(
+                f,
+                "stopped         converged: relative residual {rel:.3e} <= {:.1e}",
+                self.rel_tol
+            )?,
+            None => writeln!(
+                f,
+                "stopped         did not converge: relative residual {rel:.3e} > {:.1e} (stalled \
+                 or `integrator.max_newton` reached)",
+                self.rel_tol
+            )?,
+        }
+        writeln!(f, "newton steps    {}", r.newton_steps)?;
+        writeln!(
+            f,
+            "residual        {:.4e} N (start {:.4e} N)",
+            r.residual, r.initial_residual
+        )?;
+        writeln!(f, "force evals     {}", r.force_evaluations)?;
+        writeln!(f, "wall time       {:.3} s", self.wall)?;
+        writeln!(f, "max |u|         {:.4e} m", self.last.max_u)?;
+        let v = |x: [f64; 3]| format!("[{:.4e}, {:.4e}, {:.4e}] N", x[0], x[1], x[2]);
+        writeln!(f, "reactions       fixed {}", v(self.last.reaction_fixed))?;
+        writeln!(
+            f,
+            "                prescribed {}",
+            v(self.last.reaction_prescribed)
+        )?;
+        writeln!(f, "applied loads   {} (loads and body force)", v(self.applied))?;
+        write!(f, "output          {}", self.out_dir.display())
+    }
+}
+
+/// Solve a scenario with `method = "newton"` for static equilibrium `R(u) = V`, the
+/// prescribed motions at their end ([`Scenario::motion_end`]), from the undeformed state in
+/// `increments` steps of the loads and prescribed displacements (`k / increments` of them,
+/// `k = 1..increments`), each solved to the relative residual and warm-started from the last.
+/// Writes what [`run_with`] writes: `measures.csv` (the start and the solution), two frames,
+/// `nodal_stress.csv` and `summary.txt` with the solver's convergence report.
+pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
+    use crate::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
+    let Some(settings) = sc.statics else {
+        return Err(Error::Scenario {
+            path: sc.path.clone(),
+            line: None,
+            msg: "not a static solve: `[integrator] method` is not \"newton\"".into(),
+        });
+    };
+    let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
+    let _lock = OutputLock::acquire(&out)?;
+    let n = sc.mesh.num_nodes();
+    let mut stepper = crate::integrate::SingleLevel::new(
+        sc.build_system()?,
+        sc.method,
+        crate::integrate::StepperParams {
+            dt: sc.dt,
+            kinetic_limit: f64::INFINITY,
+        },
+    );
+    let mut meter = Meter::new(n, None);
+    let mut frames = Frames::new(sc, &out)?;
+    let csv = out.join("measures.csv");
+    let mut rows = CsvStream::create(&csv)?;
+    let start = Instant::now();
+    let first = meter.sample(&mut stepper.sys, &stepper.state, 0);
+    rows.push(&first)?;
+    frames.write(sc, &mut stepper)?;
+    rows.flush()?;
+    let t = sc.motion_end();
+    let (report, inverted) = {
+        let (sys, s) = (&mut stepper.sys, &mut stepper.state);
+        let diag = fictitious_mass(&sc.mesh, &sys.mass, 1.0);
+        let mut newton = NewtonSolver::with_diagonal(sys, &diag);
+        s.t = t;
+        let p = NewtonParams {
+            rel_tol: settings.rel_tol,
+            max_newton: settings.max_newton,
+            length: 1e-3 * crate::mesh::norm({
+                let (lo, hi) = sc.mesh.bounding_box();
+                crate::mesh::sub(hi, lo)
+            }),
+            ..Default::default()
+        };
+        // Increments: loads and prescribed displacements scaled by k / increments, each
+        // solve warm-started from the last.
+        let f0 = sys.f_ext.clone();
+        let g: Vec<[f64; 3]> = sys
+            .constraints
+            .prescribed
+            .iter()
+            .map(|(_, m)| m.displacement(t))
+            .collect();
+        let mut u = s.u.clone();
+        let mut total = crate::integrate::statics::Static {
+            residual: first.residual,
+            initial_residual: first.residual,
+            newton_steps: 0,
+            force_evaluations: 0,
+            converged: false,
+        };
+        let mut inverted = None;
+        let m = settings.increments;
+        for k in 1..=m {
+            let f = k as f64 / m as f64;
+            for (x, x0) in sys.f_ext.iter_mut().zip(&f0) {
+                *x = f * x0;
+            }
+            let held: Vec<[f64; 3]> = g.iter().map(|d| d.map(|x| f * x)).collect();
+            crate::integrate::hold(&mut sys.constraints, &held);
+            match newton.solve(sys, t, &mut u, p) {
+                Ok(r) => {
+                    total.residual = r.residual;
+                    total.newton_steps += r.newton_steps;
+                    total.force_evaluations += r.force_evaluations;
+                    total.converged = r.converged;
+                    if k == 1 {
+                        total.initial_residual = r.initial_residual;
+                    }
+                }
+                Err(e) => {
+                    inverted = Some((e.element, e.det_f));
+                    total.converged = false;
+                    break;
+                }
+            }
+        }
+        s.u.copy_from_slice(&u);
+        s.v.iter_mut().for_each(|x| *x = 0.0);
+        if inverted.is_some() {
+            total.residual = sys.residual(&s.u, &mut vec![0.0; 3 * n]).unwrap_or(f64::NAN);
+        }
+        (total, inverted)
+    };
+    let wall = start.elapsed().as_secs_f64();
+    let mut last = meter.sample(
+        &mut stepper.sys,
+        &stepper.state,
+        report.newton_steps as u64,
+    );
+    last.force_evals = report.force_evaluations as f64;
+    last.wall = wall;
+    rows.push(&last)?;
+    frames.write(sc, &mut stepper)?;
+    rows.flush()?;
+    let applied = {
+        let (sys, s) = stepper.finest();
+        let mut tn = vec![0.0; 9 * n];
+        sys.force.nodal_stress(&s.u, &mut tn);
+        write_nodal_stress(&out.join("nodal_stress.csv"), sc, &s.u, &tn)?;
+        let mut v = [0.0; 3];
+        for (i, f) in sys.f_ext.iter().enumerate() {
+            v[i % 3] += f;
+        }
+        v
+    };
+    let summary = StaticSummary {
+        name: sc.name.clone(),
+        nodes: n,
+        elements: sc.mesh.num_elements(),
+        report,
+        rel_tol: settings.rel_tol,
+        increments: settings.increments,
+        inverted,
+        wall,
+        last,
+        applied,
+        out_dir: out.clone(),
+    };
+    let text = summary.to_string();
+    write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;
+    Ok(summary)
+}

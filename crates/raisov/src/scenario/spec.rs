@@ -83,7 +83,16 @@
 //!
 //! [integrator]
 //! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" |
-//!                                 # "central-difference"; default "symplectic-euler"
+//!                                 # "central-difference" | "newton"; default
+//!                                 # "symplectic-euler". "newton": no dynamics, the static
+//!                                 # equilibrium R(u) = V with the motions at their end, by
+//!                                 # Newton-Krylov (crate::integrate::statics), to a relative
+//!                                 # residual `[run] residual_tol` (default 1e-7); `dt` and
+//!                                 # the other [run] keys are not used; not with [multigrid]
+//!                                 # or [interactive]. Exit status 3 if it does not converge
+//! max_newton = 50                 # newton: Newton steps at most per increment, default 50
+//! increments = 10                 # newton: loads and prescribed displacements applied in
+//!                                 # this many equal increments, default 10
 //! dt = 1e-4                       # s; default: safety × estimated critical step
 //!                                 # (crate::integrate::stability)
 //! safety = 0.5                    # fraction of the estimated critical step, default 0.5
@@ -202,6 +211,12 @@ pub mod defaults {
     pub const ALPHA: f64 = 0.0;
     /// `gravity` (m/s²): none.
     pub const GRAVITY: [f64; 3] = [0.0; 3];
+    /// `[integrator] increments` of `method = "newton"`.
+    pub const INCREMENTS: usize = 10;
+    /// `[integrator] max_newton` of `method = "newton"`.
+    pub const MAX_NEWTON: usize = 50;
+    /// The relative residual of `method = "newton"` (`[run] residual_tol` sets it).
+    pub const NEWTON_TOL: f64 = 1e-7;
     /// `[integrator] method`.
     pub const METHOD: Method = Method::SymplecticEuler;
     /// `[integrator] safety`: the fraction of the estimated critical step taken where no
@@ -417,6 +432,31 @@ named_enum! {
     }
 }
 
+/// `[integrator] method`: an explicit integrator, or the static Newton solve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Solve {
+    /// Explicit dynamics with this integrator.
+    Dynamic(Method),
+    /// Static equilibrium `R(u) = V` by Newton-Krylov ([`crate::integrate::statics`]).
+    Newton,
+}
+
+impl Named for Solve {
+    const ALL: &'static [Self] = &[
+        Solve::Dynamic(Method::ForwardEuler),
+        Solve::Dynamic(Method::SymplecticEuler),
+        Solve::Dynamic(Method::Rk4),
+        Solve::Dynamic(Method::CentralDifference),
+        Solve::Newton,
+    ];
+    fn name(self) -> &'static str {
+        match self {
+            Solve::Dynamic(m) => m.name(),
+            Solve::Newton => "newton",
+        }
+    }
+}
+
 impl Named for Method {
     const ALL: &'static [Self] = &Method::ALL;
     fn name(self) -> &'static str {
@@ -474,6 +514,7 @@ impl Named for VtuFormat {
 }
 
 deserialize_named!(
+    Solve,
     Method,
     Precision,
     Reading,
@@ -694,8 +735,10 @@ pub struct DisplaceSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {
-    pub method: Option<Method>,
+    pub method: Option<Solve>,
     pub dt: Option<f64>,
+    pub max_newton: Option<usize>,
+    pub increments: Option<usize>,
     pub safety: Option<f64>,
     pub precision: Option<Precision>,
 }

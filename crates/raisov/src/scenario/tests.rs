@@ -966,3 +966,63 @@ fn absurd_settings_warn() {
     assert!(s.contains("millimetres read as metres"), "{s}");
     assert_eq!(w(BASE), "");
 }
+
+/// `method = "newton"` solves the static problem the dynamic run settles to: a membrane
+/// whose centre is lifted 1 cm, against FAS run to steady state. The lifted node's reaction
+/// agrees to 1e-5 relative, the displacements to 1e-7 m, and the reactions balance.
+#[test]
+fn newton_static_solve_matches_the_steady_dynamic_run() {
+    let lift = "[[displace]]\npoint = [0.0, 0.0, 0.0]\ndisplacement = [0.0, 0.0, 0.01]\n";
+    let dynamic = format!(
+        "{}{lift}[damping]\nratio = 1.0\nomega = 177.7\n[multigrid]\nlevels = 3\n",
+        BASE.replace(
+            "duration = 0.01",
+            "stop = \"steady\"\nduration = 2.0\nkinetic_tol = 1e-16\nresidual_tol = 1e-10"
+        )
+    );
+    let statics = format!(
+        "{}{lift}[integrator]\nmethod = \"newton\"\n",
+        BASE.replace("duration = 0.01", "residual_tol = 1e-9")
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let opts = |sub: &str| RunOptions {
+        out_dir: Some(dir.path().join(sub)),
+        ..Default::default()
+    };
+    let d = run(&parse(&dynamic).unwrap(), opts("d")).unwrap();
+    assert_eq!(d.reason, StopReason::Steady, "{d}");
+    let sc = parse(&statics).unwrap();
+    let s = super::run::run_static(&sc, opts("s")).unwrap();
+    assert!(s.converged(), "{s}");
+    let text = s.to_string();
+    assert!(text.contains("converged") && text.contains("newton steps"), "{text}");
+    let (rd, rs) = (d.last.reaction_prescribed, s.last.reaction_prescribed);
+    assert!(rs[2] > 0.0, "the membrane pulls the lifted node down: {rs:?}");
+    for k in 0..3 {
+        assert!((rd[k] - rs[k]).abs() <= 1e-5 * rs[2], "{rd:?} vs {rs:?}");
+        let gap = s.last.reaction_fixed[k] + rs[k] + s.applied[k];
+        assert!(gap.abs() <= 1e-6 * rs[2], "balance {k}: {gap:e}");
+    }
+    let read = |sub: &str| -> Vec<f64> {
+        std::fs::read_to_string(dir.path().join(sub).join("nodal_stress.csv"))
+            .unwrap()
+            .lines()
+            .skip(1)
+            .flat_map(|l| {
+                l.split(',')
+                    .skip(4)
+                    .take(3)
+                    .map(|x| x.parse::<f64>().unwrap())
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    };
+    for (a, b) in read("d").iter().zip(read("s")) {
+        assert!((a - b).abs() <= 1e-7, "{a} vs {b}");
+    }
+    // A static solve is told apart from a dynamic one's settings.
+    let e = error_of(&format!("{statics}[multigrid]\nlevels = 2\n"));
+    assert!(e.contains("does not apply to method = \"newton\""), "{e}");
+    let e = error_of(&format!("{BASE}[integrator]\nincrements = 3\n"));
+    assert!(e.contains("applies to method = \"newton\""), "{e}");
+}

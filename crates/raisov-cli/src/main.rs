@@ -226,10 +226,7 @@ fn exit_code_of(e: &anyhow::Error) -> i32 {
 fn stop_flag() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>> {
     let flag = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     #[cfg(unix)]
-    for sig in [
-        signal_hook::consts::SIGINT,
-        signal_hook::consts::SIGTERM,
-    ] {
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register_conditional_shutdown(sig, EXIT_INTERRUPTED, flag.clone())
             .context("installing the signal handler")?;
         signal_hook::flag::register(sig, flag.clone()).context("installing the signal handler")?;
@@ -436,7 +433,10 @@ fn cmd_run(
     println!("{summary}");
     match code {
         EXIT_NOT_CONVERGED => eprintln!("raisov: {}: did not reach steady state", sc.name),
-        EXIT_INTERRUPTED => eprintln!("raisov: {}: interrupted; what was measured is written", sc.name),
+        EXIT_INTERRUPTED => eprintln!(
+            "raisov: {}: interrupted; what was measured is written",
+            sc.name
+        ),
         _ => {}
     }
     Ok(code)

@@ -95,7 +95,10 @@ fn interrupt_with(signal: &str) {
         .unwrap();
     let start = Instant::now();
     while csv_rows(&out) < 20 {
-        assert!(start.elapsed() < Duration::from_secs(60), "no rows after 60 s");
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "no rows after 60 s"
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
     // The lock: a second run on the same directory stops at once, naming it.
@@ -137,7 +140,12 @@ fn interrupt_with(signal: &str) {
     assert!(frames_before > 2);
     let short = scenario(dir.path(), "long", "duration = 0.002", "");
     let o = run(&short, &out);
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let frames = std::fs::read_dir(out.join("frames")).unwrap().count();
     let pvd = std::fs::read_to_string(out.join("long.pvd")).unwrap();
     assert_eq!(frames, pvd.matches("<DataSet ").count(), "{pvd}");
@@ -164,7 +172,10 @@ fn not_steady_exits_with_3() {
     assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(err.contains("did not reach steady state"), "{err}");
     let summary = std::fs::read_to_string(dir.path().join("cap/summary.txt")).unwrap();
-    assert!(summary.contains("did not reach steady state: hit the time cap"), "{summary}");
+    assert!(
+        summary.contains("did not reach steady state: hit the time cap"),
+        "{summary}"
+    );
     // An undamped membrane never settles: one check without progress ends it.
     let p = scenario(
         dir.path(),
@@ -191,11 +202,19 @@ fn nan_in_reference_csv_is_bad_input() {
     text.push_str("0,0,0,0,0,0,0,1,0,0,0,1,0,0,0,1\n");
     text.push_str("1,0,0,0,0,0,0,NaN,0,0,0,1,0,0,0,1\n");
     std::fs::write(&csv, text).unwrap();
-    let p = scenario(dir.path(), "nan", "duration = 0.01", "reference = \"ref.csv\"");
+    let p = scenario(
+        dir.path(),
+        "nan",
+        "duration = 0.01",
+        "reference = \"ref.csv\"",
+    );
     let o = raisov().arg("check").arg(&p).output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("ref.csv, line 3") && err.contains("finite"), "{err}");
+    assert!(
+        err.contains("ref.csv, line 3") && err.contains("finite"),
+        "{err}"
+    );
     // The same for `inf` in the scenario itself.
     let bad = dir.path().join("inf.toml");
     let text = std::fs::read_to_string(&p)
@@ -212,7 +231,13 @@ fn nan_in_reference_csv_is_bad_input() {
 fn help_lists_exit_codes() {
     let o = raisov().arg("--help").output().unwrap();
     let text = String::from_utf8_lossy(&o.stdout);
-    for want in ["Exit status", "130", "not converged", "bad input", "diverged"] {
+    for want in [
+        "Exit status",
+        "130",
+        "not converged",
+        "bad input",
+        "diverged",
+    ] {
         assert!(text.contains(want), "{want}: {text}");
     }
 }
@@ -234,7 +259,10 @@ fn sigkill_leaves_rows_up_to_the_last_frame_and_no_lock() {
         .unwrap();
     let start = Instant::now();
     while csv_rows(&out) < 20 {
-        assert!(start.elapsed() < Duration::from_secs(60), "no rows after 60 s");
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "no rows after 60 s"
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
     child.kill().unwrap();
@@ -248,5 +276,10 @@ fn sigkill_leaves_rows_up_to_the_last_frame_and_no_lock() {
     assert!(pvd.trim_end().ends_with("</VTKFile>"), "{pvd}");
     let short = scenario(dir.path(), "killed", "duration = 0.002", "");
     let o = run(&short, &out);
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }

@@ -237,7 +237,13 @@ mod tests {
     #[test]
     fn sliding_projects_exactly_and_three_directions_fix() {
         let c = Constraints::new(vec![], vec![])
-            .with_sliding(&[(0, [0.0, 0.0, 2.0]), (1, [1.0, 1.0, 0.0]), (2, [1.0, 0.0, 0.0]), (2, [0.0, 1.0, 0.0]), (2, [0.0, 0.0, 1.0])])
+            .with_sliding(&[
+                (0, [0.0, 0.0, 2.0]),
+                (1, [1.0, 1.0, 0.0]),
+                (2, [1.0, 0.0, 0.0]),
+                (2, [0.0, 1.0, 0.0]),
+                (2, [0.0, 0.0, 1.0]),
+            ])
             .with_nodes(3);
         assert_eq!(c.fixed, vec![2]);
         let mut u = vec![0.1, -0.3, 0.7, 1.0, 3.0, 5.0, 1.0, 1.0, 1.0];

@@ -395,7 +395,10 @@ mod tests {
         let out = dir.path().join("run");
         let a = OutputLock::acquire(&out).unwrap();
         let e = OutputLock::acquire(&out).unwrap_err().to_string();
-        assert!(e.contains("another run") && e.contains(OutputLock::FILE), "{e}");
+        assert!(
+            e.contains("another run") && e.contains(OutputLock::FILE),
+            "{e}"
+        );
         assert!(e.contains(&out.display().to_string()), "{e}");
         drop(a);
         OutputLock::acquire(&out).unwrap();

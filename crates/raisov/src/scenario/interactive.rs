@@ -245,7 +245,10 @@ impl std::fmt::Display for InteractiveSummary {
                 100.0 * s.lag_tol
             )
         };
-        writeln!(f, "frame rate      {fps:.1} fps of stepper wall time ({verdict})")?;
+        writeln!(
+            f,
+            "frame rate      {fps:.1} fps of stepper wall time ({verdict})"
+        )?;
         if s.reference {
             if self.reference_failures > 0 {
                 writeln!(
@@ -451,11 +454,7 @@ pub fn run_interactive(
             max_u,
             lag_max,
             lag_rms,
-            static_max_u: if reference_ok {
-                static_max_u
-            } else {
-                f64::NAN
-            },
+            static_max_u: if reference_ok { static_max_u } else { f64::NAN },
         };
         rows.push(&row)?;
         summary.add(&row);
@@ -656,7 +655,10 @@ fps = 30.0
         assert_eq!(rows.len(), s.frames);
         let last = rows.last().unwrap();
         let lag = s.last.unwrap().lag_max;
-        assert!((lag - last.lag_max).abs() <= 1e-9 * lag, "{lag} vs {last:?}");
+        assert!(
+            (lag - last.lag_max).abs() <= 1e-9 * lag,
+            "{lag} vs {last:?}"
+        );
         // The summary's verdict agrees with its bound.
         let text = s.to_string();
         assert_eq!(

@@ -439,8 +439,11 @@ impl Scenario {
                 s => s.clone(),
             }
         };
-        let fix: Vec<(Selector, super::Fixing)> =
-            self.fix.iter().map(|(s, f)| (carry(s), f.clone())).collect();
+        let fix: Vec<(Selector, super::Fixing)> = self
+            .fix
+            .iter()
+            .map(|(s, f)| (carry(s), f.clone()))
+            .collect();
         let (fixed, sliding) =
             super::select_fixed(mesh, &fix, &self.path, &format!("level {level}: "))?;
         let mut loads = Vec::new();

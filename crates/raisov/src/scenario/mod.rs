@@ -186,8 +186,8 @@ pub struct Scenario {
     pub loads: Vec<(u32, [f64; 3])>,
     pub prescribed: Vec<(u32, Motion)>,
     /// `[mesh] renumber`: node `k` of [`Scenario::mesh`] is node `file_ids[k]` of the file
-    /// (in file order after unused nodes are dropped, the ids `nodes = [..]` selectors and
-    /// the outputs use); `None` where the mesh keeps the file's order.
+    /// (its position in file order after unused nodes are dropped; the id the file gives it
+    /// is [`Scenario::node_labels`]); `None` where the mesh keeps the file's order.
     pub file_ids: Option<Vec<u32>>,
     /// The id the mesh file gives each node, in file order (index as in
     /// [`Scenario::file_ids`]); `None` for generated meshes, whose ids are the 0-based
@@ -342,7 +342,7 @@ impl Scenario {
         let mut warnings = Vec::new();
         let (lo, hi) = mesh.bounding_box();
         let diag = norm(sub(hi, lo));
-        if diag > 20.0 || diag < 1e-3 {
+        if !(1e-3..=20.0).contains(&diag) {
             warnings.push(format!(
                 "the mesh spans {diag:.3e} m (bounding-box diagonal): {}; coordinates are \
                  multiplied by [mesh] scale = {} to get metres",
@@ -991,7 +991,12 @@ impl<'a> NodeIds<'a> {
     fn new(labels: Option<&'a [u64]>, n: usize, shape: &'a Shape) -> Self {
         NodeIds {
             labels,
-            index: labels.map(|l| l.iter().enumerate().map(|(k, &id)| (id, k as u32)).collect()),
+            index: labels.map(|l| {
+                l.iter()
+                    .enumerate()
+                    .map(|(k, &id)| (id, k as u32))
+                    .collect()
+            }),
             n,
             file: match shape {
                 Shape::File(p) => Some(p.as_path()),
@@ -1040,6 +1045,7 @@ impl<'a> NodeIds<'a> {
 
 /// The fixed nodes and the sliding directions `fix` selects on `mesh` (`level` names it in
 /// messages: empty for level 0).
+#[allow(clippy::type_complexity)]
 pub(crate) fn select_fixed(
     mesh: &Mesh,
     fix: &[(Selector, Fixing)],
@@ -1086,14 +1092,21 @@ fn resolve_fixing(r: &spec::RegionSpec, path: &Path, key: &str) -> Result<Fixing
                 let mut e = [0.0; 3];
                 e[k] = 1.0;
                 if dirs.contains(&e) {
-                    return Err(err(path, format!("`{key}.components`: \"{name}\" given twice")));
+                    return Err(err(
+                        path,
+                        format!("`{key}.components`: \"{name}\" given twice"),
+                    ));
                 }
                 dirs.push(e);
             }
             if dirs.is_empty() {
                 return Err(err(path, format!("`{key}.components` is empty: list \"x\", \"y\" and/or \"z\", or leave it out to fix all three")));
             }
-            Ok(if dirs.len() == 3 { Fixing::All } else { Fixing::Directions(dirs) })
+            Ok(if dirs.len() == 3 {
+                Fixing::All
+            } else {
+                Fixing::Directions(dirs)
+            })
         }
         (None, Some(n)) => {
             let l = norm(n);

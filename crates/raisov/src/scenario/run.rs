@@ -162,7 +162,11 @@ impl std::fmt::Display for RunSummary {
             "                prescribed {}",
             v(self.last.reaction_prescribed)
         )?;
-        writeln!(f, "applied loads   {} (loads and body force)", v(self.applied))?;
+        writeln!(
+            f,
+            "applied loads   {} (loads and body force)",
+            v(self.applied)
+        )?;
         if self.last.stress_err_max.is_finite() {
             writeln!(
                 f,
@@ -290,7 +294,10 @@ pub fn read_nodal_stress(path: &Path, sc: &Scenario) -> Result<Vec<f64>> {
             if !x.is_finite() {
                 return Err(bad(
                     i + 1,
-                    format!("column {} is `{field}`: numbers must be finite (not nan or inf)", col + 1),
+                    format!(
+                        "column {} is `{field}`: numbers must be finite (not nan or inf)",
+                        col + 1
+                    ),
                 ));
             }
             if col >= 7 {
@@ -689,7 +696,11 @@ impl std::fmt::Display for StaticSummary {
             "                prescribed {}",
             v(self.last.reaction_prescribed)
         )?;
-        writeln!(f, "applied loads   {} (loads and body force)", v(self.applied))?;
+        writeln!(
+            f,
+            "applied loads   {} (loads and body force)",
+            v(self.applied)
+        )?;
         write!(f, "output          {}", self.out_dir.display())
     }
 }
@@ -738,10 +749,11 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
         let p = NewtonParams {
             rel_tol: settings.rel_tol,
             max_newton: settings.max_newton,
-            length: 1e-3 * crate::mesh::norm({
-                let (lo, hi) = sc.mesh.bounding_box();
-                crate::mesh::sub(hi, lo)
-            }),
+            length: 1e-3
+                * crate::mesh::norm({
+                    let (lo, hi) = sc.mesh.bounding_box();
+                    crate::mesh::sub(hi, lo)
+                }),
             ..Default::default()
         };
         // Increments: loads and prescribed displacements scaled by k / increments, each
@@ -790,16 +802,14 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
         s.u.copy_from_slice(&u);
         s.v.iter_mut().for_each(|x| *x = 0.0);
         if inverted.is_some() {
-            total.residual = sys.residual(&s.u, &mut vec![0.0; 3 * n]).unwrap_or(f64::NAN);
+            total.residual = sys
+                .residual(&s.u, &mut vec![0.0; 3 * n])
+                .unwrap_or(f64::NAN);
         }
         (total, inverted)
     };
     let wall = start.elapsed().as_secs_f64();
-    let mut last = meter.sample(
-        &mut stepper.sys,
-        &stepper.state,
-        report.newton_steps as u64,
-    );
+    let mut last = meter.sample(&mut stepper.sys, &stepper.state, report.newton_steps as u64);
     last.force_evals = report.force_evaluations as f64;
     last.wall = wall;
     rows.push(&last)?;

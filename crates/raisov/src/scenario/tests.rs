@@ -418,7 +418,7 @@ fn node_selector_out_of_range_names_the_file_range() {
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains(&format!("fix[0].nodes: node 0 does not exist"))
+            e.contains("fix[0].nodes: node 0 does not exist")
                 && e.contains(&format!("b.msh run 1..={n}")),
             "{e}"
         );
@@ -834,7 +834,10 @@ fn fixed_components_stay_exactly_and_free_ones_move() {
         assert!(un.abs() <= 1e-15 * umax.max(1e-3), "node {a}: u·n = {un}");
     }
     for (extra, want) in [
-        ("components = [\"w\"]", "not a component (valid: \"x\", \"y\", \"z\")"),
+        (
+            "components = [\"w\"]",
+            "not a component (valid: \"x\", \"y\", \"z\")",
+        ),
         ("components = []", "is empty"),
         ("normal = [0.0, 0.0, 0.0]", "must be non-zero"),
         (
@@ -882,17 +885,28 @@ fn node_ids_are_the_files_own() {
     };
     let p = dir.path().join("cube.toml");
     let sc = Scenario::from_toml(&text("[1, 2, 3, 4]"), &p).unwrap();
-    let mut fixed: Vec<[f64; 3]> = sc.fixed.iter().map(|&a| sc.mesh.nodes[a as usize]).collect();
+    let mut fixed: Vec<[f64; 3]> = sc
+        .fixed
+        .iter()
+        .map(|&a| sc.mesh.nodes[a as usize])
+        .collect();
     fixed.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    assert!(fixed.iter().all(|x| x[2] == 0.0) && fixed.len() == 4, "{fixed:?}");
+    assert!(
+        fixed.iter().all(|x| x[2] == 0.0) && fixed.len() == 4,
+        "{fixed:?}"
+    );
     assert_eq!(sc.mesh.nodes[sc.loads[0].0 as usize], [0.01, 0.01, 0.01]);
     assert_eq!(sc.file_node(sc.loads[0].0), 7);
-    let e = Scenario::from_toml(&text("[0]"), &p).unwrap_err().to_string();
+    let e = Scenario::from_toml(&text("[0]"), &p)
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("fix[0].nodes: node 0 does not exist") && e.contains("cube.node run 1..=8"),
         "{e}"
     );
-    let e = Scenario::from_toml(&text("[9]"), &p).unwrap_err().to_string();
+    let e = Scenario::from_toml(&text("[9]"), &p)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("node 9 does not exist"), "{e}");
     let out = dir.path().join("out");
     run(
@@ -904,7 +918,11 @@ fn node_ids_are_the_files_own() {
     )
     .unwrap();
     let csv = std::fs::read_to_string(out.join("nodal_stress.csv")).unwrap();
-    let ids: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    let ids: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
     assert_eq!(ids, ["1", "2", "3", "4", "5", "6", "7", "8"]);
     // The file reads back as a reference of the same mesh.
     run::read_nodal_stress(&out.join("nodal_stress.csv"), &sc).unwrap();
@@ -940,7 +958,10 @@ fn reactions_balance_the_applied_loads() {
     let f = s.last.reaction_fixed;
     for k in 0..3 {
         let gap = f[k] + s.last.reaction_prescribed[k] + v[k];
-        assert!(gap.abs() <= 1e-6 * vn, "component {k}: {f:?} + {v:?} = {gap:e}");
+        assert!(
+            gap.abs() <= 1e-6 * vn,
+            "component {k}: {f:?} + {v:?} = {gap:e}"
+        );
     }
     // The summary and the last row of measures.csv say the same.
     assert!(s.to_string().contains("reactions       fixed"));
@@ -995,9 +1016,15 @@ fn newton_static_solve_matches_the_steady_dynamic_run() {
     let s = super::run::run_static(&sc, opts("s")).unwrap();
     assert!(s.converged(), "{s}");
     let text = s.to_string();
-    assert!(text.contains("converged") && text.contains("newton steps"), "{text}");
+    assert!(
+        text.contains("converged") && text.contains("newton steps"),
+        "{text}"
+    );
     let (rd, rs) = (d.last.reaction_prescribed, s.last.reaction_prescribed);
-    assert!(rs[2] > 0.0, "the membrane pulls the lifted node down: {rs:?}");
+    assert!(
+        rs[2] > 0.0,
+        "the membrane pulls the lifted node down: {rs:?}"
+    );
     for k in 0..3 {
         assert!((rd[k] - rs[k]).abs() <= 1e-5 * rs[2], "{rd:?} vs {rs:?}");
         let gap = s.last.reaction_fixed[k] + rs[k] + s.applied[k];

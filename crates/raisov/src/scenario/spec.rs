@@ -83,8 +83,8 @@
 //!
 //! [integrator]
 //! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" |
-//!                                 # "central-difference" | "newton"; default
-//!                                 # "symplectic-euler". "newton": no dynamics, the static
+//!                                 # "central-difference" | "newton";
+//!                                 # default "symplectic-euler". "newton": no dynamics, the static
 //!                                 # equilibrium R(u) = V with the motions at their end, by
 //!                                 # Newton-Krylov (crate::integrate::statics), to a relative
 //!                                 # residual `[run] residual_tol` (default 1e-7); `dt` and

@@ -691,6 +691,47 @@ fps = 30.0
         assert!(slim.last().unwrap().lag_rel() > 0.1);
     }
 
+    /// A reference solve that cannot reach its tolerance is reported with its frame; no lag
+    /// is quoted against it and the run does not claim to keep up. Without a reference it
+    /// does not claim to either.
+    #[test]
+    fn failed_reference_is_reported_not_measured_against() {
+        let run = |extra: &str| {
+            let sc = scenario("", &format!("cycles = 2\n{extra}"));
+            let dir = tempfile::tempdir().unwrap();
+            let mut st = sc.stepper().unwrap();
+            let s = run_interactive(
+                &sc,
+                st.as_mut(),
+                RunOptions {
+                    out_dir: Some(dir.path().to_path_buf()),
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            let rows = read_frames_csv(&dir.path().join("frames.csv")).unwrap();
+            (s, rows)
+        };
+        let (s, rows) = run("reference_tol = 1e-30");
+        assert_eq!(s.reference_failures, 6);
+        assert_eq!(s.lag_frames, 0);
+        assert!(rows.iter().all(|r| r.lag_max.is_nan()));
+        let text = s.to_string();
+        assert!(
+            text.contains("reference       FAILED in 6 of 6 frames; first: frame 1"),
+            "{text}"
+        );
+        assert!(text.contains("cannot tell whether it keeps up"), "{text}");
+        assert!(
+            !text.contains("keeps up with real time") && !text.contains("lag             mean")
+        );
+        assert!(!s.keeps_up());
+        let (s, _) = run("reference = \"none\"");
+        let text = s.to_string();
+        assert!(text.contains("lag not measured"), "{text}");
+        assert!(!s.keeps_up());
+    }
+
     #[test]
     fn bad_interactive_keys_are_named() {
         for (extra, want) in [

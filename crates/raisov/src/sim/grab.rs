@@ -109,7 +109,7 @@ impl Grab {
     /// anchored at its held displacement) into `out[0]`, and each coarser level's, one per
     /// carried coarse node with the summed stiffness `k_c = Σ k_a` and the stiffness-weighted
     /// mean anchor `d_c = Σ k_a d_a / k_c`, into `out[l]`.
-    fn springs(&self, p: [f64; 3], reference: &[[f64; 3]], out: &mut Vec<Vec<Spring>>) {
+    pub(super) fn springs(&self, p: [f64; 3], reference: &[[f64; 3]], out: &mut Vec<Vec<Spring>>) {
         if out.len() < 1 + self.coarse.len() {
             out.resize(1 + self.coarse.len(), Vec::new());
         }

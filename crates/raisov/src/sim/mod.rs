@@ -55,7 +55,7 @@
 //!
 //! three conjugate-gradient solves (lumped-mass preconditioner) with matrix-free products
 //! `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)`, each warm-started from the grasp's previous
-//! solution. `K_g` is symmetric negative semi-definite at a stable equilibrium; a haptic loop
+//! solution (a spring grasp's, in series with its springs: [`tangent`]). `K_g` is symmetric negative semi-definite at a stable equilibrium; a haptic loop
 //! extrapolates between frames with `f ≈ f_frame + K_g (x_device − x_frame)`.
 //!
 //! # Grasps and pins
@@ -65,7 +65,19 @@
 //! `radius` of it (at least the nearest one), leaving out nodes that are constrained already.
 //! Each grasped node keeps its offset from the grasp point: moving the grasp to `x` holds
 //! node `a` at position `x + (x_a − g)`, `g` the grasp point and `x_a` the node's position
-//! when grasped (a rigid translation). A pin holds its patch where it stands. Grasps are
+//! when grasped (a rigid translation). A hard grasp ([`Coupling::Hard`], the default of
+//! [`Simulation::grab`]) prescribes that position; a spring grasp
+//! ([`Simulation::grab_with`] and [`Coupling::Spring`], stiffness `k` in N/m) pulls node `a`
+//! towards it with a zero-length spring of stiffness `k_a = k m_a / Σ_b m_b` and leaves it
+//! free, so the tissue can resist: the springs are forces `S_a` added to `V_a` on level 0, and
+//! every coarser level gets, for each of its nodes nearest grasped nodes, one spring of the
+//! summed stiffness anchored at their stiffness-weighted mean displacement
+//! ([`crate::integrate::RuntimeConstraints::springs`]). The tool force of a spring grasp is
+//! the springs' pull, `grab_force = Σ_a k_a (x_a − x − o_a) = k (x̄ − x − ō)` (bars: mass
+//! weighted means over the patch), which at equilibrium is `Σ_{a ∈ g} (V_a − R_a(u))` as for
+//! a hard grasp, and the balance above holds unchanged. Under explicit dynamics a node spring
+//! adds `k_a / m_a` to the squared frequencies: a spring stiffer than the time step allows
+//! makes frames diverge (and be rejected), so keep `k_a Δt² / m_a` well below 4. A pin holds its patch where it stands. Grasps are
 //! prescribed points of level 0 and pins are fixed regions (each level-0 pinned node carried
 //! to the nearest node of every coarser level), taken to the levels by the scheme as it takes
 //! the scenario's ([`crate::integrate::RuntimeConstraints`]). A new grasp position takes
@@ -93,7 +105,7 @@
 mod builder;
 pub mod frame;
 mod grab;
-mod tangent;
+pub mod tangent;
 
 pub use builder::{Scheme, SimulationBuilder};
 pub use frame::{Budget, FrameReport};

@@ -2,6 +2,21 @@
 //! (equations in the [`super`] module docs): conjugate gradients preconditioned by the lumped
 //! mass, with matrix-free products `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)` as in
 //! [`crate::integrate::statics`], warm-started from the grasp's last solutions.
+//!
+//! A spring grasp ([`super::Coupling::Spring`], node springs `k_a`, `Σ k_a = k`) pulls the free
+//! nodes with `S_a = k_a (x_g + o_a − X_a − u_a)` and the tool feels
+//! `f = Σ_a k_a (u_a + X_a − x_g − o_a)`. Differentiating the equilibrium
+//! `R(u) − V − S(u, x_g) = 0` of the free nodes and `f`, with `K_s = diag(k_a)` and
+//! `B` the `3n × 3` matrix with `k_a I` in node `a`'s rows:
+//!
+//! ```text
+//! (K_FF + K_s) X = B,      K_g = Bᵀ X − k I,
+//! ```
+//!
+//! three solves with the operator `K + K_s`. For one grasped node this is the series law of
+//! the spring and the tissue's stiffness at the node, `−K_t` (`K_t` the hard grasp's tangent):
+//! `K_g = −(k⁻¹ I + (−K_t)⁻¹)⁻¹ = k K_t (k I − K_t)⁻¹` (a test); as `k → ∞` it tends to the hard
+//! grasp's.
 
 use super::{Coupling, GrabId, Simulation};
 use crate::fem::ElementFailure;
@@ -58,8 +73,7 @@ impl Simulation {
         let n = 3 * self.mesh.num_nodes();
         let u = self.stepper.state().u.clone();
         let free: Vec<bool> = (0..n).map(|i| !self.constrained[i / 3]).collect();
-        // The springs' stiffness per dof (every spring grasp's: they all hold the free
-        // nodes), and the Jacobi-like preconditioner `1 / (m ω² + k)` scaled to the mass.
+        // The springs' stiffness per dof (every spring grasp's: they all act on free nodes).
         let mut kdiag = vec![0.0; n];
         for s in &self.springs {
             for k in 0..3 {

@@ -653,3 +653,64 @@ fn spring_grab_stiffness_matches_finite_differences_and_the_series_coupling() {
         }
     }
 }
+
+#[test]
+fn spring_grasps_act_on_every_level_and_fas_converges_with_them() {
+    let k = 30.0;
+    for scheme in ["fas", "raisov-paper"] {
+        let mut sim = Simulation::from_scenario(&levels_scenario(scheme)).unwrap();
+        assert_eq!(sim.stepper().num_levels(), 2);
+        let g = sim
+            .grab_with([0.02, 0.02, 0.05], GrabOptions::spring(0.008, k))
+            .unwrap();
+        let p = sim.grab_position(g).unwrap();
+        let target = [p[0], p[1], p[2] + 0.003];
+        sim.move_grab(g, target).unwrap();
+        // The springs each level gets: level 0 one per grasped node, level 1 one per carried
+        // coarse node; on both, the stiffnesses sum to k and the anchors' stiffness-weighted
+        // mean is the patch's (a rigid move of the patch by the grasp's move).
+        let grab = sim.grabs[&g].clone();
+        let mut springs = Vec::new();
+        grab.springs(target, &sim.mesh.nodes, &mut springs);
+        assert_eq!(springs.len(), 2);
+        assert_eq!(springs[0].len(), grab.nodes.len());
+        assert!(!springs[1].is_empty() && springs[1].len() <= springs[0].len());
+        let mean = |s: &[crate::integrate::Spring]| {
+            let kk: f64 = s.iter().map(|s| s.k).sum();
+            let mut d = [0.0; 3];
+            for s in s {
+                for j in 0..3 {
+                    d[j] += s.k * s.d[j] / kk;
+                }
+            }
+            (kk, d)
+        };
+        let (k0, d0) = mean(&springs[0]);
+        let (k1, d1) = mean(&springs[1]);
+        assert!((k0 - k).abs() < 1e-12 * k && (k1 - k).abs() < 1e-12 * k);
+        assert!(norm(crate::mesh::sub(d0, d1)) < 1e-15, "{d0:?} {d1:?}");
+        if scheme == "fas" {
+            // FAS reaches level 0's equilibrium with the springs on both levels.
+            for _ in 0..200 {
+                let r = sim.step_frame(Budget::Cycles(5));
+                assert!(r.accepted, "{r:?}");
+                if r.residual < 1e-9 {
+                    break;
+                }
+            }
+            assert!(sim.residual() < 1e-9, "FAS residual {}", sim.residual());
+            let f = sim.grab_force(g).unwrap();
+            let react = sim.reactions();
+            let load = sim.total_load();
+            let imbalance = (0..3)
+                .map(|j| (f[j] + react.sum[j] - load[j]).abs())
+                .fold(0.0, f64::max);
+            assert!(imbalance < 1e-7, "{imbalance} N");
+            assert!(f[2] < 0.0, "{f:?}");
+        } else {
+            let r = sim.step_frame(Budget::Cycles(20));
+            assert!(r.accepted, "{r:?}");
+            assert!(sim.positions().iter().flatten().all(|x| x.is_finite()));
+        }
+    }
+}

@@ -105,6 +105,7 @@
 mod builder;
 pub mod frame;
 mod grab;
+pub mod overrides;
 pub mod tangent;
 
 pub use builder::{Scheme, SimulationBuilder};

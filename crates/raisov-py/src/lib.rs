@@ -314,7 +314,12 @@ impl Simulation {
     /// rigidly (`stiffness=None`, a hard grasp) or pulled by springs of total stiffness
     /// `stiffness` (N/m) spread over the nodes by mass, which leave them free to lag behind.
     #[pyo3(signature = (point, radius, stiffness = None))]
-    fn grab(&self, point: &Bound<'_, PyAny>, radius: f64, stiffness: Option<f64>) -> PyResult<Grab> {
+    fn grab(
+        &self,
+        point: &Bound<'_, PyAny>,
+        radius: f64,
+        stiffness: Option<f64>,
+    ) -> PyResult<Grab> {
         let p = point3(point, "point")?;
         let options = match stiffness {
             None => GrabOptions::hard(radius),
@@ -326,7 +331,9 @@ impl Simulation {
 
     /// Make grasp `g` a spring grasp of total stiffness `stiffness` (N/m) from now on.
     fn set_grab_stiffness(&self, g: &Grab, stiffness: f64) -> PyResult<()> {
-        self.sim()?.set_grab_stiffness(g.id, stiffness).map_err(to_py)
+        self.sim()?
+            .set_grab_stiffness(g.id, stiffness)
+            .map_err(to_py)
     }
 
     /// The total spring stiffness of grasp `g` (N/m), or None for a hard grasp.

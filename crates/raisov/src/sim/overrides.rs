@@ -148,7 +148,9 @@ mod tests {
         assert_eq!(line, 6, "{merged}");
         // A table override over a value is an error naming the key.
         let o: toml::Table = toml::from_str("mesh = { generate = { x = 1 } }").unwrap();
-        let e = merge(text, &o, Path::new("s.toml")).unwrap_err().to_string();
+        let e = merge(text, &o, Path::new("s.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("`mesh.generate`"), "{e}");
     }
 }

@@ -535,7 +535,10 @@ fn spring_grab_force_is_k_times_the_lag_and_balances_at_equilibrium() {
             want[j] += k * w * (x[j] - x_g[j] - o[j]);
         }
     }
-    assert!(norm(crate::mesh::sub(f, want)) < 1e-12 * norm(want), "{f:?} {want:?}");
+    assert!(
+        norm(crate::mesh::sub(f, want)) < 1e-12 * norm(want),
+        "{f:?} {want:?}"
+    );
     // The patch lags behind the anchor: the spring pulls the tool back and down.
     assert!(f[2] < 0.0 && f[0] < 0.0, "{f:?}");
     // At equilibrium the spring force is Σ over the patch of V − R(u) (body minus internal
@@ -585,7 +588,10 @@ fn a_stiff_spring_grab_approaches_the_hard_grab() {
         let err = norm(crate::mesh::sub(f, f_hard)) / norm(f_hard);
         // The spring's share of the compliance, k_t / (k + k_t), shrinks like 1/k (the
         // tissue's k_t is about 235 N/m here).
-        assert!(err < 0.3 * last, "k = {k}: relative error {err} (before {last})");
+        assert!(
+            err < 0.3 * last,
+            "k = {k}: relative error {err} (before {last})"
+        );
         last = err;
     }
     assert!(last < 3e-3, "k = 1e5 N/m: relative error {last}");
@@ -632,9 +638,7 @@ fn spring_grab_stiffness_matches_finite_differences_and_the_series_coupling() {
     converge(&mut hard);
     let kt = hard.grab_stiffness(gh).unwrap();
     let mut soft = static_cube_under(3, [0.0; 3]);
-    let gs = soft
-        .grab_with(point, GrabOptions::spring(0.0, k))
-        .unwrap();
+    let gs = soft.grab_with(point, GrabOptions::spring(0.0, k)).unwrap();
     converge(&mut soft);
     assert_eq!(soft.grab_nodes(gs).unwrap(), hard.grab_nodes(gh).unwrap());
     let ks = soft.grab_stiffness(gs).unwrap();

@@ -6,7 +6,7 @@ values after later frames.
 """
 
 from os import PathLike
-from typing import Iterable, Optional, Union
+from typing import Any, Iterable, Optional, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -58,18 +58,33 @@ class Simulation:
     tissue exerts on the tool; at equilibrium sum of grab forces + reactions.sum = total_load.
     """
 
-    def __init__(self, path: Union[str, PathLike[str]]) -> None:
-        """Load a scenario file (raisov's TOML format). Raises ValueError (bad scenario) or
+    def __init__(self, path: Union[str, PathLike[str]], **keys: Any) -> None:
+        """Load a scenario file (raisov's TOML format). Keyword arguments set scenario keys on
+        top of the file, one per top-level key: a dict for a table, merged key by key
+        (material={"young": 3e3}, damping={"alpha": 10}), any other value replacing the key
+        (gravity=[0, 0, -9.81]). They are merged into the TOML document before it is parsed,
+        so errors read as for the same keys in the file. Raises ValueError (bad scenario) or
         OSError (unreadable file) with the library's message."""
     @staticmethod
-    def from_toml(text: str, base_dir: Union[str, PathLike[str]] = ".") -> Simulation:
-        """Build from scenario text; relative paths in it are taken from base_dir."""
+    def from_toml(
+        text: str, base_dir: Union[str, PathLike[str]] = ".", **keys: Any
+    ) -> Simulation:
+        """Build from scenario text; relative paths in it are taken from base_dir. Keyword
+        arguments set scenario keys as for Simulation(path, **keys)."""
     def step_frame(
         self, cycles: Optional[int] = None, ms: Optional[float] = None
     ) -> FrameReport:
         """One frame of `cycles` steps or `ms` milliseconds of wall time (exactly one)."""
-    def grab(self, point: Point, radius: float) -> Grab:
-        """Grasp the surface patch within `radius` (m) of the surface point nearest `point`."""
+    def grab(
+        self, point: Point, radius: float, stiffness: Optional[float] = None
+    ) -> Grab:
+        """Grasp the surface patch within `radius` (m) of the surface point nearest `point`:
+        held rigidly (stiffness=None) or pulled by springs of total stiffness `stiffness`
+        (N/m, spread over the nodes by mass), which leave the nodes free to lag behind."""
+    def set_grab_stiffness(self, g: Grab, stiffness: float) -> None:
+        """Make g a spring grasp of total stiffness `stiffness` (N/m) from now on."""
+    def grab_spring_stiffness(self, g: Grab) -> Optional[float]:
+        """The total spring stiffness of g (N/m), or None for a hard grasp."""
     def move_grab(self, g: Grab, target: Point) -> None:
         """Move grasp g to target (m) over the next frame."""
     def release(self, g: Grab) -> None: ...
@@ -77,7 +92,9 @@ class Simulation:
         """Where g holds its nodes now (m), shape (3,)."""
     def grab_nodes(self, g: Grab) -> npt.NDArray[np.int64]: ...
     def grab_force(self, g: Grab) -> npt.NDArray[np.float64]:
-        """Force the tissue exerts on the tool of g (N), shape (3,)."""
+        """Force the tissue exerts on the tool of g (N), shape (3,): a hard grasp's sum of
+        V - R(u) over its nodes, a spring grasp's spring pull k (mean x - x_g - mean offset),
+        equal at equilibrium."""
     def grab_stiffness(self, g: Grab) -> npt.NDArray[np.float64]:
         """d grab_force / d grasp position (N/m), shape (3, 3): K[i, j] = dF_i / dx_j."""
     def pin(self, point: Point, radius: float) -> Pin:

@@ -42,6 +42,15 @@ int64_t raisov_sim_num_nodes(const RaisovSim *sim);
  * Returns the grasp's handle (> 0), or -1 on error. */
 int64_t raisov_sim_grab(RaisovSim *sim, const double *point, double radius);
 
+/* Grasp the surface near `point[3]` (m) within `radius` (m) by springs of total stiffness
+ * `stiffness` (N/m, spread over the grasped nodes by mass; the nodes stay free, so the tissue
+ * can lag behind the tool). The grasp's handle (> 0), or -1 on error. */
+int64_t raisov_sim_grab_spring(RaisovSim *sim, const double *point, double radius,
+                               double stiffness);
+
+/* Make grasp `grab` a spring grasp of total stiffness `stiffness` (N/m). 0, or -1. */
+int32_t raisov_sim_set_grab_stiffness(RaisovSim *sim, int64_t grab, double stiffness);
+
 /* Move grasp `grab` to `target[3]` (m) over the next frame. 0, or -1 on error. */
 int32_t raisov_sim_move_grab(RaisovSim *sim, int64_t grab, const double *target);
 
@@ -58,6 +67,9 @@ int64_t raisov_sim_positions(const RaisovSim *sim, double *out, size_t len);
 
 /* Write the force the tissue exerts on the tool of `grab` (N) into `out[3]`. 0, or -1. */
 int32_t raisov_sim_grab_force(const RaisovSim *sim, int64_t grab, double *out);
+
+/* Write where grasp `grab` holds its nodes now (m) into `out[3]`. 0, or -1. */
+int32_t raisov_sim_grab_position(const RaisovSim *sim, int64_t grab, double *out);
 
 #ifdef __cplusplus
 }

@@ -166,6 +166,52 @@ pub unsafe extern "C" fn raisov_sim_grab(
     })
 }
 
+/// Grasp the surface near `point` (3 doubles, m) with `radius` (m) by springs of total
+/// stiffness `stiffness` (N/m, spread over the grasped nodes by mass; the nodes stay free):
+/// returns the grasp's handle (> 0), or -1 on error.
+///
+/// # Safety
+/// `sim` must be null or a live handle; `point` null or 3 readable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_grab_spring(
+    sim: *mut RaisovSim,
+    point: *const f64,
+    radius: f64,
+    stiffness: f64,
+) -> i64 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        let (s, p) = unsafe { (sim_mut(sim)?, read3(point, "point")?) };
+        let options = raisov::sim::GrabOptions::spring(radius, stiffness);
+        let id = s.sim.grab_with(p, options).map_err(|e| e.to_string())?;
+        let h = s.next;
+        s.next += 1;
+        s.grabs.insert(h, id);
+        Ok(h)
+    })
+}
+
+/// Make grasp `grab` a spring grasp of total stiffness `stiffness` (N/m): 0, or -1 on error.
+///
+/// # Safety
+/// `sim` must be null or a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_set_grab_stiffness(
+    sim: *mut RaisovSim,
+    grab: i64,
+    stiffness: f64,
+) -> i32 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        let s = unsafe { sim_mut(sim)? };
+        let id = grab_id(s, grab)?;
+        s.sim
+            .set_grab_stiffness(id, stiffness)
+            .map_err(|e| e.to_string())?;
+        Ok(0)
+    })
+}
+
 /// Move grasp `grab` to `target` (3 doubles, m) over the next frame: 0, or -1 on error.
 ///
 /// # Safety
@@ -281,6 +327,32 @@ pub unsafe extern "C" fn raisov_sim_grab_force(
             .map_err(|e| e.to_string())?;
         // SAFETY: non-null with 3 writable doubles (caller's contract).
         unsafe { std::slice::from_raw_parts_mut(out, 3) }.copy_from_slice(&f);
+        Ok(0)
+    })
+}
+
+/// Write where grasp `grab` holds its nodes now (m) into `out` (3 doubles): 0, or -1.
+///
+/// # Safety
+/// `sim` must be null or a live handle; `out` null or 3 writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_grab_position(
+    sim: *const RaisovSim,
+    grab: i64,
+    out: *mut f64,
+) -> i32 {
+    guard(-1, || {
+        // SAFETY: null or a live handle (caller's contract).
+        let s = unsafe { sim.as_ref() }.ok_or("the simulation pointer is NULL")?;
+        if out.is_null() {
+            return Err("`out` is NULL (3 doubles expected)".into());
+        }
+        let p = s
+            .sim
+            .grab_position(grab_id(s, grab)?)
+            .map_err(|e| e.to_string())?;
+        // SAFETY: non-null with 3 writable doubles (caller's contract).
+        unsafe { std::slice::from_raw_parts_mut(out, 3) }.copy_from_slice(&p);
         Ok(0)
     })
 }

@@ -37,6 +37,13 @@ struct Cli {
     cmd: Cmd,
 }
 
+/// Benchmarks other than the standard work.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum BenchSuite {
+    /// The embedding API (`raisov_lab::bench::api`).
+    Api,
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Run a scenario (TOML). Without SCENARIO, runs the built-in membrane lift (FAS multigrid).
@@ -56,8 +63,13 @@ enum Cmd {
     },
     /// Parse and resolve a scenario, print what it would run, and exit.
     Check { scenario: PathBuf },
-    /// Performance benchmark of the standard explicit-dynamics work (see `raisov_lab::bench`).
+    /// Performance benchmark of the standard explicit-dynamics work (see `raisov_lab::bench`);
+    /// `raisov bench api`: the embedding API's frame overhead and grasp-stiffness solves.
     Bench {
+        /// `api`: the embedding API's figures instead (`raisov_lab::bench::api`; --quick: a
+        /// small cube).
+        #[arg(value_enum)]
+        suite: Option<BenchSuite>,
         /// Box sizes in nodes, e.g. 1k,10k,100k,1M.
         #[arg(long, default_value = "1k,10k,100k,1M")]
         sizes: String,
@@ -254,6 +266,16 @@ fn real_main(cli: Cli) -> Result<i32> {
         } => on_pool(|| cmd_run(scenario, out, quiet, ascii_vtu)),
         Cmd::Check { scenario } => ok(cmd_check(&scenario)),
         Cmd::Bench {
+            suite: Some(BenchSuite::Api),
+            quick,
+            ..
+        } => on_pool(|| {
+            let (div, frames) = if quick { (6, 10) } else { (16, 40) };
+            raisov_lab::bench::api(div, frames, &mut |line| println!("{line}"))?;
+            Ok(())
+        }),
+        Cmd::Bench {
+            suite: None,
             sizes,
             threads,
             quick,

@@ -1050,6 +1050,141 @@ pub fn to_csv(rows: &[Row]) -> String {
     out
 }
 
+/// The embedding API's figures (`raisov bench api`): the frame overhead of
+/// [`raisov::sim::Simulation::step_frame`] over the bare stepper doing the same steps, and the
+/// cost of [`raisov::sim::Simulation::grab_stiffness`] (conjugate-gradient iterations and
+/// wall time, cold and warm-started from the previous frame's solutions).
+///
+/// Work: a cube of side 4 cm, `div³` cells of 6 tetrahedra, fixed at its base, under gravity,
+/// compressible neo-Hookean (E = 5 kPa, ν = 0.45), FAS over 2 levels (one V-cycle per step).
+/// The bare stepper and the simulation are built from the same scenario and advanced side by
+/// side, frame after frame (`cycles` steps each, alternating which goes first), so frame `k`
+/// of both does the same steps from the same state; the overhead is the ratio of the two
+/// totals minus one. What the simulation adds per frame: saving the state for recovery, one
+/// evaluation of the internal forces at the end of the frame (positions, residual, reactions
+/// and tool forces are read from it), the node positions.
+pub fn api(div: usize, frames: usize, emit: &mut dyn FnMut(&str)) -> Result<()> {
+    use raisov::sim::{Budget, GrabOptions, Simulation};
+    let text = format!(
+        r#"
+gravity = [0, 0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [{div}, {div}, {div}]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}
+[multigrid]
+scheme = "fas"
+levels = 2
+[run]
+duration = 1.0
+"#
+    );
+    let sc = raisov::scenario::Scenario::from_toml(&text, std::path::Path::new("bench-api.toml"))?;
+    emit(&format!(
+        "raisov bench api: cube {div}^3 cells, {} nodes, FAS 2 levels, {} thread(s)",
+        sc.mesh.num_nodes(),
+        rayon::current_num_threads()
+    ));
+    for cycles in [1u32, 4] {
+        let mut bare = sc.stepper()?;
+        bare.set_kinetic_limit(f64::INFINITY);
+        let mut sim = Simulation::from_scenario(&sc)?;
+        let (mut t_bare, mut t_sim) = (0.0f64, 0.0f64);
+        let mut ratios = Vec::with_capacity(frames);
+        for frame in 0..frames {
+            let mut run_bare = || -> Result<f64> {
+                let t = Instant::now();
+                for _ in 0..cycles {
+                    bare.advance().map_err(Error::Diverged)?;
+                }
+                Ok(t.elapsed().as_secs_f64())
+            };
+            let mut run_sim = || -> Result<f64> {
+                let t = Instant::now();
+                let r = sim.step_frame(Budget::Cycles(cycles));
+                let dt = t.elapsed().as_secs_f64();
+                if !r.accepted {
+                    return Err(Error::param("bench api", "a frame was rejected"));
+                }
+                Ok(dt)
+            };
+            let (b, s) = if frame % 2 == 0 {
+                let b = run_bare()?;
+                (b, run_sim()?)
+            } else {
+                let s = run_sim()?;
+                (run_bare()?, s)
+            };
+            // The first frames warm the caches and the λ_max estimates.
+            if frame >= 2 {
+                t_bare += b;
+                t_sim += s;
+                ratios.push(s / b);
+            }
+        }
+        // Same steps, same bits.
+        if bare.state().u != sim.displacements() {
+            return Err(Error::param(
+                "bench api",
+                "the simulation and the bare stepper diverged",
+            ));
+        }
+        ratios.sort_by(f64::total_cmp);
+        let median = ratios[ratios.len() / 2];
+        let n = ratios.len() as f64;
+        emit(&format!(
+            "  frames of {cycles} cycle(s), {} timed: bare stepper {:.3} ms/frame, Simulation::step_frame {:.3} ms/frame; overhead {:+.2} % (totals), median of per-frame ratios {:+.2} %",
+            ratios.len(),
+            1e3 * t_bare / n,
+            1e3 * t_sim / n,
+            100.0 * (t_sim / t_bare - 1.0),
+            100.0 * (median - 1.0)
+        ));
+    }
+    // grab_stiffness: cold, then warm-started from the previous frame's solutions.
+    for (label, options) in [
+        ("hard grasp", GrabOptions::hard(0.011)),
+        ("spring grasp, k = 50 N/m", GrabOptions::spring(0.011, 50.0)),
+    ] {
+        let mut sim = Simulation::from_scenario(&sc)?;
+        let g = sim.grab_with([0.02, 0.02, 0.05], options)?;
+        let p = sim.grab_position(g)?;
+        let mut lift = 0.0;
+        for _ in 0..10 {
+            lift += 0.0004;
+            sim.move_grab(g, [p[0], p[1], p[2] + lift])?;
+            sim.step_frame(Budget::Cycles(4));
+        }
+        let t = Instant::now();
+        let k0 = sim.grab_stiffness(g)?;
+        let (cold_ms, cold_it) = (1e3 * t.elapsed().as_secs_f64(), sim.tangent_iterations());
+        let mut warm = Vec::new();
+        for _ in 0..3 {
+            lift += 0.0004;
+            sim.move_grab(g, [p[0], p[1], p[2] + lift])?;
+            sim.step_frame(Budget::Cycles(4));
+            let t = Instant::now();
+            sim.grab_stiffness(g)?;
+            warm.push((1e3 * t.elapsed().as_secs_f64(), sim.tangent_iterations()));
+        }
+        let (wm, wi) = warm.iter().fold((0.0, 0), |(a, b), (c, d)| (a + c, b + d));
+        emit(&format!(
+            "  grab_stiffness, {label} ({} nodes): cold {cold_it} CG iterations (3 solves) in {cold_ms:.1} ms; warm-started from the last frame {:.0} iterations in {:.1} ms (mean of 3); K_zz = {:.1} N/m",
+            sim.grab_nodes(g)?.len(),
+            wi as f64 / 3.0,
+            wm / 3.0,
+            k0[2][2]
+        ));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,7 +5,8 @@
 //! Conventions are the Rust API's (module docs of [`raisov::sim`]), in SI units:
 //!
 //! ```text
-//! grab_force(g) = Σ_{a ∈ g} (V_a − R_a(u))   the force the tissue exerts on the tool (N)
+//! grab_force(g) = Σ_{a ∈ g} (V_a − R_a(u))   the force the tissue exerts on the tool (N);
+//!                 a spring grasp's is its springs' pull, equal to it at equilibrium
 //! reactions     = V_a − R_a(u) per support   the force the tissue exerts on its supports (N)
 //! at equilibrium: Σ_g grab_force(g) + Σ_a reactions_a = total_load = Σ_all V_a
 //! grab_stiffness(g) = ∂ grab_force / ∂ x_g   (3×3, N/m)
@@ -21,8 +22,8 @@ use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
-use raisov::sim::{Budget, GrabId, PinId, Simulation as Sim};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
+use raisov::sim::{Budget, GrabId, GrabOptions, PinId, Simulation as Sim};
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard};
 
@@ -53,6 +54,61 @@ fn point3(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<[f64; 3]> {
         )));
     }
     Ok(p)
+}
+
+/// A Python value as a TOML value: dict → table (string keys), list / tuple / NumPy array →
+/// array, bool, int, float, str.
+fn to_toml(v: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
+    if v.is_instance_of::<PyBool>() {
+        return Ok(toml::Value::Boolean(v.extract()?));
+    }
+    if v.is_instance_of::<PyInt>() {
+        return Ok(toml::Value::Integer(v.extract()?));
+    }
+    if v.is_instance_of::<PyFloat>() {
+        return Ok(toml::Value::Float(v.extract()?));
+    }
+    if v.is_instance_of::<PyString>() {
+        return Ok(toml::Value::String(v.extract()?));
+    }
+    if let Ok(d) = v.cast::<PyDict>() {
+        return Ok(toml::Value::Table(to_table(d, key)?));
+    }
+    // NumPy arrays and scalars: their Python equivalents.
+    if v.hasattr("tolist")? {
+        let plain = v.call_method0("tolist")?;
+        if !plain.is(v) {
+            return to_toml(&plain, key);
+        }
+    }
+    if let Ok(items) = v.try_iter() {
+        let mut a = Vec::new();
+        for (i, item) in items.enumerate() {
+            a.push(to_toml(&item?, &format!("{key}[{i}]"))?);
+        }
+        return Ok(toml::Value::Array(a));
+    }
+    Err(PyValueError::new_err(format!(
+        "`{key}`: {} is not a scenario value (a number, string, bool, list or dict)",
+        v.get_type().name()?
+    )))
+}
+
+fn to_table(d: &Bound<'_, PyDict>, prefix: &str) -> PyResult<toml::Table> {
+    let mut t = toml::Table::new();
+    for (k, v) in d.iter() {
+        let k: String = k.extract().map_err(|_| {
+            PyValueError::new_err(format!("`{prefix}`: scenario keys must be strings"))
+        })?;
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        let value = to_toml(&v, &key)?;
+        t.insert(k, value);
+    }
+    Ok(t)
 }
 
 /// Mark a freshly made array read-only (it is a copy: writing to it would change nothing).
@@ -172,21 +228,42 @@ impl Simulation {
 #[pymethods]
 impl Simulation {
     /// Load a scenario file (raisov's TOML format); its [run], [output] and [interactive]
-    /// sections are not used.
+    /// sections are not used. Keyword arguments set scenario keys on top of the file, one
+    /// per top-level key: a dict for a table (`material={"young": 3e3}`, merged key by key),
+    /// any other value replacing the key (`gravity=[0, 0, -9.81]`, `fix=[{...}]`). They are
+    /// merged into the TOML document before it is parsed, so errors name the keys as for
+    /// the file.
     #[new]
-    fn new(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let sim = py.detach(|| Sim::from_file(&path)).map_err(to_py)?;
+    #[pyo3(signature = (path, **keys))]
+    fn new(py: Python<'_>, path: PathBuf, keys: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let overrides = match keys {
+            Some(k) => to_table(k, "")?,
+            None => toml::Table::new(),
+        };
+        let sim = py
+            .detach(|| Sim::from_file_with(&path, &overrides))
+            .map_err(to_py)?;
         Ok(Simulation {
             inner: Mutex::new(sim),
         })
     }
 
     /// Build from scenario text; relative paths in it (mesh files) are taken from `base_dir`.
+    /// Keyword arguments set scenario keys, as for `Simulation(path, **keys)`.
     #[staticmethod]
-    #[pyo3(signature = (text, base_dir = PathBuf::from(".")))]
-    fn from_toml(py: Python<'_>, text: String, base_dir: PathBuf) -> PyResult<Self> {
+    #[pyo3(signature = (text, base_dir = PathBuf::from("."), **keys))]
+    fn from_toml(
+        py: Python<'_>,
+        text: String,
+        base_dir: PathBuf,
+        keys: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let overrides = match keys {
+            Some(k) => to_table(k, "")?,
+            None => toml::Table::new(),
+        };
         let sim = py
-            .detach(|| Sim::from_toml(&text, &base_dir))
+            .detach(|| Sim::from_toml_with(&text, &base_dir, &overrides))
             .map_err(to_py)?;
         Ok(Simulation {
             inner: Mutex::new(sim),
@@ -233,12 +310,38 @@ impl Simulation {
     }
 
     /// Grasp the surface near `point` (m): the surface nodes within `radius` (m) of the
-    /// surface point nearest `point` (at least the nearest node), held rigidly from the next
-    /// frame on.
-    fn grab(&self, point: &Bound<'_, PyAny>, radius: f64) -> PyResult<Grab> {
+    /// surface point nearest `point` (at least the nearest node), from the next frame on held
+    /// rigidly (`stiffness=None`, a hard grasp) or pulled by springs of total stiffness
+    /// `stiffness` (N/m) spread over the nodes by mass, which leave them free to lag behind.
+    #[pyo3(signature = (point, radius, stiffness = None))]
+    fn grab(
+        &self,
+        point: &Bound<'_, PyAny>,
+        radius: f64,
+        stiffness: Option<f64>,
+    ) -> PyResult<Grab> {
         let p = point3(point, "point")?;
-        let id = self.sim()?.grab(p, radius).map_err(to_py)?;
+        let options = match stiffness {
+            None => GrabOptions::hard(radius),
+            Some(k) => GrabOptions::spring(radius, k),
+        };
+        let id = self.sim()?.grab_with(p, options).map_err(to_py)?;
         Ok(Grab { id })
+    }
+
+    /// Make grasp `g` a spring grasp of total stiffness `stiffness` (N/m) from now on.
+    fn set_grab_stiffness(&self, g: &Grab, stiffness: f64) -> PyResult<()> {
+        self.sim()?
+            .set_grab_stiffness(g.id, stiffness)
+            .map_err(to_py)
+    }
+
+    /// The total spring stiffness of grasp `g` (N/m), or None for a hard grasp.
+    fn grab_spring_stiffness(&self, g: &Grab) -> PyResult<Option<f64>> {
+        Ok(match self.sim()?.grab_coupling(g.id).map_err(to_py)? {
+            raisov::sim::Coupling::Hard => None,
+            raisov::sim::Coupling::Spring { stiffness } => Some(stiffness),
+        })
     }
 
     /// Move grasp `g` to `target` (m); its nodes follow rigidly over the next frame.
@@ -270,7 +373,9 @@ impl Simulation {
         read_only(nodes.into_pyarray(py))
     }
 
-    /// The force the tissue exerts on the tool of grasp `g` (N, shape (3,)).
+    /// The force the tissue exerts on the tool of grasp `g` (N, shape (3,)): a hard grasp's
+    /// Σ (V − R(u)) over its nodes, a spring grasp's spring pull k (x̄ − x_g − ō) (equal at
+    /// equilibrium).
     fn grab_force<'py>(&self, py: Python<'py>, g: &Grab) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let f = self.sim()?.grab_force(g.id).map_err(to_py)?;
         vec3(py, f)

@@ -180,3 +180,107 @@ def test_bad_input_raises_with_the_library_message(tmp_path):
         sim.step_frame()
     with pytest.raises(ValueError, match="exactly one"):
         sim.step_frame(cycles=1, ms=1.0)
+
+
+def spring_lift(k, lift):
+    sim = static_cube()
+    g = sim.grab([0.02, 0.02, 0.06], 0.011, stiffness=k)
+    sim.move_grab(g, sim.grab_position(g) + lift)
+    # The scenario's Newton stops at 1e-6 of each cycle's initial residual, which stagnates
+    # near 1e-10 to 1e-9 N times the springs' scale.
+    converge(sim, tol=1e-9 * max(1.0, k / 100.0))
+    return sim, g
+
+
+def test_spring_grab_force_is_k_times_the_lag_and_balances_at_equilibrium():
+    k, lift = 30.0, np.array([0.002, 0.0, 0.004])
+    sim, g = spring_lift(k, lift)
+    assert sim.grab_spring_stiffness(g) == k
+    nodes = sim.grab_nodes(g)
+    assert len(nodes) == 5
+    # The patch's nodes are free: they count in the residual, not in the supports.
+    assert not set(nodes) & set(sim.reactions.nodes)
+    f = sim.grab_force(g)
+    # k (x̄ − x_g − ō): the offsets ō and x̄ are mass-weighted means over the patch. On this
+    # regular mesh the five top-face nodes' masses are known only to the library, so check
+    # the identity through a rigid shift instead: moving the anchor by δ along x changes the
+    # spring force by −k δ before the tissue answers (one frame of zero steps).
+    x_g = sim.grab_position(g)
+    delta = 1e-4
+    sim.move_grab(g, x_g + [delta, 0.0, 0.0])
+    rep = sim.step_frame(cycles=0)
+    assert rep.accepted and rep.cycles == 0, rep
+    f2 = sim.grab_force(g)
+    assert np.allclose(f2 - f, [-k * delta, 0.0, 0.0], rtol=0, atol=1e-12), f2 - f
+    sim.move_grab(g, x_g)
+    converge(sim, tol=2e-9)
+    # The tissue resists: the tool is pulled back and down.
+    assert f[2] < 0.0 and f[0] < 0.0, f
+    # Equilibrium: spring force + support reactions = total body force.
+    # Bounded by the free nodes' residuals (< 2e-9 N each, about 100 nodes).
+    imbalance = f + sim.reactions.sum - sim.total_load
+    assert np.all(np.abs(imbalance) < 2e-7), imbalance
+
+
+def test_a_stiff_spring_grab_approaches_the_hard_grab():
+    lift = np.array([0.0, 0.0, 0.004])
+    hard = static_cube()
+    g = hard.grab([0.02, 0.02, 0.06], 0.011)
+    hard.move_grab(g, hard.grab_position(g) + lift)
+    converge(hard, tol=1e-8)
+    f_hard = hard.grab_force(g)
+    errs = []
+    for k in [1e2, 1e3, 1e4, 1e5]:
+        sim, s = spring_lift(k, lift)
+        errs.append(np.linalg.norm(sim.grab_force(s) - f_hard) / np.linalg.norm(f_hard))
+    assert all(b < 0.3 * a for a, b in zip(errs, errs[1:])), errs
+    assert errs[-1] < 3e-3, errs
+
+
+def test_spring_grab_stiffness_matches_finite_differences():
+    k = 40.0
+    sim, g = spring_lift(k, np.array([0.0, 0.0, 0.004]))
+    K = sim.grab_stiffness(g)
+    kmax = np.abs(K).max()
+    x0 = sim.grab_position(g)
+    h = 1e-4
+    for axis in range(3):
+        f = []
+        for side in (1.0, -1.0):
+            x = x0.copy()
+            x[axis] += side * h
+            sim.move_grab(g, x)
+            converge(sim, tol=2e-9)
+            f.append(sim.grab_force(g))
+        fd = (f[0] - f[1]) / (2 * h)
+        assert np.all(np.abs(fd - K[:, axis]) < 2e-3 * kmax), (fd, K[:, axis])
+    assert np.all(np.diag(K) < 0) and np.all(-np.diag(K) < k), K
+
+
+def test_scenario_keys_as_keyword_arguments(tmp_path):
+    path = tmp_path / "cube.toml"
+    path.write_text(CUBE)
+    soft = raisov.Simulation(path)
+    stiff = raisov.Simulation(path, material={"young": 2e4}, damping={"alpha": 10})
+    for sim in (soft, stiff):
+        g = sim.grab([0.02, 0.02, 0.05], 0.011)
+        sim.move_grab(g, sim.grab_position(g) + [0.0, 0.0, 0.002])
+        converge(sim, tol=1e-9)
+    # Four times Young's modulus: a stiffer pull (less than 4x: the patch's own weight is
+    # part of the force, and the soft cube sags more under it).
+    ratio = stiff.grab_force(g)[2] / soft.grab_force(g)[2]
+    assert 2.0 < ratio < 4.0, ratio
+    # No gravity: the load vanishes.
+    assert np.all(raisov.Simulation(path, gravity=[0, 0, 0]).total_load == 0.0)
+    # A bad keyword value raises the message the same value gives in the file.
+    with pytest.raises(ValueError) as e:
+        raisov.Simulation(path, material={"young": -5e3})
+    bad = tmp_path / "bad.toml"
+    bad.write_text(CUBE.replace("young = 5e3", "young = -5e3"))
+    with pytest.raises(ValueError) as e_file:
+        raisov.Simulation(bad)
+    assert str(e.value) == str(e_file.value).replace("bad.toml", "cube.toml"), (e.value, e_file.value)
+    with pytest.raises(ValueError, match="unknown field `yung`"):
+        raisov.Simulation.from_toml(CUBE, material={"yung": 1.0})
+    with pytest.raises(ValueError, match="stiffness"):
+        stiff.grab([0.0, 0.0, 0.05], 0.005, stiffness=-1.0)

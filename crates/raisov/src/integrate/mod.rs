@@ -170,7 +170,34 @@ pub struct System {
     /// Constant external force V, 3 per node (N): gravity and nodal loads.
     pub f_ext: Vec<f64>,
     pub constraints: Constraints,
+    /// Zero-length springs from nodes to anchors (run-time spring grasps,
+    /// [`RuntimeConstraints::springs`]): each adds `k (u_a − d)` to `R(u)` in
+    /// [`System::acceleration`], [`System::residual`] and [`System::internal_forces`].
+    pub springs: Vec<Spring>,
     r: Vec<f64>,
+}
+
+/// A zero-length spring of stiffness `k` (N/m) pulling node `node` towards the displacement
+/// `d` (m): it adds `k (u_node − d)` to the node's internal force and `½ k |u_node − d|²` to the
+/// potential energy.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spring {
+    /// The node.
+    pub node: u32,
+    /// Stiffness (N/m), ≥ 0.
+    pub k: f64,
+    /// The anchor's displacement (m): the spring is relaxed at `u_node = d`.
+    pub d: [f64; 3],
+}
+
+/// `r += k (u_a − d)` for every spring.
+fn add_springs(springs: &[Spring], u: &[f64], r: &mut [f64]) {
+    for s in springs {
+        let i = 3 * s.node as usize;
+        for k in 0..3 {
+            r[i + k] += s.k * (u[i + k] - s.d[k]);
+        }
+    }
 }
 
 impl System {
@@ -195,6 +222,7 @@ impl System {
             alpha,
             f_ext,
             constraints: constraints.with_nodes(n),
+            springs: Vec::new(),
             r: vec![0.0; 3 * n],
         }
     }
@@ -235,6 +263,7 @@ impl System {
         a: &mut [f64],
     ) -> Result<(), ElementFailure> {
         self.force.internal_forces(u, &mut self.r)?;
+        add_springs(&self.springs, u, &mut self.r);
         let (f, r, inv_mass, alpha) = (&self.f_ext, &self.r, &self.inv_mass, self.alpha);
         chunks1(a, |off, a| {
             for (j, aj) in a.iter_mut().enumerate() {
@@ -252,11 +281,32 @@ impl System {
     /// Residual force `V − R(u)` into `out` (zero on constrained nodes); returns its 2-norm.
     pub fn residual(&mut self, u: &[f64], out: &mut [f64]) -> Result<f64, ElementFailure> {
         self.force.internal_forces(u, &mut self.r)?;
+        add_springs(&self.springs, u, &mut self.r);
         for i in 0..out.len() {
             out[i] = self.f_ext[i] - self.r[i];
         }
         self.constraints.zero_constrained(out);
         Ok(out.iter().map(|x| x * x).sum::<f64>().sqrt())
+    }
+
+    /// `r = R(u) + Σ_springs k (u_a − d)` (N, all rows).
+    pub fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure> {
+        self.force.internal_forces(u, r)?;
+        add_springs(&self.springs, u, r);
+        Ok(())
+    }
+
+    /// Strain energy plus the springs' energy `½ Σ k |u_a − d|²` (J).
+    pub fn stored_energy(&self, u: &[f64]) -> f64 {
+        let springs: f64 = self
+            .springs
+            .iter()
+            .map(|s| {
+                let i = 3 * s.node as usize;
+                (0..3).map(|k| (u[i + k] - s.d[k]).powi(2)).sum::<f64>() * 0.5 * s.k
+            })
+            .sum();
+        self.force.strain_energy(u) + springs
     }
 
     /// Kinetic energy ½ Σ m |v|² (J).

@@ -43,9 +43,10 @@ impl Default for NewtonParams {
     }
 }
 
-/// Potential energy `E(u) − V·u` (J); +∞ where an element is inverted.
+/// Potential energy `E(u) + ½ Σ k |u_a − d|² − V·u` (J, the springs of [`System::springs`]
+/// included); +∞ where an element is inverted.
 fn potential(sys: &System, u: &[f64]) -> f64 {
-    let e = sys.force.strain_energy(u);
+    let e = sys.stored_energy(u);
     let w: f64 = sys.f_ext.iter().zip(u).map(|(f, x)| f * x).sum();
     if e.is_finite() {
         e - w

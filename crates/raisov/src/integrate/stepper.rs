@@ -86,13 +86,25 @@ pub trait Stepper: Send {
 ///   fine-level feature, see [`crate::multigrid::fas`]);
 /// - `pinned[l]`: nodes of level `l` (0 the finest; levels past the end have none) held where
 ///   they stand when the constraints are set, like fixed regions: on every level the caller
-///   names nodes for (FAS holds coarse ones at the restricted state, as its fixed regions).
+///   names nodes for (FAS holds coarse ones at the restricted state, as its fixed regions);
+/// - `springs[l]`: zero-length springs on level `l`'s nodes (spring grasps), which replace the
+///   level's [`System::springs`] (levels past the end have none). They are forces, not
+///   constraints: the nodes stay free.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RuntimeConstraints {
     /// Level-0 nodes and their held displacements (m).
     pub held: Vec<(u32, [f64; 3])>,
     /// Per level, nodes held where they stand.
     pub pinned: Vec<Vec<u32>>,
+    /// Per level, springs from nodes to anchors.
+    pub springs: Vec<Vec<super::Spring>>,
+}
+
+impl RuntimeConstraints {
+    /// Level `l`'s springs (none past the end).
+    pub fn springs_of(&self, l: usize) -> &[super::Spring] {
+        self.springs.get(l).map_or(&[][..], |s| &s[..])
+    }
 }
 
 /// A stepper's saved state ([`Stepper::save`], [`Stepper::restore`]): vectors and numbers in
@@ -310,6 +322,7 @@ impl Stepper for SingleLevel {
         let pinned = c.pinned.first().map_or(&[][..], |p| &p[..]);
         let n = self.sys.num_nodes();
         own.apply(&mut self.sys.constraints, &c.held, pinned, &self.state.u, n);
+        self.sys.springs = c.springs_of(0).to_vec();
         let t = self.state.t;
         self.sys.impose(t, &mut self.state.u, &mut self.state.v);
     }

@@ -702,11 +702,11 @@ impl Fas {
             let (r_fine, r_coarse) = self.r.split_at_mut(l + 1);
             let q = &mut r_coarse[0];
             c.evaluations += 1;
-            if let Err(e) = c.sys.force.internal_forces(&self.u0[l + 1], q) {
+            if let Err(e) = c.sys.internal_forces(&self.u0[l + 1], q) {
                 self.last_inverting_restriction = Some((l + 1, e));
                 self.u0[l + 1].copy_from_slice(&c.state.u);
                 c.evaluations += 1;
-                if c.sys.force.internal_forces(&self.u0[l + 1], q).is_err() {
+                if c.sys.internal_forces(&self.u0[l + 1], q).is_err() {
                     self.skipped_coarse += 1;
                     return self.smooth(l, self.params.post_smooth, t);
                 }
@@ -920,7 +920,8 @@ impl Stepper for Fas {
     }
     /// Level 0 takes the held (grasped) and pinned nodes; a coarse level takes its pinned nodes
     /// as it takes its fixed regions, held at the restricted state every visit. Grasps stay on
-    /// level 0 (see the module docs).
+    /// level 0 (see the module docs). Each level takes its springs (a changed set of
+    /// stiffnesses makes the level estimate its λ_max again).
     fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
         if self.own.is_empty() {
             self.own = self
@@ -934,6 +935,17 @@ impl Stepper for Fas {
             let pinned = c.pinned.get(l).map_or(&[][..], |p| &p[..]);
             let n = lv.num_nodes();
             own.apply(&mut lv.sys.constraints, held, pinned, &lv.state.u, n);
+            let springs = c.springs_of(l);
+            let stiffer = springs.len() != lv.sys.springs.len()
+                || springs
+                    .iter()
+                    .zip(&lv.sys.springs)
+                    .any(|(a, b)| a.node != b.node || a.k != b.k);
+            if stiffer {
+                // Springs change the operator: estimate λ_max again at the next visit.
+                self.lambda[l] = 0.0;
+            }
+            lv.sys.springs = springs.to_vec();
             let t = lv.state.t;
             lv.sys.impose(t, &mut lv.state.u, &mut lv.state.v);
         }

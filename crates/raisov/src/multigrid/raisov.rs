@@ -499,7 +499,8 @@ impl Stepper for Raisov {
     }
     /// Level 0 takes the held and pinned nodes; each coarser level holds the node nearest to
     /// each held level-0 node (reference positions) at the same displacement, as the scenario
-    /// carries prescribed points (section 3.1), and its own pinned nodes where they stand.
+    /// carries prescribed points (section 3.1), and its own pinned nodes where they stand;
+    /// each level takes its springs.
     fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
         if self.own.is_empty() {
             self.own = self
@@ -525,6 +526,7 @@ impl Stepper for Raisov {
             let pinned = c.pinned.get(l + 1).map_or(&[][..], |p| &p[..]);
             let n = lv.num_nodes();
             self.own[l + 1].apply(&mut lv.sys.constraints, &held, pinned, &lv.state.u, n);
+            lv.sys.springs = c.springs_of(l + 1).to_vec();
             let t = lv.state.t;
             lv.sys.impose(t, &mut lv.state.u, &mut lv.state.v);
         }
@@ -532,6 +534,7 @@ impl Stepper for Raisov {
         let pinned = c.pinned.first().map_or(&[][..], |p| &p[..]);
         let n = lv.num_nodes();
         self.own[0].apply(&mut lv.sys.constraints, &c.held, pinned, &lv.state.u, n);
+        lv.sys.springs = c.springs_of(0).to_vec();
         let t = lv.state.t;
         lv.sys.impose(t, &mut lv.state.u, &mut lv.state.v);
     }

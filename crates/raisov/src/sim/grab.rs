@@ -2,9 +2,10 @@
 //! give the stepper, and the tool force (conventions in the [`super`] module docs).
 
 use super::{GrabId, PinId, Simulation};
-use crate::integrate::RuntimeConstraints;
+use crate::integrate::{RuntimeConstraints, Spring};
 use crate::mesh::{dot, sub};
 use crate::{Error, Result};
+use std::collections::BTreeMap;
 
 /// A grasp: level-0 nodes held rigidly at their offsets from the grasp point.
 #[derive(Clone, Debug)]
@@ -19,6 +20,68 @@ pub(super) struct Grab {
     pub(super) target: [f64; 3],
     /// The last tangent solutions per axis (warm starts of `grab_stiffness`), empty before.
     pub(super) warm: [Vec<f64>; 3],
+    /// How the grasp holds its nodes.
+    pub(super) coupling: Coupling,
+    /// Each node's share of a spring grasp's stiffness, `w_a = m_a / Σ_b m_b` (lumped
+    /// masses; Σ w = 1).
+    pub(super) weights: Vec<f64>,
+    /// Per coarser level `l + 1`, its nodes nearest the grasped nodes: each coarse node with
+    /// the indices (into `nodes`) of the level-0 nodes carried to it.
+    pub(super) coarse: Vec<Vec<(u32, Vec<usize>)>>,
+}
+
+/// How a grasp holds its patch of the surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Coupling {
+    /// Each grasped node is held exactly at its place on the rigidly moved patch (a
+    /// prescribed displacement on every level the scheme carries grasps to).
+    Hard,
+    /// Each grasped node `a` is pulled to its place `x_g + o_a` by a zero-length spring of
+    /// stiffness `w_a k`, `w_a = m_a / Σ_b m_b` its lumped-mass share of the patch: the springs
+    /// together pull with `k (x_g + ō − x̄)` (N), `x̄ = Σ w_a x_a` and `ō = Σ w_a o_a`, so `k` is
+    /// the stiffness the tool feels when the patch moves rigidly. The nodes stay free, so the
+    /// tissue can resist and slip behind the tool.
+    Spring {
+        /// `k` (N/m), finite and > 0.
+        stiffness: f64,
+    },
+}
+
+/// The options of [`Simulation::grab_with`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GrabOptions {
+    /// The patch: surface nodes within this distance (m) of the grasp point (at least one).
+    pub radius: f64,
+    /// How the patch is held.
+    pub coupling: Coupling,
+}
+
+impl GrabOptions {
+    /// A hard grasp of the patch within `radius` (m), as [`Simulation::grab`].
+    pub fn hard(radius: f64) -> Self {
+        GrabOptions {
+            radius,
+            coupling: Coupling::Hard,
+        }
+    }
+    /// A spring grasp of the patch within `radius` (m), of total stiffness `stiffness` (N/m).
+    pub fn spring(radius: f64, stiffness: f64) -> Self {
+        GrabOptions {
+            radius,
+            coupling: Coupling::Spring { stiffness },
+        }
+    }
+}
+
+fn check_stiffness(k: f64) -> Result<()> {
+    if k.is_finite() && k > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::param(
+            "stiffness",
+            format!("{k}: must be finite and > 0 (N/m)"),
+        ))
+    }
 }
 
 impl Grab {
@@ -30,6 +93,54 @@ impl Grab {
                 a,
                 [p[0] + o[0] - x[0], p[1] + o[1] - x[1], p[2] + o[2] - x[2]],
             ));
+        }
+    }
+
+    /// The stiffness of node `i` of `nodes` (N/m): `w_i k` for a spring grasp, 0 for a hard
+    /// one.
+    pub(super) fn node_stiffness(&self, i: usize) -> f64 {
+        match self.coupling {
+            Coupling::Hard => 0.0,
+            Coupling::Spring { stiffness } => stiffness * self.weights[i],
+        }
+    }
+
+    /// A spring grasp's springs with the grasp at `p`: level 0's (one per grasped node,
+    /// anchored at its held displacement) into `out[0]`, and each coarser level's, one per
+    /// carried coarse node with the summed stiffness `k_c = Σ k_a` and the stiffness-weighted
+    /// mean anchor `d_c = Σ k_a d_a / k_c`, into `out[l]`.
+    pub(super) fn springs(&self, p: [f64; 3], reference: &[[f64; 3]], out: &mut Vec<Vec<Spring>>) {
+        if out.len() < 1 + self.coarse.len() {
+            out.resize(1 + self.coarse.len(), Vec::new());
+        }
+        let mut held = Vec::with_capacity(self.nodes.len());
+        self.held(p, reference, &mut held);
+        for (i, &(a, d)) in held.iter().enumerate() {
+            out[0].push(Spring {
+                node: a,
+                k: self.node_stiffness(i),
+                d,
+            });
+        }
+        for (l, level) in self.coarse.iter().enumerate() {
+            for (c, fine) in level {
+                let mut k = 0.0;
+                let mut d = [0.0; 3];
+                for &i in fine {
+                    let ki = self.node_stiffness(i);
+                    k += ki;
+                    for j in 0..3 {
+                        d[j] += ki * held[i].1[j];
+                    }
+                }
+                if k > 0.0 {
+                    out[l + 1].push(Spring {
+                        node: *c,
+                        k,
+                        d: d.map(|x| x / k),
+                    });
+                }
+            }
         }
     }
 }
@@ -140,7 +251,8 @@ impl Simulation {
         nodes.push(nearest);
         nodes.sort_unstable();
         nodes.dedup();
-        nodes.retain(|&a| !self.constrained[a as usize]);
+        let sprung = self.sprung();
+        nodes.retain(|&a| !self.constrained[a as usize] && !sprung[a as usize]);
         if nodes.is_empty() {
             return Err(Error::param(
                 what,
@@ -152,16 +264,71 @@ impl Simulation {
         Ok((g, nodes))
     }
 
-    /// Grasp the surface near `point` (m): the surface nodes within `radius` (m) of the
+    /// Grasp the surface near `point` (m) hard: the surface nodes within `radius` (m) of the
     /// surface point nearest `point`, at least the nearest node, held rigidly from the next
-    /// frame on (module docs). Nodes constrained already are left out; an error if none is
-    /// left, or for a non-finite point or a negative radius.
+    /// frame on (module docs). Nodes constrained or grasped already are left out; an error if
+    /// none is left, or for a non-finite point or a negative radius.
+    /// [`Simulation::grab_with`] takes a spring coupling instead.
     pub fn grab(&mut self, point: [f64; 3], radius: f64) -> Result<GrabId> {
-        let (g, nodes) = self.patch(point, radius, "grab")?;
+        self.grab_with(point, GrabOptions::hard(radius))
+    }
+
+    /// Grasp the surface near `point` (m) with `options`: the patch of [`Simulation::grab`],
+    /// held hard or by springs ([`Coupling`]); an error also for a spring stiffness that is
+    /// not finite and positive.
+    ///
+    /// ```
+    /// use raisov::mesh::generate::{box_tets, BoxPattern};
+    /// use raisov::sim::{Budget, GrabOptions, SimulationBuilder};
+    ///
+    /// let mesh = box_tets([0.04; 3], [3, 3, 3], BoxPattern::Six)?;
+    /// let mut sim = SimulationBuilder::new(mesh).fix(|p| p[2] <= 0.0).build()?;
+    /// // A 20 N/m spring grasp of the top face, its anchor lifted by 5 mm.
+    /// let g = sim.grab_with([0.02, 0.02, 0.05], GrabOptions::spring(0.015, 20.0))?;
+    /// let p = sim.grab_position(g)?;
+    /// sim.move_grab(g, [p[0], p[1], p[2] + 0.005])?;
+    /// for _ in 0..20 {
+    ///     sim.step_frame(Budget::Cycles(4));
+    /// }
+    /// // The tissue resists: the patch rises by less than the anchor, and the spring pulls
+    /// // the tool down by k times the lag.
+    /// let f = sim.grab_force(g)?;
+    /// assert!(f[2] < 0.0 && f[2] > -20.0 * 0.005, "{f:?}");
+    /// # Ok::<(), raisov::Error>(())
+    /// ```
+    pub fn grab_with(&mut self, point: [f64; 3], options: GrabOptions) -> Result<GrabId> {
+        if let Coupling::Spring { stiffness } = options.coupling {
+            check_stiffness(stiffness)?;
+        }
+        let (g, nodes) = self.patch(point, options.radius, "grab")?;
         let offsets = nodes
             .iter()
             .map(|&a| sub(self.positions[a as usize], g))
             .collect();
+        let mass: f64 = nodes.iter().map(|&a| self.mass[a as usize]).sum();
+        let weights = nodes
+            .iter()
+            .map(|&a| {
+                if mass > 0.0 {
+                    self.mass[a as usize] / mass
+                } else {
+                    1.0 / nodes.len() as f64
+                }
+            })
+            .collect();
+        let mut coarse = Vec::new();
+        for l in 1..self.stepper.num_levels() {
+            let Some(m) = self.stepper.level_mesh(l) else {
+                break;
+            };
+            let mut carried: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+            for (i, &a) in nodes.iter().enumerate() {
+                if let Some(c) = m.nearest_node(self.mesh.nodes[a as usize]) {
+                    carried.entry(c as u32).or_default().push(i);
+                }
+            }
+            coarse.push(carried.into_iter().collect());
+        }
         let id = GrabId(self.next_id);
         self.next_id += 1;
         self.grabs.insert(
@@ -172,10 +339,30 @@ impl Simulation {
                 position: g,
                 target: g,
                 warm: Default::default(),
+                coupling: options.coupling,
+                weights,
+                coarse,
             },
         );
         self.constraints_changed();
         Ok(id)
+    }
+
+    /// Make grasp `id` a spring grasp of total stiffness `stiffness` (N/m; [`Coupling`]),
+    /// from now on; a hard grasp lets its nodes go free on their springs. An error for a
+    /// stiffness that is not finite and positive.
+    pub fn set_grab_stiffness(&mut self, id: GrabId, stiffness: f64) -> Result<()> {
+        check_stiffness(stiffness)?;
+        let g = self.grab_mut(id)?;
+        g.coupling = Coupling::Spring { stiffness };
+        g.warm = Default::default();
+        self.constraints_changed();
+        Ok(())
+    }
+
+    /// How grasp `id` holds its patch.
+    pub fn grab_coupling(&self, id: GrabId) -> Result<Coupling> {
+        Ok(self.grab_ref(id)?.coupling)
     }
 
     /// Move grasp `id` to `target` (m): its nodes follow rigidly over the next frame
@@ -203,15 +390,29 @@ impl Simulation {
         Ok(&self.grab_ref(id)?.nodes)
     }
 
-    /// The force the tissue exerts on the tool of grasp `id` at the current state,
-    /// `Σ_{a ∈ id} (V_a − R_a(u))` (N; module docs).
+    /// The force the tissue exerts on the tool of grasp `id` at the current state (N; module
+    /// docs): a hard grasp's `Σ_{a ∈ id} (V_a − R_a(u))`, a spring grasp's spring force
+    /// `Σ_a k_a (x_a − x_g − o_a) = k (x̄ − x_g − ō)` ([`Coupling::Spring`]), which equals
+    /// `Σ_{a ∈ id} (V_a − R_a(u))` at equilibrium.
     pub fn grab_force(&self, id: GrabId) -> Result<[f64; 3]> {
         let g = self.grab_ref(id)?;
         let mut f = [0.0; 3];
-        for &a in &g.nodes {
-            let x = self.net(a as usize);
-            for k in 0..3 {
-                f[k] += x[k];
+        match g.coupling {
+            Coupling::Hard => {
+                for &a in &g.nodes {
+                    let x = self.net(a as usize);
+                    for k in 0..3 {
+                        f[k] += x[k];
+                    }
+                }
+            }
+            Coupling::Spring { .. } => {
+                for (i, (&a, o)) in g.nodes.iter().zip(&g.offsets).enumerate() {
+                    let (ka, x) = (g.node_stiffness(i), self.positions[a as usize]);
+                    for k in 0..3 {
+                        f[k] += ka * (x[k] - g.position[k] - o[k]);
+                    }
+                }
             }
         }
         Ok(f)
@@ -274,8 +475,10 @@ impl Simulation {
         let n = self.mesh.num_nodes();
         self.constrained.clone_from(&self.own);
         for g in self.grabs.values() {
-            for &a in &g.nodes {
-                self.constrained[a as usize] = true;
+            if g.coupling == Coupling::Hard {
+                for &a in &g.nodes {
+                    self.constrained[a as usize] = true;
+                }
             }
         }
         for p in self.pins.values() {
@@ -294,8 +497,12 @@ impl Simulation {
     pub(super) fn apply_constraints(&mut self) {
         let mut c = RuntimeConstraints::default();
         for g in self.grabs.values() {
-            g.held(g.position, &self.mesh.nodes, &mut c.held);
+            match g.coupling {
+                Coupling::Hard => g.held(g.position, &self.mesh.nodes, &mut c.held),
+                Coupling::Spring { .. } => g.springs(g.position, &self.mesh.nodes, &mut c.springs),
+            }
         }
+        self.springs = c.springs_of(0).to_vec();
         for p in self.pins.values() {
             if c.pinned.len() < p.levels.len() {
                 c.pinned.resize(p.levels.len(), Vec::new());
@@ -305,6 +512,21 @@ impl Simulation {
             }
         }
         self.stepper.set_runtime_constraints(&c);
+    }
+}
+
+impl Simulation {
+    /// Level-0 nodes held by a spring grasp.
+    pub(super) fn sprung(&self) -> Vec<bool> {
+        let mut s = vec![false; self.mesh.num_nodes()];
+        for g in self.grabs.values() {
+            if g.coupling != Coupling::Hard {
+                for &a in &g.nodes {
+                    s[a as usize] = true;
+                }
+            }
+        }
+        s
     }
 }
 

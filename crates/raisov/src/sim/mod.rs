@@ -55,7 +55,7 @@
 //!
 //! three conjugate-gradient solves (lumped-mass preconditioner) with matrix-free products
 //! `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)`, each warm-started from the grasp's previous
-//! solution. `K_g` is symmetric negative semi-definite at a stable equilibrium; a haptic loop
+//! solution (a spring grasp's, in series with its springs: [`tangent`]). `K_g` is symmetric negative semi-definite at a stable equilibrium; a haptic loop
 //! extrapolates between frames with `f ≈ f_frame + K_g (x_device − x_frame)`.
 //!
 //! # Grasps and pins
@@ -65,7 +65,19 @@
 //! `radius` of it (at least the nearest one), leaving out nodes that are constrained already.
 //! Each grasped node keeps its offset from the grasp point: moving the grasp to `x` holds
 //! node `a` at position `x + (x_a − g)`, `g` the grasp point and `x_a` the node's position
-//! when grasped (a rigid translation). A pin holds its patch where it stands. Grasps are
+//! when grasped (a rigid translation). A hard grasp ([`Coupling::Hard`], the default of
+//! [`Simulation::grab`]) prescribes that position; a spring grasp
+//! ([`Simulation::grab_with`] and [`Coupling::Spring`], stiffness `k` in N/m) pulls node `a`
+//! towards it with a zero-length spring of stiffness `k_a = k m_a / Σ_b m_b` and leaves it
+//! free, so the tissue can resist: the springs are forces `S_a` added to `V_a` on level 0, and
+//! every coarser level gets, for each of its nodes nearest grasped nodes, one spring of the
+//! summed stiffness anchored at their stiffness-weighted mean displacement
+//! ([`crate::integrate::RuntimeConstraints::springs`]). The tool force of a spring grasp is
+//! the springs' pull, `grab_force = Σ_a k_a (x_a − x − o_a) = k (x̄ − x − ō)` (bars: mass
+//! weighted means over the patch), which at equilibrium is `Σ_{a ∈ g} (V_a − R_a(u))` as for
+//! a hard grasp, and the balance above holds unchanged. Under explicit dynamics a node spring
+//! adds `k_a / m_a` to the squared frequencies: a spring stiffer than the time step allows
+//! makes frames diverge (and be rejected), so keep `k_a Δt² / m_a` well below 4. A pin holds its patch where it stands. Grasps are
 //! prescribed points of level 0 and pins are fixed regions (each level-0 pinned node carried
 //! to the nearest node of every coarser level), taken to the levels by the scheme as it takes
 //! the scenario's ([`crate::integrate::RuntimeConstraints`]). A new grasp position takes
@@ -93,10 +105,12 @@
 mod builder;
 pub mod frame;
 mod grab;
-mod tangent;
+pub mod overrides;
+pub mod tangent;
 
 pub use builder::{Scheme, SimulationBuilder};
 pub use frame::{Budget, FrameReport};
+pub use grab::{Coupling, GrabOptions};
 
 use crate::fem::{FemModel, ForceModel};
 use crate::integrate::{Checkpoint, Stepper};
@@ -149,6 +163,10 @@ pub struct Simulation {
     positions: Vec<[f64; 3]>,
     /// `R(u)` at the current state, 3 per node.
     r: Vec<f64>,
+    /// Level 0's springs of the spring grasps, as the stepper has them.
+    springs: Vec<crate::integrate::Spring>,
+    /// The springs' force on the tissue at the current state, `k_a (d_a − u_a)`, 3 per node.
+    spring_force: Vec<f64>,
     residual: f64,
     support_nodes: Vec<u32>,
     support_forces: Vec<[f64; 3]>,
@@ -156,6 +174,8 @@ pub struct Simulation {
     checkpoint: Checkpoint,
     /// Retries of a rejected frame (each halving the grasps' sub-moves). Default 4.
     max_retries: u32,
+    /// Conjugate-gradient iterations of the last `grab_stiffness`.
+    tangent_iterations: usize,
     /// Length scale of the finite-difference tangent products (m).
     length: f64,
     /// The visual surface carried by level 0, when the mesh came from one.
@@ -285,12 +305,15 @@ impl Simulation {
             next_id: 0,
             positions: vec![[0.0; 3]; n],
             r: vec![0.0; 3 * n],
+            springs: Vec::new(),
+            spring_force: vec![0.0; 3 * n],
             residual: 0.0,
             support_nodes: Vec::new(),
             support_forces: Vec::new(),
             stress: None,
             checkpoint: Checkpoint::default(),
             max_retries: 4,
+            tangent_iterations: 0,
             length: if length > 0.0 { length } else { 1e-3 },
             mesh,
             visual: None,
@@ -425,6 +448,13 @@ impl Simulation {
             let x = self.mesh.nodes[a];
             *p = [x[0] + u[3 * a], x[1] + u[3 * a + 1], x[2] + u[3 * a + 2]];
         }
+        self.spring_force.fill(0.0);
+        for s in &self.springs {
+            let i = 3 * s.node as usize;
+            for k in 0..3 {
+                self.spring_force[i + k] += s.k * (s.d[k] - u[i + k]);
+            }
+        }
         let mut res = 0.0f64;
         for (a, c) in self.constrained.iter().enumerate() {
             if !c {
@@ -440,10 +470,16 @@ impl Simulation {
         Ok(())
     }
 
-    /// `V_a − R_a(u)` of node `a` at the last observed state.
+    /// `V_a + S_a − R_a(u)` of node `a` at the last observed state, `S` the springs' force
+    /// (zero but on the nodes of spring grasps).
     fn net(&self, a: usize) -> [f64; 3] {
-        let (f, r) = (&self.f_ext[3 * a..3 * a + 3], &self.r[3 * a..3 * a + 3]);
-        [f[0] - r[0], f[1] - r[1], f[2] - r[2]]
+        let i = 3 * a;
+        let (f, r, s) = (
+            &self.f_ext[i..i + 3],
+            &self.r[i..i + 3],
+            &self.spring_force[i..i + 3],
+        );
+        [f[0] + s[0] - r[0], f[1] + s[1] - r[1], f[2] + s[2] - r[2]]
     }
 
     /// The supported nodes: constrained, not grasped.

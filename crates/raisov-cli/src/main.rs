@@ -272,7 +272,7 @@ fn real_main(cli: Cli) -> Result<i32> {
         } => on_pool(|| {
             let (div, frames) = if quick { (6, 10) } else { (16, 40) };
             raisov_lab::bench::api(div, frames, &mut |line| println!("{line}"))?;
-            Ok(())
+            Ok(0)
         }),
         Cmd::Bench {
             suite: None,

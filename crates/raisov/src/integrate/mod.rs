@@ -23,6 +23,7 @@
 //!   `u_{n+1} = u_n + Δ u̇_{n+1/2}`; 1 evaluation.
 
 mod constraints;
+pub mod newton_direct;
 pub mod relax;
 pub mod stability;
 pub mod statics;

@@ -202,7 +202,6 @@ impl Inc2 {
         let tr = c.trace();
         let cinv = c.try_inverse().unwrap_or_else(Matrix2::zeros);
         let g1 = id - cinv / d;
-        let g2 = cinv * d + (id - cinv * tr) / d;
         let t = (cinv * dc).trace();
         let dt = dc.trace();
         let cdc = cinv * dc * cinv;

@@ -15,6 +15,15 @@
 //! - membrane triangle in 3-D: `Dm` is the 2x2 reference edge matrix in the triangle's own
 //!   orthonormal frame, `F = Ds Dm⁻¹` is 3x2, `C = FᵀF` 2x2, `P = F S` 3x2, measure `h A0`.
 //!
+//! Element tangent stiffness `K_e = ∂R_e/∂u_e` ([`FemModel::element_stiffness`], for implicit
+//! solvers: [`crate::integrate::newton_direct`]): column `(b, k)` is `R_e`'s formula with
+//! `P` replaced by `dP = ∂P/∂F : (e_k ⊗ ∇N_b)` from the law's tangent (equations in
+//! `element.rs`); the generic path, never the packed one.
+//!
+//! Inversion: an element with `det F ≤ 0` (tets) or flipped against its reference normal
+//! (membranes) is an [`ElementFailure`], unless the law says it is defined there
+//! ([`crate::material::SolidMaterial::handles_inversion`]: stable neo-Hookean tetrahedra).
+//!
 //! Nodal stress T (paper section 3, from its reference \[11\]): element Cauchy stress `σ = F S Fᵀ / J`
 //! (membranes: `J = λ3 √det C`, σ in-plane, 3x3), averaged onto nodes weighted by reference
 //! element measure.

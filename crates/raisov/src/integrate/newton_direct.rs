@@ -84,6 +84,11 @@ pub struct DirectStatic {
     pub factorizations: usize,
     /// Internal-force evaluations (residuals and line-search trials).
     pub force_evaluations: u64,
+    /// Strain-energy evaluations (the line search's Π).
+    pub energy_evaluations: u64,
+    /// Wall time in assembling tangents and in factorising and solving (s).
+    pub assembly_s: f64,
+    pub factor_s: f64,
     /// Largest nodal residual after each iteration of the last load step (N).
     pub history: Vec<f64>,
     pub converged: bool,
@@ -304,9 +309,12 @@ impl DirectNewton {
             out.history.clear();
             while max > tol && out.newton_steps < params.max_newton {
                 out.newton_steps += 1;
+                let clock = std::time::Instant::now();
                 let dbar = self
                     .assemble(model, u)
                     .map_err(DirectNewtonError::Inverted)?;
+                out.assembly_s += clock.elapsed().as_secs_f64();
+                let clock = std::time::Instant::now();
                 // Factor, raising σ until K + σ d̄ D is positive definite.
                 loop {
                     for (i, &f) in self.free.iter().enumerate() {
@@ -316,7 +324,10 @@ impl DirectNewton {
                     }
                     out.factorizations += 1;
                     match self.factor_solve(sigma * dbar, &mut rhs) {
-                        Ok(()) => break,
+                        Ok(()) => {
+                            out.factor_s += clock.elapsed().as_secs_f64();
+                            break;
+                        }
                         Err(e) => {
                             if sigma > 1e6 {
                                 return Err(DirectNewtonError::Factor(e));
@@ -334,6 +345,7 @@ impl DirectNewton {
                     .map(|(i, &f)| r[i] * rhs[f])
                     .sum();
                 let pi0 = potential(model, u, s, f_ext);
+                out.energy_evaluations += 1;
                 let mut alpha = 1.0;
                 let mut accepted = false;
                 for _ in 0..=12 {
@@ -344,6 +356,7 @@ impl DirectNewton {
                         }
                     }
                     let pi = potential(model, &trial, s, f_ext);
+                    out.energy_evaluations += 1;
                     let armijo = pi <= pi0 - 1e-4 * alpha * slope;
                     let flat = pi.is_finite() && (pi - pi0).abs() <= 1e-9 * pi0.abs();
                     if !(armijo || flat) {

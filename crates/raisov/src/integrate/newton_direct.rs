@@ -184,21 +184,39 @@ impl DirectNewton {
     }
 
     /// Assemble K(u) into the pattern's values (diagonal shifts zero); returns the mean
-    /// diagonal over free dofs.
+    /// diagonal over free dofs. Element matrices are computed in parallel, a block at a time,
+    /// and summed into the pattern in element order (the same bits on any thread count).
     fn assemble(&mut self, model: &FemModel, u: &[f64]) -> Result<f64, ElementFailure> {
+        use rayon::prelude::*;
+        const BLOCK: usize = 4096;
         self.vals.iter_mut().for_each(|v| *v = 0.0);
         let npe = model.element_nodes(0).len();
         let d = 3 * npe;
-        let mut k = vec![0.0; d * d];
+        let ne = model.num_elements();
+        let mut k = vec![0.0; BLOCK.min(ne) * d * d];
         let mut diag = 0.0;
-        for e in 0..model.num_elements() {
-            model.element_stiffness(e, u, &mut k)?;
-            let s = &self.slots[e * d * d..(e + 1) * d * d];
-            for (j, &slot) in s.iter().enumerate() {
-                if slot != u32::MAX {
-                    self.vals[slot as usize] += k[j];
-                    if j / d == j % d {
-                        diag += k[j].abs();
+        for first in (0..ne).step_by(BLOCK) {
+            let count = BLOCK.min(ne - first);
+            let ok = k[..count * d * d]
+                .par_chunks_mut(d * d)
+                .enumerate()
+                .try_for_each(|(j, out)| model.element_stiffness(first + j, u, out));
+            if ok.is_err() {
+                // Report the lowest failing element, whatever the scheduling.
+                for (j, out) in k[..count * d * d].chunks_mut(d * d).enumerate() {
+                    model.element_stiffness(first + j, u, out)?;
+                }
+            }
+            for j in 0..count {
+                let e = first + j;
+                let s = &self.slots[e * d * d..(e + 1) * d * d];
+                let ke = &k[j * d * d..(j + 1) * d * d];
+                for (q, &slot) in s.iter().enumerate() {
+                    if slot != u32::MAX {
+                        self.vals[slot as usize] += ke[q];
+                        if q / d == q % d {
+                            diag += ke[q].abs();
+                        }
                     }
                 }
             }

@@ -410,7 +410,10 @@ fn stable_neo_hookean_inverted_tet_recovers() {
             "stable",
             Material::StableNeoHookean(StableNeoHookean::from_young(1e4, 0.4)),
         ),
-        ("neo", Material::NeoHookean(NeoHookean::from_young(1e4, 0.4))),
+        (
+            "neo",
+            Material::NeoHookean(NeoHookean::from_young(1e4, 0.4)),
+        ),
     ] {
         let mut params = FemParams::new(mat.clone());
         params.density = 1000.0;

@@ -174,7 +174,8 @@ impl Iso3 {
         let j = self.j;
         (
             self.cinv * (kappa * (j - 1.0) * j),
-            self.cinv * (kappa * (2.0 * j - 1.0) * j * 0.5 * self.t) - self.cdc * (kappa * (j - 1.0) * j),
+            self.cinv * (kappa * (2.0 * j - 1.0) * j * 0.5 * self.t)
+                - self.cdc * (kappa * (j - 1.0) * j),
         )
     }
 }
@@ -206,8 +207,8 @@ impl Inc2 {
         let dt = dc.trace();
         let cdc = cinv * dc * cinv;
         let dg1 = (cdc + cinv * t) / d;
-        let dg2 = cinv * (d * t) - cdc * d + (cinv * (-dt) + cdc * tr) / d
-            - (id - cinv * tr) * (t / d);
+        let dg2 =
+            cinv * (d * t) - cdc * d + (cinv * (-dt) + cdc * tr) / d - (id - cinv * tr) * (t / d);
         Inc2 {
             i1: tr + 1.0 / d,
             di1: g1.component_mul(dc).sum(),
@@ -271,7 +272,9 @@ impl Material {
             (Material::NeoHookean(m), ElementKind::Tet4) => 3.0 * m.lambda + 2.0 * m.mu,
             (Material::MooneyRivlin(m), ElementKind::Tet4) => (3.0 * m.kappa).max(2.0 * mu),
             (Material::VerondaWestmann(m), ElementKind::Tet4) => (3.0 * m.kappa).max(2.0 * mu),
-            (Material::StableNeoHookean(m), ElementKind::Tet4) => 3.0 * m.lame_lambda + 2.0 * m.lame_mu,
+            (Material::StableNeoHookean(m), ElementKind::Tet4) => {
+                3.0 * m.lame_lambda + 2.0 * m.lame_mu
+            }
             (Material::StableNeoHookean(m), ElementKind::Tri3) => {
                 let ls = 2.0 * m.lame_lambda * m.lame_mu / (m.lame_lambda + 2.0 * m.lame_mu);
                 2.0 * ls + 2.0 * m.lame_mu
@@ -357,7 +360,9 @@ macro_rules! material_tests {
                 let m: &dyn SolidMaterial = &owned;
                 let mut fs = sample_f();
                 if m.handles_inversion() {
-                    fs.push(Matrix3::new(-0.9, 0.1, 0.0, 0.05, 1.1, 0.2, 0.0, -0.1, 0.95));
+                    fs.push(Matrix3::new(
+                        -0.9, 0.1, 0.0, 0.05, 1.1, 0.2, 0.0, -0.1, 0.95,
+                    ));
                     fs.push(Matrix3::new(0.2, 0.0, 0.0, 0.0, -0.3, 0.1, 0.0, 0.0, 0.1));
                 }
                 let df = Matrix3::new(0.3, -0.2, 0.1, 0.25, -0.5, 0.4, -0.1, 0.6, 0.2);
@@ -488,8 +493,8 @@ macro_rules! material_tests {
                         for j in 0..2 {
                             let mut d = Matrix3x2::zeros();
                             d[(i, j)] = h;
-                            let fd = (m.energy_f(&(f + d), &n0) - m.energy_f(&(f - d), &n0))
-                                / (2.0 * h);
+                            let fd =
+                                (m.energy_f(&(f + d), &n0) - m.energy_f(&(f - d), &n0)) / (2.0 * h);
                             assert!(
                                 (fd - p[(i, j)]).abs() <= 1e-6 * scale,
                                 "F = {f}: P[{i}{j}] = {} but dW/dF = {fd}",

@@ -139,7 +139,8 @@ impl SolidMaterial for StableNeoHookean {
     fn pk1(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
         let k = self.solid();
         let ic = f.norm_squared();
-        f * (k.mu * (1.0 - 1.0 / (ic + 1.0))) + cofactor(f) * (k.lambda * (f.determinant() - k.alpha))
+        f * (k.mu * (1.0 - 1.0 / (ic + 1.0)))
+            + cofactor(f) * (k.lambda * (f.determinant() - k.alpha))
     }
     fn dpk1(&self, f: &Matrix3<f64>, df: &Matrix3<f64>) -> Matrix3<f64> {
         let k = self.solid();

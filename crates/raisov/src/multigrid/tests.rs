@@ -653,6 +653,9 @@ fn coarsest_correction_reaches_level_zero() {
                 );
             }
         }
-        assert!(moved > 0.1 * scale, "level {i} did not receive the correction");
+        assert!(
+            moved > 0.1 * scale,
+            "level {i} did not receive the correction"
+        );
     }
 }

@@ -43,8 +43,7 @@ use crate::integrate::stability::critical_step_estimate;
 use crate::integrate::{Constraints, Method, Motion, System};
 use crate::io::{load_mesh, VtuFormat};
 use crate::material::{
-    lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, StableNeoHookean,
-    VerondaWestmann,
+    lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, StableNeoHookean, VerondaWestmann,
 };
 use crate::mesh::generate::{
     box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern,

@@ -1,13 +1,15 @@
 //! The liver (L1 of `data/`, with L2 and L3 as FAS's coarse levels), held on the cap of its
 //! top and sagging under gravity: direct Newton (analytic tangent, sparse Cholesky, 4 load
-//! steps) and FAS reach one common residual criterion, the largest nodal residual over free
+//! steps), FAS and adaptive dynamic relaxation (single level) reach one common residual criterion, the largest nodal residual over free
 //! nodes at most 1e-8 of the largest nodal load, and land on the same equilibrium (1e-6 of
 //! the largest displacement). Prints wall time and force evaluations of each.
 //!
 //! Slow (liver meshes): `cargo test -p raisov --test liver_newton_direct_vs_fas -- --ignored --nocapture`
 //! (add `--release` for release timings).
 
+use raisov::integrate::adaptive_relax::adaptive_relax;
 use raisov::integrate::newton_direct::{solve_system, DirectNewtonParams};
+use raisov::integrate::stability::lambda_max_bound;
 use raisov::scenario::Scenario;
 use std::path::Path;
 use std::time::Instant;
@@ -86,7 +88,21 @@ files = ["{d}/liver_L2.msh", "{d}/liver_L3.msh"]
     let fas_wall = t0.elapsed().as_secs_f64();
     let (_, s) = st.finest();
     let u_fas = s.u.clone();
+    // Adaptive dynamic relaxation on L1 alone.
+    let mut sys = sc.build_system().unwrap();
+    let lmax = lambda_max_bound(&sc.mesh, &sc.material, sc.density);
+    let t0 = Instant::now();
+    let mut u_adr = vec![0.0; 3 * n];
+    let adr = adaptive_relax(
+        &mut sys, &sc.mesh, lmax, 0.0, &mut u_adr, REL_TOL, 0.0, 2_000_000,
+    )
+    .unwrap();
+    let adr_wall = t0.elapsed().as_secs_f64();
     let scale = u_newton.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    let diff_adr = u_newton
+        .iter()
+        .zip(&u_adr)
+        .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
     let diff = u_newton
         .iter()
         .zip(&u_fas)
@@ -95,7 +111,8 @@ files = ["{d}/liver_L2.msh", "{d}/liver_L3.msh"]
         "liver L1 ({n} nodes), stop at max nodal residual <= {REL_TOL:e} x max nodal load ({vmax:.3e} N):\n  \
          direct Newton: {newton_wall:.2} s ({:.2} s assembling, {:.2} s factorising), {} Newton iterations ({} factorisations, 4 load steps), {} force and {} energy evaluations, residual {:.2e} N\n  \
          FAS (L1/L2/L3): {fas_wall:.2} s, {cycles} cycles, {:.0} finest-equivalent force evaluations, residual {res:.2e} N\n  \
-         max |u| {scale:.4e} m, max |u_newton - u_fas| {diff:.2e} m",
+         adaptive dynamic relaxation (L1): {adr_wall:.2} s, {} steps (force evaluations), converged {}, residual {:.2e} N\n  \
+         max |u| {scale:.4e} m, max |u_newton - u_fas| {diff:.2e} m, max |u_newton - u_adr| {diff_adr:.2e} m",
         out.assembly_s,
         out.factor_s,
         out.newton_steps,
@@ -103,8 +120,16 @@ files = ["{d}/liver_L2.msh", "{d}/liver_L3.msh"]
         out.force_evaluations,
         out.energy_evaluations,
         out.residual,
-        st.force_evaluations()
+        st.force_evaluations(),
+        adr.steps,
+        adr.converged,
+        adr.residual
     );
     assert!(res <= REL_TOL * vmax, "FAS did not converge: {res:e} N");
     assert!(diff <= 1e-6 * scale, "equilibria differ by {diff:e} m");
+    assert!(adr.converged, "adaptive relaxation: {adr:?}");
+    assert!(
+        diff_adr <= 1e-6 * scale,
+        "ADR's equilibrium differs by {diff_adr:e} m"
+    );
 }

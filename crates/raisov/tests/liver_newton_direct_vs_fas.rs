@@ -25,7 +25,7 @@ fn max_nodal(x: &[f64]) -> f64 {
 
 #[test]
 #[ignore = "slow: liver meshes; run with --ignored"]
-fn liver_newton_direct_and_fas_reach_the_same_equilibrium() {
+fn liver_direct_newton_fas_and_adr_reach_the_same_equilibrium() {
     let dir = Path::new(MESHES);
     assert!(
         dir.join("liver_L1.msh").is_file(),

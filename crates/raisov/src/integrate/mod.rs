@@ -22,7 +22,9 @@
 //!   `u̇_{n+1/2} = [(1 − αΔ/2) u̇_{n−1/2} + Δ M⁻¹(V − R(u_n))] / (1 + αΔ/2)`,
 //!   `u_{n+1} = u_n + Δ u̇_{n+1/2}`; 1 evaluation.
 
+pub mod adaptive_relax;
 mod constraints;
+pub mod newton_direct;
 pub mod relax;
 pub mod stability;
 pub mod statics;

@@ -43,7 +43,7 @@ use crate::integrate::stability::critical_step_estimate;
 use crate::integrate::{Constraints, Method, Motion, System};
 use crate::io::{load_mesh, VtuFormat};
 use crate::material::{
-    lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, VerondaWestmann,
+    lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, StableNeoHookean, VerondaWestmann,
 };
 use crate::mesh::generate::{
     box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern,
@@ -1258,6 +1258,16 @@ fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> R
             let c1 = positive(path, "material.c1", need("c1", m.c1)?)?;
             let gamma = positive(path, "material.gamma", need("gamma", m.gamma)?)?;
             Material::VerondaWestmann(VerondaWestmann::new(c1, gamma, kappa(m.kappa)?))
+        }
+        Law::StableNeoHookean => {
+            forbid(&[
+                ("c1", m.c1.is_some()),
+                ("c2", m.c2.is_some()),
+                ("gamma", m.gamma.is_some()),
+                ("kappa", m.kappa.is_some()),
+            ])?;
+            let (e, nu) = young_poisson()?;
+            Material::StableNeoHookean(StableNeoHookean::from_young(e, nu))
         }
     })
 }

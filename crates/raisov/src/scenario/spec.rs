@@ -38,8 +38,8 @@
 //!
 //! [material]
 //! law = "mooney-rivlin"           # "stvk" (or "st-venant-kirchhoff") | "neo-hookean" |
-//!                                 # "mooney-rivlin" | "veronda-westmann"
-//! young = 5e4                     # Pa   (stvk, neo-hookean), with
+//!                                 # "mooney-rivlin" | "veronda-westmann" | "stable-neo-hookean"
+//! young = 5e4                     # Pa   (stvk, neo-hookean, stable-neo-hookean), with
 //! poisson = 0.4                   #      (stvk, neo-hookean)
 //! c1 = 1e3                        # Pa   (mooney-rivlin, veronda-westmann)
 //! c2 = 1e3                        # Pa   (mooney-rivlin)
@@ -354,6 +354,7 @@ named_enum! {
         NeoHookean = "neo-hookean",
         MooneyRivlin = "mooney-rivlin",
         VerondaWestmann = "veronda-westmann",
+        StableNeoHookean = "stable-neo-hookean",
     }
 }
 

@@ -157,6 +157,17 @@ impl Source {
                     .entry("multigrid")
                     .or_insert_with(|| toml::Value::Table(toml::Table::new()));
                 if let toml::Value::Table(mg) = mg {
+                    let generated = self
+                        .table
+                        .get("mesh")
+                        .is_some_and(|m| m.get("generate").is_some() || m.get("surface").is_some());
+                    let has_levels = ["levels", "files", "level_nodes"]
+                        .iter()
+                        .any(|k| mg.contains_key(*k));
+                    if generated && !has_levels {
+                        // A one-level scenario: generate a second, coarser level.
+                        mg.insert("levels".into(), toml::Value::Integer(2));
+                    }
                     let (name, drop) = if method == Method::Fas {
                         ("fas", RAISOV_ONLY)
                     } else {

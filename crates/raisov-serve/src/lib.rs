@@ -66,12 +66,13 @@ pub fn serve_blocking(
         .map_err(|e| ServeError::Scenario(format!("cannot start the async runtime: {e}")))?;
     rt.block_on(async move {
         let addr = format!("{host}:{port}");
-        let listener = tokio::net::TcpListener::bind(&addr)
-            .await
-            .map_err(|e| ServeError::Bind {
-                addr: addr.clone(),
-                source: e,
-            })?;
+        let listener =
+            tokio::net::TcpListener::bind(&addr)
+                .await
+                .map_err(|e| ServeError::Bind {
+                    addr: addr.clone(),
+                    source: e,
+                })?;
         let local = listener.local_addr().map_err(|e| ServeError::Bind {
             addr: addr.clone(),
             source: e,
@@ -132,8 +133,7 @@ pub fn run(args: &ServeArgs) -> Result<(), ServeError> {
             if here.is_file() {
                 here
             } else {
-                PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-                    .join(DEFAULT_SCENARIO)
+                PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")).join(DEFAULT_SCENARIO)
             }
         }
     };
@@ -143,7 +143,9 @@ pub fn run(args: &ServeArgs) -> Result<(), ServeError> {
         .map(str::to_ascii_lowercase);
     let source = match ext.as_deref() {
         Some("toml") => session::Source::from_scenario_file(&target)?,
-        Some("obj" | "stl" | "ply") => session::Source::from_surface(&target, args.scale, args.nodes)?,
+        Some("obj" | "stl" | "ply") => {
+            session::Source::from_surface(&target, args.scale, args.nodes)?
+        }
         _ => {
             return Err(ServeError::Scenario(format!(
                 "{}: give a scenario (.toml) or a closed surface (.obj, .stl, .ply)",
@@ -170,7 +172,9 @@ pub fn run(args: &ServeArgs) -> Result<(), ServeError> {
     }
     let budget = match args.cycles {
         Some(0) => {
-            return Err(ServeError::Scenario("--cycles 0: must be at least 1".into()));
+            return Err(ServeError::Scenario(
+                "--cycles 0: must be at least 1".into(),
+            ));
         }
         Some(c) => raisov::sim::Budget::Cycles(c),
         None => raisov::sim::Budget::Millis(args.budget_ms),

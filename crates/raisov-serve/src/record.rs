@@ -129,12 +129,7 @@ impl Recorder {
                 }
                 Event::Target(x) if open => {
                     let g = grasps.last_mut().expect("open grasp");
-                    let row = [
-                        *t,
-                        x[0] - g.point[0],
-                        x[1] - g.point[1],
-                        x[2] - g.point[2],
-                    ];
+                    let row = [*t, x[0] - g.point[0], x[1] - g.point[1], x[2] - g.point[2]];
                     let last = g.table.last_mut().expect("a first row");
                     if row[0] > last[0] {
                         g.table.push(row);
@@ -152,7 +147,13 @@ impl Recorder {
 
     /// The scenario text: the served scenario with `method`, the grasps as `[[displace]]`,
     /// the pins as `[[fix]]`, and `[interactive]` with `budget` (module docs).
-    pub fn scenario(&self, source: &Source, method: Method, budget: Budget, nodes: usize) -> String {
+    pub fn scenario(
+        &self,
+        source: &Source,
+        method: Method,
+        budget: Budget,
+        nodes: usize,
+    ) -> String {
         let (grasps, pins, end) = self.paths();
         let mut t = source.table_for(method);
         let f = |x: f64| toml::Value::Float(x);
@@ -168,14 +169,8 @@ impl Recorder {
             for (lo, hi) in &pins {
                 let pad = 1e-6;
                 let mut b = toml::Table::new();
-                b.insert(
-                    "min".into(),
-                    arr(&[lo[0] - pad, lo[1] - pad, lo[2] - pad]),
-                );
-                b.insert(
-                    "max".into(),
-                    arr(&[hi[0] + pad, hi[1] + pad, hi[2] + pad]),
-                );
+                b.insert("min".into(), arr(&[lo[0] - pad, lo[1] - pad, lo[2] - pad]));
+                b.insert("max".into(), arr(&[hi[0] + pad, hi[1] + pad, hi[2] + pad]));
                 let mut e = toml::Table::new();
                 e.insert("box".into(), toml::Value::Table(b));
                 fix.push(toml::Value::Table(e));

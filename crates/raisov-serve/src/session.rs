@@ -16,9 +16,9 @@
 //! their points and grasps again at the held grasp's first point, moved to its target.
 
 use crate::protocol::{
-    self, Colour, Command, Method, STATS, STAT_APPLIED_SEQ, STAT_CYCLES, STAT_FORCE,
-    STAT_FRAME_MS, STAT_GRASP, STAT_GRASPED, STAT_HOLDER, STAT_INPUT_LAG_MS, STAT_METHOD,
-    STAT_RESIDUAL, STAT_SCALAR_MAX, STAT_SIM_FPS,
+    self, Colour, Command, Method, STATS, STAT_APPLIED_SEQ, STAT_CYCLES, STAT_FORCE, STAT_FRAME_MS,
+    STAT_GRASP, STAT_GRASPED, STAT_HOLDER, STAT_INPUT_LAG_MS, STAT_METHOD, STAT_RESIDUAL,
+    STAT_SCALAR_MAX, STAT_SIM_FPS,
 };
 use crate::record::{Event, Recorder};
 use crate::ServeError;
@@ -300,7 +300,9 @@ impl Session {
                     }
                 }
             })
-            .map_err(|e| ServeError::Scenario(format!("cannot start the simulation thread: {e}")))?;
+            .map_err(|e| {
+                ServeError::Scenario(format!("cannot start the simulation thread: {e}"))
+            })?;
         let (published, counts) = ready_rx
             .recv()
             .map_err(|_| ServeError::Scenario("the simulation thread stopped".into()))??;
@@ -533,6 +535,7 @@ impl Worker {
     fn release(&mut self) {
         if let Some(h) = self.held.take() {
             let _ = self.sim.release(h.id);
+            self.recorder.push(Event::Target(h.target));
             self.recorder.push(Event::Release);
             self.holder_notice();
         }

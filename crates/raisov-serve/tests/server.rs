@@ -56,9 +56,8 @@ async fn start() -> (String, tokio::task::JoinHandle<()>) {
     (format!("127.0.0.1:{}", addr.port()), task)
 }
 
-type Client = tokio_tungstenite::WebSocketStream<
-    tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>,
->;
+type Client =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
 
 async fn connect(addr: &str) -> Client {
     let (ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws"))
@@ -68,9 +67,11 @@ async fn connect(addr: &str) -> Client {
 }
 
 async fn send(ws: &mut Client, seq: u32, command: Command) {
-    ws.send(Ws::Binary(protocol::encode(&Message { seq, command }).into()))
-        .await
-        .unwrap();
+    ws.send(Ws::Binary(
+        protocol::encode(&Message { seq, command }).into(),
+    ))
+    .await
+    .unwrap();
 }
 
 /// The next text message (frames skipped), within 10 s.
@@ -200,7 +201,28 @@ async fn a_grasp_moves_the_grasped_nodes() {
             break t;
         }
     };
-    assert!(rec.contains("[[displace]]") && rec.contains("radius"), "{rec}");
+    assert!(
+        rec.contains("[[displace]]") && rec.contains("radius"),
+        "{rec}"
+    );
+    // It is a scenario `raisov run` accepts: the grasped node prescribed, interactive mode.
+    let body = rec
+        .split_once("\"toml\":\"")
+        .and_then(|(_, b)| b.strip_suffix("\"}"))
+        .expect("the toml field");
+    let text = body
+        .replace("\\n", "\n")
+        .replace("\\\"", "\"")
+        .replace("\\\\", "\\");
+    let sc = raisov::scenario::Scenario::from_toml(&text, "recorded.toml".as_ref())
+        .unwrap_or_else(|e| panic!("{e}\n{text}"));
+    assert_eq!(sc.prescribed.len(), 1, "{text}");
+    assert!(sc.interactive.is_some());
+    let d = sc.prescribed[0].1.displacement(1e9);
+    assert!(
+        (d[2] - 0.005).abs() < 1e-6,
+        "held at the last target: {d:?}"
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -220,7 +242,10 @@ async fn hostile_messages_leave_the_server_serving() {
     let mut unknown = good.clone();
     unknown[0] = 200;
     let hostile: Vec<(Ws, &str)> = vec![
-        (Ws::Binary(vec![0xde, 0xad, 0xbe, 0xef, 1, 2, 3].into()), "shorter"),
+        (
+            Ws::Binary(vec![0xde, 0xad, 0xbe, 0xef, 1, 2, 3].into()),
+            "shorter",
+        ),
         (
             Ws::Binary((0..24).map(|i| (i * 37) as u8).collect::<Vec<u8>>().into()),
             "",

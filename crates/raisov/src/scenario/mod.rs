@@ -375,13 +375,14 @@ impl Scenario {
             if let Some(r) = d.radius {
                 // A surface patch (patch.rs): the free surface nodes within `r`.
                 if !(r >= 0.0 && r.is_finite()) {
-                    return Err(err(path, format!("{key}: `radius` = {r}: must be >= 0 (m)")));
+                    return Err(err(
+                        path,
+                        format!("{key}: `radius` = {r}: must be >= 0 (m)"),
+                    ));
                 }
                 let (g, mut nodes) = patch::surface_patch(&mesh, d.point, r)
                     .ok_or_else(|| err(path, format!("{key}: the mesh has no surface")))?;
-                nodes.retain(|a| {
-                    !fixed.contains(a) && !prescribed.iter().any(|(n, _)| n == a)
-                });
+                nodes.retain(|a| !fixed.contains(a) && !prescribed.iter().any(|(n, _)| n == a));
                 if nodes.is_empty() {
                     return Err(err(path, format!("{key}: every surface node within `radius` = {r} m of {g:?} is fixed or prescribed by an earlier [[displace]]")));
                 }

@@ -828,7 +828,8 @@ duration = 0.01
         assert_eq!(sim.grab_nodes(g).unwrap(), &nodes[..]);
     }
     // Fixed nodes are left out: a patch on the base that is all fixed is an error.
-    let d = "[[displace]]\npoint = [0.02, 0.02, -0.01]\nradius = 0.005\ndisplacement = [0, 0, 0.001]";
+    let d =
+        "[[displace]]\npoint = [0.02, 0.02, -0.01]\nradius = 0.005\ndisplacement = [0, 0, 0.001]";
     let e = error_of(&cube(d));
     assert!(e.contains("displace[0]") && e.contains("fixed"), "{e}");
     let d = "[[displace]]\npoint = [0.02, 0.02, 0.05]\nradius = -1.0\ndisplacement = [0, 0, 0.001]";

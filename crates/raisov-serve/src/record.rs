@@ -48,7 +48,7 @@ pub enum Event {
         /// m
         radius: f64,
         /// min, max (m)
-        bounds: ([f64; 3], [f64; 3]),
+        bounds: Bounds,
     },
 }
 
@@ -59,6 +59,9 @@ pub struct Recorder {
     events: Vec<(f64, Event)>,
     last_sample: f64,
 }
+
+/// A box `(min, max)` (m).
+pub type Bounds = ([f64; 3], [f64; 3]);
 
 /// One grasp's path.
 #[derive(Clone, Debug, PartialEq)]
@@ -111,7 +114,7 @@ impl Recorder {
     }
 
     /// The grasp paths and the pins' boxes.
-    pub fn paths(&self) -> (Vec<GraspPath>, Vec<([f64; 3], [f64; 3])>, f64) {
+    pub fn paths(&self) -> (Vec<GraspPath>, Vec<Bounds>, f64) {
         let mut grasps: Vec<GraspPath> = Vec::new();
         let mut pins = Vec::new();
         let mut open = false;

@@ -33,6 +33,7 @@
 
 pub mod interactive;
 mod levels;
+mod patch;
 pub mod run;
 pub mod spec;
 pub mod surface;
@@ -450,10 +451,27 @@ impl Scenario {
         for (i, d) in spec.displace.iter().enumerate() {
             let key = format!("displace[{i}]");
             far(d.point, &key, &mut warnings);
+            let motion = resolve_motion(d, path, &key)?;
+            if let Some(r) = d.radius {
+                // A surface patch (patch.rs): the free surface nodes within `r`.
+                if !(r >= 0.0 && r.is_finite()) {
+                    return Err(err(
+                        path,
+                        format!("{key}: `radius` = {r}: must be >= 0 (m)"),
+                    ));
+                }
+                let (g, mut nodes) = patch::surface_patch(&mesh, d.point, r)
+                    .ok_or_else(|| err(path, format!("{key}: the mesh has no surface")))?;
+                nodes.retain(|a| !fixed.contains(a) && !prescribed.iter().any(|(n, _)| n == a));
+                if nodes.is_empty() {
+                    return Err(err(path, format!("{key}: every surface node within `radius` = {r} m of {g:?} is fixed or prescribed by an earlier [[displace]]")));
+                }
+                prescribed.extend(nodes.into_iter().map(|a| (a, motion.clone())));
+                continue;
+            }
             let node = mesh
                 .nearest_node(d.point)
                 .ok_or_else(|| err(path, "the mesh has no nodes"))? as u32;
-            let motion = resolve_motion(d, path, &key)?;
             if prescribed.iter().any(|(n, _)| *n == node) {
                 let k = file_ids.as_ref().map_or(node, |f| f[node as usize]);
                 let shown = node_labels.as_ref().map_or(k as u64, |l| l[k as usize]);

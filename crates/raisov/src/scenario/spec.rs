@@ -80,6 +80,11 @@
 //!                                 # where `table` is given, else "held"
 //! duration = 0.5                  # s, ramp
 //! table = [[0.0, 0,0,0], [1.0, 0,0,0.01]]   # rows [t, dx, dy, dz], t increasing (mode "table")
+//! radius = 0.01                   # m, optional: prescribe a surface patch instead of one node:
+//!                                 # the surface nodes within `radius` of the surface point
+//!                                 # nearest `point` (at least the nearest node), as
+//!                                 # sim::Simulation::grab selects them; fixed nodes and nodes of
+//!                                 # an earlier [[displace]] are left out. All move together
 //!
 //! [integrator]
 //! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" |
@@ -727,6 +732,7 @@ pub struct LoadSpec {
 #[serde(deny_unknown_fields)]
 pub struct DisplaceSpec {
     pub point: [f64; 3],
+    pub radius: Option<f64>,
     pub displacement: Option<[f64; 3]>,
     pub mode: Option<MotionMode>,
     pub duration: Option<f64>,

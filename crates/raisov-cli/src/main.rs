@@ -158,6 +158,10 @@ enum Cmd {
         /// Level-0 node target when meshing a surface argument.
         #[arg(long, default_value_t = 8000)]
         nodes: usize,
+        /// Total stiffness of the springs coupling the grasped patch to the cursor (N/m);
+        /// 0 holds the patch rigidly.
+        #[arg(long, default_value_t = 200.0)]
+        grab_stiffness: f64,
     },
 }
 
@@ -306,19 +310,24 @@ fn real_main(cli: Cli) -> Result<i32> {
             record,
             scale,
             nodes,
-        } => Ok(raisov_serve::run(&raisov_serve::ServeArgs {
-            target,
-            host,
-            port,
-            open,
-            cycles,
-            budget_ms,
-            max_fps,
-            method,
-            record,
-            scale,
-            nodes,
-        })?),
+            grab_stiffness,
+        } => {
+            raisov_serve::run(&raisov_serve::ServeArgs {
+                target,
+                host,
+                port,
+                open,
+                cycles,
+                budget_ms,
+                max_fps,
+                method,
+                record,
+                scale,
+                nodes,
+                grab_stiffness,
+            })?;
+            Ok(0)
+        }
         Cmd::Run {
             scenario,
             out,

@@ -107,7 +107,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 fn sim_thread(base: &std::path::Path, cycles: u32) -> Result<(f64, f64, f64, usize), String> {
     let e = |x: raisov::Error| x.to_string();
     let mut sim = Simulation::from_toml(LIVER, base).map_err(e)?;
-    let g = raisov_serve::session::grab_tool(&mut sim, POINT, 0.0).map_err(e)?;
+    let g = raisov_serve::session::grab_tool(&mut sim, POINT, 0.0, None).map_err(e)?;
     let start = sim.grab_position(g).map_err(e)?;
     let node = sim.grab_nodes(g).map_err(e)?[0] as usize;
     let x_node = sim.mesh().nodes[node];
@@ -204,6 +204,7 @@ async fn wire(
     let session = Session::spawn(
         source,
         SessionConfig {
+            grab_stiffness: None,
             budget: Budget::Cycles(cycles),
             max_fps: 0.0,
             method: Some(Method::Fas),

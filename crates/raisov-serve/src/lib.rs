@@ -117,6 +117,8 @@ pub struct ServeArgs {
     pub scale: f64,
     /// Level-0 node target when meshing a surface.
     pub nodes: usize,
+    /// Total stiffness of the grasp's coupling springs (N/m); 0 holds the patch rigidly.
+    pub grab_stiffness: f64,
 }
 
 /// The scenario served without an argument: the liver grasp of `examples/` (levels L1–L3 of
@@ -184,6 +186,15 @@ pub fn run(args: &ServeArgs) -> Result<(), ServeError> {
         max_fps: args.max_fps,
         method,
         record_path: args.record.clone(),
+        grab_stiffness: match args.grab_stiffness {
+            k if k == 0.0 => None,
+            k if k > 0.0 && k.is_finite() => Some(k),
+            k => {
+                return Err(ServeError::Scenario(format!(
+                "--grab-stiffness {k}: must be a positive stiffness in N/m, or 0 for a rigid hold"
+            )))
+            }
+        },
     };
     println!("raisov serve: {} ({})", source.name, target.display());
     let open = args.open;

@@ -22,7 +22,7 @@ use crate::protocol::{
 };
 use crate::record::{Event, Recorder};
 use crate::ServeError;
-use raisov::sim::{Budget, GrabId, Simulation};
+use raisov::sim::{Budget, GrabId, GrabOptions, Simulation};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
 use std::sync::Arc;
@@ -197,9 +197,20 @@ impl Source {
     }
 }
 
-/// The one place a client's grasp becomes a simulation grasp (a rigid hold of the patch).
-pub fn grab_tool(sim: &mut Simulation, point: [f64; 3], radius: f64) -> raisov::Result<GrabId> {
-    sim.grab(point, radius)
+/// The one place a client's grasp becomes a simulation grasp: the surface patch within
+/// `radius` (m) of `point`, pulled towards the cursor by springs of total stiffness
+/// `stiffness` (N/m, spread over the patch by mass, so the tissue can resist and lag), or held
+/// rigidly when `stiffness` is `None`.
+pub fn grab_tool(
+    sim: &mut Simulation,
+    point: [f64; 3],
+    radius: f64,
+    stiffness: Option<f64>,
+) -> raisov::Result<GrabId> {
+    match stiffness {
+        Some(k) => sim.grab_with(point, GrabOptions::spring(radius, k)),
+        None => sim.grab(point, radius),
+    }
 }
 
 /// Settings of the simulation thread.
@@ -213,6 +224,8 @@ pub struct SessionConfig {
     pub method: Option<Method>,
     /// Where `save` also writes the recorded scenario.
     pub record_path: Option<PathBuf>,
+    /// Total stiffness of the grasp's coupling springs (N/m); `None` holds the patch rigidly.
+    pub grab_stiffness: Option<f64>,
 }
 
 /// A message to one client (text) or a notice for all.
@@ -555,7 +568,7 @@ impl Worker {
                     return;
                 }
                 let (point, radius) = (f64p(point), radius as f64);
-                match grab_tool(&mut self.sim, point, radius) {
+                match grab_tool(&mut self.sim, point, radius, self.config.grab_stiffness) {
                     Ok(g) => {
                         let at = self.sim.grab_position(g).unwrap_or(point);
                         self.held = Some(Held {
@@ -683,7 +696,12 @@ impl Worker {
                         }
                     }
                     if let Some(h) = self.held.take() {
-                        match grab_tool(&mut self.sim, h.point, h.radius) {
+                        match grab_tool(
+                            &mut self.sim,
+                            h.point,
+                            h.radius,
+                            self.config.grab_stiffness,
+                        ) {
                             Ok(g) => {
                                 let _ = self.sim.move_grab(g, h.target);
                                 self.held = Some(Held { id: g, ..h });

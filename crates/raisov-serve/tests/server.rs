@@ -40,6 +40,7 @@ async fn start() -> (String, tokio::task::JoinHandle<()>) {
     let session = Session::spawn(
         source,
         SessionConfig {
+            grab_stiffness: None,
             budget: Budget::Cycles(20),
             max_fps: 200.0,
             method: None,

@@ -1052,6 +1052,8 @@ fn newton_static_solve_matches_the_steady_dynamic_run() {
     assert!(e.contains("does not apply to method = \"newton\""), "{e}");
     let e = error_of(&format!("{BASE}[integrator]\nincrements = 3\n"));
     assert!(e.contains("applies to method = \"newton\""), "{e}");
+}
+
 /// `[[displace]] radius`: a surface patch, the nodes `Simulation::grab` takes at the same
 /// point and radius on the undeformed body, all with the same motion.
 #[test]

@@ -39,6 +39,7 @@
 // Index loops over x, y, z components read like the equations they implement.
 #![allow(clippy::needless_range_loop)]
 
+pub mod contact;
 pub mod error;
 pub mod fem;
 pub mod hierarchy;

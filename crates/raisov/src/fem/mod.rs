@@ -45,6 +45,7 @@
 //! path, in `packed/fused.rs`.
 
 mod element;
+pub mod loads;
 pub mod packed;
 
 use crate::material::{Material, MembraneMaterial, SolidMaterial};
@@ -74,6 +75,18 @@ pub trait ForceModel: Send {
     fn strain_energy(&self, u: &[f64]) -> f64;
     /// Nodal stress tensor T (9 per node, row-major, Pa): the measure of paper section 3.
     fn nodal_stress(&self, u: &[f64], t: &mut [f64]);
+    /// Set the time (s) at which the time-dependent loads and tools a model carries are
+    /// evaluated ([`loads::Loaded`]); [`crate::integrate::System::impose`] calls it with the
+    /// time it imposes the constraints at. Default: nothing depends on time.
+    fn set_time(&self, _t: f64) {}
+    /// Scale the loads and tool motions a model carries by `f` (static load increments);
+    /// default: none carried.
+    fn set_load_factor(&self, _f: f64) {}
+    /// Net forces of the loads and tools a model carries at `u` ([`loads::LoadReport`]);
+    /// default: none.
+    fn load_report(&mut self, _u: &[f64]) -> loads::LoadReport {
+        loads::LoadReport::default()
+    }
 }
 
 /// Parameters of an FE model.

@@ -164,9 +164,17 @@ impl std::fmt::Display for RunSummary {
         )?;
         writeln!(
             f,
-            "applied loads   {} (loads and body force)",
+            "applied loads   {} (loads, surface loads and body force)",
             v(self.applied)
         )?;
+        if self.last.tool != [0.0; 3] || self.last.penetration > 0.0 {
+            writeln!(
+                f,
+                "tool contact    {} (on the body), penetration {:.4e} m",
+                v(self.last.tool),
+                self.last.penetration
+            )?;
+        }
         if self.last.stress_err_max.is_finite() {
             writeln!(
                 f,
@@ -185,17 +193,12 @@ impl std::fmt::Display for RunSummary {
 }
 
 impl Scenario {
-    /// The time after which every prescribed motion is constant.
+    /// The time after which every prescribed motion, load and tool is constant.
     pub fn motion_end(&self) -> f64 {
-        use crate::integrate::Motion;
         self.prescribed
             .iter()
-            .map(|(_, m)| match m {
-                Motion::Held { .. } => 0.0,
-                Motion::Ramp { duration, .. } => *duration,
-                Motion::Table { times, .. } => *times.last().unwrap_or(&0.0),
-            })
-            .fold(0.0, f64::max)
+            .map(|(_, m)| m.end())
+            .fold(self.loads_end(), f64::max)
     }
 
     /// Steady-state nodal stress T∞ with the constraints at their final values, by dynamic
@@ -585,7 +588,7 @@ pub fn run_with(
         let mut t = vec![0.0; 9 * n];
         sys.force.nodal_stress(&s.u, &mut t);
         write_nodal_stress(&stress_path, sc, &s.u, &t)?;
-        let mut v = [0.0; 3];
+        let mut v = sys.force.load_report(&s.u).applied;
         for (i, f) in sys.f_ext.iter().enumerate() {
             v[i % 3] += f;
         }
@@ -698,9 +701,17 @@ impl std::fmt::Display for StaticSummary {
         )?;
         writeln!(
             f,
-            "applied loads   {} (loads and body force)",
+            "applied loads   {} (loads, surface loads and body force)",
             v(self.applied)
         )?;
+        if self.last.tool != [0.0; 3] || self.last.penetration > 0.0 {
+            writeln!(
+                f,
+                "tool contact    {} (on the body), penetration {:.4e} m",
+                v(self.last.tool),
+                self.last.penetration
+            )?;
+        }
         write!(f, "output          {}", self.out_dir.display())
     }
 }
@@ -780,6 +791,7 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
             for (x, x0) in sys.f_ext.iter_mut().zip(&f0) {
                 *x = f * x0;
             }
+            sys.force.set_load_factor(f);
             let held: Vec<[f64; 3]> = g.iter().map(|d| d.map(|x| f * x)).collect();
             crate::integrate::hold(&mut sys.constraints, &held);
             match newton.solve(sys, t, &mut u, p) {
@@ -820,7 +832,7 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
         let mut tn = vec![0.0; 9 * n];
         sys.force.nodal_stress(&s.u, &mut tn);
         write_nodal_stress(&out.join("nodal_stress.csv"), sc, &s.u, &tn)?;
-        let mut v = [0.0; 3];
+        let mut v = sys.force.load_report(&s.u).applied;
         for (i, f) in sys.f_ext.iter().enumerate() {
             v[i % 3] += f;
         }

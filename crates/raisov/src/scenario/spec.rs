@@ -370,6 +370,33 @@ named_enum! {
 }
 
 named_enum! {
+    /// `time = { kind = .. }`: the time function of a load, a prescribed displacement or a
+    /// tool path ([`crate::fem::loads::TimeFunction`]).
+    pub enum TimeKind {
+        /// `s = 1`.
+        Constant = "constant",
+        /// `s = min(t / duration, 1)`.
+        Ramp = "ramp",
+        /// Piecewise linear through the rows `[t, s]` of `table`.
+        Table = "table",
+        /// `s = amplitude sin(2π frequency t + phase)`.
+        Sine = "sine",
+    }
+}
+
+named_enum! {
+    /// `[[tool]] shape`.
+    pub enum ToolKind {
+        /// `center`, `radius`.
+        Sphere = "sphere",
+        /// `point`, `normal` (pointing out of the tool).
+        Plane = "plane",
+        /// `a`, `b` (the segment's ends), `radius`.
+        Capsule = "capsule",
+    }
+}
+
+named_enum! {
     /// `[run] stop`.
     #[derive(Default)]
     pub enum Stop {
@@ -570,6 +597,12 @@ pub struct ScenarioSpec {
     #[serde(default)]
     pub displace: Vec<DisplaceSpec>,
     #[serde(default)]
+    pub pressure: Vec<SurfaceLoadSpec>,
+    #[serde(default)]
+    pub traction: Vec<SurfaceLoadSpec>,
+    #[serde(default)]
+    pub tool: Vec<ToolSpec>,
+    #[serde(default)]
     pub integrator: IntegratorSpec,
     #[serde(default)]
     pub run: RunSpec,
@@ -720,6 +753,61 @@ pub struct LoadSpec {
     /// Which nodes: a selector table as in `[[fix]]`.
     pub at: RegionSpec,
     pub force: [f64; 3],
+    /// The force's time function; default constant.
+    pub time: Option<TimeSpec>,
+}
+
+/// `time = { kind = "ramp", duration = 0.5 }` and the like: a time function.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSpec {
+    pub kind: TimeKind,
+    /// ramp: s.
+    pub duration: Option<f64>,
+    /// table: rows `[t, s]`.
+    pub table: Option<Vec<[f64; 2]>>,
+    /// sine: default 1.
+    pub amplitude: Option<f64>,
+    /// sine: Hz.
+    pub frequency: Option<f64>,
+    /// sine: rad, default 0.
+    pub phase: Option<f64>,
+}
+
+/// `[[pressure]]` (`value`, Pa) or `[[traction]]` (`traction`, Pa): on a physical group, on
+/// the patch within `radius` of `point`, or on the whole boundary.
+#[derive(Clone, Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SurfaceLoadSpec {
+    pub group: Option<String>,
+    pub point: Option<[f64; 3]>,
+    pub radius: Option<f64>,
+    pub boundary: Option<bool>,
+    /// `[[pressure]]`: Pa.
+    pub value: Option<f64>,
+    /// `[[traction]]`: Pa, per reference area.
+    pub traction: Option<[f64; 3]>,
+    pub time: Option<TimeSpec>,
+}
+
+/// `[[tool]]`: a rigid tool in penalty contact with the body.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolSpec {
+    pub shape: ToolKind,
+    pub center: Option<[f64; 3]>,
+    pub radius: Option<f64>,
+    pub point: Option<[f64; 3]>,
+    pub normal: Option<[f64; 3]>,
+    pub a: Option<[f64; 3]>,
+    pub b: Option<[f64; 3]>,
+    /// The translation (m), times `time` (default constant); or instead
+    pub displacement: Option<[f64; 3]>,
+    pub time: Option<TimeSpec>,
+    /// rows `[t, dx, dy, dz]`: the translation, piecewise linear.
+    pub path: Option<Vec<[f64; 4]>>,
+    /// Penalty stiffness (N/m); default the material's stability modulus × mean edge length.
+    pub stiffness: Option<f64>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]
@@ -730,6 +818,8 @@ pub struct DisplaceSpec {
     pub mode: Option<MotionMode>,
     pub duration: Option<f64>,
     pub table: Option<Vec<[f64; 4]>>,
+    /// `displacement` times this time function (instead of `mode`).
+    pub time: Option<TimeSpec>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]

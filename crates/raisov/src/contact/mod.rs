@@ -1,0 +1,162 @@
+//! Rigid analytic tools (sphere, plane, capsule) moving along a path, in frictionless penalty
+//! contact with the nodes of the body.
+//!
+//! A tool is a rigid shape translated by `d(t)` (a [`Motion`]: held, ramp, table or a time
+//! function times a vector). For a node at `x = X + u` its signed distance `φ(x)` (positive
+//! outside the tool) and outward unit normal `n(x)` are
+//!
+//! ```text
+//! sphere  (centre c, radius r):        φ = |x − c| − r,            n = (x − c)/|x − c|
+//! plane   (point p, unit normal m):    φ = (x − p)·m,               n = m   (the tool is φ < 0)
+//! capsule (segment a–b, radius r):     q = a + clamp((x−a)·(b−a)/|b−a|², 0, 1)(b − a),
+//!                                      φ = |x − q| − r,            n = (x − q)/|x − q|
+//! ```
+//!
+//! with `c, p, a, b` moved by `d(t)`. A penetrating node (`φ < 0`) feels the penalty force
+//!
+//! ```text
+//! f_a = −k φ n,        energy ½ k φ²
+//! ```
+//!
+//! (frictionless: normal only). The penalty is part of the force model ([`crate::fem::loads::Loaded`]),
+//! so explicit integrators, the FAS multigrid (each level with its own nodes in contact) and the
+//! static Newton solve (its finite-difference tangent includes the penalty stiffness) all see
+//! it. The contact force reported is `F_tool = Σ_a f_a`, the force the tool exerts on the body;
+//! at equilibrium `F_fixed + F_prescribed + F_tool + Σ V = 0` ([`crate::metrics`]).
+//!
+//! Penalty stiffness: default `k = M ℓ̄`, `M` the material's stability modulus
+//! ([`crate::material::Material::stability_modulus`], 3K for solids: the stiffest small-strain
+//! mode of an element) and `ℓ̄` the mean edge length of the mesh the tool acts on, so that a
+//! node's contact spring is about as stiff as its elements and the explicit critical step
+//! stays of the same order. A node pressed by a force `F` penetrates `|F|/k`: the penetration
+//! tolerance is the user's choice of `k` (`stiffness`, N/m).
+
+use crate::integrate::Motion;
+
+/// The shape of a rigid tool in its reference position (m).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ToolShape {
+    Sphere {
+        center: [f64; 3],
+        radius: f64,
+    },
+    /// The tool occupies `(x − point)·normal < 0`; `normal` is a unit vector.
+    Plane {
+        point: [f64; 3],
+        normal: [f64; 3],
+    },
+    Capsule {
+        a: [f64; 3],
+        b: [f64; 3],
+        radius: f64,
+    },
+}
+
+/// A rigid tool: its shape, its translation `d(t)` and its penalty stiffness `k` (N/m).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tool {
+    pub shape: ToolShape,
+    pub motion: Motion,
+    pub stiffness: f64,
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+/// Distance and normal from the nearest point `q` of a core (point or segment) of radius `r`.
+fn round(x: [f64; 3], q: [f64; 3], r: f64) -> Option<(f64, [f64; 3])> {
+    let v = sub(x, q);
+    let l = dot(v, v).sqrt();
+    if l >= r {
+        return None;
+    }
+    // A node exactly on the core has no normal; push it along +z.
+    let n = if l > 0.0 {
+        v.map(|c| c / l)
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    Some((l - r, n))
+}
+
+impl ToolShape {
+    /// `(φ, n)` of a point `x` inside the shape translated by `d` (see the module
+    /// documentation); `None` outside (φ ≥ 0).
+    pub fn penetration(&self, x: [f64; 3], d: [f64; 3]) -> Option<(f64, [f64; 3])> {
+        match self {
+            ToolShape::Sphere { center, radius } => round(x, add(*center, d), *radius),
+            ToolShape::Plane { point, normal } => {
+                let phi = dot(sub(x, add(*point, d)), *normal);
+                (phi < 0.0).then_some((phi, *normal))
+            }
+            ToolShape::Capsule { a, b, radius } => {
+                let (a, b) = (add(*a, d), add(*b, d));
+                let ab = sub(b, a);
+                let l2 = dot(ab, ab);
+                let s = if l2 > 0.0 {
+                    (dot(sub(x, a), ab) / l2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                round(x, add(a, ab.map(|c| c * s)), *radius)
+            }
+        }
+    }
+}
+
+impl Tool {
+    /// The translation at time `t` scaled by `factor` (static increments).
+    pub fn offset(&self, t: f64, factor: f64) -> [f64; 3] {
+        self.motion.displacement(t).map(|c| c * factor)
+    }
+
+    /// Add the penalty forces on the nodes `x0 + u` at time `t` into `f` (3 per node);
+    /// returns the penalty energy (J), the net force on the body (N) and the deepest
+    /// penetration (m).
+    pub fn add_forces(
+        &self,
+        x0: &[f64],
+        u: &[f64],
+        t: f64,
+        factor: f64,
+        f: &mut [f64],
+    ) -> (f64, [f64; 3], f64) {
+        let d = self.offset(t, factor);
+        let k = self.stiffness;
+        let (mut e, mut net, mut pen) = (0.0, [0.0; 3], 0.0f64);
+        for (a, (p, w)) in x0.chunks_exact(3).zip(u.chunks_exact(3)).enumerate() {
+            let x = [p[0] + w[0], p[1] + w[1], p[2] + w[2]];
+            if let Some((phi, n)) = self.shape.penetration(x, d) {
+                for c in 0..3 {
+                    let fc = -k * phi * n[c];
+                    f[3 * a + c] += fc;
+                    net[c] += fc;
+                }
+                e += 0.5 * k * phi * phi;
+                pen = pen.max(-phi);
+            }
+        }
+        (e, net, pen)
+    }
+
+    /// The contact force on each node (3 per node, N) at `u` and time `t`: the frame field.
+    pub fn nodal_forces(&self, x0: &[f64], u: &[f64], t: f64, f: &mut [f64]) {
+        self.add_forces(x0, u, t, 1.0, f);
+    }
+}
+
+/// Default penalty stiffness `k = modulus · ℓ̄` (N/m) for a mesh of mean edge length
+/// `mean_edge` (m) and a material stability modulus `modulus` (Pa).
+pub fn default_stiffness(modulus: f64, mean_edge: f64) -> f64 {
+    modulus * mean_edge
+}
+
+#[cfg(test)]
+mod tests;

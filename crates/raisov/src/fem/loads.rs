@@ -27,8 +27,12 @@
 //! balloon whose triangles face outwards is a negative value). Its work potential is
 //! `W = −p Σ_tri x1·(x2 × x3)/6 = −p V(u)`, `V` the volume the triangles enclose with the
 //! origin; its gradient is the force above exactly on a closed surface (on an open surface up
-//! to terms along the boundary edges), and it enters [`ForceModel::strain_energy`] as `−W` for
-//! the line searches. The net force of a pressure on a closed surface is zero.
+//! to terms along the boundary edges: a follower pressure on an open surface has no
+//! potential). The net force of a pressure on a closed surface is zero. The energy the model
+//! reports ([`ForceModel::strain_energy`], the merit of line searches) therefore counts the
+//! pressure as a dead load frozen at the last force evaluation `u*`:
+//! `E(w) − F_p(u*)·w`, whose gradient along a search direction is the pressure force at
+//! `u*`, the linearization the solvers' steps are built on.
 //!
 //! **Traction**: a fixed vector `t(t)` (Pa) per *reference* area, `f_a = t A0/3` on each node of
 //! each triangle of reference area `A0`; potential `W = f·u`.
@@ -206,6 +210,8 @@ pub struct Loaded {
     factor: AtomicU64,
     /// Scratch: the load forces of one evaluation (3 per node).
     f: Vec<f64>,
+    /// The pressure forces of the last [`ForceModel::internal_forces`] (3 per node).
+    frozen: Vec<f64>,
 }
 
 impl Loaded {
@@ -254,6 +260,7 @@ impl Loaded {
             time: AtomicU64::new(0f64.to_bits()),
             factor: AtomicU64::new(1f64.to_bits()),
             f: vec![0.0; 3 * n],
+            frozen: vec![0.0; 3 * n],
         }
     }
 
@@ -272,48 +279,66 @@ impl Loaded {
     }
 
     /// The load forces `F_loads(u, t)` (surface and timed nodal loads, not tools) added into
-    /// `f` (3 per node); returns the potential `W` of those loads.
+    /// `f` (3 per node); returns the potential `W` of those loads (pressure: `−p V`, see the
+    /// module documentation).
     pub fn add_load_forces(&self, u: &[f64], f: &mut [f64]) -> f64 {
+        self.add_pressure_forces(u, f) + self.add_dead_forces(u, f)
+    }
+
+    fn position(&self, u: &[f64], a: u32) -> [f64; 3] {
+        let i = 3 * a as usize;
+        [
+            self.x0[i] + u[i],
+            self.x0[i + 1] + u[i + 1],
+            self.x0[i + 2] + u[i + 2],
+        ]
+    }
+
+    /// The follower pressures' forces added into `f`; returns `W = −p V`.
+    fn add_pressure_forces(&self, u: &[f64], f: &mut [f64]) -> f64 {
         let t = self.time();
         let g = self.factor();
-        let x = |a: u32| {
-            let i = 3 * a as usize;
-            [
-                self.x0[i] + u[i],
-                self.x0[i + 1] + u[i + 1],
-                self.x0[i + 2] + u[i + 2],
-            ]
-        };
+        let mut work = 0.0;
+        for s in &self.surface {
+            let SurfaceLoadKind::Pressure(p) = s.kind else {
+                continue;
+            };
+            let p = p * g * s.time.value(t);
+            for tri in &s.triangles {
+                let (a, b, c) = (
+                    self.position(u, tri[0]),
+                    self.position(u, tri[1]),
+                    self.position(u, tri[2]),
+                );
+                let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+                let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+                let nn = cross(e1, e2);
+                let fa = nn.map(|v| -p * v / 6.0);
+                for &k in tri {
+                    let i = 3 * k as usize;
+                    for d in 0..3 {
+                        f[i + d] += fa[d];
+                    }
+                }
+                let bc = cross(b, c);
+                work -= p * (a[0] * bc[0] + a[1] * bc[1] + a[2] * bc[2]) / 6.0;
+            }
+        }
+        work
+    }
+
+    /// The tractions' and timed nodal loads' forces added into `f`; returns `W = F·u`.
+    fn add_dead_forces(&self, u: &[f64], f: &mut [f64]) -> f64 {
+        let t = self.time();
+        let g = self.factor();
         let mut work = 0.0;
         for (s, tr) in self.surface.iter().zip(&self.traction) {
             let st = g * s.time.value(t);
-            match s.kind {
-                SurfaceLoadKind::Pressure(p) => {
-                    let p = p * st;
-                    for tri in &s.triangles {
-                        let (a, b, c) = (x(tri[0]), x(tri[1]), x(tri[2]));
-                        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-                        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-                        let nn = cross(e1, e2);
-                        let fa = nn.map(|v| -p * v / 6.0);
-                        for &k in tri {
-                            let i = 3 * k as usize;
-                            for d in 0..3 {
-                                f[i + d] += fa[d];
-                            }
-                        }
-                        let bc = cross(b, c);
-                        work -= p * (a[0] * bc[0] + a[1] * bc[1] + a[2] * bc[2]) / 6.0;
-                    }
-                }
-                SurfaceLoadKind::Traction(_) => {
-                    for &(k, fk) in tr {
-                        let i = 3 * k as usize;
-                        for d in 0..3 {
-                            f[i + d] += st * fk[d];
-                            work += st * fk[d] * u[i + d];
-                        }
-                    }
+            for &(k, fk) in tr {
+                let i = 3 * k as usize;
+                for d in 0..3 {
+                    f[i + d] += st * fk[d];
+                    work += st * fk[d] * u[i + d];
                 }
             }
         }
@@ -356,8 +381,12 @@ impl ForceModel for Loaded {
     fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure> {
         self.inner.internal_forces(u, r)?;
         let mut f = std::mem::take(&mut self.f);
-        f.iter_mut().for_each(|x| *x = 0.0);
-        self.add_load_forces(u, &mut f);
+        let mut frozen = std::mem::take(&mut self.frozen);
+        frozen.iter_mut().for_each(|x| *x = 0.0);
+        self.add_pressure_forces(u, &mut frozen);
+        f.copy_from_slice(&frozen);
+        self.frozen = frozen;
+        self.add_dead_forces(u, &mut f);
         self.add_tool_forces(u, &mut f);
         for (ri, fi) in r.iter_mut().zip(&f) {
             *ri -= fi;
@@ -368,9 +397,10 @@ impl ForceModel for Loaded {
 
     fn strain_energy(&self, u: &[f64]) -> f64 {
         let mut f = vec![0.0; u.len()];
-        let w = self.add_load_forces(u, &mut f);
+        let w = self.add_dead_forces(u, &mut f);
+        let wp: f64 = self.frozen.iter().zip(u).map(|(a, b)| a * b).sum();
         let (e, _, _) = self.add_tool_forces(u, &mut f);
-        self.inner.strain_energy(u) - w + e
+        self.inner.strain_energy(u) - w - wp + e
     }
 
     fn nodal_stress(&self, u: &[f64], t: &mut [f64]) {

@@ -398,6 +398,47 @@ impl Scenario {
         w
     }
 
+    /// The triangles surface load `i` acts on, on `mesh`; an error if none.
+    fn surface_triangles(&self, mesh: &Mesh, i: usize) -> Result<Vec<[u32; 3]>> {
+        let s = &self.surface_loads[i];
+        let key = match s.kind {
+            SurfaceLoadKind::Pressure(_) => format!("pressure[{i}]"),
+            SurfaceLoadKind::Traction(_) => format!(
+                "traction[{}]",
+                i - self
+                    .surface_loads
+                    .iter()
+                    .filter(|x| matches!(x.kind, SurfaceLoadKind::Pressure(_)))
+                    .count()
+            ),
+        };
+        let nodes = surface_nodes(mesh, &s.on, &self.path, &key)?;
+        let triangles = triangles_within(mesh, &nodes);
+        if triangles.is_empty() {
+            return Err(err(
+                &self.path,
+                format!(
+                    "{key}: selects no surface triangle on a mesh of {} nodes (a triangle \
+                     needs all three nodes selected; a patch needs a larger `radius`)",
+                    mesh.num_nodes()
+                ),
+            ));
+        }
+        Ok(triangles)
+    }
+
+    /// Check that every surface load selects triangles and every timed load nodes on the
+    /// scenario's mesh (at load time, not when the run starts).
+    pub(super) fn check_model_loads(&self) -> Result<()> {
+        for i in 0..self.surface_loads.len() {
+            self.surface_triangles(&self.mesh, i)?;
+        }
+        for (i, (sel, _, _)) in self.timed_load.iter().enumerate() {
+            select(&self.mesh, sel, &self.path, &format!("load[{i}].at"))?;
+        }
+        Ok(())
+    }
+
     /// Wrap `fem` (a force model on `mesh`, reference positions `x0`) with the scenario's
     /// surface loads, timed nodal loads and tools selected on `mesh` (see the module
     /// documentation); `fem` itself where there are none.
@@ -413,22 +454,8 @@ impl Scenario {
         let coarse = !std::ptr::eq(mesh, &self.mesh) && mesh.num_nodes() != self.mesh.num_nodes();
         let mut surface = Vec::with_capacity(self.surface_loads.len());
         for (i, s) in self.surface_loads.iter().enumerate() {
-            let key = format!("surface load {i}");
-            let nodes = surface_nodes(mesh, &s.on, &self.path, &key)?;
-            let triangles = triangles_within(mesh, &nodes);
-            if triangles.is_empty() {
-                return Err(err(
-                    &self.path,
-                    format!(
-                        "{key} ({:?}): selects no surface triangle on a mesh of {} nodes \
-                         (a triangle needs all three nodes selected)",
-                        s.on,
-                        mesh.num_nodes()
-                    ),
-                ));
-            }
             surface.push(SurfaceLoad {
-                triangles,
+                triangles: self.surface_triangles(mesh, i)?,
                 kind: s.kind.clone(),
                 time: s.time.clone(),
             });
@@ -462,3 +489,6 @@ impl Scenario {
         Ok(Box::new(Loaded::new(fem, x0, surface, nodal, tools)))
     }
 }
+
+#[cfg(test)]
+mod tests;

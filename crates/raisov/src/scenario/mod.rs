@@ -729,6 +729,7 @@ impl Scenario {
             surface: surface_levels.map(|sl| sl.visual),
             statics,
         };
+        sc.check_model_loads()?;
         // A reference file is read (and its numbers checked) now, not when the run needs it.
         if let Reference::File(p) = &sc.reference {
             run::read_nodal_stress(p, &sc)?;

@@ -417,6 +417,15 @@ impl ForceModel for Loaded {
         self.inner.set_load_factor(f);
     }
 
+    fn contact_forces(&self, u: &[f64], out: &mut [f64]) -> bool {
+        if self.tools.is_empty() {
+            return false;
+        }
+        out.iter_mut().for_each(|x| *x = 0.0);
+        self.add_tool_forces(u, out);
+        true
+    }
+
     fn load_report(&mut self, u: &[f64]) -> LoadReport {
         let mut f = std::mem::take(&mut self.f);
         f.iter_mut().for_each(|x| *x = 0.0);

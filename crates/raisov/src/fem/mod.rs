@@ -87,6 +87,11 @@ pub trait ForceModel: Send {
     fn load_report(&mut self, _u: &[f64]) -> loads::LoadReport {
         loads::LoadReport::default()
     }
+    /// The force the tools exert on each node at `u` into `out` (3 per node, N), the contact
+    /// field of the frames; `false` (and `out` untouched) where the model carries no tools.
+    fn contact_forces(&self, _u: &[f64], _out: &mut [f64]) -> bool {
+        false
+    }
 }
 
 /// Parameters of an FE model.

@@ -251,3 +251,31 @@ fn sphere_probe_single_level_explicit_is_stable_at_the_default_step() {
         "{fs:?} vs {fd:?}"
     );
 }
+
+/// `examples/probe_block.toml` and `examples/pressure_block.toml` run to steady state, and
+/// their reactions balance the tool force and the pressure load (1e-5 relative).
+#[test]
+fn the_probe_and_pressure_examples_settle_in_balance() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
+    let out = tempfile::tempdir().unwrap();
+    for f in ["probe_block.toml", "pressure_block.toml"] {
+        let sc = Scenario::load(&Path::new(dir).join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        let s = run(
+            &sc,
+            RunOptions {
+                out_dir: Some(out.path().join(f)),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(s.reason, StopReason::Steady, "{f}: {s}");
+        eprintln!("{s}");
+        let (r, a, t) = (s.last.reaction_fixed, s.applied, s.last.tool);
+        let scale = r[2].abs();
+        assert!(scale > 0.05, "{f}: {r:?}");
+        for k in 0..3 {
+            let gap = r[k] + a[k] + t[k];
+            assert!(gap.abs() <= 1e-5 * scale, "{f}: component {k}: {gap:e}");
+        }
+    }
+}

@@ -18,8 +18,9 @@
 //! f_a = −k φ n,        energy ½ k φ²
 //! ```
 //!
-//! (frictionless: normal only). The penalty is part of the force model ([`crate::fem::loads::Loaded`]),
-//! so explicit integrators, the FAS multigrid (each level with its own nodes in contact) and the
+//! (frictionless: normal only). The penalty is part of the force model ([`Contact`] wraps
+//! one: its internal force is `R(u) − F_tools(u, t)`, its energy `E(u) + Σ ½ k φ²`), so
+//! explicit integrators, the FAS multigrid (each level with its own nodes in contact) and the
 //! static Newton solve (its finite-difference tangent includes the penalty stiffness) all see
 //! it. The contact force reported is `F_tool = Σ_a f_a`, the force the tool exerts on the body;
 //! at equilibrium `F_fixed + F_prescribed + F_tool + Σ V = 0` ([`crate::metrics`]).
@@ -34,7 +35,10 @@
 //! tolerance is the user's choice of `k` (`stiffness`, N/m; a stiffer one needs a smaller
 //! `dt` with explicit integrators).
 
+use crate::fem::loads::LoadReport;
+use crate::fem::{ElementFailure, ForceModel};
 use crate::integrate::Motion;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The shape of a rigid tool in its reference position (m).
 #[derive(Clone, Debug, PartialEq)]
@@ -159,6 +163,121 @@ impl Tool {
 /// `mean_edge` (m) and a material stability modulus `modulus` (Pa).
 pub fn default_stiffness(modulus: f64, mean_edge: f64) -> f64 {
     4.0 * modulus * mean_edge
+}
+
+/// A force model with rigid tools in penalty contact on top (see the module documentation).
+/// The time is the one [`crate::integrate::System::impose`] last set
+/// ([`ForceModel::set_time`]).
+pub struct Contact {
+    inner: Box<dyn ForceModel>,
+    /// Reference positions, 3 per node.
+    x0: Vec<f64>,
+    tools: Vec<Tool>,
+    /// Time (f64 bits).
+    time: AtomicU64,
+    /// Factor of the tools' translations (f64 bits; static increments).
+    factor: AtomicU64,
+    /// Scratch, 3 per node.
+    f: Vec<f64>,
+}
+
+impl Contact {
+    /// Wrap `inner` (reference positions `x0`, 3 per node) with `tools`.
+    pub fn new(inner: Box<dyn ForceModel>, x0: Vec<f64>, tools: Vec<Tool>) -> Self {
+        let n = inner.num_nodes();
+        assert_eq!(x0.len(), 3 * n);
+        Contact {
+            inner,
+            x0,
+            tools,
+            time: AtomicU64::new(0f64.to_bits()),
+            factor: AtomicU64::new(1f64.to_bits()),
+            f: vec![0.0; 3 * n],
+        }
+    }
+
+    /// The tools.
+    pub fn tools(&self) -> &[Tool] {
+        &self.tools
+    }
+
+    /// The time the tools are placed at (s).
+    pub fn time(&self) -> f64 {
+        f64::from_bits(self.time.load(Ordering::Relaxed))
+    }
+
+    /// The tools' forces on the body added into `f` (3 per node); returns the penalty energy
+    /// (J), the net force (N) and the deepest penetration (m).
+    pub fn add_tool_forces(&self, u: &[f64], f: &mut [f64]) -> (f64, [f64; 3], f64) {
+        let t = self.time();
+        let g = f64::from_bits(self.factor.load(Ordering::Relaxed));
+        let (mut e, mut net, mut pen) = (0.0, [0.0; 3], 0.0f64);
+        for tool in &self.tools {
+            let (te, tf, tp) = tool.add_forces(&self.x0, u, t, g, f);
+            e += te;
+            for d in 0..3 {
+                net[d] += tf[d];
+            }
+            pen = pen.max(tp);
+        }
+        (e, net, pen)
+    }
+}
+
+impl ForceModel for Contact {
+    fn num_nodes(&self) -> usize {
+        self.inner.num_nodes()
+    }
+
+    fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure> {
+        self.inner.internal_forces(u, r)?;
+        let mut f = std::mem::take(&mut self.f);
+        f.iter_mut().for_each(|x| *x = 0.0);
+        self.add_tool_forces(u, &mut f);
+        for (ri, fi) in r.iter_mut().zip(&f) {
+            *ri -= fi;
+        }
+        self.f = f;
+        Ok(())
+    }
+
+    fn strain_energy(&self, u: &[f64]) -> f64 {
+        let (e, _, _) = self.add_tool_forces(u, &mut vec![0.0; u.len()]);
+        self.inner.strain_energy(u) + e
+    }
+
+    fn nodal_stress(&self, u: &[f64], t: &mut [f64]) {
+        self.inner.nodal_stress(u, t)
+    }
+
+    fn set_time(&self, t: f64) {
+        self.time.store(t.to_bits(), Ordering::Relaxed);
+        self.inner.set_time(t);
+    }
+
+    fn set_load_factor(&self, f: f64) {
+        self.factor.store(f.to_bits(), Ordering::Relaxed);
+        self.inner.set_load_factor(f);
+    }
+
+    fn load_report(&mut self, u: &[f64]) -> LoadReport {
+        let mut rep = self.inner.load_report(u);
+        let mut f = std::mem::take(&mut self.f);
+        f.iter_mut().for_each(|x| *x = 0.0);
+        let (_, net, pen) = self.add_tool_forces(u, &mut f);
+        self.f = f;
+        for d in 0..3 {
+            rep.tool[d] += net[d];
+        }
+        rep.max_penetration = rep.max_penetration.max(pen);
+        rep
+    }
+
+    fn contact_forces(&self, u: &[f64], out: &mut [f64]) -> bool {
+        out.iter_mut().for_each(|x| *x = 0.0);
+        self.add_tool_forces(u, out);
+        true
+    }
 }
 
 #[cfg(test)]

@@ -1,6 +1,6 @@
 //! External loads that depend on time or on the configuration, and the force-model wrapper
-//! that carries them (with the rigid tools of [`crate::contact`]) to every integrator, every
-//! multigrid level and the static solve.
+//! that carries them to every integrator, every multigrid level and the static solve (the
+//! rigid tools of [`crate::contact`] wrap a force model the same way).
 //!
 //! **Time functions** ([`TimeFunction`], dimensionless factors multiplying a load's value or
 //! a prescribed displacement):
@@ -39,7 +39,7 @@
 //!
 //! **Timed nodal loads**: a force per node times a time function.
 //!
-//! [`Loaded`] wraps a [`ForceModel`]: its internal force is `R(u) − F_loads(u, t) − F_tools(u, t)`,
+//! [`Loaded`] wraps a [`ForceModel`]: its internal force is `R(u) − F_loads(u, t)`,
 //! so that every integrator's `M ü + D u̇ + R = V` and every residual `V − R` include the
 //! loads, the reactions ([`crate::metrics::reactions`]) balance them, and each multigrid level
 //! that carries its own [`Loaded`] (the loads selected on that level's own surface) has the
@@ -47,7 +47,6 @@
 //! ([`ForceModel::set_time`]): the time of the state being stepped.
 
 use super::{ElementFailure, ForceModel};
-use crate::contact::Tool;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A dimensionless factor of time, `s(t)` (see the module documentation).
@@ -192,8 +191,8 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     ]
 }
 
-/// A force model with surface loads, timed nodal loads and rigid tools on top (see the
-/// module documentation).
+/// A force model with surface loads and timed nodal loads on top (see the module
+/// documentation).
 pub struct Loaded {
     inner: Box<dyn ForceModel>,
     /// Reference positions, 3 per node.
@@ -203,7 +202,6 @@ pub struct Loaded {
     /// node ids), precomputed from the reference areas.
     traction: Vec<Vec<(u32, [f64; 3])>>,
     nodal: Vec<TimedNodalLoad>,
-    tools: Vec<Tool>,
     /// Time (f64 bits).
     time: AtomicU64,
     /// Load factor (f64 bits).
@@ -221,7 +219,6 @@ impl Loaded {
         x0: Vec<f64>,
         surface: Vec<SurfaceLoad>,
         nodal: Vec<TimedNodalLoad>,
-        tools: Vec<Tool>,
     ) -> Self {
         let n = inner.num_nodes();
         assert_eq!(x0.len(), 3 * n);
@@ -256,7 +253,6 @@ impl Loaded {
             surface,
             traction,
             nodal,
-            tools,
             time: AtomicU64::new(0f64.to_bits()),
             factor: AtomicU64::new(1f64.to_bits()),
             f: vec![0.0; 3 * n],
@@ -271,11 +267,6 @@ impl Loaded {
 
     fn factor(&self) -> f64 {
         f64::from_bits(self.factor.load(Ordering::Relaxed))
-    }
-
-    /// The tools, for their positions and the contact field.
-    pub fn tools(&self) -> &[Tool] {
-        &self.tools
     }
 
     /// The load forces `F_loads(u, t)` (surface and timed nodal loads, not tools) added into
@@ -354,23 +345,6 @@ impl Loaded {
         }
         work
     }
-
-    /// The tools' contact forces on the body added into `f` (3 per node); returns the
-    /// penalty energy, the net tool force and the deepest penetration.
-    pub fn add_tool_forces(&self, u: &[f64], f: &mut [f64]) -> (f64, [f64; 3], f64) {
-        let t = self.time();
-        let g = self.factor();
-        let (mut e, mut net, mut pen) = (0.0, [0.0; 3], 0.0f64);
-        for tool in &self.tools {
-            let (te, tf, tp) = tool.add_forces(&self.x0, u, t, g, f);
-            e += te;
-            for d in 0..3 {
-                net[d] += tf[d];
-            }
-            pen = pen.max(tp);
-        }
-        (e, net, pen)
-    }
 }
 
 impl ForceModel for Loaded {
@@ -387,7 +361,6 @@ impl ForceModel for Loaded {
         f.copy_from_slice(&frozen);
         self.frozen = frozen;
         self.add_dead_forces(u, &mut f);
-        self.add_tool_forces(u, &mut f);
         for (ri, fi) in r.iter_mut().zip(&f) {
             *ri -= fi;
         }
@@ -399,8 +372,7 @@ impl ForceModel for Loaded {
         let mut f = vec![0.0; u.len()];
         let w = self.add_dead_forces(u, &mut f);
         let wp: f64 = self.frozen.iter().zip(u).map(|(a, b)| a * b).sum();
-        let (e, _, _) = self.add_tool_forces(u, &mut f);
-        self.inner.strain_energy(u) - w - wp + e
+        self.inner.strain_energy(u) - w - wp
     }
 
     fn nodal_stress(&self, u: &[f64], t: &mut [f64]) {
@@ -418,29 +390,19 @@ impl ForceModel for Loaded {
     }
 
     fn contact_forces(&self, u: &[f64], out: &mut [f64]) -> bool {
-        if self.tools.is_empty() {
-            return false;
-        }
-        out.iter_mut().for_each(|x| *x = 0.0);
-        self.add_tool_forces(u, out);
-        true
+        self.inner.contact_forces(u, out)
     }
 
     fn load_report(&mut self, u: &[f64]) -> LoadReport {
+        let mut rep = self.inner.load_report(u);
         let mut f = std::mem::take(&mut self.f);
         f.iter_mut().for_each(|x| *x = 0.0);
         self.add_load_forces(u, &mut f);
-        let mut applied = [0.0; 3];
         for (i, x) in f.iter().enumerate() {
-            applied[i % 3] += x;
+            rep.applied[i % 3] += x;
         }
-        let (_, tool, max_penetration) = self.add_tool_forces(u, &mut f);
         self.f = f;
-        LoadReport {
-            applied,
-            tool,
-            max_penetration,
-        }
+        rep
     }
 }
 

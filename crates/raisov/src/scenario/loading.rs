@@ -1,6 +1,7 @@
 //! Time functions, surface loads (`[[pressure]]`, `[[traction]]`), timed nodal loads and rigid
 //! tools (`[[tool]]`) of a scenario: checked once here, then selected on each level's own mesh
-//! and carried by a [`Loaded`] force model (see [`crate::fem::loads`] and [`crate::contact`]).
+//! and carried by the force-model wrappers [`Loaded`] (loads, [`crate::fem::loads`]) and
+//! [`Contact`] (tools, [`crate::contact`]).
 //!
 //! On every multigrid level the loads act on that level's own surface: a surface load's
 //! triangles are those of the level's boundary (or membrane elements) whose three nodes the
@@ -11,7 +12,7 @@
 
 use super::spec::{self, Named, TimeKind, ToolKind};
 use super::{err, positive, select, Scenario, Selector};
-use crate::contact::{default_stiffness, Tool, ToolShape};
+use crate::contact::{default_stiffness, Contact, Tool, ToolShape};
 use crate::error::Result;
 use crate::fem::loads::{
     nodes_within, triangles_within, Loaded, SurfaceLoad, SurfaceLoadKind, TimeFunction,
@@ -352,7 +353,8 @@ pub fn tool_stiffness(sc: &Scenario, mesh: &Mesh, t: &ToolDef) -> f64 {
 }
 
 impl Scenario {
-    /// Whether the scenario has loads or tools that a [`Loaded`] force model carries.
+    /// Whether the scenario has loads or tools that a [`Loaded`] or [`Contact`] force model
+    /// carries.
     pub fn has_model_loads(&self) -> bool {
         !(self.timed_load.is_empty() && self.surface_loads.is_empty() && self.tools.is_empty())
     }
@@ -477,7 +479,7 @@ impl Scenario {
                 time: time.clone(),
             });
         }
-        let tools = self
+        let tools: Vec<Tool> = self
             .tools
             .iter()
             .map(|t| Tool {
@@ -486,7 +488,16 @@ impl Scenario {
                 stiffness: tool_stiffness(self, mesh, t),
             })
             .collect();
-        Ok(Box::new(Loaded::new(fem, x0, surface, nodal, tools)))
+        let loaded: Box<dyn ForceModel> = if surface.is_empty() && nodal.is_empty() {
+            fem
+        } else {
+            Box::new(Loaded::new(fem, x0.clone(), surface, nodal))
+        };
+        Ok(if tools.is_empty() {
+            loaded
+        } else {
+            Box::new(Contact::new(loaded, x0, tools))
+        })
     }
 }
 

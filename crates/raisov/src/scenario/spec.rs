@@ -69,9 +69,16 @@
 //!                                 # is an error naming the valid range. Outputs use the same ids
 //! point = [0.0, 0.0, 0.0]         # the node nearest this point
 //!
-//! [[load]]                        # constant nodal force
+//! [[load]]                        # nodal force
 //! at = { point = [0.1, 0.0, 0.0] } # which nodes: a selector as in [[fix]]
 //! force = [0.0, 0.0, -0.1]        # N on each selected node
+//! time = { kind = "ramp", duration = 0.5 }  # optional time function, default constant:
+//!                                 # the force times s(t) (crate::fem::loads::TimeFunction):
+//!                                 # kind = "constant" | "ramp" (duration, s: s = min(t/T, 1))
+//!                                 # | "table" (table = [[t, s], ...], t increasing, linear
+//!                                 # between rows, held after the last) | "sine" (frequency,
+//!                                 # Hz; amplitude, default 1; phase, rad, default 0:
+//!                                 # s = A sin(2π f t + φ))
 //!
 //! [[displace]]                    # prescribed displacement of the node nearest `point`
 //! point = [0.0, 0.0, 0.0]
@@ -80,6 +87,34 @@
 //!                                 # where `table` is given, else "held"
 //! duration = 0.5                  # s, ramp
 //! table = [[0.0, 0,0,0], [1.0, 0,0,0.01]]   # rows [t, dx, dy, dz], t increasing (mode "table")
+//! time = { kind = "sine", frequency = 2.0 } # instead of `mode`: `displacement` times s(t)
+//!
+//! [[pressure]]                    # follower pressure on surface triangles (crate::fem::loads):
+//! group = "zmax"                  # the boundary triangles (tets) or elements (membranes) whose
+//!                                 # three nodes are in this group, or
+//! point = [0.01, 0.01, 0.02]      # those within `radius` (m) of `point` (a patch), or
+//! radius = 0.006
+//! boundary = true                 # the whole boundary (membranes: every element)
+//! value = 2000.0                  # Pa; acts on the side the normals point to: on a tet mesh
+//!                                 # the normals point out, so a positive value pushes into the
+//!                                 # body; on a membrane the node order sets the side
+//! time = { kind = "ramp", duration = 0.05 }   # optional, as for [[load]]
+//!
+//! [[traction]]                    # fixed traction per reference area, the same selectors
+//! group = "xmax"
+//! traction = [0.0, 0.0, -100.0]   # Pa
+//! time = { .. }                   # optional
+//!
+//! [[tool]]                        # rigid tool, frictionless penalty contact (crate::contact)
+//! shape = "sphere"                # "sphere" (center, radius) | "plane" (point, normal pointing
+//!                                 # out of the tool) | "capsule" (a, b: the axis ends; radius)
+//! center = [0.01, 0.01, 0.025]    # m
+//! radius = 0.005                  # m
+//! displacement = [0.0, 0.0, -0.002] # m, the tool's translation, times `time` (default
+//! time = { kind = "ramp", duration = 0.05 }  # constant), or instead
+//! path = [[0.0, 0,0,0], [1.0, 0,0,-0.002]]   # rows [t, dx, dy, dz], piecewise linear
+//! stiffness = 2000.0              # N/m; default 4 × the material's stability modulus × the
+//!                                 # mean edge length of the level it acts on
 //!
 //! [integrator]
 //! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" |

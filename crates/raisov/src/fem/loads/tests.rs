@@ -183,7 +183,6 @@ fn loaded_sphere(p: f64, mesh: &Mesh, params: FemParams) -> Loaded {
             time: TimeFunction::Constant,
         }],
         vec![],
-        vec![],
     )
 }
 
@@ -263,7 +262,6 @@ fn traction_total_is_traction_times_area_and_follows_time() {
             kind: SurfaceLoadKind::Traction([0.0, 10.0, -50.0]),
             time: TimeFunction::Ramp { duration: 2.0 },
         }],
-        vec![],
         vec![],
     );
     let n = mesh.num_nodes();

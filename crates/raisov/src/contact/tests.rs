@@ -67,8 +67,8 @@ fn penalty_force_is_the_energy_gradient() {
         up[i] += h;
         let mut um = u.clone();
         um[i] -= h;
-        let ep = tool.add_forces(&x0, &up, 0.0, 1.0, &mut vec![0.0; 9]).0;
-        let em = tool.add_forces(&x0, &um, 0.0, 1.0, &mut vec![0.0; 9]).0;
+        let ep = tool.add_forces(&x0, &up, 0.0, 1.0, &mut [0.0; 9]).0;
+        let em = tool.add_forces(&x0, &um, 0.0, 1.0, &mut [0.0; 9]).0;
         let fd = -(ep - em) / (2.0 * h);
         assert!(
             (fd - f[i]).abs() < 1e-6 * f[i].abs().max(1.0),

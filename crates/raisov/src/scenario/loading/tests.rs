@@ -279,3 +279,32 @@ fn the_probe_and_pressure_examples_settle_in_balance() {
         }
     }
 }
+
+/// The probe under the paper's RaISoV cycle (the tool on every level, each with its own
+/// nodes) runs 0.2 s without diverging and pushes down. The literal cycle is not a convergent
+/// solver: its force at 0.2 s is measured at 1.9 times the static one (0.82 N against
+/// 0.435 N), so no closer claim is made.
+#[test]
+fn sphere_probe_runs_under_the_raisov_paper_cycle() {
+    let probe = "[[tool]]\nshape = \"sphere\"\ncenter = [0.01, 0.01, 0.025]\nradius = 0.005\ndisplacement = [0.0, 0.0, -0.002]\ntime = { kind = \"ramp\", duration = 0.05 }\n";
+    let (s, _d1) = static_run(&format!(
+        "{BLOCK}{probe}[integrator]\nmethod = \"newton\"\n"
+    ));
+    let sc = parse(&format!(
+        "{BLOCK}{probe}[damping]\nratio = 1.0\nomega = 300.0\n[run]\nduration = 0.2\n[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\n"
+    ))
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let d = run(
+        &sc,
+        RunOptions {
+            out_dir: Some(dir.path().join("d")),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let (fs, fd) = (s.last.tool, d.last.tool);
+    eprintln!("static {fs:?} raisov-paper {fd:?}: {}", d.reason);
+    assert_eq!(d.reason, StopReason::Duration, "{d}");
+    assert!(fd[2] < 0.0 && fd[2].is_finite(), "{fd:?}");
+}

@@ -29,7 +29,8 @@
 //! Layout, in data-flow order (`ARCHITECTURE.md` has the map): [`io`] (readers and writers),
 //! [`mesh`] (meshes, generators, surfaces, the tetrahedral mesher), [`material`] (strain-energy
 //! functions, one per file), [`fem`] (elements, the force model, nodal stress; the packed
-//! kernels in [`fem::packed`]), [`integrate`] (explicit integrators, constraints, statics,
+//! kernels in [`fem::packed`], time functions and surface loads in [`fem::loads`]), [`contact`]
+//! (rigid tools in penalty contact), [`integrate`] (explicit integrators, constraints, statics,
 //! stability), [`hierarchy`] (levels, host elements, weights), [`multigrid`] (RaISoV and the
 //! FAS multigrid), [`metrics`], [`scenario`] (TOML scenes, typed once), [`sim`] (the frame-loop API for a
 //! host program: grasps, pins, tool forces).
@@ -39,6 +40,7 @@
 // Index loops over x, y, z components read like the equations they implement.
 #![allow(clippy::needless_range_loop)]
 
+pub mod contact;
 pub mod error;
 pub mod fem;
 pub mod hierarchy;

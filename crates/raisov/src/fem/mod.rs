@@ -54,6 +54,7 @@
 //! path, in `packed/fused.rs`.
 
 mod element;
+pub mod loads;
 pub mod packed;
 
 use crate::material::{Material, MembraneMaterial, SolidMaterial};
@@ -87,6 +88,23 @@ pub trait ForceModel: Send {
     /// that need element tangents: [`crate::integrate::newton_direct`]).
     fn as_fem_mut(&mut self) -> Option<&mut FemModel> {
         None
+    }
+    /// Set the time (s) at which the time-dependent loads and tools a model carries are
+    /// evaluated ([`loads::Loaded`]); [`crate::integrate::System::impose`] calls it with the
+    /// time it imposes the constraints at. Default: nothing depends on time.
+    fn set_time(&self, _t: f64) {}
+    /// Scale the loads and tool motions a model carries by `f` (static load increments);
+    /// default: none carried.
+    fn set_load_factor(&self, _f: f64) {}
+    /// Net forces of the loads and tools a model carries at `u` ([`loads::LoadReport`]);
+    /// default: none.
+    fn load_report(&mut self, _u: &[f64]) -> loads::LoadReport {
+        loads::LoadReport::default()
+    }
+    /// The force the tools exert on each node at `u` into `out` (3 per node, N), the contact
+    /// field of the frames; `false` (and `out` untouched) where the model carries no tools.
+    fn contact_forces(&self, _u: &[f64], _out: &mut [f64]) -> bool {
+        false
     }
 }
 

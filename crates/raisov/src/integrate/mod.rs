@@ -326,7 +326,10 @@ impl System {
     }
 
     /// Impose constrained displacements and velocities at time `t`.
+    /// The force model's time-dependent loads and tools are set to time `t` too
+    /// ([`ForceModel::set_time`]).
     pub fn impose(&self, t: f64, u: &mut [f64], v: &mut [f64]) {
+        self.force.set_time(t);
         self.constraints.impose(t, u, v);
     }
 }

@@ -967,7 +967,7 @@ fn reactions_balance_the_applied_loads() {
     assert!(s.to_string().contains("reactions       fixed"));
     let csv = std::fs::read_to_string(dir.path().join("measures.csv")).unwrap();
     let last: Vec<&str> = csv.lines().last().unwrap().split(',').collect();
-    assert_eq!(last.len(), 15);
+    assert_eq!(last.len(), 19);
     let fz: f64 = last[11].parse().unwrap();
     assert!((fz - f[2]).abs() <= 1e-9 * f[2].abs(), "{fz} vs {}", f[2]);
 }

@@ -8,7 +8,7 @@ use raisov::error::{Error, Result};
 use raisov::integrate::relax::relax;
 use raisov::integrate::stability::critical_step_estimate;
 use raisov::integrate::statics::{NewtonParams, NewtonSolver};
-use raisov::integrate::{Method, State, Stepper};
+use raisov::integrate::{Method, State, Stepper, SwitchCounts};
 use raisov::metrics::Meter;
 use raisov::scenario::Scenario;
 use std::path::Path;
@@ -281,6 +281,8 @@ pub struct Sim {
     pub reached: Option<Pt>,
     /// Last residual over the peak residual of the run.
     pub residual_drop: f64,
+    /// RaISoV's transfer switches (eqs. 10 and 12) over the run; `None` for other methods.
+    pub switches: Option<SwitchCounts>,
 }
 
 impl Sim {
@@ -435,6 +437,7 @@ pub fn simulate(
         outcome,
         reached,
         residual_drop: last.residual / res_peak.max(f64::MIN_POSITIVE),
+        switches: stepper.switch_counts(),
     }
 }
 

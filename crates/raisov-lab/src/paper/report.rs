@@ -884,6 +884,7 @@ fn section_perturbation(w: &mut String, res: &Results) {
     );
     let _ = writeln!(w, "Centre node lifted 3.0 cm at t = 0 and held. Plot: `fig5_left_lift.png` / `.svg`; series: `fig5_lift.csv`.\n");
     sim_table(w, &res.lift);
+    regulation_and_switches(w, &res.lift);
     let _ = writeln!(w, "RaISoV epsilon sweep (3 cm lift, RaISoV at twice SLIM's step; score: mean abs(T - T_inf) over the last tenth of the run; `eps_sweep.csv`):\n");
     let _ = writeln!(w, "| reading | epsilon | late mean (Pa) | outcome |");
     let _ = writeln!(w, "|---|---|---|---|");
@@ -1084,4 +1085,85 @@ fn closing(w: &mut String, out: &Path, res: &Results) {
     for f in &res.files {
         let _ = writeln!(w, "- `{}`", rel(f, out));
     }
+}
+
+/// Decay rates of max |T − T∞| over the first tenth of a run and over the rest:
+/// `(early, late)` in 1/s, `ln(m(0)/m(t1))/t1` and `ln(m(t1)/m(T))/(T − t1)`, with `t1`
+/// the first sample at or after a tenth of the run. `None` without enough finite samples.
+pub(crate) fn regulation_rates(s: &Sim) -> Option<(f64, f64)> {
+    let pts: Vec<_> = s
+        .points
+        .iter()
+        .filter(|p| p.max.is_finite() && p.max > 0.0)
+        .collect();
+    let (first, last) = (pts.first()?, pts.last()?);
+    let span = last.t - first.t;
+    if span <= 0.0 {
+        return None;
+    }
+    let mid = pts.iter().find(|p| p.t - first.t >= 0.1 * span)?;
+    let (t1, t2) = (mid.t - first.t, last.t - mid.t);
+    if t1 <= 0.0 || t2 <= 0.0 {
+        return None;
+    }
+    Some((
+        (first.max / mid.max).ln() / t1,
+        (mid.max / last.max).ln() / t2,
+    ))
+}
+
+/// Whether the lift's early regulation plateaus (decay rates of max |T − T∞| early and
+/// late), and how often RaISoV's transfers took the state branch of eqs. 10 and 12.
+fn regulation_and_switches(w: &mut String, lift: &[Sim]) {
+    let _ = writeln!(w, "Early regulation and its plateau (3 cm lift): decay rate of m = max abs(T - T_inf), ln(m(0)/m(t1))/t1 over the first tenth of the run and ln(m(t1)/m(T))/(T - t1) over the rest (T: the run's last sample); \"plateaus\" when the late rate is below a tenth of the early one while m(T)/m(0) is still above {STEADY_TARGET:e} (a run that has settled is not on a plateau):\n");
+    let _ = writeln!(
+        w,
+        "| method | early rate (1/s) | late rate (1/s) | late / early | m(T)/m(0) | plateaus |"
+    );
+    let _ = writeln!(w, "|---|---|---|---|---|---|");
+    for s in lift {
+        let first = s.points.first().map_or(f64::NAN, |p| p.max);
+        let drop = s.last().max / first;
+        match regulation_rates(s) {
+            Some((e, l)) => {
+                let ratio = l / e;
+                let plateau = e > 0.0 && ratio < 0.1 && drop > STEADY_TARGET;
+                let _ = writeln!(
+                    w,
+                    "| {} | {e:.3} | {l:.3} | {ratio:.3} | {drop:.2e} | {} |",
+                    s.label,
+                    if plateau { "yes" } else { "no" }
+                );
+            }
+            None => {
+                let _ = writeln!(w, "| {} | - | - | - | {drop:.2e} | - |", s.label);
+            }
+        }
+    }
+    let _ = writeln!(w);
+    let runs: Vec<_> = lift
+        .iter()
+        .filter_map(|s| s.switches.map(|c| (s, c)))
+        .collect();
+    if runs.is_empty() {
+        return;
+    }
+    let _ = writeln!(w, "RaISoV's switches over the lift (the paper says condition (10) is \"not satisfied for most nodes\"): node transfers per stroke that passed the state (transferred displacement change above eps, eqs. 10 and 12) or a variation (at most eps), summed over the run:\n");
+    let _ = writeln!(w, "| method | down: state / variation | up: state / variation | state fraction, down (eq. 10) | state fraction, all |");
+    let _ = writeln!(w, "|---|---|---|---|---|");
+    let frac = |f: Option<f64>| f.map_or("-".to_string(), |f| format!("{f:.4}"));
+    for (s, c) in runs {
+        let _ = writeln!(
+            w,
+            "| {} | {} / {} | {} / {} | {} | {} |",
+            s.label,
+            c.down_state,
+            c.down_variation,
+            c.up_state,
+            c.up_variation,
+            frac(c.down_state_fraction()),
+            frac(c.state_fraction())
+        );
+    }
+    let _ = writeln!(w);
 }

@@ -88,6 +88,17 @@ fn tiny_paper_run_writes_report_plots_and_csv() {
     let report = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
     assert!(report.contains("| claim | paper | measured | holds? |"));
     assert!(report.contains("liver skipped"));
+    assert!(report.contains("Early regulation and its plateau"));
+    assert!(report.contains("RaISoV's switches over the lift"));
+    // Every RaISoV lift run counts its switches, each fraction in [0, 1].
+    for s in res.lift.iter().filter(|s| s.label.starts_with("RaISoV")) {
+        let c = s.switches.expect("RaISoV counts its switches");
+        if let Some(f) = c.state_fraction() {
+            assert!((0.0..=1.0).contains(&f), "{}: {f}", s.label);
+        }
+    }
+    assert!(res.lift.iter().any(|s| s.switches.is_some()));
+    assert!(res.lift[0].switches.is_none(), "SLIM has no switches");
     for f in ["fig5_lift.csv", "stability.csv", "steady_state.csv"] {
         let t = std::fs::read_to_string(dir.path().join(f)).unwrap();
         for field in t.split([',', '\n']) {
@@ -147,4 +158,42 @@ fn csv_fields_with_commas_are_quoted() {
         "\"RaISoV correction, eps best (1.0e-3 m)\""
     );
     assert_eq!(q("a \"b\""), "\"a \"\"b\"\"\"");
+}
+
+/// The plateau measure: a curve that decays at 10/s over the first tenth and 1/s after has
+/// early rate 10 and late rate 1.
+#[test]
+fn regulation_rates_of_a_two_rate_decay() {
+    let pt = |t: f64, max: f64| experiments::Pt {
+        t,
+        max,
+        mean: max,
+        residual: 0.0,
+        kinetic: 0.0,
+        evals: 0.0,
+        wall: 0.0,
+    };
+    let points = (0..=100)
+        .map(|k| {
+            let t = k as f64 * 0.01;
+            let m = if t <= 0.1 {
+                (-10.0 * t).exp()
+            } else {
+                (-1.0f64).exp() * (-(t - 0.1)).exp()
+            };
+            pt(t, m)
+        })
+        .collect();
+    let sim = experiments::Sim {
+        label: "x".into(),
+        dt: 0.01,
+        points,
+        outcome: experiments::Outcome::Completed,
+        reached: None,
+        residual_drop: 1.0,
+        switches: None,
+    };
+    let (early, late) = report::regulation_rates(&sim).unwrap();
+    assert!((early - 10.0).abs() < 1e-6, "{early}");
+    assert!((late - 1.0).abs() < 1e-6, "{late}");
 }

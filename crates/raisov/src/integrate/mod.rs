@@ -34,7 +34,7 @@ pub use constraints::{Constraints, Motion};
 pub(crate) use stepper::OwnConstraints;
 pub use stepper::{
     check_state, energy_limit, energy_limit_for, hold, Checkpoint, RuntimeConstraints, SingleLevel,
-    Stepper, StepperParams,
+    Stepper, StepperParams, SwitchCounts,
 };
 
 use crate::fem::{ElementFailure, ForceModel};

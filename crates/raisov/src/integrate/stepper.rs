@@ -27,6 +27,32 @@ pub fn energy_limit(f_ext: &[f64], size: f64, e_prescribed: f64, factor: f64) ->
     factor * (work + e_prescribed).max(f64::MIN_POSITIVE)
 }
 
+/// RaISoV's switch counts ([`crate::multigrid::raisov`], eqs. 10 and 12): node transfers
+/// that passed the coarser (down stroke) or finer (up stroke) level's state because the
+/// transferred displacement change exceeded ε, and those that passed a variation (`≤ ε`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SwitchCounts {
+    pub down_state: u64,
+    pub down_variation: u64,
+    pub up_state: u64,
+    pub up_variation: u64,
+}
+
+impl SwitchCounts {
+    /// The fraction of all node transfers that passed the state (`|ΔX_u| > ε`); `None`
+    /// before any transfer.
+    pub fn state_fraction(&self) -> Option<f64> {
+        let states = self.down_state + self.up_state;
+        let all = states + self.down_variation + self.up_variation;
+        (all > 0).then(|| states as f64 / all as f64)
+    }
+    /// The same fraction in the down stroke alone (eq. 10).
+    pub fn down_state_fraction(&self) -> Option<f64> {
+        let all = self.down_state + self.down_variation;
+        (all > 0).then(|| self.down_state as f64 / all as f64)
+    }
+}
+
 /// Something that advances a simulation by one step of size `dt` and exposes its finest
 /// level. Single-level integration and every multigrid cycle implement it.
 pub trait Stepper: Send {
@@ -51,6 +77,11 @@ pub trait Stepper: Send {
     fn hold_prescribed(&mut self, values: &[[f64; 3]]);
     /// Counters worth reporting after a run (multigrid: skipped or dropped corrections).
     fn diagnostics(&self) -> Option<String> {
+        None
+    }
+    /// RaISoV's transfer switches (eqs. 10 and 12) summed over the steps so far; `None` for
+    /// schemes without them.
+    fn switch_counts(&self) -> Option<SwitchCounts> {
         None
     }
     /// The finest level's state (displacements, velocities, time), read-only.

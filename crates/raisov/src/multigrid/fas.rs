@@ -50,9 +50,7 @@
 //! (`r_k·p_k ≤ 0`) restarts the recurrence from the plain cycle's result; a new prescribed
 //! value ([`Stepper::hold_prescribed`]) restarts it too. The fixed point is unchanged (at
 //! `r = 0`, `z = 0`). Cost: one fine residual and one or two line-search evaluations more per
-//! cycle. Liver L1/L2/L3 under gravity: residual 4e-7 N after 16k fine force evaluations; the
-//! plain cycles were at 0.11 N after 2.5k and single-level symplectic Euler at 6e-4 N after
-//! 53k.
+//! cycle. The measured effect on the liver levels is in `bench/RESULTS.md`.
 //!
 //! Coarse levels hold their *fixed* nodes at the restricted values (the correction is zero
 //! there) and leave prescribed points free: a grasp is a fine-level feature, and pinning the
@@ -172,8 +170,7 @@ pub struct FasParams {
     pub weights: TransferWeights,
     /// Use each V-cycle as the preconditioner of a nonlinear conjugate-gradient step on the
     /// fine potential energy ([`Fas`] docs, "Krylov acceleration"); Chebyshev smoother only.
-    /// Default true (liver L1/L2/L3 under gravity: residual 4e-7 N in 16k force evaluations,
-    /// against 0.11 N after 2.5k and a rate of about 1.2x per 3.5k cycles without).
+    /// Default true.
     pub krylov: bool,
     /// Kinetic-energy ceiling of the finest level (J), for divergence detection.
     pub kinetic_limit: f64,

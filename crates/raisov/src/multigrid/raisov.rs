@@ -27,7 +27,7 @@ use super::{rows, rows_mut, sub, weighted_n, Above, Diff, Field, Level, Links};
 use crate::error::{Divergence, DivergenceCause};
 use crate::hierarchy::Transfer;
 use crate::integrate::{
-    check_state, Checkpoint, OwnConstraints, RuntimeConstraints, State, Stepper,
+    check_state, Checkpoint, OwnConstraints, RuntimeConstraints, State, Stepper, SwitchCounts,
 };
 use rayon::prelude::*;
 
@@ -77,6 +77,8 @@ pub struct Raisov {
     steps: u64,
     /// Counts of state / variation transfers in the last cycle (down, up).
     pub last_switches: [(usize, usize); 2],
+    /// The switch counts summed over every cycle so far ([`Stepper::switch_counts`]).
+    switches: SwitchCounts,
     /// Per level, its own constraints once run-time ones were added (empty before).
     own: Vec<OwnConstraints>,
     /// Per coarse level `l ≥ 1` (index `l − 1`): the node nearest to each level-0 node a
@@ -106,6 +108,7 @@ impl Raisov {
             levels,
             steps: 0,
             last_switches: [(0, 0); 2],
+            switches: SwitchCounts::default(),
             own: Vec::new(),
             carried: Vec::new(),
         }
@@ -217,6 +220,10 @@ impl Raisov {
             l.evaluations += l.integrator.method().evaluations();
         }
         self.last_switches = sw;
+        self.switches.down_state += sw[0].0 as u64;
+        self.switches.down_variation += sw[0].1 as u64;
+        self.switches.up_state += sw[1].0 as u64;
+        self.switches.up_variation += sw[1].1 as u64;
         Ok(())
     }
 }
@@ -491,6 +498,9 @@ impl Stepper for Raisov {
     }
     fn num_levels(&self) -> usize {
         self.levels.len()
+    }
+    fn switch_counts(&self) -> Option<SwitchCounts> {
+        Some(self.switches)
     }
     fn level_mesh(&self, level: usize) -> Option<&crate::mesh::Mesh> {
         self.levels.get(level).map(|l| &l.mesh)

@@ -1,7 +1,7 @@
 //! Invariants of the multigrid schemes.
 
 use crate::integrate::relax::relax;
-use crate::integrate::{Method, State, Stepper};
+use crate::integrate::{Method, State, Stepper, SwitchCounts};
 use crate::multigrid::raisov::{Raisov, RaisovParams, Reading};
 use crate::scenario::Scenario;
 use std::path::Path;
@@ -657,5 +657,56 @@ fn coarsest_correction_reaches_level_zero() {
             moved > 0.1 * scale,
             "level {i} did not receive the correction"
         );
+    }
+}
+
+/// The switch counts of [`Stepper::switch_counts`] sum every cycle's transfers: each stroke
+/// transfers every node of the levels it writes once per cycle, the state fraction lies in
+/// (0, 1) at an ε where both branches fire, and is 0 with ε = ∞ (the state branch of eqs. 10
+/// and 12 cannot trigger).
+#[test]
+fn switch_counts_sum_the_cycles_and_vanish_without_a_threshold() {
+    let sc = drape(
+        900,
+        "[multigrid]\nscheme = \"raisov-paper\"\nlevels = 3\nreading = \"correction\"",
+        "symplectic-euler",
+    );
+    for eps_rel in [1e-3, f64::INFINITY] {
+        let (levels, links) = sc.build_levels().unwrap();
+        let sizes: Vec<u64> = levels.iter().map(|l| l.num_nodes() as u64).collect();
+        let params = RaisovParams {
+            epsilon: eps_rel * levels[0].mesh.edge_range().0,
+            reading: Reading::Correction,
+            kinetic_limit: f64::INFINITY,
+        };
+        let mut r = Raisov::new(levels, links, params);
+        assert_eq!(r.switch_counts().unwrap().state_fraction(), None);
+        let cycles = 40u64;
+        let mut sum = SwitchCounts::default();
+        for _ in 0..cycles {
+            r.advance().unwrap();
+            let [(ds, dv), (us, uv)] = r.last_switches;
+            sum.down_state += ds as u64;
+            sum.down_variation += dv as u64;
+            sum.up_state += us as u64;
+            sum.up_variation += uv as u64;
+        }
+        let c = r.switch_counts().unwrap();
+        assert_eq!(c, sum);
+        // Down stroke: levels 1 and 2; up stroke: levels 0 and 1.
+        assert_eq!(
+            c.down_state + c.down_variation,
+            cycles * (sizes[1] + sizes[2])
+        );
+        assert_eq!(c.up_state + c.up_variation, cycles * (sizes[0] + sizes[1]));
+        let f = c.state_fraction().unwrap();
+        let fd = c.down_state_fraction().unwrap();
+        if eps_rel.is_finite() {
+            assert!(0.0 < f && f < 1.0, "state fraction {f}: {c:?}");
+            assert!((0.0..=1.0).contains(&fd));
+        } else {
+            assert_eq!((c.down_state, c.up_state), (0, 0));
+            assert_eq!((f, fd), (0.0, 0.0));
+        }
     }
 }

@@ -439,7 +439,8 @@ impl Scenario {
         for (i, t) in spec.tool.iter().enumerate() {
             tools.push(loading::resolve_tool(t, path, i)?);
         }
-        let material = resolve_material(&spec.material, mesh.kind, path)?;
+        let material =
+            resolve_material(&spec.material, mesh.kind, spec.interactive.is_some(), path)?;
         let density = positive(
             path,
             "material.density",
@@ -1238,8 +1239,23 @@ fn resolve_selector(r: &spec::RegionSpec, path: &Path, key: &str) -> Result<Sele
     }
 }
 
-fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> Result<Material> {
-    let law = m.law.name();
+fn resolve_material(
+    m: &spec::MaterialSpec,
+    kind: ElementKind,
+    interactive: bool,
+    path: &Path,
+) -> Result<Material> {
+    let chosen = match (m.law, interactive) {
+        (Some(law), _) => law,
+        (None, true) => defaults::INTERACTIVE_LAW,
+        (None, false) => {
+            return Err(err(
+                path,
+                "[material]: `law` is required (one of \"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\", \"stable-neo-hookean\"; scenarios with an [interactive] section default to \"stable-neo-hookean\")",
+            ))
+        }
+    };
+    let law = chosen.name();
     let need = |key: &str, v: Option<f64>| -> Result<f64> {
         v.ok_or_else(|| err(path, format!("[material]: law = \"{law}\" needs `{key}`")))
     };
@@ -1272,7 +1288,7 @@ fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> R
         }
         Ok((e, nu))
     };
-    Ok(match m.law {
+    Ok(match chosen {
         Law::StVenantKirchhoff => {
             forbid(&[
                 ("c1", m.c1.is_some()),

@@ -38,9 +38,12 @@
 //!
 //! [material]
 //! law = "mooney-rivlin"           # "stvk" (or "st-venant-kirchhoff") | "neo-hookean" |
-//!                                 # "mooney-rivlin" | "veronda-westmann" | "stable-neo-hookean"
+//!                                 # "mooney-rivlin" | "veronda-westmann" | "stable-neo-hookean";
+//!                                 # required, except with an [interactive] section: there
+//!                                 # default "stable-neo-hookean" (finite energy and forces
+//!                                 # for inverted elements, so a hard grasp recovers)
 //! young = 5e4                     # Pa   (stvk, neo-hookean, stable-neo-hookean), with
-//! poisson = 0.4                   #      (stvk, neo-hookean)
+//! poisson = 0.4                   #      (stvk, neo-hookean, stable-neo-hookean)
 //! c1 = 1e3                        # Pa   (mooney-rivlin, veronda-westmann)
 //! c2 = 1e3                        # Pa   (mooney-rivlin)
 //! gamma = 5.0                     #      (veronda-westmann)
@@ -229,6 +232,7 @@ use std::path::{Path, PathBuf};
 /// The default of every scenario key that has one (the FAS settings default to
 /// [`crate::multigrid::fas::FasParams::default`]). The module documentation lists them per key.
 pub mod defaults {
+    use super::Law;
     use crate::integrate::Method;
     use crate::mesh::generate::BoxPattern;
     use crate::multigrid::raisov::Reading;
@@ -243,6 +247,9 @@ pub mod defaults {
     pub const RENUMBER_FILES: bool = true;
     /// `[mesh] renumber` for generated meshes (numbered along the axes already).
     pub const RENUMBER_GENERATED: bool = false;
+    /// `[material] law` of a scenario with an `[interactive]` section (elsewhere `law` is
+    /// required): the stable neo-Hookean law, defined for inverted elements.
+    pub const INTERACTIVE_LAW: Law = Law::StableNeoHookean;
     /// `[material] density` (kg/m³).
     pub const DENSITY: f64 = 1000.0;
     /// `[material] thickness` of membranes (m).
@@ -737,7 +744,7 @@ pub struct MeshSpec {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
-    pub law: Law,
+    pub law: Option<Law>,
     pub young: Option<f64>,
     pub poisson: Option<f64>,
     pub c1: Option<f64>,

@@ -764,6 +764,7 @@ fn documented_defaults_are_the_applied_ones() {
             "reference",
             spec::StaticReference::default().name(),
         ),
+        ("material", "law", defaults::INTERACTIVE_LAW.name()),
     ];
     for (table, key, name) in names {
         let e = entry(table, key);
@@ -1106,4 +1107,25 @@ duration = 0.01
     let d = "[[displace]]\npoint = [0.02, 0.02, 0.05]\nradius = -1.0\ndisplacement = [0, 0, 0.001]";
     let e = error_of(&cube(d));
     assert!(e.contains("radius") && e.contains(">= 0"), "{e}");
+/// `[material] law` defaults to stable neo-Hookean with an `[interactive]` section and is
+/// required without one; a law that is named is kept either way.
+#[test]
+fn interactive_scenarios_default_to_stable_neo_hookean() {
+    let no_law = BASE.replace(
+        "law = \"mooney-rivlin\"\nc1 = 1000.0\nc2 = 1000.0",
+        "young = 5000.0\npoisson = 0.45",
+    );
+    assert!(!no_law.contains("law ="));
+    let sc = parse(&format!("{no_law}\n[interactive]\n")).unwrap();
+    match &sc.material {
+        Material::StableNeoHookean(m) => {
+            assert_eq!(*m, StableNeoHookean::from_young(5000.0, 0.45))
+        }
+        m => panic!("interactive default law: {m:?}"),
+    }
+    assert_eq!(defaults::INTERACTIVE_LAW, spec::Law::StableNeoHookean);
+    let e = error_of(&no_law);
+    assert!(e.contains("`law` is required"), "{e}");
+    let named = parse(&format!("{BASE}\n[interactive]\n")).unwrap();
+    assert!(matches!(named.material, Material::MooneyRivlin(_)));
 }

@@ -4,7 +4,7 @@ use super::Simulation;
 use crate::fem::{FemModel, FemParams};
 use crate::hierarchy::Correspondence;
 use crate::integrate::{Constraints, Method, SingleLevel, Stepper, StepperParams, System};
-use crate::material::{lame, Material, NeoHookean};
+use crate::material::{Material, StableNeoHookean};
 use crate::mesh::Mesh;
 use crate::multigrid::fas::{Fas, FasParams};
 use crate::multigrid::Level;
@@ -27,8 +27,9 @@ type Region = Box<dyn Fn([f64; 3]) -> bool>;
 
 /// Builds a [`Simulation`] from a mesh (or a hierarchy of meshes) and physics given in code.
 ///
-/// Defaults (SI units): compressible neo-Hookean with Young's modulus 5 kPa and Poisson ratio
-/// 0.45 (soft tissue), density 1000 kg/m³, membrane thickness 1 mm, no gravity, no damping
+/// Defaults (SI units): the stable neo-Hookean law ([`StableNeoHookean`]: finite energy and
+/// forces for inverted elements, so an interactive grasp that inverts some recovers) with
+/// Young's modulus 5 kPa and Poisson ratio 0.45 (soft tissue), density 1000 kg/m³, membrane thickness 1 mm, no gravity, no damping
 /// (α = 0 1/s; FAS smooths without it), nothing fixed, [`Scheme::Fas`] with its defaults, the
 /// time step half the estimated critical step of each level.
 ///
@@ -77,11 +78,10 @@ pub struct SimulationBuilder {
 impl SimulationBuilder {
     /// Start from level 0's mesh (reference positions in m), with the defaults above.
     pub fn new(mesh: Mesh) -> Self {
-        let (lambda, mu) = lame(5e3, 0.45);
         SimulationBuilder {
             mesh,
             coarse: Vec::new(),
-            material: Material::NeoHookean(NeoHookean { lambda, mu }),
+            material: Material::StableNeoHookean(StableNeoHookean::from_young(5e3, 0.45)),
             density: 1000.0,
             thickness: 1e-3,
             gravity: [0.0; 3],
@@ -102,10 +102,11 @@ impl SimulationBuilder {
         self.material = m;
         self
     }
-    /// Compressible neo-Hookean from Young's modulus (Pa) and Poisson's ratio.
+    /// The default law (stable neo-Hookean) from Young's modulus (Pa) and Poisson's ratio
+    /// (the usual Lamé mapping); [`Self::material`] sets any other law, e.g. the classic
+    /// compressible [`crate::material::NeoHookean`].
     pub fn young_poisson(mut self, young: f64, poisson: f64) -> Self {
-        let (lambda, mu) = lame(young, poisson);
-        self.material = Material::NeoHookean(NeoHookean { lambda, mu });
+        self.material = Material::StableNeoHookean(StableNeoHookean::from_young(young, poisson));
         self
     }
     /// Mass density (kg/m³).

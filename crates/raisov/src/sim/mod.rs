@@ -21,6 +21,11 @@
 //! # Ok::<(), raisov::Error>(())
 //! ```
 //!
+//! The default material of [`SimulationBuilder`] is the stable neo-Hookean law
+//! ([`crate::material::StableNeoHookean`], E = 5 kPa, ν = 0.45): its energy and forces stay
+//! finite when a grasp inverts elements, so the state recovers instead of failing. Scenarios
+//! with an `[interactive]` section default to it too (`[material] law`).
+//!
 //! # Equations and sign conventions
 //!
 //! The crate's equation of motion ([`crate::fem`]): `M ü + D u̇ + R(u) = V`, `R = ∂E/∂u` the

@@ -1107,6 +1107,8 @@ duration = 0.01
     let d = "[[displace]]\npoint = [0.02, 0.02, 0.05]\nradius = -1.0\ndisplacement = [0, 0, 0.001]";
     let e = error_of(&cube(d));
     assert!(e.contains("radius") && e.contains(">= 0"), "{e}");
+}
+
 /// `[material] law` defaults to stable neo-Hookean with an `[interactive]` section and is
 /// required without one; a law that is named is kept either way.
 #[test]

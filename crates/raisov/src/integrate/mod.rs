@@ -289,6 +289,13 @@ impl System {
         Ok(out.iter().map(|x| x * x).sum::<f64>().sqrt())
     }
 
+    /// `R(u) + Σ_springs k (u_a − d)` (N, all rows) at the state of the last
+    /// [`System::residual`], [`System::acceleration`] or [`System::elastic_acceleration`]
+    /// (zero before the first); the caller knows which state that was.
+    pub fn last_forces(&self) -> &[f64] {
+        &self.r
+    }
+
     /// `r = R(u) + Σ_springs k (u_a − d)` (N, all rows).
     pub fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure> {
         self.force.internal_forces(u, r)?;

@@ -76,6 +76,14 @@ pub trait Stepper: Send {
     fn restore(&mut self, cp: &Checkpoint);
     /// Replace the kinetic-energy ceiling of divergence detection (J; infinite: none).
     fn set_kinetic_limit(&mut self, limit: f64);
+    /// The finest level's `R(u) + Σ_springs k (u_a − d)` (N, 3 per node, every row, as
+    /// [`System::internal_forces`] gives it) at the current state, when the last step ended by
+    /// evaluating it there; `None` when it did not (the default) or the system has changed
+    /// since. A caller that needs the forces at the end of a step takes them from here instead
+    /// of evaluating them again.
+    fn finest_forces(&self) -> Option<&[f64]> {
+        None
+    }
 }
 
 /// Constraints added at run time on top of a stepper's own ([`Stepper::set_runtime_constraints`]).

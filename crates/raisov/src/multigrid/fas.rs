@@ -957,6 +957,12 @@ impl Stepper for Fas {
     fn set_kinetic_limit(&mut self, limit: f64) {
         self.params.kinetic_limit = limit;
     }
+    /// `r[0]` holds the residual at level 0's state exactly when `fresh[0]`, and the system's
+    /// forces were evaluated in the same call ([`crate::integrate::System::residual`]);
+    /// nothing evaluates level 0 at another state after it without clearing `fresh[0]`.
+    fn finest_forces(&self) -> Option<&[f64]> {
+        self.fresh[0].then(|| self.levels[0].sys.last_forces())
+    }
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();
         for l in &self.levels {

@@ -8,7 +8,8 @@
 //! ```text
 //! z  = ω D⁻¹ d                               (one damped-Jacobi sweep from zero)
 //! d_c = Pᵀ (d − A z)                         (residual restricted, P the prolongation)
-//! e_c = V_{l+1}(d_c)                         (recursively; the coarsest: CG to 1e-2)
+//! e_c = V_{l+1}(d_c)                         (recursively; the coarsest: at most 10 CG
+//!                                            iterations, to a relative residual of 0.1)
 //! z += P e_c
 //! z += ω D⁻¹ (d − A z)                       (post-smoothing, the same sweep)
 //! ```

@@ -13,13 +13,23 @@
 #[derive(Clone, Debug, PartialEq)]
 pub enum Motion {
     /// `g(t) = d` for all t ≥ 0.
-    Held { d: [f64; 3] },
+    Held {
+        /// Displacement (m).
+        d: [f64; 3],
+    },
     /// `g(t) = d · min(t / duration, 1)`.
-    Ramp { d: [f64; 3], duration: f64 },
+    Ramp {
+        /// Final displacement (m).
+        d: [f64; 3],
+        /// Ramp time (s).
+        duration: f64,
+    },
     /// Piecewise linear through `(times[k], values[k])`; `times` strictly increasing;
     /// before the first row the first value, after the last the last value.
     Table {
+        /// Times (s), strictly increasing.
         times: Vec<f64>,
+        /// Displacements (m), one per time.
         values: Vec<[f64; 3]>,
     },
 }
@@ -102,6 +112,7 @@ pub struct Constraints {
 }
 
 impl Constraints {
+    /// Constraints of `fixed` nodes and `prescribed` motions (sorted and deduplicated).
     pub fn new(mut fixed: Vec<u32>, prescribed: Vec<(u32, Motion)>) -> Self {
         fixed.sort_unstable();
         fixed.dedup();

@@ -294,9 +294,13 @@ pub fn hold(c: &mut super::Constraints, values: &[[f64; 3]]) {
 
 /// Single-level integration (SLIM): one integrator step per time step on one mesh.
 pub struct SingleLevel {
+    /// The mesh's system.
     pub sys: System,
+    /// Its state.
     pub state: State,
+    /// The explicit integrator.
     pub integrator: Box<dyn Integrator>,
+    /// Time step and divergence detection.
     pub params: StepperParams,
     steps: u64,
     /// The system's own constraints once run-time ones were added.
@@ -304,6 +308,7 @@ pub struct SingleLevel {
 }
 
 impl SingleLevel {
+    /// A stepper of `sys` by `method` at `params.dt`, from rest.
     pub fn new(sys: System, method: Method, params: StepperParams) -> Self {
         let n = sys.num_nodes();
         let mut state = State::at_rest(n);

@@ -106,8 +106,11 @@ pub enum Smoother {
     /// costs one force evaluation and damps every mode in the interval; this is the smoother
     /// multigrid needs (dynamics damps all modes alike at α/2).
     Chebyshev {
+        /// `b` over the interval's lower end.
         ratio: f64,
+        /// `b / λ_max`.
         stretch: f64,
+        /// The diagonal `D`.
         scaling: Scaling,
     },
 }
@@ -130,11 +133,22 @@ pub enum Scaling {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CoarseSolve {
     /// Explicit damped steps from rest for this much simulated time (s) at the level's step.
-    Explicit { time: f64 },
+    Explicit {
+        /// Simulated time (s).
+        time: f64,
+    },
     /// This many Chebyshev iterations over `[λ_max / ratio, λ_max]`.
-    Chebyshev { iterations: usize, ratio: f64 },
+    Chebyshev {
+        /// Iterations per visit.
+        iterations: usize,
+        /// `λ_max` over the interval's lower end.
+        ratio: f64,
+    },
     /// Matrix-free Newton-Krylov to this relative residual.
-    Newton { rel_tol: f64 },
+    Newton {
+        /// Relative residual at which Newton stops.
+        rel_tol: f64,
+    },
 }
 
 /// Which weights carry state and corrections between levels.
@@ -207,8 +221,11 @@ impl Default for FasParams {
 
 /// The FAS multigrid stepper.
 pub struct Fas {
+    /// The levels, 0 the finest.
     pub levels: Vec<Level>,
+    /// The correspondence of each level with the next coarser one.
     pub links: Links,
+    /// The cycle's parameters.
     pub params: FasParams,
     /// State restriction `R` per link (coarse nodes in the fine mesh).
     restrict: Vec<Transfer>,

@@ -100,8 +100,6 @@
 //! ([`Simulation::file_node_ids`] maps back). Everything is SI: metres, newtons, seconds,
 //! pascals, kilograms.
 
-#![warn(missing_docs)]
-
 mod builder;
 pub mod frame;
 mod grab;

@@ -53,7 +53,8 @@
 //! K_FF x = −(K w)_F,     δu = w + x,     column k of K_g = −Σ_{a ∈ g} (K δu)_a,
 //! ```
 //!
-//! three conjugate-gradient solves (lumped-mass preconditioner) with matrix-free products
+//! three conjugate-gradient solves (preconditioned by a V-cycle over the stepper's levels, or
+//! the lumped mass: [`tangent::TangentPreconditioner`]) with matrix-free products
 //! `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)`, each warm-started from the grasp's previous
 //! solution (a spring grasp's, in series with its springs: [`tangent`]). `K_g` is symmetric negative semi-definite at a stable equilibrium; a haptic loop
 //! extrapolates between frames with `f ≈ f_frame + K_g (x_device − x_frame)`.

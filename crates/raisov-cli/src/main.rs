@@ -123,6 +123,46 @@ enum Cmd {
         #[command(subcommand)]
         cmd: MeshCmd,
     },
+    /// Live viewer: serve the page, grab and drag the organ in the browser (Shift+drag grasps,
+    /// Ctrl+click pins). Without an argument, the liver of examples/liver_interactive.toml.
+    Serve {
+        /// A scenario (.toml) or a closed surface (.obj, .stl, .ply), meshed at load.
+        target: Option<PathBuf>,
+        /// Port (0: any free port).
+        #[arg(long, default_value_t = 8080)]
+        port: u16,
+        /// Address to bind (127.0.0.1: this machine only).
+        #[arg(long, default_value = "127.0.0.1")]
+        host: String,
+        /// Open the page in the system's browser (else only print the URL).
+        #[arg(long)]
+        open: bool,
+        /// V-cycles (multigrid) or steps (single level) per frame, instead of --budget-ms.
+        #[arg(long)]
+        cycles: Option<u32>,
+        /// Wall time of the simulation per frame (ms).
+        #[arg(long, default_value_t = 25.0)]
+        budget_ms: f64,
+        /// Cap on the simulation's frame rate (1/s; 0: none).
+        #[arg(long, default_value_t = 60.0)]
+        max_fps: f64,
+        /// Start with this method: fas, raisov or single (default: the scenario's).
+        #[arg(long)]
+        method: Option<String>,
+        /// Also write the recorded scenario here when the page saves it.
+        #[arg(long)]
+        record: Option<PathBuf>,
+        /// Surface coordinates times this are metres (a surface argument).
+        #[arg(long, default_value_t = 1.0)]
+        scale: f64,
+        /// Level-0 node target when meshing a surface argument.
+        #[arg(long, default_value_t = 8000)]
+        nodes: usize,
+        /// Total stiffness of the springs coupling the grasped patch to the cursor (N/m);
+        /// 0 holds the patch rigidly.
+        #[arg(long, default_value_t = 200.0)]
+        grab_stiffness: f64,
+    },
 }
 
 #[derive(Subcommand)]
@@ -258,6 +298,36 @@ fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
 fn real_main(cli: Cli) -> Result<i32> {
     let ok = |r: Result<()>| r.map(|()| 0);
     match cli.cmd {
+        Cmd::Serve {
+            target,
+            port,
+            host,
+            open,
+            cycles,
+            budget_ms,
+            max_fps,
+            method,
+            record,
+            scale,
+            nodes,
+            grab_stiffness,
+        } => {
+            raisov_serve::run(&raisov_serve::ServeArgs {
+                target,
+                host,
+                port,
+                open,
+                cycles,
+                budget_ms,
+                max_fps,
+                method,
+                record,
+                scale,
+                nodes,
+                grab_stiffness,
+            })?;
+            Ok(0)
+        }
         Cmd::Run {
             scenario,
             out,

@@ -29,7 +29,8 @@
 //! Layout, in data-flow order (`ARCHITECTURE.md` has the map): [`io`] (readers and writers),
 //! [`mesh`] (meshes, generators, surfaces, the tetrahedral mesher), [`material`] (strain-energy
 //! functions, one per file), [`fem`] (elements, the force model, nodal stress; the packed
-//! kernels in [`fem::packed`]), [`integrate`] (explicit integrators, constraints, statics,
+//! kernels in [`fem::packed`], time functions and surface loads in [`fem::loads`]), [`contact`]
+//! (rigid tools in penalty contact), [`integrate`] (explicit integrators, constraints, statics,
 //! stability), [`hierarchy`] (levels, host elements, weights), [`multigrid`] (RaISoV and the
 //! FAS multigrid), [`metrics`], [`scenario`] (TOML scenes, typed once), [`sim`] (the frame-loop API for a
 //! host program: grasps, pins, tool forces).
@@ -40,6 +41,9 @@
 #![allow(clippy::needless_range_loop)]
 #![warn(missing_docs)]
 
+// Documented separately (edited in parallel).
+#[allow(missing_docs)]
+pub mod contact;
 pub mod error;
 pub mod fem;
 pub mod hierarchy;

@@ -135,3 +135,16 @@ fn fas_reference_matches_the_newton_ladder() {
         "FAS and Newton T_inf differ by {d:.2e} of mean |T_inf|"
     );
 }
+
+/// CSV fields holding a comma or a quote are quoted (RFC 4180: inner quotes doubled); method
+/// labels such as "RaISoV correction, eps best (1.0e-3 m)" hold commas.
+#[test]
+fn csv_fields_with_commas_are_quoted() {
+    use super::report::q;
+    assert_eq!(q("SLIM rk4"), "SLIM rk4");
+    assert_eq!(
+        q("RaISoV correction, eps best (1.0e-3 m)"),
+        "\"RaISoV correction, eps best (1.0e-3 m)\""
+    );
+    assert_eq!(q("a \"b\""), "\"a \"\"b\"\"\"");
+}

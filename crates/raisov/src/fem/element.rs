@@ -3,6 +3,12 @@
 //! Tetrahedron: `F = Ds Dm⁻¹`, `P = F S(C)`, `H = V0 P Dm⁻ᵀ`; the forces R on nodes 1..3 are
 //! the columns of H and node 0 gets `−Σ`. Membrane: the same with a 3x2 `F` and the measure
 //! `h A0`. These are `∂E/∂x` of `E = V0 W(C)`, checked against finite differences in tests.
+//!
+//! Element tangent stiffness `K_e = ∂R_e/∂u_e` (12x12 or 9x9, symmetric): moving node b along
+//! axis k changes `F` by `dF = e_k ⊗ g_b` with `g_b` row `b−1` of `Dm⁻¹` (b ≥ 1) and
+//! `g_0 = −Σ_b g_b`; then `dH = V0 dP Dm⁻ᵀ` with `dP = ∂P/∂F : dF` from the law
+//! ([`SolidMaterial::dpk1`]), and the column `(b, k)` of `K_e` is `dR` assembled from `dH` as
+//! `R` from `H`. Checked against central differences of the element forces in tests.
 
 use crate::material::{MembraneMaterial, SolidMaterial};
 use crate::mesh::{cross, dot, norm, sub};
@@ -67,12 +73,10 @@ pub fn tet_forces<M: SolidMaterial + ?Sized>(
     let dminv = Matrix3::from_column_slice(dminv);
     let f = ds * dminv;
     let det = f.determinant();
-    if !(det > 0.0) {
+    if !(det > 0.0 || (m.handles_inversion() && det.is_finite())) {
         return Err(det);
     }
-    let c = f.transpose() * f;
-    let s = m.pk2(&c);
-    let h = (f * s) * dminv.transpose() * vol;
+    let h = m.pk1(&f) * dminv.transpose() * vol;
     let mut s0 = Vector3::zeros();
     for j in 0..3 {
         let col = h.column(j);
@@ -106,13 +110,12 @@ pub fn membrane_forces<M: MembraneMaterial + ?Sized>(
     let dminv = Matrix2::from_column_slice(dminv);
     let f = ds * dminv;
     let n = f.column(0).cross(&f.column(1));
-    let det = n.dot(&Vector3::from(normal0));
-    if !(det > 0.0) {
+    let n0 = Vector3::from(normal0);
+    let det = n.dot(&n0);
+    if !(det > 0.0 || (m.handles_inversion() && det.is_finite())) {
         return Err(det);
     }
-    let c = f.transpose() * f;
-    let s = m.pk2(&c);
-    let h = (f * s) * dminv.transpose() * measure;
+    let h = m.pk1(&f, &n0) * dminv.transpose() * measure;
     let mut s0 = Vector3::zeros();
     for j in 0..2 {
         let col = h.column(j);
@@ -124,5 +127,111 @@ pub fn membrane_forces<M: MembraneMaterial + ?Sized>(
     out[0] = -s0[0];
     out[1] = -s0[1];
     out[2] = -s0[2];
+    Ok(())
+}
+
+/// `R` of one element from `H` (columns: nodes 1..; node 0 gets `−Σ`), `N − 1` columns.
+#[inline(always)]
+fn scatter_h<const C: usize>(h: &nalgebra::SMatrix<f64, 3, C>, out: &mut [f64]) {
+    let mut s0 = Vector3::zeros();
+    for j in 0..C {
+        let col = h.column(j);
+        out[3 + 3 * j] = col[0];
+        out[4 + 3 * j] = col[1];
+        out[5 + 3 * j] = col[2];
+        s0 += col;
+    }
+    out[0] = -s0[0];
+    out[1] = -s0[1];
+    out[2] = -s0[2];
+}
+
+/// Tangent stiffness of one tetrahedron, `K[(3a + i) * 12 + 3b + k] = ∂R_(a,i)/∂u_(b,k)`
+/// (144 numbers, row-major; module docs). `Err(det F)` if inverted and the law refuses it.
+pub fn tet_stiffness<M: SolidMaterial + ?Sized>(
+    m: &M,
+    el: &[u32],
+    x0: &[f64],
+    u: &[f64],
+    dminv: &[f64],
+    vol: f64,
+    out: &mut [f64],
+) -> Result<(), f64> {
+    let p0 = node(x0, u, el[0]);
+    let ds = Matrix3::from_columns(&[
+        node(x0, u, el[1]) - p0,
+        node(x0, u, el[2]) - p0,
+        node(x0, u, el[3]) - p0,
+    ]);
+    let dminv = Matrix3::from_column_slice(dminv);
+    let f = ds * dminv;
+    let det = f.determinant();
+    if !(det > 0.0 || (m.handles_inversion() && det.is_finite())) {
+        return Err(det);
+    }
+    let g = |b: usize| -> nalgebra::RowVector3<f64> {
+        if b == 0 {
+            -(dminv.row(0) + dminv.row(1) + dminv.row(2))
+        } else {
+            dminv.row(b - 1).into_owned()
+        }
+    };
+    let mut col = [0.0; 12];
+    for b in 0..4 {
+        let gb = g(b);
+        for k in 0..3 {
+            let mut df = Matrix3::zeros();
+            df.row_mut(k).copy_from(&gb);
+            let dh = m.dpk1(&f, &df) * dminv.transpose() * vol;
+            scatter_h::<3>(&dh, &mut col);
+            for (r, v) in col.iter().enumerate() {
+                out[r * 12 + 3 * b + k] = *v;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Tangent stiffness of one membrane triangle (81 numbers, row-major, as [`tet_stiffness`]).
+#[allow(clippy::too_many_arguments)]
+pub fn membrane_stiffness<M: MembraneMaterial + ?Sized>(
+    m: &M,
+    el: &[u32],
+    x0: &[f64],
+    u: &[f64],
+    dminv: &[f64],
+    measure: f64,
+    normal0: [f64; 3],
+    out: &mut [f64],
+) -> Result<(), f64> {
+    let p0 = node(x0, u, el[0]);
+    let ds = Matrix3x2::from_columns(&[node(x0, u, el[1]) - p0, node(x0, u, el[2]) - p0]);
+    let dminv = Matrix2::from_column_slice(dminv);
+    let f = ds * dminv;
+    let n0 = Vector3::from(normal0);
+    let det = f.column(0).cross(&f.column(1)).dot(&n0);
+    if !(det > 0.0 || (m.handles_inversion() && det.is_finite())) {
+        return Err(det);
+    }
+    let g = |b: usize| -> nalgebra::RowVector2<f64> {
+        if b == 0 {
+            -(dminv.row(0) + dminv.row(1))
+        } else {
+            dminv.row(b - 1).into_owned()
+        }
+    };
+    let mut col = [0.0; 9];
+    for b in 0..3 {
+        let gb = g(b);
+        for k in 0..3 {
+            let mut df = Matrix3x2::zeros();
+            df.row_mut(k).copy_from(&gb);
+            let dh = m.dpk1(&f, &n0, &df) * dminv.transpose() * measure;
+            scatter_h::<2>(&dh, &mut col);
+            for (r, v) in col.iter().enumerate() {
+                out[r * 9 + 3 * b + k] = *v;
+            }
+        }
+    }
     Ok(())
 }

@@ -15,6 +15,15 @@
 //! - membrane triangle in 3-D: `Dm` is the 2x2 reference edge matrix in the triangle's own
 //!   orthonormal frame, `F = Ds Dm⁻¹` is 3x2, `C = FᵀF` 2x2, `P = F S` 3x2, measure `h A0`.
 //!
+//! Element tangent stiffness `K_e = ∂R_e/∂u_e` ([`FemModel::element_stiffness`], for implicit
+//! solvers: [`crate::integrate::newton_direct`]): column `(b, k)` is `R_e`'s formula with
+//! `P` replaced by `dP = ∂P/∂F : (e_k ⊗ ∇N_b)` from the law's tangent (equations in
+//! `element.rs`); the generic path, never the packed one.
+//!
+//! Inversion: an element with `det F ≤ 0` (tets) or flipped against its reference normal
+//! (membranes) is an [`ElementFailure`], unless the law says it is defined there
+//! ([`crate::material::SolidMaterial::handles_inversion`]: stable neo-Hookean tetrahedra).
+//!
 //! Nodal stress T (paper section 3, from its reference \[11\]): element Cauchy stress `σ = F S Fᵀ / J`
 //! (membranes: `J = λ3 √det C`, σ in-plane, 3x3), averaged onto nodes weighted by reference
 //! element measure.
@@ -45,12 +54,15 @@
 //! path, in `packed/fused.rs`.
 
 mod element;
+// Documented separately (edited in parallel).
+#[allow(missing_docs)]
+pub mod loads;
 pub mod packed;
 
 use crate::material::{Material, MembraneMaterial, SolidMaterial};
 use crate::mesh::{ElementKind, Mesh};
 use crate::{Error, Result};
-pub use element::{membrane_frame, tet_dm_inverse};
+pub use element::{membrane_frame, membrane_stiffness, tet_dm_inverse, tet_stiffness};
 use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector3};
 pub use packed::{FusedState, NodeLoad, Precision};
 use rayon::prelude::*;
@@ -76,6 +88,28 @@ pub trait ForceModel: Send {
     fn strain_energy(&self, u: &[f64]) -> f64;
     /// Nodal stress tensor T (9 per node, row-major, Pa): the measure of paper section 3.
     fn nodal_stress(&self, u: &[f64], t: &mut [f64]);
+    /// The finite-element model behind this force model, where there is one (for solvers
+    /// that need element tangents: [`crate::integrate::newton_direct`]).
+    fn as_fem_mut(&mut self) -> Option<&mut FemModel> {
+        None
+    }
+    /// Set the time (s) at which the time-dependent loads and tools a model carries are
+    /// evaluated ([`loads::Loaded`]); [`crate::integrate::System::impose`] calls it with the
+    /// time it imposes the constraints at. Default: nothing depends on time.
+    fn set_time(&self, _t: f64) {}
+    /// Scale the loads and tool motions a model carries by `f` (static load increments);
+    /// default: none carried.
+    fn set_load_factor(&self, _f: f64) {}
+    /// Net forces of the loads and tools a model carries at `u` ([`loads::LoadReport`]);
+    /// default: none.
+    fn load_report(&mut self, _u: &[f64]) -> loads::LoadReport {
+        loads::LoadReport::default()
+    }
+    /// The force the tools exert on each node at `u` into `out` (3 per node, N), the contact
+    /// field of the frames; `false` (and `out` untouched) where the model carries no tools.
+    fn contact_forces(&self, _u: &[f64], _out: &mut [f64]) -> bool {
+        false
+    }
 }
 
 /// Parameters of an FE model.
@@ -401,9 +435,8 @@ impl FemModel {
         let (f3, det) = self.deformation(e, u);
         match self.kind {
             ElementKind::Tet4 => {
-                let c = f3.transpose() * f3;
-                let s = with_solid(&self.params.material, |m| m.pk2(&c));
-                f3 * s * f3.transpose() / det
+                let p = with_solid(&self.params.material, |m| m.pk1(&f3));
+                p * f3.transpose() / det
             }
             ElementKind::Tri3 => {
                 let f = f3.fixed_view::<3, 2>(0, 0).into_owned();
@@ -480,7 +513,52 @@ impl FemModel {
             (Material::NeoHookean(m), k) => self.element_forces_with(m, m, k, e, u, out),
             (Material::MooneyRivlin(m), k) => self.element_forces_with(m, m, k, e, u, out),
             (Material::VerondaWestmann(m), k) => self.element_forces_with(m, m, k, e, u, out),
+            (Material::StableNeoHookean(m), k) => self.element_forces_with(m, m, k, e, u, out),
         }
+    }
+
+    /// Tangent stiffness of element e, `∂R_e/∂u_e` (144 numbers for a tetrahedron, 81 for a
+    /// triangle, row-major, rows and columns `3 × corner + axis`; [`tet_stiffness`]).
+    pub fn element_stiffness(
+        &self,
+        e: usize,
+        u: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ElementFailure> {
+        let fail = |det_f| ElementFailure { element: e, det_f };
+        match self.kind {
+            ElementKind::Tet4 => with_solid(&self.params.material, |m| {
+                element::tet_stiffness(
+                    m,
+                    &self.cells[e * 4..e * 4 + 4],
+                    &self.x0,
+                    u,
+                    &self.dminv[e * 9..e * 9 + 9],
+                    self.measure[e],
+                    out,
+                )
+            })
+            .map_err(fail),
+            ElementKind::Tri3 => with_membrane(&self.params.material, |m| {
+                element::membrane_stiffness(
+                    m,
+                    &self.cells[e * 3..e * 3 + 3],
+                    &self.x0,
+                    u,
+                    &self.dminv[e * 4..e * 4 + 4],
+                    self.measure[e],
+                    self.normal0[e],
+                    out,
+                )
+            })
+            .map_err(fail),
+        }
+    }
+
+    /// The nodes of element e (the mesh's connectivity).
+    pub fn element_nodes(&self, e: usize) -> &[u32] {
+        let npe = self.npe();
+        &self.cells[e * npe..(e + 1) * npe]
     }
 
     #[inline(always)]
@@ -525,6 +603,7 @@ fn with_solid<T>(m: &Material, f: impl FnOnce(&dyn SolidMaterial) -> T) -> T {
         Material::NeoHookean(m) => f(m),
         Material::MooneyRivlin(m) => f(m),
         Material::VerondaWestmann(m) => f(m),
+        Material::StableNeoHookean(m) => f(m),
     }
 }
 
@@ -534,6 +613,7 @@ fn with_membrane<T>(m: &Material, f: impl FnOnce(&dyn MembraneMaterial) -> T) ->
         Material::NeoHookean(m) => f(m),
         Material::MooneyRivlin(m) => f(m),
         Material::VerondaWestmann(m) => f(m),
+        Material::StableNeoHookean(m) => f(m),
     }
 }
 
@@ -612,19 +692,20 @@ impl ForceModel for FemModel {
         self.nodal_cauchy(u, t)
     }
 
+    fn as_fem_mut(&mut self) -> Option<&mut FemModel> {
+        Some(self)
+    }
+
     fn strain_energy(&self, u: &[f64]) -> f64 {
         (0..self.num_elements())
             .map(|e| {
                 let (f3, _) = self.deformation(e, u);
                 let w = match self.kind {
-                    ElementKind::Tet4 => {
-                        let c = f3.transpose() * f3;
-                        with_solid(&self.params.material, |m| m.energy(&c))
-                    }
+                    ElementKind::Tet4 => with_solid(&self.params.material, |m| m.energy_f(&f3)),
                     ElementKind::Tri3 => {
                         let f = f3.fixed_view::<3, 2>(0, 0).into_owned();
-                        let c = f.transpose() * f;
-                        with_membrane(&self.params.material, |m| m.energy(&c))
+                        let n0 = Vector3::from(self.normal0[e]);
+                        with_membrane(&self.params.material, |m| m.energy_f(&f, &n0))
                     }
                 };
                 w * self.measure[e]

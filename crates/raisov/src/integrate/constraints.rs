@@ -7,7 +7,10 @@
 //!
 //! A prescribed displacement is held (applied at t = 0 and kept, the paper's instantaneous
 //! 3 cm lift), ramped linearly over a duration then held, or follows a table of
-//! (time, displacement) rows, linear between rows and held after the last.
+//! (time, displacement) rows, linear between rows and held after the last, or is a vector
+//! times a time function ([`crate::fem::loads::TimeFunction`]: ramp, table, sine).
+
+use crate::fem::loads::TimeFunction;
 
 /// Time law of a prescribed displacement.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,6 +34,13 @@ pub enum Motion {
         times: Vec<f64>,
         /// Displacements (m), one per time.
         values: Vec<[f64; 3]>,
+    },
+    /// `g(t) = d · s(t)`.
+    Function {
+        /// Amplitude displacement (m).
+        d: [f64; 3],
+        /// The time function `s(t)`.
+        f: TimeFunction,
     },
 }
 
@@ -63,6 +73,10 @@ impl Motion {
                     ]
                 }
             }
+            Motion::Function { d, f } => {
+                let s = f.value(t);
+                [d[0] * s, d[1] * s, d[2] * s]
+            }
         }
     }
     /// Velocity ġ(t) (right derivative).
@@ -86,6 +100,10 @@ impl Motion {
                     [(b[0] - a[0]) / dt, (b[1] - a[1]) / dt, (b[2] - a[2]) / dt]
                 }
             }
+            Motion::Function { d, f } => {
+                let s = f.rate(t);
+                [d[0] * s, d[1] * s, d[2] * s]
+            }
         }
     }
     /// Largest |g(t)| over all t (for energy scales).
@@ -94,6 +112,29 @@ impl Motion {
         match self {
             Motion::Held { d } | Motion::Ramp { d, .. } => n(d),
             Motion::Table { values, .. } => values.iter().map(n).fold(0.0, f64::max),
+            Motion::Function { d, f } => n(d) * f.max_abs(),
+        }
+    }
+    /// The time after which `g` is constant (s); infinite for a sine.
+    pub fn end(&self) -> f64 {
+        match self {
+            Motion::Held { .. } => 0.0,
+            Motion::Ramp { duration, .. } => *duration,
+            Motion::Table { times, .. } => *times.last().unwrap_or(&0.0),
+            Motion::Function { f, .. } => f.end(),
+        }
+    }
+    /// The displacement of largest magnitude the motion reaches.
+    pub fn extreme(&self) -> [f64; 3] {
+        let n2 = |x: &[f64; 3]| x.iter().map(|v| v * v).sum::<f64>();
+        match self {
+            Motion::Held { d } | Motion::Ramp { d, .. } => *d,
+            Motion::Table { values, .. } => values
+                .iter()
+                .copied()
+                .max_by(|x, y| n2(x).total_cmp(&n2(y)))
+                .unwrap_or([0.0; 3]),
+            Motion::Function { d, f } => d.map(|x| x * f.max_abs()),
         }
     }
 }

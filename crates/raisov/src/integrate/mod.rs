@@ -22,7 +22,11 @@
 //!   `u̇_{n+1/2} = [(1 − αΔ/2) u̇_{n−1/2} + Δ M⁻¹(V − R(u_n))] / (1 + αΔ/2)`,
 //!   `u_{n+1} = u_n + Δ u̇_{n+1/2}`; 1 evaluation.
 
+pub mod adaptive_relax;
 mod constraints;
+// Documented separately (edited in parallel).
+#[allow(missing_docs)]
+pub mod newton_direct;
 pub mod relax;
 pub mod stability;
 pub mod statics;
@@ -345,7 +349,10 @@ impl System {
     }
 
     /// Impose constrained displacements and velocities at time `t`.
+    /// The force model's time-dependent loads and tools are set to time `t` too
+    /// ([`ForceModel::set_time`]).
     pub fn impose(&self, t: f64, u: &mut [f64], v: &mut [f64]) {
+        self.force.set_time(t);
         self.constraints.impose(t, u, v);
     }
 }

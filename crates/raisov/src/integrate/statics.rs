@@ -9,7 +9,8 @@
 //! preconditioned by the lumped mass (`M⁻¹`, the diagonal that makes every node's update
 //! scale alike). Inexact Newton with a backtracking line search on ‖V − R‖; an element that
 //! would invert halves the step. Used for T∞ references, reference-value tests, and as the
-//! implicit coarsest-level solve of the multigrid (the paper's section 4 suggestion).
+//! implicit coarsest-level solve of the multigrid (the paper's section 4 suggestion). Newton
+//! with the analytic tangent and a sparse direct solve is [`super::newton_direct`].
 
 use super::System;
 use crate::fem::ElementFailure;

@@ -400,19 +400,7 @@ pub fn energy_limit_for(sys: &System, mesh: &crate::mesh::Mesh, factor: f64) -> 
     let n = sys.num_nodes();
     let mut u = vec![0.0; 3 * n];
     for (a, m) in &sys.constraints.prescribed {
-        let d = match m {
-            super::Motion::Held { d } | super::Motion::Ramp { d, .. } => *d,
-            super::Motion::Table { values, .. } => values
-                .iter()
-                .copied()
-                .max_by(|x, y| {
-                    x.iter()
-                        .map(|v| v * v)
-                        .sum::<f64>()
-                        .total_cmp(&y.iter().map(|v| v * v).sum::<f64>())
-                })
-                .unwrap_or([0.0; 3]),
-        };
+        let d = m.extreme();
         u[3 * *a as usize..3 * *a as usize + 3].copy_from_slice(&d);
     }
     let e_presc = sys.force.strain_energy(&u);

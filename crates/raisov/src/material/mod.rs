@@ -16,21 +16,42 @@
 //!   `I1 = tr C + 1/det C`, `I2 = det C + tr C / det C` (design note, "Model"); the reduced
 //!   energy's derivative is exactly the plane-stress S.
 //!
+//! Tangents, for Newton's method and element stiffness matrices: every law gives the
+//! directional derivative of its stress along a symmetric `dC`,
+//!
+//! ```text
+//! dS = ∂S/∂C : dC = 4 ∂²W/∂C∂C : dC/2          (dpk2)
+//! ```
+//!
+//! and, in the deformation gradient, the first Piola-Kirchhoff stress and its differential
+//!
+//! ```text
+//! P = ∂W/∂F = F S,    dP = dF S + F dS(C; dC),   dC = dFᵀ F + Fᵀ dF     (pk1, dpk1)
+//! ```
+//!
+//! (the defaults; a law defined for inverted elements, where `C` loses the sign of `det F`,
+//! overrides the `F` forms: [`StableNeoHookean`]). Identities used by the laws' tangents:
+//! `d(C⁻¹) = −C⁻¹ dC C⁻¹`, `d det C = det C tr(C⁻¹ dC)`, `d ln J = tr(C⁻¹ dC)/2`.
+//!
 //! Each law lives in its own file; the test macro `material_tests!` checks, for every law and
-//! form, that S equals twice the central finite-difference derivative of W, that the reference
-//! state is stress free, and that W is invariant under rotation (W depends on C only, so this
-//! checks the wiring of F → C).
+//! form, that S equals twice the central finite-difference derivative of W, that dS equals
+//! the central difference of S along dC, that P and dP equal the differences of W and P in F
+//! (through inverted F for the laws that allow it), that the reference state is stress free,
+//! and that W is invariant under rotation (W depends on C only, so this checks the wiring of
+//! F → C).
 
 use crate::mesh::ElementKind;
-use nalgebra::{Matrix2, Matrix3};
+use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector3};
 
 mod mooney_rivlin;
 mod neo_hookean;
+mod stable_neo_hookean;
 mod stvk;
 mod veronda_westmann;
 
 pub use mooney_rivlin::MooneyRivlin;
 pub use neo_hookean::NeoHookean;
+pub use stable_neo_hookean::StableNeoHookean;
 pub use stvk::StVenantKirchhoff;
 pub use veronda_westmann::VerondaWestmann;
 
@@ -40,6 +61,27 @@ pub trait SolidMaterial: Send + Sync {
     fn energy(&self, c: &Matrix3<f64>) -> f64;
     /// Second Piola-Kirchhoff stress S = 2 ∂W/∂C (Pa).
     fn pk2(&self, c: &Matrix3<f64>) -> Matrix3<f64>;
+    /// Differential of S along a symmetric `dc`: `dS = ∂S/∂C : dC` (Pa).
+    fn dpk2(&self, c: &Matrix3<f64>, dc: &Matrix3<f64>) -> Matrix3<f64>;
+    /// Whether W, P and dP are defined for inverted elements (`det F ≤ 0`); elements of
+    /// other laws refuse such a state (an [`crate::fem::ElementFailure`]).
+    fn handles_inversion(&self) -> bool {
+        false
+    }
+    /// W as a function of F (the default: `W(FᵀF)`).
+    fn energy_f(&self, f: &Matrix3<f64>) -> f64 {
+        self.energy(&(f.transpose() * f))
+    }
+    /// First Piola-Kirchhoff stress `P = ∂W/∂F` (the default: `F S(FᵀF)`).
+    fn pk1(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
+        f * self.pk2(&(f.transpose() * f))
+    }
+    /// Differential of P along `df` (the default: `dF S + F dS(C; dFᵀF + FᵀdF)`).
+    fn dpk1(&self, f: &Matrix3<f64>, df: &Matrix3<f64>) -> Matrix3<f64> {
+        let c = f.transpose() * f;
+        let dc = df.transpose() * f + f.transpose() * df;
+        df * self.pk2(&c) + f * self.dpk2(&c, &dc)
+    }
 }
 
 /// A plane-stress membrane law W(C), C the 2x2 in-plane Cauchy-Green tensor.
@@ -48,9 +90,133 @@ pub trait MembraneMaterial: Send + Sync {
     fn energy(&self, c: &Matrix2<f64>) -> f64;
     /// In-plane second Piola-Kirchhoff stress S = 2 ∂W/∂C (Pa).
     fn pk2(&self, c: &Matrix2<f64>) -> Matrix2<f64>;
+    /// Differential of S along a symmetric `dc`: `dS = ∂S/∂C : dC` (Pa).
+    fn dpk2(&self, c: &Matrix2<f64>, dc: &Matrix2<f64>) -> Matrix2<f64>;
     /// Thickness stretch λ3 for the Cauchy stress `σ = F S Fᵀ / (λ3 √det C)`:
     /// `1/√det C` for incompressible laws, 1 for laws that do not model thinning.
     fn thickness_stretch(&self, c: &Matrix2<f64>) -> f64;
+    /// Whether W, P and dP are defined for a triangle flipped against its reference normal.
+    fn handles_inversion(&self) -> bool {
+        false
+    }
+    /// W as a function of the 3x2 F and the reference unit normal `n0` (the default:
+    /// `W(FᵀF)`, `n0` unused).
+    fn energy_f(&self, f: &Matrix3x2<f64>, _n0: &Vector3<f64>) -> f64 {
+        self.energy(&(f.transpose() * f))
+    }
+    /// `P = ∂W/∂F` (3x2; the default `F S(FᵀF)`).
+    fn pk1(&self, f: &Matrix3x2<f64>, _n0: &Vector3<f64>) -> Matrix3x2<f64> {
+        f * self.pk2(&(f.transpose() * f))
+    }
+    /// Differential of P along `df` (the default: `dF S + F dS(C; dFᵀF + FᵀdF)`).
+    fn dpk1(&self, f: &Matrix3x2<f64>, _n0: &Vector3<f64>, df: &Matrix3x2<f64>) -> Matrix3x2<f64> {
+        let c = f.transpose() * f;
+        let dc = df.transpose() * f + f.transpose() * df;
+        df * self.pk2(&c) + f * self.dpk2(&c, &dc)
+    }
+}
+
+/// The isochoric invariants `b1 = J^(−2/3) I1`, `b2 = J^(−4/3) I2` of a 3x3 C, their
+/// gradients `g1 = ∂b1/∂C`, `g2 = ∂b2/∂C`, and (given `dc`) their differentials;
+/// with `J = √det C`, `t = tr(C⁻¹ dC)`, `dI1 = tr dC`, `dI2 = I1 dI1 − tr(C dC)`:
+///
+/// ```text
+/// g1 = J^(−2/3) (I − I1/3 C⁻¹),             dg1 = −t/3 g1 + J^(−2/3) (−dI1/3 C⁻¹ + I1/3 C⁻¹dCC⁻¹)
+/// g2 = J^(−4/3) (I1 I − C − 2/3 I2 C⁻¹),    dg2 = −2t/3 g2 + J^(−4/3) (dI1 I − dC − 2/3 dI2 C⁻¹ + 2/3 I2 C⁻¹dCC⁻¹)
+/// ```
+pub(crate) struct Iso3 {
+    pub b1: f64,
+    pub g1: Matrix3<f64>,
+    pub db1: f64,
+    pub dg1: Matrix3<f64>,
+    pub dg2: Matrix3<f64>,
+    pub j: f64,
+    pub cinv: Matrix3<f64>,
+    /// `tr(C⁻¹ dC)`.
+    pub t: f64,
+    /// `C⁻¹ dC C⁻¹`.
+    pub cdc: Matrix3<f64>,
+}
+
+impl Iso3 {
+    pub fn new(c: &Matrix3<f64>, dc: &Matrix3<f64>) -> Self {
+        let id = Matrix3::identity();
+        let i1 = c.trace();
+        let i2 = 0.5 * (i1 * i1 - (c * c).trace());
+        let j = c.determinant().sqrt();
+        let cinv = c.try_inverse().unwrap_or_else(Matrix3::zeros);
+        let (j23, j43) = (j.powf(-2.0 / 3.0), j.powf(-4.0 / 3.0));
+        let g1 = (id - cinv * (i1 / 3.0)) * j23;
+        let g2 = (id * i1 - c - cinv * (2.0 / 3.0 * i2)) * j43;
+        let t = (cinv * dc).trace();
+        let di1 = dc.trace();
+        let di2 = i1 * di1 - (c * dc).trace();
+        let cdc = cinv * dc * cinv;
+        let dg1 = g1 * (-t / 3.0) + (cinv * (-di1 / 3.0) + cdc * (i1 / 3.0)) * j23;
+        let dg2 = g2 * (-2.0 * t / 3.0)
+            + (id * di1 - dc - cinv * (2.0 / 3.0 * di2) + cdc * (2.0 / 3.0 * i2)) * j43;
+        Iso3 {
+            b1: i1 * j23,
+            db1: g1.component_mul(dc).sum(),
+            g1,
+            dg1,
+            dg2,
+            j,
+            cinv,
+            t,
+            cdc,
+        }
+    }
+
+    /// The bulk term `κ/2 (J − 1)²`: its stress `κ (J − 1) J C⁻¹` and differential
+    /// `κ (2J − 1) J t/2 C⁻¹ − κ (J − 1) J C⁻¹dCC⁻¹`.
+    pub fn bulk(&self, kappa: f64) -> (Matrix3<f64>, Matrix3<f64>) {
+        let j = self.j;
+        (
+            self.cinv * (kappa * (j - 1.0) * j),
+            self.cinv * (kappa * (2.0 * j - 1.0) * j * 0.5 * self.t)
+                - self.cdc * (kappa * (j - 1.0) * j),
+        )
+    }
+}
+
+/// The plane-stress incompressible invariants of a 2x2 C (`λ3² = 1/det C`),
+/// `I1 = T + 1/D`, `I2 = D + T/D` (`T = tr C`, `D = det C`), their gradients and, along `dc`,
+/// their differentials; with `t = tr(C⁻¹ dC)` (so `dD = D t`) and `dT = tr dC`:
+///
+/// ```text
+/// g1 = I − C⁻¹/D,                 dg1 = (C⁻¹dCC⁻¹ + t C⁻¹)/D
+/// g2 = D C⁻¹ + (I − T C⁻¹)/D,     dg2 = D t C⁻¹ − D C⁻¹dCC⁻¹ + (−dT C⁻¹ + T C⁻¹dCC⁻¹)/D − (I − T C⁻¹) t/D
+/// ```
+pub(crate) struct Inc2 {
+    pub i1: f64,
+    pub g1: Matrix2<f64>,
+    pub di1: f64,
+    pub dg1: Matrix2<f64>,
+    pub dg2: Matrix2<f64>,
+}
+
+impl Inc2 {
+    pub fn new(c: &Matrix2<f64>, dc: &Matrix2<f64>) -> Self {
+        let id = Matrix2::identity();
+        let d = c.determinant();
+        let tr = c.trace();
+        let cinv = c.try_inverse().unwrap_or_else(Matrix2::zeros);
+        let g1 = id - cinv / d;
+        let t = (cinv * dc).trace();
+        let dt = dc.trace();
+        let cdc = cinv * dc * cinv;
+        let dg1 = (cdc + cinv * t) / d;
+        let dg2 =
+            cinv * (d * t) - cdc * d + (cinv * (-dt) + cdc * tr) / d - (id - cinv * tr) * (t / d);
+        Inc2 {
+            i1: tr + 1.0 / d,
+            di1: g1.component_mul(dc).sum(),
+            g1,
+            dg1,
+            dg2,
+        }
+    }
 }
 
 /// Lamé parameters (λ, μ) from Young's modulus E (Pa) and Poisson's ratio ν.
@@ -67,6 +233,7 @@ pub enum Material {
     NeoHookean(NeoHookean),
     MooneyRivlin(MooneyRivlin),
     VerondaWestmann(VerondaWestmann),
+    StableNeoHookean(StableNeoHookean),
 }
 
 impl Material {
@@ -77,6 +244,7 @@ impl Material {
             Material::NeoHookean(_) => "neo-hookean",
             Material::MooneyRivlin(_) => "mooney-rivlin",
             Material::VerondaWestmann(_) => "veronda-westmann",
+            Material::StableNeoHookean(_) => "stable-neo-hookean",
         }
     }
 
@@ -87,6 +255,7 @@ impl Material {
             Material::NeoHookean(m) => m.mu,
             Material::MooneyRivlin(m) => 2.0 * (m.c1 + m.c2),
             Material::VerondaWestmann(m) => m.c1 * m.gamma,
+            Material::StableNeoHookean(m) => m.lame_mu,
         }
     }
 
@@ -103,6 +272,13 @@ impl Material {
             (Material::NeoHookean(m), ElementKind::Tet4) => 3.0 * m.lambda + 2.0 * m.mu,
             (Material::MooneyRivlin(m), ElementKind::Tet4) => (3.0 * m.kappa).max(2.0 * mu),
             (Material::VerondaWestmann(m), ElementKind::Tet4) => (3.0 * m.kappa).max(2.0 * mu),
+            (Material::StableNeoHookean(m), ElementKind::Tet4) => {
+                3.0 * m.lame_lambda + 2.0 * m.lame_mu
+            }
+            (Material::StableNeoHookean(m), ElementKind::Tri3) => {
+                let ls = 2.0 * m.lame_lambda * m.lame_mu / (m.lame_lambda + 2.0 * m.lame_mu);
+                2.0 * ls + 2.0 * m.lame_mu
+            }
             (Material::StVenantKirchhoff(m), ElementKind::Tri3) => {
                 let ls = 2.0 * m.lambda * m.mu / (m.lambda + 2.0 * m.mu);
                 2.0 * ls + 2.0 * m.mu
@@ -153,6 +329,65 @@ macro_rules! material_tests {
                         }
                     }
                     assert!((s - s.transpose()).norm() <= 1e-12 * scale);
+                }
+            }
+            #[test]
+            fn tangent_is_stress_derivative() {
+                let owned = $mat;
+                let m: &dyn SolidMaterial = &owned;
+                let dcs = [
+                    Matrix3::new(0.3, -0.2, 0.1, -0.2, -0.5, 0.4, 0.1, 0.4, 0.2),
+                    Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+                    Matrix3::new(0.0, 0.7, 0.0, 0.7, 0.0, 0.0, 0.0, 0.0, 0.0),
+                ];
+                for f in sample_f() {
+                    let c = f.transpose() * f;
+                    for dc in &dcs {
+                        let ds = m.dpk2(&c, dc);
+                        let h = 1e-6;
+                        let fd = (m.pk2(&(c + dc * h)) - m.pk2(&(c - dc * h))) / (2.0 * h);
+                        let scale = m.pk2(&c).norm().max(fd.norm()).max(1.0);
+                        assert!(
+                            (ds - fd).norm() <= 1e-6 * scale,
+                            "dS = {ds} but the difference of S is {fd}"
+                        );
+                    }
+                }
+            }
+            #[test]
+            fn first_piola_and_its_tangent_are_derivatives() {
+                let owned = $mat;
+                let m: &dyn SolidMaterial = &owned;
+                let mut fs = sample_f();
+                if m.handles_inversion() {
+                    fs.push(Matrix3::new(
+                        -0.9, 0.1, 0.0, 0.05, 1.1, 0.2, 0.0, -0.1, 0.95,
+                    ));
+                    fs.push(Matrix3::new(0.2, 0.0, 0.0, 0.0, -0.3, 0.1, 0.0, 0.0, 0.1));
+                }
+                let df = Matrix3::new(0.3, -0.2, 0.1, 0.25, -0.5, 0.4, -0.1, 0.6, 0.2);
+                for f in fs {
+                    let p = m.pk1(&f);
+                    let scale = p.norm().max(1.0);
+                    let h = 1e-6;
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            let mut d = Matrix3::zeros();
+                            d[(i, j)] = h;
+                            let fd = (m.energy_f(&(f + d)) - m.energy_f(&(f - d))) / (2.0 * h);
+                            assert!(
+                                (fd - p[(i, j)]).abs() <= 1e-6 * scale,
+                                "F = {f}: P[{i}{j}] = {} but dW/dF = {fd}",
+                                p[(i, j)]
+                            );
+                        }
+                    }
+                    let dp = m.dpk1(&f, &df);
+                    let fd = (m.pk1(&(f + df * h)) - m.pk1(&(f - df * h))) / (2.0 * h);
+                    assert!(
+                        (dp - fd).norm() <= 1e-6 * scale.max(fd.norm()),
+                        "F = {f}: dP = {dp} but the difference of P is {fd}"
+                    );
                 }
             }
             #[test]
@@ -213,6 +448,66 @@ macro_rules! material_tests {
                             );
                         }
                     }
+                }
+            }
+            #[test]
+            fn tangent_is_stress_derivative() {
+                let owned = $mat;
+                let m: &dyn MembraneMaterial = &owned;
+                let dcs = [
+                    Matrix2::new(0.3, -0.2, -0.2, -0.5),
+                    Matrix2::new(1.0, 0.0, 0.0, 0.0),
+                    Matrix2::new(0.0, 0.7, 0.7, 0.0),
+                ];
+                for f in sample_f() {
+                    let c = f.transpose() * f;
+                    for dc in &dcs {
+                        let ds = m.dpk2(&c, dc);
+                        let h = 1e-6;
+                        let fd = (m.pk2(&(c + dc * h)) - m.pk2(&(c - dc * h))) / (2.0 * h);
+                        let scale = m.pk2(&c).norm().max(fd.norm()).max(1.0);
+                        assert!(
+                            (ds - fd).norm() <= 1e-6 * scale,
+                            "dS = {ds} but the difference of S is {fd}"
+                        );
+                    }
+                }
+            }
+            #[test]
+            fn first_piola_and_its_tangent_are_derivatives() {
+                let owned = $mat;
+                let m: &dyn MembraneMaterial = &owned;
+                let n0 = nalgebra::Vector3::new(0.0, 0.0, 1.0);
+                let mut fs = sample_f();
+                if m.handles_inversion() {
+                    // Flipped against n0 (x mirrored), and nearly collapsed.
+                    fs.push(Matrix3x2::new(-0.9, 0.1, 0.05, 1.1, 0.1, -0.2));
+                    fs.push(Matrix3x2::new(0.2, 0.0, 0.0, -0.05, 0.0, 0.1));
+                }
+                let df = Matrix3x2::new(0.3, -0.2, 0.25, -0.5, -0.1, 0.6);
+                for f in fs {
+                    let p = m.pk1(&f, &n0);
+                    let scale = p.norm().max(1.0);
+                    let h = 1e-6;
+                    for i in 0..3 {
+                        for j in 0..2 {
+                            let mut d = Matrix3x2::zeros();
+                            d[(i, j)] = h;
+                            let fd =
+                                (m.energy_f(&(f + d), &n0) - m.energy_f(&(f - d), &n0)) / (2.0 * h);
+                            assert!(
+                                (fd - p[(i, j)]).abs() <= 1e-6 * scale,
+                                "F = {f}: P[{i}{j}] = {} but dW/dF = {fd}",
+                                p[(i, j)]
+                            );
+                        }
+                    }
+                    let dp = m.dpk1(&f, &n0, &df);
+                    let fd = (m.pk1(&(f + df * h), &n0) - m.pk1(&(f - df * h), &n0)) / (2.0 * h);
+                    assert!(
+                        (dp - fd).norm() <= 1e-6 * scale.max(fd.norm()),
+                        "F = {f}: dP = {dp} but the difference of P is {fd}"
+                    );
                 }
             }
             #[test]

@@ -10,6 +10,8 @@
 //! W = C1 (Ī1 − 3) + C2 (Ī2 − 3) + κ/2 (J − 1)²
 //! S = 2 C1 J^(-2/3) (I − I1/3 C⁻¹) + 2 C2 J^(-4/3) (I1 I − C − 2/3 I2 C⁻¹) + κ (J − 1) J C⁻¹
 //! ```
+//! Tangents: `dS = 2 (C1 dg1 + C2 dg2)` (+ the bulk term's) with the invariants' gradients and
+//! differentials of [`super::Iso3`] (solid) and [`super::Inc2`] (membrane).
 //! Small-strain shear modulus μ = 2 (C1 + C2).
 
 use super::{MembraneMaterial, SolidMaterial};
@@ -52,6 +54,10 @@ impl SolidMaterial for MooneyRivlin {
             + (id * i1 - c - cinv * (2.0 / 3.0 * i2)) * (2.0 * self.c2 * j.powf(-4.0 / 3.0))
             + cinv * (self.kappa * (j - 1.0) * j)
     }
+    fn dpk2(&self, c: &Matrix3<f64>, dc: &Matrix3<f64>) -> Matrix3<f64> {
+        let iso = super::Iso3::new(c, dc);
+        (iso.dg1 * self.c1 + iso.dg2 * self.c2) * 2.0 + iso.bulk(self.kappa).1
+    }
 }
 
 impl MembraneMaterial for MooneyRivlin {
@@ -68,6 +74,10 @@ impl MembraneMaterial for MooneyRivlin {
         let di1 = id - cinv / det;
         let di2 = cinv * det + (id - cinv * tr) / det;
         (di1 * self.c1 + di2 * self.c2) * 2.0
+    }
+    fn dpk2(&self, c: &Matrix2<f64>, dc: &Matrix2<f64>) -> Matrix2<f64> {
+        let inc = super::Inc2::new(c, dc);
+        (inc.dg1 * self.c1 + inc.dg2 * self.c2) * 2.0
     }
     fn thickness_stretch(&self, c: &Matrix2<f64>) -> f64 {
         1.0 / c.determinant().sqrt()

@@ -5,9 +5,13 @@
 //! W = μ/2 (I1 − 3) − μ ln J + λ/2 (ln J)²,      J = √det C, I1 = tr C
 //! S = μ (I − C⁻¹) + λ ln J C⁻¹
 //! ```
+//! with the tangent (t = tr(C⁻¹ dC))
+//! ```text
+//! dS = μ C⁻¹dCC⁻¹ + λ t/2 C⁻¹ − λ ln J C⁻¹dCC⁻¹
+//! ```
 //! Membrane, incompressible plane stress (λ3² = 1/det C):
 //! ```text
-//! W = μ/2 (tr C + 1/det C − 3),    S = μ (I − C⁻¹ / det C)
+//! W = μ/2 (tr C + 1/det C − 3),    S = μ (I − C⁻¹ / det C),   dS = μ (C⁻¹dCC⁻¹ + t C⁻¹)/det C
 //! ```
 
 use super::{lame, MembraneMaterial, SolidMaterial};
@@ -38,6 +42,13 @@ impl SolidMaterial for NeoHookean {
         let cinv = c.try_inverse().unwrap_or_else(Matrix3::zeros);
         (Matrix3::identity() - cinv) * self.mu + cinv * (self.lambda * lnj)
     }
+    fn dpk2(&self, c: &Matrix3<f64>, dc: &Matrix3<f64>) -> Matrix3<f64> {
+        let lnj = 0.5 * c.determinant().ln();
+        let cinv = c.try_inverse().unwrap_or_else(Matrix3::zeros);
+        let cdc = cinv * dc * cinv;
+        let t = (cinv * dc).trace();
+        cdc * (self.mu - self.lambda * lnj) + cinv * (0.5 * self.lambda * t)
+    }
 }
 
 impl MembraneMaterial for NeoHookean {
@@ -48,6 +59,9 @@ impl MembraneMaterial for NeoHookean {
         let det = c.determinant();
         let cinv = c.try_inverse().unwrap_or_else(Matrix2::zeros);
         (Matrix2::identity() - cinv / det) * self.mu
+    }
+    fn dpk2(&self, c: &Matrix2<f64>, dc: &Matrix2<f64>) -> Matrix2<f64> {
+        super::Inc2::new(c, dc).dg1 * self.mu
     }
     fn thickness_stretch(&self, c: &Matrix2<f64>) -> f64 {
         1.0 / c.determinant().sqrt()

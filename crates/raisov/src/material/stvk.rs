@@ -1,7 +1,7 @@
 //! St Venant-Kirchhoff: linear stress-strain in the Green-Lagrange strain `E = (C − I)/2`.
 //!
 //! ```text
-//! W = λ/2 (tr E)² + μ E:E,        S = λ tr(E) I + 2 μ E
+//! W = λ/2 (tr E)² + μ E:E,        S = λ tr(E) I + 2 μ E,      dS = λ/2 tr(dC) I + μ dC
 //! ```
 //!
 //! Membrane (plane stress, S33 = 0 eliminated): the same form with `λ* = 2λμ / (λ + 2μ)`.
@@ -37,6 +37,9 @@ impl SolidMaterial for StVenantKirchhoff {
         let e = (c - Matrix3::identity()) * 0.5;
         Matrix3::identity() * (self.lambda * e.trace()) + e * (2.0 * self.mu)
     }
+    fn dpk2(&self, _c: &Matrix3<f64>, dc: &Matrix3<f64>) -> Matrix3<f64> {
+        Matrix3::identity() * (0.5 * self.lambda * dc.trace()) + dc * self.mu
+    }
 }
 
 impl MembraneMaterial for StVenantKirchhoff {
@@ -48,6 +51,9 @@ impl MembraneMaterial for StVenantKirchhoff {
     fn pk2(&self, c: &Matrix2<f64>) -> Matrix2<f64> {
         let e = (c - Matrix2::identity()) * 0.5;
         Matrix2::identity() * (self.plane_stress_lambda() * e.trace()) + e * (2.0 * self.mu)
+    }
+    fn dpk2(&self, _c: &Matrix2<f64>, dc: &Matrix2<f64>) -> Matrix2<f64> {
+        Matrix2::identity() * (0.5 * self.plane_stress_lambda() * dc.trace()) + dc * self.mu
     }
     fn thickness_stretch(&self, _c: &Matrix2<f64>) -> f64 {
         1.0

@@ -7,6 +7,9 @@
 //! S = 2 [c1 γ exp(γ (I1 − 3)) ∂I1/∂C − c1 γ / 2 ∂I2/∂C]
 //! ```
 //! Solid, compressible: the same in the isochoric invariants Ī1, Ī2 plus κ/2 (J − 1)².
+//! Tangent, with `w1 = c1 γ exp(γ (I1 − 3))`, `w2 = −c1 γ / 2` and the invariants' gradients
+//! `g` and differentials of [`super::Iso3`] / [`super::Inc2`]:
+//! `dS = 2 (γ w1 (g1 : dC) g1 + w1 dg1 + w2 dg2)` (+ the bulk term's for solids).
 //! Small-strain shear modulus μ = c1 γ.
 
 use super::{MembraneMaterial, SolidMaterial};
@@ -51,6 +54,13 @@ impl SolidMaterial for VerondaWestmann {
         let w2 = -0.5 * self.c1 * self.gamma;
         (db1 * w1 + db2 * w2) * 2.0 + cinv * (self.kappa * (j - 1.0) * j)
     }
+    fn dpk2(&self, c: &Matrix3<f64>, dc: &Matrix3<f64>) -> Matrix3<f64> {
+        let iso = super::Iso3::new(c, dc);
+        let w1 = self.c1 * self.gamma * (self.gamma * (iso.b1 - 3.0)).exp();
+        let w2 = -0.5 * self.c1 * self.gamma;
+        (iso.g1 * (self.gamma * w1 * iso.db1) + iso.dg1 * w1 + iso.dg2 * w2) * 2.0
+            + iso.bulk(self.kappa).1
+    }
 }
 
 impl MembraneMaterial for VerondaWestmann {
@@ -72,6 +82,12 @@ impl MembraneMaterial for VerondaWestmann {
         let w1 = self.c1 * self.gamma * (self.gamma * (i1 - 3.0)).exp();
         let w2 = -0.5 * self.c1 * self.gamma;
         (di1 * w1 + di2 * w2) * 2.0
+    }
+    fn dpk2(&self, c: &Matrix2<f64>, dc: &Matrix2<f64>) -> Matrix2<f64> {
+        let inc = super::Inc2::new(c, dc);
+        let w1 = self.c1 * self.gamma * (self.gamma * (inc.i1 - 3.0)).exp();
+        let w2 = -0.5 * self.c1 * self.gamma;
+        (inc.g1 * (self.gamma * w1 * inc.di1) + inc.dg1 * w1 + inc.dg2 * w2) * 2.0
     }
     fn thickness_stretch(&self, c: &Matrix2<f64>) -> f64 {
         1.0 / c.determinant().sqrt()

@@ -13,7 +13,11 @@
 //! node, the normals of a sliding one). At equilibrium the free nodes satisfy `R = V` and
 //! `Σ_a R_a = 0` (internal forces are self-equilibrated), so `F_fixed + F_prescribed + Σ_a V_a
 //! = 0`: the reactions balance the applied loads and body forces. (The inertia of a moving
-//! prescribed node, `M g̈`, is not included.)
+//! prescribed node, `M g̈`, is not included.) Surface loads and tools are part of the force
+//! model ([`crate::fem::loads::Loaded`], `R` there includes `−F_loads − F_tool`), so the
+//! balance reads `F_fixed + F_prescribed + F_tool + Σ_a V_a + Σ_a F_loads,a = 0`, with
+//! `F_tool` the force the tools exert on the body ([`crate::contact`]), reported per sample
+//! with the deepest penetration.
 
 use crate::error::{Error, Result};
 use crate::integrate::{State, System};
@@ -47,6 +51,10 @@ pub struct Sample {
     pub reaction_fixed: [f64; 3],
     /// Reaction at the prescribed nodes, `F_prescribed` (N).
     pub reaction_prescribed: [f64; 3],
+    /// The force the tools exert on the body, `F_tool` (N).
+    pub tool: [f64; 3],
+    /// The deepest penetration of a node into a tool (m).
+    pub penetration: f64,
 }
 
 /// `max |T − T∞|` and mean over nodes where `mask` is false (free nodes).
@@ -107,6 +115,7 @@ impl Meter {
             None => (f64::NAN, f64::NAN),
         };
         let (reaction_fixed, reaction_prescribed) = reactions(sys, &s.u, &mut self.internal);
+        let lr = sys.force.load_report(&s.u);
         Sample {
             step,
             time: s.t,
@@ -119,6 +128,8 @@ impl Meter {
             wall: 0.0,
             reaction_fixed,
             reaction_prescribed,
+            tool: lr.tool,
+            penetration: lr.max_penetration,
         }
     }
 
@@ -170,7 +181,8 @@ pub fn reactions(sys: &mut System, u: &[f64], scratch: &mut [f64]) -> ([f64; 3],
 pub const CSV_HEADER: &str =
     "step,time_s,kinetic_J,residual_N,max_u_m,stress_err_max_Pa,stress_err_mean_Pa,force_evals,wall_s,\
 reaction_fixed_x_N,reaction_fixed_y_N,reaction_fixed_z_N,\
-reaction_prescribed_x_N,reaction_prescribed_y_N,reaction_prescribed_z_N";
+reaction_prescribed_x_N,reaction_prescribed_y_N,reaction_prescribed_z_N,\
+tool_fx_N,tool_fy_N,tool_fz_N,penetration_m";
 
 /// One CSV row of `r` (no newline). Missing stress errors are empty fields.
 fn csv_row(w: &mut dyn Write, r: &Sample) -> std::io::Result<()> {
@@ -194,7 +206,13 @@ fn csv_row(w: &mut dyn Write, r: &Sample) -> std::io::Result<()> {
         r.force_evals,
         r.wall
     )?;
-    for x in r.reaction_fixed.iter().chain(&r.reaction_prescribed) {
+    for x in r
+        .reaction_fixed
+        .iter()
+        .chain(&r.reaction_prescribed)
+        .chain(&r.tool)
+        .chain([&r.penetration])
+    {
         write!(w, ",{}", opt(*x))?;
     }
     Ok(())

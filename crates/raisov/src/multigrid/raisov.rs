@@ -14,8 +14,11 @@
 //!    `δX^(i+1)` by [`Reading`]:
 //!    - `Paper`: eq. 8 literally, level i+1's state now minus its `X_n` (all it changed this
 //!      cycle, including what was restricted down from level i);
-//!    - `Correction`: level i+1's state now minus its state at the start of its own up-stroke
-//!      (a classic coarse-grid correction).
+//!    - `Correction`: the classic coarse-grid correction, level i+1's state after its whole
+//!      up-stroke (its transfer from level i+2 and its own G step) minus its state before it
+//!      received anything from level i+2, i.e. just after its down-stroke transfer. Every
+//!      coarser level's correction thus reaches level 0 through the levels between (test
+//!      `coarsest_correction_reaches_level_zero`).
 //! 3. Constrained nodes are re-imposed on every level after every transfer.
 //!
 //! With one level this is single-level integration, bit for bit (a test).
@@ -67,8 +70,8 @@ pub struct Raisov {
     /// coarsest level's is never read).
     du: Vec<Vec<f64>>,
     dv: Vec<Vec<f64>>,
-    /// `Correction` reading: each coarse level's state at the start of its up-stroke step,
-    /// written by the transfer into the level.
+    /// `Correction` reading: each coarse level's state just after its down-stroke transfer
+    /// (before anything came from the level above), written by that transfer.
     up_u: Vec<Vec<f64>>,
     up_v: Vec<Vec<f64>>,
     steps: u64,
@@ -124,9 +127,8 @@ impl Raisov {
             let (pf_v, p_v) = lower_and(&mut self.prev_v, i);
             let (df_u, d_u) = lower_and(&mut self.du, i);
             let (df_v, d_v) = lower_and(&mut self.dv, i);
-            // The coarsest level's step follows its down-stroke transfer directly: its
-            // `Correction` snapshot is taken here (the others' by the up stroke).
-            let snapshot = correction && i + 1 == m;
+            // The `Correction` reading's base: the state the down stroke leaves.
+            let snapshot = correction;
             let (s_u, s_v) = if snapshot {
                 (rows_mut(&mut self.up_u[i]), rows_mut(&mut self.up_v[i]))
             } else {
@@ -174,8 +176,8 @@ impl Raisov {
                 let (f, c) = (&mut fine[i], &coarse[0]);
                 let (p_u, pc_u) = and_upper(&mut self.prev_u, i);
                 let (p_v, pc_v) = and_upper(&mut self.prev_v, i);
-                let (s_u, sc_u) = and_upper(&mut self.up_u, i);
-                let (s_v, sc_v) = and_upper(&mut self.up_v, i);
+                let (_, sc_u) = and_upper(&mut self.up_u, i);
+                let (_, sc_v) = and_upper(&mut self.up_v, i);
                 let base = match self.params.reading {
                     Reading::Paper => [pc_u, pc_v],
                     Reading::Correction => [sc_u, sc_v],
@@ -187,10 +189,9 @@ impl Raisov {
                     pv: p_v,
                     du: rows_mut(&mut self.du[i]),
                     dv: rows_mut(&mut self.dv[i]),
-                    su: s_u,
-                    sv: s_v,
+                    su: &mut [][..],
+                    sv: &mut [][..],
                 };
-                let snapshot = correction && i > 0;
                 let src = [rows(&c.state.u), rows(&c.state.v)];
                 let counts = up(t, level, above, i == 0, src, base);
                 sw[1].0 += counts.0;
@@ -202,9 +203,6 @@ impl Raisov {
                 }
                 let tt = f.state.t;
                 f.sys.impose(tt, &mut f.state.u, &mut f.state.v);
-                if snapshot {
-                    f.sys.impose(tt, &mut self.up_u[i], &mut self.up_v[i]);
-                }
             }
             let l = &mut self.levels[i];
             let t0 = l.state.t;

@@ -366,7 +366,8 @@ fn stroke_host_sums_equal_interpolate() {
 /// The literal cycle, as the design note writes it: whole-level snapshots `X_n` and `ΔX` taken
 /// before the down stroke, serial loops, `|x| > ε` by the square root. The reference for the
 /// fused cycle of [`Raisov`]. `prev`: `X_(n−1)` (u, v) per level; returns the switch counts
-/// and each level's state at the start of its up-stroke step.
+/// and each coarse level's state after its down-stroke transfer (the `correction` reading's
+/// base; empty on level 0).
 #[allow(clippy::type_complexity)]
 fn literal_cycle(
     levels: &mut [crate::multigrid::Level],
@@ -388,6 +389,7 @@ fn literal_cycle(
         .map(|(s, p)| (diff(&s.0, &p.0), diff(&s.1, &p.1)))
         .collect();
     let mut sw = [(0, 0); 2];
+    let mut snap: Vec<(Vec<f64>, Vec<f64>)> = vec![(Vec::new(), Vec::new()); m];
     for i in 1..m {
         let t = &links[i - 1].up;
         let (su, sv) = (levels[i - 1].state.u.clone(), levels[i - 1].state.v.clone());
@@ -411,8 +413,8 @@ fn literal_cycle(
         }
         let tt = c.state.t;
         c.sys.impose(tt, &mut c.state.u, &mut c.state.v);
+        snap[i] = (c.state.u.clone(), c.state.v.clone());
     }
-    let mut snap: Vec<(Vec<f64>, Vec<f64>)> = vec![(Vec::new(), Vec::new()); m];
     for i in (0..m).rev() {
         if i + 1 < m {
             let t = &links[i].down;
@@ -446,7 +448,6 @@ fn literal_cycle(
             f.sys.impose(tt, &mut f.state.u, &mut f.state.v);
         }
         let l = &mut levels[i];
-        snap[i] = (l.state.u.clone(), l.state.v.clone());
         l.integrator.step(&mut l.sys, &mut l.state, l.dt).unwrap();
         l.evaluations += 1;
     }
@@ -603,5 +604,58 @@ fn above_decides_like_the_norm() {
             check(d.map(|x| x * k));
             check(d.map(|x| x * e * 10f64.powf(4.0 * rnd() - 2.0)));
         }
+    }
+}
+
+/// The `correction` reading is the classic coarse-grid correction: δX^(i+1) is level i+1's
+/// state after its whole up-stroke minus its state before it received anything from level
+/// i+2, so the coarsest level's change reaches level 0. Three levels at rest, ε so large that
+/// every transfer is a variation, and G a no-op on levels 0 and 1 (Δ = 0): one cycle moves only
+/// the coarsest level (by its own step δ₂), and level 0 must then hold P₀₁ P₁₂ δ₂ on its free
+/// nodes (P the up-stroke interpolations), level 1 P₁₂ δ₂.
+#[test]
+fn coarsest_correction_reaches_level_zero() {
+    use super::{rows, weighted};
+    let sc = drape(
+        300,
+        "[multigrid]\nscheme = \"raisov-paper\"\nlevels = 3\nreading = \"correction\"",
+        "symplectic-euler",
+    );
+    let (mut levels, links) = sc.build_levels().unwrap();
+    levels[0].dt = 0.0;
+    levels[1].dt = 0.0;
+    let params = RaisovParams {
+        epsilon: 1e30,
+        reading: Reading::Correction,
+        kinetic_limit: f64::INFINITY,
+    };
+    let mut rs = Raisov::new(levels, links, params);
+    rs.advance().unwrap();
+    let coarse = rs.levels[2].state.u.clone();
+    let scale = coarse.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    assert!(scale > 0.0, "the coarsest level did not move");
+    for i in [1usize, 0] {
+        let src = rs.levels[i + 1].state.u.clone();
+        let l = &rs.levels[i];
+        let mut moved = 0.0f64;
+        for th in 0..l.num_nodes() {
+            if l.sys.constraints.is_constrained(th) {
+                continue;
+            }
+            let want = weighted(&rs.links[i].down, th, rows(&src));
+            for q in 0..3 {
+                let got = l.state.u[3 * th + q];
+                moved = moved.max(got.abs());
+                assert!(
+                    (got - want[q]).abs() <= 1e-12 * scale,
+                    "level {i} node {th}: {got:e}, the interpolated correction {:e}",
+                    want[q]
+                );
+            }
+        }
+        assert!(
+            moved > 0.1 * scale,
+            "level {i} did not receive the correction"
+        );
     }
 }

@@ -505,6 +505,8 @@ pub fn run_interactive(
                 wall,
                 reaction_fixed: [f64::NAN; 3],
                 reaction_prescribed: [f64::NAN; 3],
+                tool: [f64::NAN; 3],
+                penetration: f64::NAN,
             };
             p(k as f64 / frames_n as f64, &sample);
         }

@@ -526,7 +526,8 @@ impl Scenario {
     /// The stepper this scenario asks for: single level, or a multigrid over its levels.
     pub fn stepper(&self) -> Result<Box<dyn Stepper>> {
         let sys = self.build_system()?;
-        let limit = energy_limit_for(&sys, &self.mesh, self.blowup_factor);
+        let limit = energy_limit_for(&sys, &self.mesh, self.blowup_factor)
+            + self.blowup_factor * self.model_load_work(&self.mesh);
         let Some(mg) = &self.multigrid else {
             return Ok(Box::new(SingleLevel::new(
                 sys,

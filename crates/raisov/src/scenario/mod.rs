@@ -33,17 +33,20 @@
 
 pub mod interactive;
 mod levels;
+pub mod loading;
+mod patch;
 pub mod run;
 pub mod spec;
 pub mod surface;
 
 use crate::error::{Error, Result};
+use crate::fem::loads::TimeFunction;
 use crate::fem::{FemModel, FemParams, Precision};
 use crate::integrate::stability::critical_step_estimate;
 use crate::integrate::{Constraints, Method, Motion, System};
 use crate::io::{load_mesh, VtuFormat};
 use crate::material::{
-    lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, VerondaWestmann,
+    lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, StableNeoHookean, VerondaWestmann,
 };
 use crate::mesh::generate::{
     box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern,
@@ -176,8 +179,15 @@ pub struct Scenario {
     pub gravity: [f64; 3],
     /// `[[fix]]` selectors and what each holds, selected again on every multigrid level.
     pub fix: Vec<(Selector, Fixing)>,
-    /// `[[load]]` selectors and the force on each selected node (N).
+    /// `[[load]]` selectors and the force on each selected node (N), constant in time.
     pub load: Vec<(Selector, [f64; 3])>,
+    /// `[[load]]` entries with a time function: selector, force per node (N), `s(t)`; carried
+    /// by the force model ([`loading`]).
+    pub timed_load: Vec<(Selector, [f64; 3], TimeFunction)>,
+    /// `[[pressure]]` and `[[traction]]` ([`loading`]).
+    pub surface_loads: Vec<loading::SurfaceLoadDef>,
+    /// `[[tool]]`: rigid tools in penalty contact ([`crate::contact`]).
+    pub tools: Vec<loading::ToolDef>,
     /// The nodes `fix` selects on [`Scenario::mesh`] with all components held.
     pub fixed: Vec<u32>,
     /// The nodes `fix` selects with some directions held: `(node, unit direction)`.
@@ -399,6 +409,7 @@ impl Scenario {
             fix.push((selector(r, &key)?, resolve_fixing(r, path, &key)?));
         }
         let mut load = Vec::with_capacity(spec.load.len());
+        let mut timed_load = Vec::new();
         for (i, l) in spec.load.iter().enumerate() {
             let key = format!("load[{i}].at");
             if l.at.components.is_some() || l.at.normal.is_some() {
@@ -407,7 +418,26 @@ impl Scenario {
                     format!("{key}: `components` and `normal` belong to [[fix]], not to a load's selector"),
                 ));
             }
-            load.push((selector(&l.at, &key)?, l.force));
+            let time = match &l.time {
+                Some(t) => loading::resolve_time(t, path, &format!("load[{i}].time"))?,
+                None => TimeFunction::Constant,
+            };
+            if time == TimeFunction::Constant {
+                load.push((selector(&l.at, &key)?, l.force));
+            } else {
+                timed_load.push((selector(&l.at, &key)?, l.force, time));
+            }
+        }
+        let mut surface_loads = Vec::new();
+        for (i, s) in spec.pressure.iter().enumerate() {
+            surface_loads.push(loading::resolve_surface_load(s, false, path, i)?);
+        }
+        for (i, s) in spec.traction.iter().enumerate() {
+            surface_loads.push(loading::resolve_surface_load(s, true, path, i)?);
+        }
+        let mut tools = Vec::new();
+        for (i, t) in spec.tool.iter().enumerate() {
+            tools.push(loading::resolve_tool(t, path, i)?);
         }
         let material = resolve_material(&spec.material, mesh.kind, path)?;
         let density = positive(
@@ -450,10 +480,27 @@ impl Scenario {
         for (i, d) in spec.displace.iter().enumerate() {
             let key = format!("displace[{i}]");
             far(d.point, &key, &mut warnings);
+            let motion = resolve_motion(d, path, &key)?;
+            if let Some(r) = d.radius {
+                // A surface patch (patch.rs): the free surface nodes within `r`.
+                if !(r >= 0.0 && r.is_finite()) {
+                    return Err(err(
+                        path,
+                        format!("{key}: `radius` = {r}: must be >= 0 (m)"),
+                    ));
+                }
+                let (g, mut nodes) = patch::surface_patch(&mesh, d.point, r)
+                    .ok_or_else(|| err(path, format!("{key}: the mesh has no surface")))?;
+                nodes.retain(|a| !fixed.contains(a) && !prescribed.iter().any(|(n, _)| n == a));
+                if nodes.is_empty() {
+                    return Err(err(path, format!("{key}: every surface node within `radius` = {r} m of {g:?} is fixed or prescribed by an earlier [[displace]]")));
+                }
+                prescribed.extend(nodes.into_iter().map(|a| (a, motion.clone())));
+                continue;
+            }
             let node = mesh
                 .nearest_node(d.point)
                 .ok_or_else(|| err(path, "the mesh has no nodes"))? as u32;
-            let motion = resolve_motion(d, path, &key)?;
             if prescribed.iter().any(|(n, _)| *n == node) {
                 let k = file_ids.as_ref().map_or(node, |f| f[node as usize]);
                 let shown = node_labels.as_ref().map_or(k as u64, |l| l[k as usize]);
@@ -478,6 +525,16 @@ impl Scenario {
             }
         }
         let statics = if newton {
+            let settles = surface_loads.iter().all(|s| s.time.end().is_finite())
+                && timed_load.iter().all(|(_, _, f)| f.end().is_finite())
+                && tools.iter().all(|t| t.motion.end().is_finite())
+                && prescribed.iter().all(|(_, m)| m.end().is_finite());
+            if !settles {
+                return Err(err(
+                    path,
+                    "method = \"newton\" solves for the loads at their end: a `sine` time function never ends",
+                ));
+            }
             for (k, set) in [
                 ("[multigrid]", spec.multigrid.is_some()),
                 ("[interactive]", spec.interactive.is_some()),
@@ -664,6 +721,9 @@ impl Scenario {
             gravity,
             fix,
             load,
+            timed_load,
+            surface_loads,
+            tools,
             fixed,
             sliding,
             loads,
@@ -687,6 +747,7 @@ impl Scenario {
             surface: surface_levels.map(|sl| sl.visual),
             statics,
         };
+        sc.check_model_loads()?;
         // A reference file is read (and its numbers checked) now, not when the run needs it.
         if let Reference::File(p) = &sc.reference {
             run::read_nodal_stress(p, &sc)?;
@@ -757,8 +818,10 @@ pub fn build_system(
     let fem = FemModel::new(mesh, sc.fem_params())?;
     let mass = fem.lumped_mass();
     let n = mesh.num_nodes();
+    let x0 = fem.reference_positions().to_vec();
+    let force = sc.wrap_loads(mesh, x0, Box::new(fem))?;
     let mut sys = System::new(
-        Box::new(fem),
+        force,
         mass,
         sc.alpha,
         vec![0.0; 3 * n],
@@ -1259,10 +1322,44 @@ fn resolve_material(m: &spec::MaterialSpec, kind: ElementKind, path: &Path) -> R
             let gamma = positive(path, "material.gamma", need("gamma", m.gamma)?)?;
             Material::VerondaWestmann(VerondaWestmann::new(c1, gamma, kappa(m.kappa)?))
         }
+        Law::StableNeoHookean => {
+            forbid(&[
+                ("c1", m.c1.is_some()),
+                ("c2", m.c2.is_some()),
+                ("gamma", m.gamma.is_some()),
+                ("kappa", m.kappa.is_some()),
+            ])?;
+            let (e, nu) = young_poisson()?;
+            Material::StableNeoHookean(StableNeoHookean::from_young(e, nu))
+        }
     })
 }
 
 fn resolve_motion(d: &spec::DisplaceSpec, path: &Path, key: &str) -> Result<Motion> {
+    if let Some(t) = &d.time {
+        for (k, set) in [
+            ("mode", d.mode.is_some()),
+            ("duration", d.duration.is_some()),
+            ("table", d.table.is_some()),
+        ] {
+            if set {
+                return Err(err(
+                    path,
+                    format!("{key}: `{k}` does not apply with `time` (the displacement times a time function)"),
+                ));
+            }
+        }
+        let disp = d.displacement.ok_or_else(|| {
+            err(
+                path,
+                format!("{key}: `time` needs `displacement` = [dx, dy, dz] (m)"),
+            )
+        })?;
+        return Ok(Motion::Function {
+            d: disp,
+            f: loading::resolve_time(t, path, &format!("{key}.time"))?,
+        });
+    }
     let mode = d.mode.unwrap_or(if d.table.is_some() {
         MotionMode::Table
     } else {

@@ -3,12 +3,13 @@
 //! The output directory is locked for the run ([`crate::io::OutputLock`], `.raisov.lock`):
 //! a second run on the same directory stops with an error naming it. Files written under it:
 //! - `measures.csv`: one row per `csv_every` steps ([`crate::metrics::CSV_HEADER`]), the
-//!   reactions included ([`crate::metrics`]), streamed as the rows come and flushed with every
+//!   reactions and the tools' contact force and penetration included ([`crate::metrics`]), streamed as the rows come and flushed with every
 //!   frame: a killed run leaves the rows up to its last frame. Nothing of it is kept in memory;
 //!   the steady-state test keeps the peaks and the best value so far;
 //! - `NAME.pvd` + `frames/NAME_NNNNNN.vtu`: ParaView time series, points in the reference
 //!   configuration with point fields `displacement` (m; the active vectors, so *Warp By
-//!   Vector* shows the deformed body), `velocity` (m/s), `stress` (nodal Cauchy T, Pa), and
+//!   Vector* shows the deformed body), `velocity` (m/s), `stress` (nodal Cauchy T, Pa),
+//!   `contact_force` (N per node, the force the `[[tool]]`s exert; scenarios with tools), and
 //!   `file_node_id` (`Int64`, each point's node id in the mesh file) where that differs from
 //!   its position (`[mesh] renumber` reordered the nodes, or the file numbers from 1); binary appended zlib or ASCII per `[output] vtu`
 //!   ([`crate::io::vtu`]);
@@ -164,9 +165,17 @@ impl std::fmt::Display for RunSummary {
         )?;
         writeln!(
             f,
-            "applied loads   {} (loads and body force)",
+            "applied loads   {} (loads, surface loads and body force)",
             v(self.applied)
         )?;
+        if self.last.tool != [0.0; 3] || self.last.penetration > 0.0 {
+            writeln!(
+                f,
+                "tool contact    {} (on the body), penetration {:.4e} m",
+                v(self.last.tool),
+                self.last.penetration
+            )?;
+        }
         if self.last.stress_err_max.is_finite() {
             writeln!(
                 f,
@@ -185,17 +194,12 @@ impl std::fmt::Display for RunSummary {
 }
 
 impl Scenario {
-    /// The time after which every prescribed motion is constant.
+    /// The time after which every prescribed motion, load and tool is constant.
     pub fn motion_end(&self) -> f64 {
-        use crate::integrate::Motion;
         self.prescribed
             .iter()
-            .map(|(_, m)| match m {
-                Motion::Held { .. } => 0.0,
-                Motion::Ramp { duration, .. } => *duration,
-                Motion::Table { times, .. } => *times.last().unwrap_or(&0.0),
-            })
-            .fold(0.0, f64::max)
+            .map(|(_, m)| m.end())
+            .fold(self.loads_end(), f64::max)
     }
 
     /// Steady-state nodal stress T∞ with the constraints at their final values, by dynamic
@@ -382,6 +386,8 @@ struct Frames<'a> {
     count: usize,
     format: VtuFormat,
     stress: Vec<f64>,
+    /// The tools' force on each node (N), the `contact_force` field of scenarios with tools.
+    contact: Vec<f64>,
     /// Each point's node id in the mesh file, where the scenario renumbered the nodes.
     file_ids: Option<Vec<i64>>,
     surface: Option<SurfaceFrames<'a>>,
@@ -406,35 +412,46 @@ impl<'a> Frames<'a> {
             count: 0,
             format,
             stress: vec![0.0; 9 * n],
+            contact: vec![0.0; 3 * n],
             file_ids: sc.output_node_ids(),
         })
     }
     fn write(&mut self, sc: &Scenario, stepper: &mut dyn Stepper) -> Result<()> {
         let (sys, s) = stepper.finest();
         sys.force.nodal_stress(&s.u, &mut self.stress);
+        let contact = sys.force.contact_forces(&s.u, &mut self.contact);
         let file = format!("{}_{:06}.vtu", self.name, self.count);
+        let mut fields = vec![
+            Field {
+                name: "displacement",
+                data: FieldData::Vector(&s.u),
+            },
+            Field {
+                name: "velocity",
+                data: FieldData::Vector(&s.v),
+            },
+            Field {
+                name: "stress",
+                data: FieldData::Tensor(&self.stress),
+            },
+        ];
+        if contact {
+            fields.push(Field {
+                name: "contact_force",
+                data: FieldData::Vector(&self.contact),
+            });
+        }
+        if let Some(ids) = self.file_ids.as_deref() {
+            fields.push(Field {
+                name: "file_node_id",
+                data: FieldData::Int(ids),
+            });
+        }
         write_vtu_as(
             &self.dir.join(&file),
             &sc.mesh,
             &sc.mesh.nodes,
-            &[
-                Field {
-                    name: "displacement",
-                    data: FieldData::Vector(&s.u),
-                },
-                Field {
-                    name: "velocity",
-                    data: FieldData::Vector(&s.v),
-                },
-                Field {
-                    name: "stress",
-                    data: FieldData::Tensor(&self.stress),
-                },
-                Field {
-                    name: "file_node_id",
-                    data: FieldData::Int(self.file_ids.as_deref().unwrap_or(&[])),
-                },
-            ][..if self.file_ids.is_some() { 4 } else { 3 }],
+            &fields,
             &[],
             self.format,
         )?;
@@ -585,7 +602,7 @@ pub fn run_with(
         let mut t = vec![0.0; 9 * n];
         sys.force.nodal_stress(&s.u, &mut t);
         write_nodal_stress(&stress_path, sc, &s.u, &t)?;
-        let mut v = [0.0; 3];
+        let mut v = sys.force.load_report(&s.u).applied;
         for (i, f) in sys.f_ext.iter().enumerate() {
             v[i % 3] += f;
         }
@@ -698,9 +715,17 @@ impl std::fmt::Display for StaticSummary {
         )?;
         writeln!(
             f,
-            "applied loads   {} (loads and body force)",
+            "applied loads   {} (loads, surface loads and body force)",
             v(self.applied)
         )?;
+        if self.last.tool != [0.0; 3] || self.last.penetration > 0.0 {
+            writeln!(
+                f,
+                "tool contact    {} (on the body), penetration {:.4e} m",
+                v(self.last.tool),
+                self.last.penetration
+            )?;
+        }
         write!(f, "output          {}", self.out_dir.display())
     }
 }
@@ -780,6 +805,7 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
             for (x, x0) in sys.f_ext.iter_mut().zip(&f0) {
                 *x = f * x0;
             }
+            sys.force.set_load_factor(f);
             let held: Vec<[f64; 3]> = g.iter().map(|d| d.map(|x| f * x)).collect();
             crate::integrate::hold(&mut sys.constraints, &held);
             match newton.solve(sys, t, &mut u, p) {
@@ -820,7 +846,7 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
         let mut tn = vec![0.0; 9 * n];
         sys.force.nodal_stress(&s.u, &mut tn);
         write_nodal_stress(&out.join("nodal_stress.csv"), sc, &s.u, &tn)?;
-        let mut v = [0.0; 3];
+        let mut v = sys.force.load_report(&s.u).applied;
         for (i, f) in sys.f_ext.iter().enumerate() {
             v[i % 3] += f;
         }

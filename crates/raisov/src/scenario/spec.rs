@@ -38,8 +38,8 @@
 //!
 //! [material]
 //! law = "mooney-rivlin"           # "stvk" (or "st-venant-kirchhoff") | "neo-hookean" |
-//!                                 # "mooney-rivlin" | "veronda-westmann"
-//! young = 5e4                     # Pa   (stvk, neo-hookean), with
+//!                                 # "mooney-rivlin" | "veronda-westmann" | "stable-neo-hookean"
+//! young = 5e4                     # Pa   (stvk, neo-hookean, stable-neo-hookean), with
 //! poisson = 0.4                   #      (stvk, neo-hookean)
 //! c1 = 1e3                        # Pa   (mooney-rivlin, veronda-westmann)
 //! c2 = 1e3                        # Pa   (mooney-rivlin)
@@ -69,9 +69,16 @@
 //!                                 # is an error naming the valid range. Outputs use the same ids
 //! point = [0.0, 0.0, 0.0]         # the node nearest this point
 //!
-//! [[load]]                        # constant nodal force
+//! [[load]]                        # nodal force
 //! at = { point = [0.1, 0.0, 0.0] } # which nodes: a selector as in [[fix]]
 //! force = [0.0, 0.0, -0.1]        # N on each selected node
+//! time = { kind = "ramp", duration = 0.5 }  # optional time function, default constant:
+//!                                 # the force times s(t) (crate::fem::loads::TimeFunction):
+//!                                 # kind = "constant" | "ramp" (duration, s: s = min(t/T, 1))
+//!                                 # | "table" (table = [[t, s], ...], t increasing, linear
+//!                                 # between rows, held after the last) | "sine" (frequency,
+//!                                 # Hz; amplitude, default 1; phase, rad, default 0:
+//!                                 # s = A sin(2π f t + φ))
 //!
 //! [[displace]]                    # prescribed displacement of the node nearest `point`
 //! point = [0.0, 0.0, 0.0]
@@ -80,6 +87,39 @@
 //!                                 # where `table` is given, else "held"
 //! duration = 0.5                  # s, ramp
 //! table = [[0.0, 0,0,0], [1.0, 0,0,0.01]]   # rows [t, dx, dy, dz], t increasing (mode "table")
+//! radius = 0.01                   # m, optional: prescribe a surface patch instead of one node:
+//!                                 # the surface nodes within `radius` of the surface point
+//!                                 # nearest `point` (at least the nearest node), as
+//!                                 # sim::Simulation::grab selects them; fixed nodes and nodes of
+//!                                 # an earlier [[displace]] are left out. All move together
+//! time = { kind = "sine", frequency = 2.0 } # instead of `mode`: `displacement` times s(t)
+//!
+//! [[pressure]]                    # follower pressure on surface triangles (crate::fem::loads):
+//! group = "zmax"                  # the boundary triangles (tets) or elements (membranes) whose
+//!                                 # three nodes are in this group, or
+//! point = [0.01, 0.01, 0.02]      # those within `radius` (m) of `point` (a patch), or
+//! radius = 0.006
+//! boundary = true                 # the whole boundary (membranes: every element)
+//! value = 2000.0                  # Pa; acts on the side the normals point to: on a tet mesh
+//!                                 # the normals point out, so a positive value pushes into the
+//!                                 # body; on a membrane the node order sets the side
+//! time = { kind = "ramp", duration = 0.05 }   # optional, as for [[load]]
+//!
+//! [[traction]]                    # fixed traction per reference area, the same selectors
+//! group = "xmax"
+//! traction = [0.0, 0.0, -100.0]   # Pa
+//! time = { .. }                   # optional
+//!
+//! [[tool]]                        # rigid tool, frictionless penalty contact (crate::contact)
+//! shape = "sphere"                # "sphere" (center, radius) | "plane" (point, normal pointing
+//!                                 # out of the tool) | "capsule" (a, b: the axis ends; radius)
+//! center = [0.01, 0.01, 0.025]    # m
+//! radius = 0.005                  # m
+//! displacement = [0.0, 0.0, -0.002] # m, the tool's translation, times `time` (default
+//! time = { kind = "ramp", duration = 0.05 }  # constant), or instead
+//! path = [[0.0, 0,0,0], [1.0, 0,0,-0.002]]   # rows [t, dx, dy, dz], piecewise linear
+//! stiffness = 2000.0              # N/m; default 4 × the material's stability modulus × the
+//!                                 # mean edge length of the level it acts on
 //!
 //! [integrator]
 //! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" |
@@ -354,6 +394,7 @@ named_enum! {
         NeoHookean = "neo-hookean",
         MooneyRivlin = "mooney-rivlin",
         VerondaWestmann = "veronda-westmann",
+        StableNeoHookean = "stable-neo-hookean",
     }
 }
 
@@ -366,6 +407,33 @@ named_enum! {
         Ramp = "ramp",
         /// Piecewise linear through the rows of `table`.
         Table = "table",
+    }
+}
+
+named_enum! {
+    /// `time = { kind = .. }`: the time function of a load, a prescribed displacement or a
+    /// tool path ([`crate::fem::loads::TimeFunction`]).
+    pub enum TimeKind {
+        /// `s = 1`.
+        Constant = "constant",
+        /// `s = min(t / duration, 1)`.
+        Ramp = "ramp",
+        /// Piecewise linear through the rows `[t, s]` of `table`.
+        Table = "table",
+        /// `s = amplitude sin(2π frequency t + phase)`.
+        Sine = "sine",
+    }
+}
+
+named_enum! {
+    /// `[[tool]] shape`.
+    pub enum ToolKind {
+        /// `center`, `radius`.
+        Sphere = "sphere",
+        /// `point`, `normal` (pointing out of the tool).
+        Plane = "plane",
+        /// `a`, `b` (the segment's ends), `radius`.
+        Capsule = "capsule",
     }
 }
 
@@ -570,6 +638,12 @@ pub struct ScenarioSpec {
     #[serde(default)]
     pub displace: Vec<DisplaceSpec>,
     #[serde(default)]
+    pub pressure: Vec<SurfaceLoadSpec>,
+    #[serde(default)]
+    pub traction: Vec<SurfaceLoadSpec>,
+    #[serde(default)]
+    pub tool: Vec<ToolSpec>,
+    #[serde(default)]
     pub integrator: IntegratorSpec,
     #[serde(default)]
     pub run: RunSpec,
@@ -720,16 +794,74 @@ pub struct LoadSpec {
     /// Which nodes: a selector table as in `[[fix]]`.
     pub at: RegionSpec,
     pub force: [f64; 3],
+    /// The force's time function; default constant.
+    pub time: Option<TimeSpec>,
+}
+
+/// `time = { kind = "ramp", duration = 0.5 }` and the like: a time function.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSpec {
+    pub kind: TimeKind,
+    /// ramp: s.
+    pub duration: Option<f64>,
+    /// table: rows `[t, s]`.
+    pub table: Option<Vec<[f64; 2]>>,
+    /// sine: default 1.
+    pub amplitude: Option<f64>,
+    /// sine: Hz.
+    pub frequency: Option<f64>,
+    /// sine: rad, default 0.
+    pub phase: Option<f64>,
+}
+
+/// `[[pressure]]` (`value`, Pa) or `[[traction]]` (`traction`, Pa): on a physical group, on
+/// the patch within `radius` of `point`, or on the whole boundary.
+#[derive(Clone, Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SurfaceLoadSpec {
+    pub group: Option<String>,
+    pub point: Option<[f64; 3]>,
+    pub radius: Option<f64>,
+    pub boundary: Option<bool>,
+    /// `[[pressure]]`: Pa.
+    pub value: Option<f64>,
+    /// `[[traction]]`: Pa, per reference area.
+    pub traction: Option<[f64; 3]>,
+    pub time: Option<TimeSpec>,
+}
+
+/// `[[tool]]`: a rigid tool in penalty contact with the body.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolSpec {
+    pub shape: ToolKind,
+    pub center: Option<[f64; 3]>,
+    pub radius: Option<f64>,
+    pub point: Option<[f64; 3]>,
+    pub normal: Option<[f64; 3]>,
+    pub a: Option<[f64; 3]>,
+    pub b: Option<[f64; 3]>,
+    /// The translation (m), times `time` (default constant); or instead
+    pub displacement: Option<[f64; 3]>,
+    pub time: Option<TimeSpec>,
+    /// rows `[t, dx, dy, dz]`: the translation, piecewise linear.
+    pub path: Option<Vec<[f64; 4]>>,
+    /// Penalty stiffness (N/m); default the material's stability modulus × mean edge length.
+    pub stiffness: Option<f64>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct DisplaceSpec {
     pub point: [f64; 3],
+    pub radius: Option<f64>,
     pub displacement: Option<[f64; 3]>,
     pub mode: Option<MotionMode>,
     pub duration: Option<f64>,
     pub table: Option<Vec<[f64; 4]>>,
+    /// `displacement` times this time function (instead of `mode`).
+    pub time: Option<TimeSpec>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]

@@ -500,7 +500,7 @@ fn every_enumerated_key_rejects_an_unknown_value_naming_key_line_and_valid_value
     let paper = "[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\n";
     let cases: Vec<(String, &str, &str)> = vec![
         (BASE.replace("generate = \"rectangle\"", "generate = \"bogus\""), "mesh.generate", "\"rectangle\", \"polygon\", \"box\""),
-        (BASE.replace("law = \"mooney-rivlin\"", "law = \"bogus\""), "material.law", "\"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\""),
+        (BASE.replace("law = \"mooney-rivlin\"", "law = \"bogus\""), "material.law", "\"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\", \"stable-neo-hookean\""),
         (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ndisplacement = [0.0, 0.0, 0.01]\nmode = \"bogus\""), "displace[0].mode", "\"held\", \"ramp\", \"table\""),
         (format!("{BASE}\n[integrator]\nmethod = \"bogus\""), "integrator.method", "\"forward-euler\", \"symplectic-euler\", \"rk4\", \"central-difference\", \"newton\""),
         (format!("{BASE}\n[integrator]\nprecision = \"bogus\""), "integrator.precision", "\"f64\", \"f32-storage\""),
@@ -967,7 +967,7 @@ fn reactions_balance_the_applied_loads() {
     assert!(s.to_string().contains("reactions       fixed"));
     let csv = std::fs::read_to_string(dir.path().join("measures.csv")).unwrap();
     let last: Vec<&str> = csv.lines().last().unwrap().split(',').collect();
-    assert_eq!(last.len(), 15);
+    assert_eq!(last.len(), 19);
     let fz: f64 = last[11].parse().unwrap();
     assert!((fz - f[2]).abs() <= 1e-9 * f[2].abs(), "{fz} vs {}", f[2]);
 }
@@ -1052,4 +1052,58 @@ fn newton_static_solve_matches_the_steady_dynamic_run() {
     assert!(e.contains("does not apply to method = \"newton\""), "{e}");
     let e = error_of(&format!("{BASE}[integrator]\nincrements = 3\n"));
     assert!(e.contains("applies to method = \"newton\""), "{e}");
+}
+
+/// `[[displace]] radius`: a surface patch, the nodes `Simulation::grab` takes at the same
+/// point and radius on the undeformed body, all with the same motion.
+#[test]
+fn displace_radius_prescribes_the_grab_patch() {
+    let cube = |displace: &str| {
+        format!(
+            r#"
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [4, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}
+[run]
+duration = 0.01
+{displace}
+"#
+        )
+    };
+    for (r, want) in [(0.0, 1), (0.011, 5), (0.0145, 9)] {
+        let d = format!(
+            "[[displace]]\npoint = [0.02, 0.02, 0.05]\nradius = {r}\ntable = [[0.0, 0, 0, 0], [1.0, 0, 0, 0.01]]"
+        );
+        let sc = parse(&cube(&d)).unwrap();
+        let mut nodes: Vec<u32> = sc.prescribed.iter().map(|(a, _)| *a).collect();
+        nodes.sort_unstable();
+        assert_eq!(nodes.len(), want, "radius {r}");
+        // The top centre (0.02, 0.02, 0.04) and, from 1 cm, its 4 edge neighbours, from
+        // √2 cm the 4 diagonal ones.
+        for &a in &nodes {
+            let x = sc.mesh.nodes[a as usize];
+            let d = ((x[0] - 0.02).powi(2) + (x[1] - 0.02).powi(2)).sqrt();
+            assert!((x[2] - 0.04).abs() < 1e-12 && d <= r + 1e-12, "{x:?}");
+        }
+        assert!(sc.prescribed.iter().all(|(_, m)| *m == sc.prescribed[0].1));
+        // The same nodes as a grasp of the simulation at the same point and radius.
+        let mut sim = crate::sim::Simulation::from_toml(&cube(""), ".").unwrap();
+        let g = sim.grab([0.02, 0.02, 0.05], r).unwrap();
+        assert_eq!(sim.grab_nodes(g).unwrap(), &nodes[..]);
+    }
+    // Fixed nodes are left out: a patch on the base that is all fixed is an error.
+    let d =
+        "[[displace]]\npoint = [0.02, 0.02, -0.01]\nradius = 0.005\ndisplacement = [0, 0, 0.001]";
+    let e = error_of(&cube(d));
+    assert!(e.contains("displace[0]") && e.contains("fixed"), "{e}");
+    let d = "[[displace]]\npoint = [0.02, 0.02, 0.05]\nradius = -1.0\ndisplacement = [0, 0, 0.001]";
+    let e = error_of(&cube(d));
+    assert!(e.contains("radius") && e.contains(">= 0"), "{e}");
 }

@@ -1,0 +1,92 @@
+// Browser test of `raisov serve`: start the server on a free port, load the page in Debian's
+// Chromium (headless, software WebGL), Shift-drag on the organ, check that the surface moved
+// and the grasp force readout is non-zero, save a screenshot.
+// Env: RAISOV_BIN (default target/release/raisov), CHROMIUM (default /usr/bin/chromium),
+// SCREENSHOT (default target/browser/serve.png).
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { spawn } from 'node:child_process';
+import { mkdirSync } from 'node:fs';
+import { dirname, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const root = resolve(dirname(fileURLToPath(import.meta.url)), '..', '..');
+const bin = process.env.RAISOV_BIN ?? resolve(root, 'target/release/raisov');
+const shot = process.env.SCREENSHOT ?? resolve(root, 'target/browser/serve.png');
+
+function startServer() {
+  return new Promise((ok, fail) => {
+    const p = spawn(bin, ['serve', '--port', '0'], { cwd: root, stdio: ['ignore', 'pipe', 'pipe'] });
+    let out = '';
+    const timer = setTimeout(() => fail(new Error(`no URL from raisov serve in 60 s:\n${out}`)), 60000);
+    const onData = (d) => {
+      out += d.toString();
+      const m = out.match(/open (http:\/\/\S+)/);
+      if (m) { clearTimeout(timer); ok({ proc: p, url: m[1] }); }
+    };
+    p.stdout.on('data', onData);
+    p.stderr.on('data', onData);
+    p.on('exit', (c) => { clearTimeout(timer); fail(new Error(`raisov serve exited (${c}):\n${out}`)); });
+  });
+}
+
+test('raisov serve: Shift-drag grasps the organ in the browser', { timeout: 110000 }, async () => {
+  const { proc, url } = await startServer();
+  const browser = await chromium.launch({
+    executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
+    args: ['--headless', '--no-sandbox', '--disable-background-networking', '--disable-component-update',
+      '--disable-sync', '--no-first-run', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+  });
+  try {
+    const page = await browser.newPage({ viewport: { width: 1100, height: 750 } });
+    const errors = [];
+    page.on('pageerror', (e) => errors.push(String(e)));
+    // A WebGL context first: without it there is nothing to test.
+    await page.goto('about:blank');
+    const gl = await page.evaluate(() => !!document.createElement('canvas').getContext('webgl2'));
+    assert.ok(gl, 'no WebGL context in this Chromium (swiftshader flags?)');
+    await page.goto(url);
+    await page.waitForFunction(() => window.raisovState && window.raisovState.frames > 3
+      && window.raisovState.client !== null, null, { timeout: 30000 });
+    const s0 = await page.evaluate(() => ({ webgl: window.raisovState.webgl, n: window.raisovState.topology.n }));
+    assert.ok(s0.webgl, 'the page has no WebGL context');
+    assert.ok(s0.n > 100, `surface of ${s0.n} vertices`);
+    // Shift-drag from the organ's middle (the camera looks at its bounding-box centre) downwards.
+    const vp = page.viewportSize();
+    const [x0, y0] = [vp.width / 2, vp.height / 2];
+    await page.keyboard.down('Shift');
+    await page.mouse.move(x0, y0);
+    await page.mouse.down();
+    for (let k = 1; k <= 20; k++) {
+      await page.mouse.move(x0 + 1.5 * k, y0 + 4 * k);
+      await page.waitForTimeout(50);
+    }
+    await page.waitForFunction(() => window.raisovState.holder === window.raisovState.client
+      && window.raisovState.forceN > 0, null, { timeout: 20000 });
+    await page.waitForTimeout(2500);
+    const r = await page.evaluate(() => {
+      const s = window.raisovState;
+      let moved = 0;
+      for (let i = 0; i < s.positions.length; i += 3) {
+        const d = Math.hypot(s.positions[i] - s.firstPositions[i], s.positions[i + 1] - s.firstPositions[i + 1],
+          s.positions[i + 2] - s.firstPositions[i + 2]);
+        moved = Math.max(moved, d);
+      }
+      return { moved, forceN: s.forceN, text: document.getElementById('force').textContent,
+        bytes: s.bytesPerFrame, latency: s.latencyMs, simFps: s.simFps, errors: s.errors };
+    });
+    mkdirSync(dirname(shot), { recursive: true });
+    await page.screenshot({ path: shot });
+    await page.mouse.up();
+    await page.keyboard.up('Shift');
+    console.log(`surface moved ${(r.moved * 1e3).toFixed(2)} mm, grasp force ${r.text}, ` +
+      `${r.bytes} bytes/frame, sim ${r.simFps.toFixed(1)} fps, grasp→frame ${r.latency?.toFixed(1)} ms; ${shot}`);
+    assert.ok(r.moved > 1e-3, `surface vertices moved ${r.moved} m (want > 1 mm)`);
+    assert.ok(r.forceN > 0 && parseFloat(r.text) > 0, `force readout ${r.text}`);
+    assert.deepEqual(errors, [], 'page errors');
+  } finally {
+    await browser.close();
+    proc.kill();
+  }
+});

@@ -1,0 +1,271 @@
+//! Bench of the live viewer (prints numbers; not a test):
+//!
+//! 1. The simulation thread's frame rate and lag on the grasp path of
+//!    `examples/liver_interactive.toml` — the surface point nearest (0.12, 0.07, 0.10) m
+//!    grasped (radius 0: one node) and pulled by (0, −0.01, −0.017) m over 0.5 s, then held,
+//!    30 frames per second of path time for 1 s — on the liver hierarchy L0/L1/L2/L3 of
+//!    `data/` (FAS), at a fixed budget of `CYCLES` V-cycles per frame. A frame's time is
+//!    `step_frame` plus reading and encoding the surface (what the server's thread does). The
+//!    lag of frame k is `max_a |u_a − u*_a| / max_a |u*_a|` over free nodes, `u*` the static
+//!    solution with the grasped node at its frame position (Newton-Krylov, relative residual
+//!    1e-6, warm-started from the previous frame).
+//! 2. Over loopback: bytes per frame on the wire, and the latency from sending a move to the
+//!    first frame whose applied seq includes it (40 moves, 50 ms apart, on L0 with the same
+//!    budget).
+//!
+//! `cargo run --release -p raisov-serve --example bench_serve [-- CYCLES]`
+
+use futures_util::{SinkExt, StreamExt};
+use raisov::integrate::hold;
+use raisov::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
+use raisov::scenario::Scenario;
+use raisov::sim::{Budget, Simulation};
+use raisov_serve::protocol::{self, Command, Message, Method};
+use raisov_serve::session::{Session, SessionConfig, Source};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+use tokio_tungstenite::tungstenite::Message as Ws;
+
+const LIVER: &str = r#"
+name = "liver-L0"
+[mesh]
+file = "../data/liver_L0.msh"
+scale = 0.001
+[material]
+law = "neo-hookean"
+young = 5000.0
+poisson = 0.45
+density = 1060.0
+[damping]
+alpha = 30.0
+[[fix]]
+plane = { point = [0.0, 0.0, 0.195], normal = [0.0, 0.0, -1.0] }
+[integrator]
+method = "symplectic-euler"
+[run]
+duration = 1.0
+[multigrid]
+scheme = "fas"
+files = ["../data/liver_L1.msh", "../data/liver_L2.msh", "../data/liver_L3.msh"]
+"#;
+
+const POINT: [f64; 3] = [0.12, 0.07, 0.10];
+const PULL: [f64; 3] = [0.0, -0.01, -0.017];
+
+fn path(t: f64) -> [f64; 3] {
+    let s = (t / 0.5).min(1.0);
+    [PULL[0] * s, PULL[1] * s, PULL[2] * s]
+}
+
+fn examples_dir() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples"))
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let cycles: u32 = std::env::args()
+        .nth(1)
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(2);
+    let base = examples_dir();
+    rayon::ThreadPoolBuilder::new()
+        .stack_size(8 << 20)
+        .build_global()
+        .ok();
+    let threads = rayon::current_num_threads();
+    // --- 1. the simulation thread on the path ---
+    let (fps, lag_mean, lag_max, n_nodes) =
+        rayon::scope(|_| sim_thread(&base, cycles)).map_err(|e| e.to_string())?;
+    println!(
+        "liver L0..L3 (FAS, {n_nodes} nodes at L0, {threads} threads), {cycles} V-cycles/frame, 30 frames:"
+    );
+    println!("  simulation thread: {fps:.1} frames/s (step_frame + surface read + encoding)");
+    println!(
+        "  lag to the static solution: mean {:.2} %, max {:.2} % of the static max |u|",
+        100.0 * lag_mean,
+        100.0 * lag_max
+    );
+    // --- 2. over loopback ---
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()?;
+    let (bytes, lat) = rt.block_on(wire(&base, cycles))?;
+    let mut sorted = lat.clone();
+    sorted.sort_by(f64::total_cmp);
+    let mean = lat.iter().sum::<f64>() / lat.len().max(1) as f64;
+    println!(
+        "  wire: {bytes} bytes per frame; move → frame showing it: mean {mean:.1} ms, median {:.1} ms, max {:.1} ms ({} moves)",
+        sorted[sorted.len() / 2],
+        sorted[sorted.len() - 1],
+        lat.len()
+    );
+    Ok(())
+}
+
+/// Frames per second, mean and max relative lag, node count.
+fn sim_thread(base: &std::path::Path, cycles: u32) -> Result<(f64, f64, f64, usize), String> {
+    let e = |x: raisov::Error| x.to_string();
+    let mut sim = Simulation::from_toml(LIVER, base).map_err(e)?;
+    let g = raisov_serve::session::grab_tool(&mut sim, POINT, 0.0, None).map_err(e)?;
+    let start = sim.grab_position(g).map_err(e)?;
+    let node = sim.grab_nodes(g).map_err(e)?[0] as usize;
+    let x_node = sim.mesh().nodes[node];
+    // The reference: the same scenario with the grasped node prescribed (nearest node of its
+    // own reference position: itself).
+    let with_displace = format!(
+        "{LIVER}\n[[displace]]\npoint = [{}, {}, {}]\ndisplacement = [0.0, 0.0, 0.0]\n",
+        x_node[0], x_node[1], x_node[2]
+    );
+    let sc = Scenario::from_toml(&with_displace, &base.join("bench.toml")).map_err(e)?;
+    assert_eq!(sc.prescribed[0].0 as usize, node, "the same node order");
+    let mut sys = sc.build_system().map_err(e)?;
+    let diag = fictitious_mass(&sc.mesh, &sys.mass, 1.0);
+    let mut newton = NewtonSolver::with_diagonal(&sys, &diag);
+    let n = sc.mesh.num_nodes();
+    let mut u_star = vec![0.0; 3 * n];
+    let free: Vec<bool> = (0..n).map(|a| !sys.constraints.is_constrained(a)).collect();
+    let used: Vec<u32> = {
+        let mut v: Vec<u32> = sim.surface_triangles().iter().flatten().copied().collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    };
+    let mut wall = Duration::ZERO;
+    let (mut lag_sum, mut lag_max) = (0.0, 0.0f64);
+    let frames = 30;
+    for k in 1..=frames {
+        let t = k as f64 / 30.0;
+        let d = path(t);
+        sim.move_grab(g, [start[0] + d[0], start[1] + d[1], start[2] + d[2]])
+            .map_err(e)?;
+        let t0 = Instant::now();
+        let r = sim.step_frame(Budget::Cycles(cycles));
+        // What the server's thread does with a frame: read, convert, encode.
+        let pos = sim.surface_positions();
+        let p32: Vec<[f32; 3]> = used
+            .iter()
+            .map(|&v| {
+                let x = pos[v as usize];
+                [x[0] as f32, x[1] as f32, x[2] as f32]
+            })
+            .collect();
+        let s32 = vec![0.0f32; p32.len()];
+        let msg = protocol::encode_frame(k, 1, &[0.0; protocol::STATS], &p32, &s32);
+        std::hint::black_box(&msg);
+        wall += t0.elapsed();
+        if !r.accepted {
+            return Err(format!("frame {k} rejected: {:?}", r.rejection));
+        }
+        hold(&mut sys.constraints, &[d]);
+        newton
+            .solve(
+                &mut sys,
+                t,
+                &mut u_star,
+                NewtonParams {
+                    rel_tol: 1e-6,
+                    ..Default::default()
+                },
+            )
+            .map_err(|f| format!("reference solve inverted element {}", f.element))?;
+        let u = sim.displacements();
+        let (mut lag, mut umax) = (0.0f64, 0.0f64);
+        for a in 0..n {
+            let us = [u_star[3 * a], u_star[3 * a + 1], u_star[3 * a + 2]];
+            umax = umax.max(norm(us));
+            if free[a] {
+                let dd = [u[3 * a] - us[0], u[3 * a + 1] - us[1], u[3 * a + 2] - us[2]];
+                lag = lag.max(norm(dd));
+            }
+        }
+        let rel = lag / umax.max(1e-300);
+        lag_sum += rel;
+        lag_max = lag_max.max(rel);
+    }
+    Ok((
+        frames as f64 / wall.as_secs_f64(),
+        lag_sum / frames as f64,
+        lag_max,
+        n,
+    ))
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Bytes per frame and the latencies (ms) of 40 moves.
+async fn wire(
+    base: &std::path::Path,
+    cycles: u32,
+) -> Result<(usize, Vec<f64>), Box<dyn std::error::Error>> {
+    let source = Source::from_text(LIVER, base.to_path_buf(), "liver", "bench.toml".as_ref())?;
+    let session = Session::spawn(
+        source,
+        SessionConfig {
+            grab_stiffness: None,
+            budget: Budget::Cycles(cycles),
+            max_fps: 0.0,
+            method: Some(Method::Fas),
+            record_path: None,
+        },
+    )?;
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let addr = listener.local_addr()?;
+    let app = raisov_serve::server::router(session);
+    tokio::spawn(async move {
+        let _ = axum::serve(listener, app).await;
+    });
+    let (mut ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws")).await?;
+    let send =
+        |seq: u32, command: Command| Ws::Binary(protocol::encode(&Message { seq, command }).into());
+    ws.send(send(
+        1,
+        Command::Grab {
+            point: [POINT[0] as f32, POINT[1] as f32, POINT[2] as f32],
+            radius: 0.0,
+        },
+    ))
+    .await?;
+    let mut bytes = 0;
+    let mut grasp = None;
+    // The grasp point from the first frame that holds it.
+    while grasp.is_none() {
+        if let Some(Ok(Ws::Binary(b))) = ws.next().await {
+            if let Some(f) = protocol::decode_frame(&b) {
+                bytes = b.len();
+                if f.stats[protocol::STAT_HOLDER] >= 0.0 {
+                    let s = protocol::STAT_GRASP;
+                    grasp = Some([f.stats[s], f.stats[s + 1], f.stats[s + 2]]);
+                }
+            }
+        }
+    }
+    let g = grasp.unwrap_or([0.0; 3]);
+    let mut lat = Vec::new();
+    for k in 0..40u32 {
+        let seq = 2 + k;
+        let d = path((k + 1) as f64 / 40.0 * 0.5);
+        let target = [g[0] + d[0] as f32, g[1] + d[1] as f32, g[2] + d[2] as f32];
+        let sent = Instant::now();
+        ws.send(send(seq, Command::Move { target })).await?;
+        loop {
+            match tokio::time::timeout(Duration::from_secs(30), ws.next()).await? {
+                Some(Ok(Ws::Binary(b))) => {
+                    if let Some(f) = protocol::decode_frame(&b) {
+                        bytes = b.len();
+                        if f.stats[protocol::STAT_APPLIED_SEQ] as u32 >= seq {
+                            lat.push(sent.elapsed().as_secs_f64() * 1e3);
+                            break;
+                        }
+                    }
+                }
+                Some(Ok(_)) => {}
+                other => return Err(format!("connection ended: {other:?}").into()),
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    Ok((bytes, lat))
+}

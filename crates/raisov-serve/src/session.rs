@@ -1,0 +1,812 @@
+//! The simulation thread: one [`Simulation`] stepped frame after frame at a fixed budget,
+//! warm-started from the previous frame, driven by the clients' commands; each frame is
+//! encoded once ([`crate::protocol`]) and published as the newest frame only (a
+//! `tokio::sync::watch` slot: a slow client skips frames, it never queues them).
+//!
+//! Frame `k`: apply the queued commands (the holder's newest move target wins), run
+//! `step_frame(budget)`, read the surface positions `x_v` (f32) and the scalar
+//! `s_v = |x_v − X_v|` (displacement magnitude, m) or the von Mises stress
+//! `σ_vm = sqrt(3/2 s:s)`, `s = σ − tr(σ)/3 I` (Pa, from the nodal Cauchy stress), then publish.
+//! Only the vertices that the surface triangles use are sent, renumbered in ascending order.
+//! The sim-thread rate is an exponential average of the frame intervals (weight 0.1); with
+//! `max_fps > 0` a frame that ends early sleeps until `1/max_fps` has passed since it began.
+//!
+//! Method switch, reset: the simulation is rebuilt from the scenario text of the method
+//! ([`Source::text_for`]), from rest; a method switch then pins the recorded pins again at
+//! their points and grasps again at the held grasp's first point, moved to its target.
+
+use crate::protocol::{
+    self, Colour, Command, Method, STATS, STAT_APPLIED_SEQ, STAT_CYCLES, STAT_FORCE, STAT_FRAME_MS,
+    STAT_GRASP, STAT_GRASPED, STAT_HOLDER, STAT_INPUT_LAG_MS, STAT_METHOD, STAT_RESIDUAL,
+    STAT_SCALAR_MAX, STAT_SIM_FPS,
+};
+use crate::record::{Event, Recorder};
+use crate::ServeError;
+use raisov::sim::{Budget, GrabId, GrabOptions, Simulation};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tokio::sync::{mpsc, watch};
+
+/// The scenario the server runs, as a TOML table, and the method it names.
+#[derive(Clone, Debug)]
+pub struct Source {
+    /// The scenario without `[[displace]]` (the clients grasp) and `[interactive]`.
+    pub table: toml::Table,
+    /// Relative paths of the scenario are taken from here.
+    pub base_dir: PathBuf,
+    /// The scenario's name (the file stem or its `name`).
+    pub name: String,
+    /// The method the scenario names.
+    pub method: Method,
+}
+
+/// Keys of `[multigrid]` only the FAS scheme accepts.
+const FAS_ONLY: &[&str] = &[
+    "pre_smooth",
+    "post_smooth",
+    "smoother",
+    "coarse",
+    "coarse_time",
+    "coarse_iterations",
+    "scaling",
+    "transfer",
+    "accelerate",
+];
+/// Keys of `[multigrid]` only the raisov-paper scheme accepts.
+const RAISOV_ONLY: &[&str] = &["reading", "epsilon"];
+
+impl Source {
+    /// A scenario file (the TOML of `raisov run`).
+    pub fn from_scenario_file(path: &Path) -> Result<Source, ServeError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ServeError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })?;
+        let base = path
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from("."));
+        let stem = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("scenario")
+            .to_string();
+        Self::from_text(&text, base, &stem, path)
+    }
+
+    /// Scenario text; `path` names it in messages.
+    pub fn from_text(
+        text: &str,
+        base_dir: PathBuf,
+        stem: &str,
+        path: &Path,
+    ) -> Result<Source, ServeError> {
+        let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+            ServeError::Scenario(format!("{}: {}", path.display(), e.message()))
+        })?;
+        table.remove("displace");
+        table.remove("interactive");
+        let method = match table.get("multigrid").and_then(|m| m.get("scheme")) {
+            None if table.contains_key("multigrid") => Method::Fas,
+            None => Method::Single,
+            Some(s) if s.as_str() == Some("raisov-paper") => Method::Raisov,
+            Some(_) => Method::Fas,
+        };
+        let name = table
+            .get("name")
+            .and_then(|v| v.as_str())
+            .unwrap_or(stem)
+            .to_string();
+        Ok(Source {
+            table,
+            base_dir,
+            name,
+            method,
+        })
+    }
+
+    /// A closed triangle surface meshed at load (`[mesh] surface`): `nodes` at level 0,
+    /// three FAS levels, coordinates times `scale` in m, neo-Hookean liver-like tissue
+    /// (E = 5 kPa, ν = 0.45, ρ = 1060 kg/m³, α = 30 1/s), held on the top 5 % of its height.
+    pub fn from_surface(path: &Path, scale: f64, nodes: usize) -> Result<Source, ServeError> {
+        let s = raisov::io::load_surface(path)?;
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in &s.points {
+            lo = lo.min(p[2] * scale);
+            hi = hi.max(p[2] * scale);
+        }
+        let cap = hi - 0.05 * (hi - lo);
+        let abs = std::fs::canonicalize(path).map_err(|e| ServeError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })?;
+        let stem = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("surface")
+            .replace(['/', '\\', '.'], "_");
+        let text = format!(
+            "name = {name}\n[mesh]\nsurface = {file}\nscale = {scale:e}\nnodes = {nodes}\n\
+             [material]\nlaw = \"neo-hookean\"\nyoung = 5000.0\npoisson = 0.45\ndensity = 1060.0\n\
+             [damping]\nalpha = 30.0\n\
+             [[fix]]\nplane = {{ point = [0.0, 0.0, {cap:e}], normal = [0.0, 0.0, -1.0] }}\n\
+             [run]\nduration = 1.0\n\
+             [multigrid]\nscheme = \"fas\"\nlevels = 3\ncoarse = \"newton\"\n",
+            name = protocol::json_string(&stem),
+            file = protocol::json_string(&abs.display().to_string()),
+        );
+        let base = abs
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from("."));
+        Self::from_text(&text, base, &stem, path)
+    }
+
+    /// The scenario table for `method`: `[multigrid] scheme = "fas"` (keys of raisov-paper
+    /// dropped), `"raisov-paper"` (FAS keys dropped), or no `[multigrid]` (single level).
+    pub fn table_for(&self, method: Method) -> toml::Table {
+        let mut t = self.table.clone();
+        match method {
+            Method::Single => {
+                t.remove("multigrid");
+            }
+            Method::Fas | Method::Raisov => {
+                let mg = t
+                    .entry("multigrid")
+                    .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+                if let toml::Value::Table(mg) = mg {
+                    let generated = self
+                        .table
+                        .get("mesh")
+                        .is_some_and(|m| m.get("generate").is_some() || m.get("surface").is_some());
+                    let has_levels = ["levels", "files", "level_nodes"]
+                        .iter()
+                        .any(|k| mg.contains_key(*k));
+                    if generated && !has_levels {
+                        // A one-level scenario: generate a second, coarser level.
+                        mg.insert("levels".into(), toml::Value::Integer(2));
+                    }
+                    let (name, drop) = if method == Method::Fas {
+                        ("fas", RAISOV_ONLY)
+                    } else {
+                        ("raisov-paper", FAS_ONLY)
+                    };
+                    mg.insert("scheme".into(), toml::Value::String(name.into()));
+                    for k in drop {
+                        mg.remove(*k);
+                    }
+                }
+            }
+        }
+        t
+    }
+
+    /// The scenario text for `method` ([`Source::table_for`]).
+    pub fn text_for(&self, method: Method) -> String {
+        toml::to_string(&self.table_for(method)).unwrap_or_default()
+    }
+
+    /// Build the simulation of `method`.
+    pub fn build(&self, method: Method) -> Result<Simulation, ServeError> {
+        Ok(Simulation::from_toml(
+            &self.text_for(method),
+            &self.base_dir,
+        )?)
+    }
+}
+
+/// The one place a client's grasp becomes a simulation grasp: the surface patch within
+/// `radius` (m) of `point`, pulled towards the cursor by springs of total stiffness
+/// `stiffness` (N/m, spread over the patch by mass, so the tissue can resist and lag), or held
+/// rigidly when `stiffness` is `None`.
+pub fn grab_tool(
+    sim: &mut Simulation,
+    point: [f64; 3],
+    radius: f64,
+    stiffness: Option<f64>,
+) -> raisov::Result<GrabId> {
+    match stiffness {
+        Some(k) => sim.grab_with(point, GrabOptions::spring(radius, k)),
+        None => sim.grab(point, radius),
+    }
+}
+
+/// Settings of the simulation thread.
+#[derive(Clone, Debug)]
+pub struct SessionConfig {
+    /// Work per frame.
+    pub budget: Budget,
+    /// Cap on the frame rate (1/s); 0 for none.
+    pub max_fps: f64,
+    /// The method to start with (default: the scenario's).
+    pub method: Option<Method>,
+    /// Where `save` also writes the recorded scenario.
+    pub record_path: Option<PathBuf>,
+    /// Total stiffness of the grasp's coupling springs (N/m); `None` holds the patch rigidly.
+    pub grab_stiffness: Option<f64>,
+}
+
+/// A message to one client (text) or a notice for all.
+#[derive(Clone, Debug)]
+pub enum Reply {
+    /// A JSON text message.
+    Text(String),
+}
+
+/// What the simulation thread publishes: the topology and the newest frame.
+#[derive(Debug)]
+pub struct Published {
+    /// The topology message ([`protocol::encode_topology`]).
+    pub topology: Arc<Vec<u8>>,
+    /// Changes whenever the topology is rebuilt (method switch, reset).
+    pub topology_version: u64,
+    /// The frame message ([`protocol::encode_frame`]); empty before the first frame.
+    pub frame: Vec<u8>,
+    /// Who holds the grasp (client id), if anyone.
+    pub holder: Option<u64>,
+    /// The method running now.
+    pub method: Method,
+}
+
+/// A command to the simulation thread.
+#[derive(Debug)]
+pub enum SessionCmd {
+    /// A client connected; its replies go to `reply` (bounded: a full queue drops replies).
+    Connect {
+        /// client id
+        id: u64,
+        /// its reply queue
+        reply: mpsc::Sender<Reply>,
+    },
+    /// A client went away (its grasp is released).
+    Disconnect {
+        /// client id
+        id: u64,
+    },
+    /// A parsed client message.
+    Client {
+        /// client id
+        id: u64,
+        /// the message
+        msg: protocol::Message,
+        /// when it arrived
+        arrived: Instant,
+    },
+    /// Stop the thread.
+    Shutdown,
+}
+
+/// Handle on a running simulation thread.
+pub struct Session {
+    /// Commands in (bounded).
+    pub commands: SyncSender<SessionCmd>,
+    /// The newest frame out.
+    pub published: watch::Receiver<Arc<Published>>,
+    /// The scenario's name.
+    pub name: String,
+    /// Surface vertex and triangle counts.
+    pub counts: (usize, usize),
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Session {
+    /// Start the thread: build the simulation (errors come back here), then step.
+    pub fn spawn(source: Source, config: SessionConfig) -> Result<Session, ServeError> {
+        let (tx, rx) = std::sync::mpsc::sync_channel(1024);
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+        let name = source.name.clone();
+        let thread = std::thread::Builder::new()
+            .name("raisov-sim".into())
+            .spawn(move || {
+                let method = config.method.unwrap_or(source.method);
+                match Worker::new(source, config, method) {
+                    Ok((mut w, published_rx)) => {
+                        let _ = ready_tx.send(Ok((published_rx, w.counts())));
+                        // On a worker of rayon's pool, the force passes' parallel loops
+                        // start at once instead of waking the pool each time.
+                        rayon::scope(|_| w.run(rx));
+                    }
+                    Err(e) => {
+                        let _ = ready_tx.send(Err(e));
+                    }
+                }
+            })
+            .map_err(|e| {
+                ServeError::Scenario(format!("cannot start the simulation thread: {e}"))
+            })?;
+        let (published, counts) = ready_rx
+            .recv()
+            .map_err(|_| ServeError::Scenario("the simulation thread stopped".into()))??;
+        Ok(Session {
+            commands: tx,
+            published,
+            name,
+            counts,
+            thread: Some(thread),
+        })
+    }
+
+    /// Send a command; `Err` with a message when the queue is full or the thread is gone.
+    pub fn send(&self, cmd: SessionCmd) -> Result<(), &'static str> {
+        match self.commands.try_send(cmd) {
+            Ok(()) => Ok(()),
+            Err(TrySendError::Full(_)) => Err("the simulation is busy: message dropped"),
+            Err(TrySendError::Disconnected(_)) => Err("the simulation thread has stopped"),
+        }
+    }
+}
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        let _ = self.commands.send(SessionCmd::Shutdown);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The held grasp.
+struct Held {
+    client: u64,
+    id: GrabId,
+    /// The point the client grasped (m) and the radius, for a rebuild.
+    point: [f64; 3],
+    radius: f64,
+    target: [f64; 3],
+}
+
+struct Worker {
+    source: Source,
+    config: SessionConfig,
+    method: Method,
+    sim: Simulation,
+    /// Surface vertices the triangles use (indices of `surface_positions`).
+    used: Vec<u32>,
+    rest: Vec<[f64; 3]>,
+    /// Whether `used` indexes mesh nodes (stress available).
+    nodal: bool,
+    colour: Colour,
+    published: watch::Sender<Arc<Published>>,
+    topology: Arc<Vec<u8>>,
+    topology_version: u64,
+    clients: Vec<(u64, mpsc::Sender<Reply>)>,
+    held: Option<Held>,
+    pins: Vec<([f64; 3], f64)>,
+    recorder: Recorder,
+    frame: u32,
+    fps: f64,
+    last_end: Option<Instant>,
+    applied_seq: u32,
+    input_lag_ms: f32,
+    /// Arrival of the newest holder message not yet shown in a frame.
+    pending: Option<(u32, Instant)>,
+    positions32: Vec<[f32; 3]>,
+    scalar: Vec<f32>,
+}
+
+impl Worker {
+    fn new(
+        source: Source,
+        config: SessionConfig,
+        method: Method,
+    ) -> Result<(Worker, watch::Receiver<Arc<Published>>), ServeError> {
+        let sim = source.build(method)?;
+        let (tx, rx) = watch::channel(Arc::new(Published {
+            topology: Arc::new(Vec::new()),
+            topology_version: 0,
+            frame: Vec::new(),
+            holder: None,
+            method,
+        }));
+        let mut w = Worker {
+            source,
+            config,
+            method,
+            sim,
+            used: Vec::new(),
+            rest: Vec::new(),
+            nodal: false,
+            colour: Colour::Displacement,
+            published: tx,
+            topology: Arc::new(Vec::new()),
+            topology_version: 0,
+            clients: Vec::new(),
+            held: None,
+            pins: Vec::new(),
+            recorder: Recorder::new(),
+            frame: 0,
+            fps: 0.0,
+            last_end: None,
+            applied_seq: 0,
+            input_lag_ms: 0.0,
+            pending: None,
+            positions32: Vec::new(),
+            scalar: Vec::new(),
+        };
+        w.new_topology();
+        w.publish(None);
+        Ok((w, rx))
+    }
+
+    fn counts(&self) -> (usize, usize) {
+        (self.used.len(), self.sim.surface_triangles().len())
+    }
+
+    /// The surface's used vertices, renumbered triangles, rest positions.
+    fn new_topology(&mut self) {
+        let tris = self.sim.surface_triangles();
+        let mut used: Vec<u32> = tris.iter().flatten().copied().collect();
+        used.sort_unstable();
+        used.dedup();
+        let n_all = self.sim.surface_positions().len();
+        let mut map = vec![u32::MAX; n_all];
+        for (k, &v) in used.iter().enumerate() {
+            map[v as usize] = k as u32;
+        }
+        let local: Vec<[u32; 3]> = tris
+            .iter()
+            .map(|t| [map[t[0] as usize], map[t[1] as usize], map[t[2] as usize]])
+            .collect();
+        let pos = self.sim.surface_positions();
+        self.rest = used.iter().map(|&v| pos[v as usize]).collect();
+        self.nodal = std::ptr::eq(pos.as_ptr(), self.sim.positions().as_ptr());
+        self.topology = Arc::new(protocol::encode_topology(used.len(), &local));
+        self.topology_version += 1;
+        self.used = used;
+    }
+
+    fn run(&mut self, rx: Receiver<SessionCmd>) {
+        loop {
+            let start = Instant::now();
+            loop {
+                match rx.try_recv() {
+                    Ok(SessionCmd::Shutdown) => return,
+                    Ok(c) => self.handle(c),
+                    Err(std::sync::mpsc::TryRecvError::Empty) => break,
+                    Err(std::sync::mpsc::TryRecvError::Disconnected) => return,
+                }
+            }
+            let report = self.sim.step_frame(self.config.budget);
+            if let Some(h) = &self.held {
+                self.recorder.sample(h.target);
+            }
+            self.publish(Some(&report));
+            if self.config.max_fps > 0.0 {
+                let period = Duration::from_secs_f64(1.0 / self.config.max_fps);
+                let elapsed = start.elapsed();
+                if elapsed < period {
+                    match rx.recv_timeout(period - elapsed) {
+                        Ok(SessionCmd::Shutdown) => return,
+                        Ok(c) => self.handle(c),
+                        Err(RecvTimeoutError::Timeout) => {}
+                        Err(RecvTimeoutError::Disconnected) => return,
+                    }
+                }
+            }
+        }
+    }
+
+    fn reply(&mut self, id: u64, text: String) {
+        if let Some((_, tx)) = self.clients.iter().find(|(c, _)| *c == id) {
+            // A full queue (a client that does not read) drops the reply.
+            let _ = tx.try_send(Reply::Text(text));
+        }
+    }
+
+    fn broadcast(&mut self, text: String) {
+        for (_, tx) in &self.clients {
+            let _ = tx.try_send(Reply::Text(text.clone()));
+        }
+    }
+
+    fn error(&mut self, id: u64, msg: impl AsRef<str>) {
+        self.reply(id, protocol::error_json(msg.as_ref()));
+    }
+
+    fn holder_notice(&mut self) {
+        let h = self
+            .held
+            .as_ref()
+            .map_or("null".to_string(), |h| h.client.to_string());
+        self.broadcast(format!("{{\"type\":\"holder\",\"holder\":{h}}}"));
+    }
+
+    fn handle(&mut self, cmd: SessionCmd) {
+        match cmd {
+            SessionCmd::Connect { id, reply } => {
+                // At most a few hundred clients: beyond that a connection gets no replies.
+                if self.clients.len() < 256 {
+                    self.clients.push((id, reply));
+                }
+                let methods: Vec<String> = Method::ALL
+                    .iter()
+                    .map(|m| protocol::json_string(m.label()))
+                    .collect();
+                let hello = format!(
+                    "{{\"type\":\"hello\",\"client\":{id},\"name\":{},\"methods\":[{}],\"method\":{},\"holder\":{},\"stress\":{}}}",
+                    protocol::json_string(&self.source.name),
+                    methods.join(","),
+                    self.method.code(),
+                    self.held.as_ref().map_or("null".to_string(), |h| h.client.to_string()),
+                    self.nodal
+                );
+                self.reply(id, hello);
+            }
+            SessionCmd::Disconnect { id } => {
+                self.clients.retain(|(c, _)| *c != id);
+                if self.held.as_ref().is_some_and(|h| h.client == id) {
+                    self.release();
+                }
+            }
+            SessionCmd::Client { id, msg, arrived } => self.command(id, msg, arrived),
+            SessionCmd::Shutdown => {}
+        }
+    }
+
+    fn release(&mut self) {
+        if let Some(h) = self.held.take() {
+            let _ = self.sim.release(h.id);
+            self.recorder.push(Event::Target(h.target));
+            self.recorder.push(Event::Release);
+            self.holder_notice();
+        }
+    }
+
+    fn command(&mut self, id: u64, msg: protocol::Message, arrived: Instant) {
+        let f64p = |p: [f32; 3]| [p[0] as f64, p[1] as f64, p[2] as f64];
+        let holds = self.held.as_ref().map(|h| h.client);
+        match msg.command {
+            Command::Grab { point, radius } => {
+                if let Some(h) = holds {
+                    if h != id {
+                        self.error(id, format!("client {h} holds the grasp: one at a time"));
+                    } else {
+                        self.error(id, "grab while holding a grasp: release it first");
+                    }
+                    return;
+                }
+                let (point, radius) = (f64p(point), radius as f64);
+                match grab_tool(&mut self.sim, point, radius, self.config.grab_stiffness) {
+                    Ok(g) => {
+                        let at = self.sim.grab_position(g).unwrap_or(point);
+                        self.held = Some(Held {
+                            client: id,
+                            id: g,
+                            point,
+                            radius,
+                            target: at,
+                        });
+                        self.recorder.push(Event::Grab { point: at, radius });
+                        self.pending = Some((msg.seq, arrived));
+                        self.holder_notice();
+                    }
+                    Err(e) => self.error(id, format!("grab: {e}")),
+                }
+            }
+            Command::Move { target } => {
+                let Some(h) = self.held.as_mut().filter(|h| h.client == id) else {
+                    self.error(id, "move without a grasp held by this client: dropped");
+                    return;
+                };
+                let t = f64p(target);
+                h.target = t;
+                let g = h.id;
+                match self.sim.move_grab(g, t) {
+                    Ok(()) => self.pending = Some((msg.seq, arrived)),
+                    Err(e) => self.error(id, format!("move: {e}")),
+                }
+            }
+            Command::Release => {
+                if holds != Some(id) {
+                    self.error(id, "release without a grasp held by this client: dropped");
+                    return;
+                }
+                self.release();
+            }
+            Command::Pin { point, radius } => {
+                let (p, r) = (f64p(point), radius as f64);
+                match self.sim.pin(p, r) {
+                    Ok(pid) => {
+                        self.pins.push((p, r));
+                        let bounds = self.reference_bounds(self.sim.pin_nodes(pid).unwrap_or(&[]));
+                        self.recorder.push(Event::Pin {
+                            point: p,
+                            radius: r,
+                            bounds,
+                        });
+                    }
+                    Err(e) => self.error(id, format!("pin: {e}")),
+                }
+            }
+            Command::Reset => {
+                self.held = None;
+                self.pins.clear();
+                self.recorder = Recorder::new();
+                self.rebuild(id, self.method, false);
+                self.holder_notice();
+            }
+            Command::Method(m) => {
+                if m != self.method {
+                    self.rebuild(id, m, true);
+                }
+            }
+            Command::Colour(c) => {
+                if c == Colour::Stress && !self.nodal {
+                    self.error(
+                        id,
+                        "stress is shown on meshes without a visual surface only: showing displacement",
+                    );
+                } else {
+                    self.colour = c;
+                }
+            }
+            Command::Save => {
+                let text = self.recorder.scenario(
+                    &self.source,
+                    self.method,
+                    self.config.budget,
+                    self.sim.mesh().num_nodes(),
+                );
+                if let Some(path) = &self.config.record_path {
+                    if let Err(e) = std::fs::write(path, &text) {
+                        let m = format!("writing {}: {e}", path.display());
+                        self.error(id, m);
+                    }
+                }
+                self.reply(
+                    id,
+                    format!(
+                        "{{\"type\":\"recording\",\"toml\":{}}}",
+                        protocol::json_string(&text)
+                    ),
+                );
+            }
+        }
+    }
+
+    /// The reference-position bounds of `nodes` (for the recorded `[[fix]]`).
+    fn reference_bounds(&self, nodes: &[u32]) -> ([f64; 3], [f64; 3]) {
+        let mesh = self.sim.mesh();
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for &a in nodes {
+            let x = mesh.nodes[a as usize];
+            for k in 0..3 {
+                lo[k] = lo[k].min(x[k]);
+                hi[k] = hi[k].max(x[k]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Rebuild the simulation with `method`; `keep` re-applies the pins and the grasp.
+    fn rebuild(&mut self, id: u64, method: Method, keep: bool) {
+        match self.source.build(method) {
+            Ok(sim) => {
+                self.sim = sim;
+                self.method = method;
+                self.new_topology();
+                if keep {
+                    let pins = std::mem::take(&mut self.pins);
+                    for (p, r) in pins {
+                        if self.sim.pin(p, r).is_ok() {
+                            self.pins.push((p, r));
+                        }
+                    }
+                    if let Some(h) = self.held.take() {
+                        match grab_tool(
+                            &mut self.sim,
+                            h.point,
+                            h.radius,
+                            self.config.grab_stiffness,
+                        ) {
+                            Ok(g) => {
+                                let _ = self.sim.move_grab(g, h.target);
+                                self.held = Some(Held { id: g, ..h });
+                            }
+                            Err(e) => {
+                                self.error(h.client, format!("grab again after the switch: {e}"));
+                                self.holder_notice();
+                            }
+                        }
+                    }
+                }
+                let m = format!(
+                    "{{\"type\":\"method\",\"method\":{},\"stress\":{}}}",
+                    method.code(),
+                    self.nodal
+                );
+                self.broadcast(m);
+            }
+            Err(e) => self.error(id, format!("switching to {}: {e}", method.label())),
+        }
+    }
+
+    fn publish(&mut self, report: Option<&raisov::sim::FrameReport>) {
+        let now = Instant::now();
+        if let Some(last) = self.last_end {
+            let dt = now.duration_since(last).as_secs_f64();
+            if dt > 0.0 {
+                let f = 1.0 / dt;
+                self.fps = if self.fps == 0.0 {
+                    f
+                } else {
+                    0.9 * self.fps + 0.1 * f
+                };
+            }
+        }
+        self.last_end = Some(now);
+        if let Some((seq, at)) = self.pending.take() {
+            self.applied_seq = seq;
+            self.input_lag_ms = now.duration_since(at).as_secs_f32() * 1e3;
+        }
+        let pos = self.sim.surface_positions();
+        self.positions32.clear();
+        self.scalar.clear();
+        for (k, &v) in self.used.iter().enumerate() {
+            let x = pos[v as usize];
+            self.positions32
+                .push([x[0] as f32, x[1] as f32, x[2] as f32]);
+            let r = self.rest[k];
+            let d = [x[0] - r[0], x[1] - r[1], x[2] - r[2]];
+            self.scalar
+                .push((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() as f32);
+        }
+        let stress = self.colour == Colour::Stress && self.nodal;
+        if stress {
+            let s = self.sim.nodal_stress();
+            for (k, &v) in self.used.iter().enumerate() {
+                self.scalar[k] = von_mises(&s[v as usize]) as f32;
+            }
+        }
+        let mut stats = [0.0f32; STATS];
+        stats[STAT_SIM_FPS] = self.fps as f32;
+        stats[STAT_RESIDUAL] = self.sim.residual() as f32;
+        if let Some(r) = report {
+            stats[STAT_CYCLES] = r.cycles as f32;
+            stats[STAT_FRAME_MS] = r.wall.as_secs_f32() * 1e3;
+        }
+        stats[STAT_INPUT_LAG_MS] = self.input_lag_ms;
+        stats[STAT_HOLDER] = -1.0;
+        if let Some(h) = &self.held {
+            let f = self.sim.grab_force(h.id).unwrap_or([0.0; 3]);
+            let p = self.sim.grab_position(h.id).unwrap_or([0.0; 3]);
+            for k in 0..3 {
+                stats[STAT_FORCE + k] = f[k] as f32;
+                stats[STAT_GRASP + k] = p[k] as f32;
+            }
+            stats[STAT_HOLDER] = h.client as f32;
+            stats[STAT_GRASPED] = self.sim.grab_nodes(h.id).map_or(0, |n| n.len()) as f32;
+        }
+        stats[STAT_SCALAR_MAX] = self.scalar.iter().copied().fold(0.0, f32::max);
+        stats[STAT_METHOD] = self.method.code() as f32;
+        stats[STAT_APPLIED_SEQ] = self.applied_seq as f32;
+        let flags = u32::from(self.held.is_some()) | (u32::from(stress) << 1);
+        self.frame = self.frame.wrapping_add(1);
+        let frame =
+            protocol::encode_frame(self.frame, flags, &stats, &self.positions32, &self.scalar);
+        let published = Published {
+            topology: self.topology.clone(),
+            topology_version: self.topology_version,
+            frame,
+            holder: self.held.as_ref().map(|h| h.client),
+            method: self.method,
+        };
+        self.published.send_replace(Arc::new(published));
+    }
+}
+
+/// von Mises stress of a Cauchy stress (row-major 3×3), Pa.
+pub fn von_mises(s: &[f64; 9]) -> f64 {
+    let tr = (s[0] + s[4] + s[8]) / 3.0;
+    let mut q = 0.0;
+    for i in 0..3 {
+        for j in 0..3 {
+            let d = s[3 * i + j] - if i == j { tr } else { 0.0 };
+            q += d * d;
+        }
+    }
+    (1.5 * q).sqrt()
+}

@@ -1,0 +1,384 @@
+// The page of `raisov serve`: draws the organ's surface from binary frames, sends grasps,
+// moves, pins and switches (protocol: crates/raisov-serve/src/protocol.rs).
+import * as THREE from 'three';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+
+const STAT = { simFps: 0, residual: 1, cycles: 2, frameMs: 3, inputLag: 4, force: 5, grasp: 8,
+  scalarMax: 11, method: 12, appliedSeq: 13, holder: 14, grasped: 15 };
+const HEADER = 16 + 4 * 16;
+const $ = (id) => document.getElementById(id);
+
+// Viridis (polynomial fit of matplotlib's map), 256 entries.
+const VIRIDIS = (() => {
+  const c = [[0.2777273272234177, 0.005407344544966578, 0.3340998053353061],
+    [0.1050930431085774, 1.404613529898575, 1.384590162594685],
+    [-0.3308618287255563, 0.214847559468213, 0.09509516302823659],
+    [-4.634230498983486, -5.799100973351585, -19.33244095627987],
+    [6.228269936347081, 14.17993336680509, 56.69055260068105],
+    [4.776384997670288, -13.74514537774601, -65.35303263337234],
+    [-5.435455855934631, 4.645852612178535, 26.3124352495832]];
+  const lut = new Float32Array(256 * 3);
+  for (let i = 0; i < 256; i++) {
+    const t = i / 255;
+    for (let k = 0; k < 3; k++) {
+      let v = c[6][k];
+      for (let j = 5; j >= 0; j--) v = v * t + c[j][k];
+      lut[3 * i + k] = Math.min(1, Math.max(0, v));
+    }
+  }
+  return lut;
+})();
+
+// The page's state; `window.raisovState` lets a test read it.
+const state = {
+  webgl: false, client: null, holder: null, topology: null, frames: 0, firstPositions: null,
+  positions: null, forceN: 0, force: [0, 0, 0], bytesPerFrame: 0, errors: [], simFps: 0,
+  displayFps: 0, latencyMs: null, serverLagMs: null, residuals: [], method: 0, stress: false,
+};
+window.raisovState = state;
+
+const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+state.webgl = !!renderer.getContext();
+renderer.setPixelRatio(window.devicePixelRatio);
+renderer.setSize(window.innerWidth, window.innerHeight);
+$('view').appendChild(renderer.domElement);
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(0x1d1f24);
+const camera = new THREE.PerspectiveCamera(40, window.innerWidth / window.innerHeight, 0.001, 100);
+camera.up.set(0, 0, 1);
+scene.add(new THREE.HemisphereLight(0xffffff, 0x303040, 1.6));
+const sun = new THREE.DirectionalLight(0xffffff, 1.6);
+scene.add(sun);
+const controls = new OrbitControls(camera, renderer.domElement);
+controls.enableDamping = false;
+
+const geometry = new THREE.BufferGeometry();
+const material = new THREE.MeshLambertMaterial({ vertexColors: true, side: THREE.DoubleSide });
+const mesh = new THREE.Mesh(geometry, material);
+scene.add(mesh);
+const arrow = new THREE.ArrowHelper(new THREE.Vector3(0, 0, 1), new THREE.Vector3(), 0.01, 0xff4040);
+arrow.visible = false;
+// Drawn over the organ: the arrow starts inside the tissue's surface.
+for (const m of [arrow.line.material, arrow.cone.material]) { m.depthTest = false; m.transparent = true; }
+arrow.renderOrder = 10;
+scene.add(arrow);
+const grabMarker = new THREE.Mesh(new THREE.SphereGeometry(1, 16, 12),
+  new THREE.MeshBasicMaterial({ color: 0xff4040 }));
+grabMarker.visible = false;
+scene.add(grabMarker);
+let diag = 0.1;
+let framed = false;
+
+window.addEventListener('resize', () => {
+  camera.aspect = window.innerWidth / window.innerHeight;
+  camera.updateProjectionMatrix();
+  renderer.setSize(window.innerWidth, window.innerHeight);
+});
+
+// --- the connection ---
+let seq = 1;
+const sentAt = new Map();
+const ws = new WebSocket(`${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws`);
+ws.binaryType = 'arraybuffer';
+function send(kind, floats = [], u32 = null) {
+  if (ws.readyState !== WebSocket.OPEN) return 0;
+  const n = 8 + 4 * (u32 === null ? floats.length : 1);
+  const b = new DataView(new ArrayBuffer(n));
+  b.setUint8(0, kind);
+  const s = seq++;
+  b.setUint32(4, s, true);
+  if (u32 !== null) b.setUint32(8, u32, true);
+  else floats.forEach((x, i) => b.setFloat32(8 + 4 * i, x, true));
+  ws.send(b.buffer);
+  return s;
+}
+ws.onopen = () => { $('status').textContent = 'connected'; };
+ws.onclose = () => { $('status').textContent = 'disconnected: reload the page'; };
+ws.onmessage = (ev) => {
+  if (typeof ev.data === 'string') return onText(JSON.parse(ev.data));
+  const dv = new DataView(ev.data);
+  const magic = String.fromCharCode(dv.getUint8(0), dv.getUint8(1), dv.getUint8(2), dv.getUint8(3));
+  if (magic === 'RSVT') onTopology(dv);
+  else if (magic === 'RSVF') onFrame(dv, ev.data.byteLength);
+};
+
+function showError(m) {
+  state.errors.push(m);
+  if (state.errors.length > 20) state.errors.shift();
+  $('errors').textContent = m;
+}
+
+function onText(m) {
+  if (m.type === 'hello') {
+    state.client = m.client;
+    $('title').textContent = `raisov serve: ${m.name}`;
+    const box = $('methods');
+    box.innerHTML = '';
+    m.methods.forEach((label, i) => {
+      const l = document.createElement('label');
+      l.innerHTML = `<input type="radio" name="method" value="${i}"> ${label}<br>`;
+      l.querySelector('input').addEventListener('change', () => send(6, [], i));
+      box.appendChild(l);
+    });
+    setMethod(m.method);
+    state.stress = m.stress;
+    setHolder(m.holder);
+  } else if (m.type === 'error') {
+    showError(m.message);
+  } else if (m.type === 'holder') {
+    setHolder(m.holder);
+  } else if (m.type === 'method') {
+    setMethod(m.method);
+    state.stress = m.stress;
+  } else if (m.type === 'recording') {
+    const a = document.createElement('a');
+    a.href = URL.createObjectURL(new Blob([m.toml], { type: 'text/plain' }));
+    a.download = 'recorded.toml';
+    a.click();
+    state.recording = m.toml;
+  }
+}
+
+function setMethod(code) {
+  state.method = code;
+  document.querySelectorAll('input[name=method]').forEach((x) => { x.checked = Number(x.value) === code; });
+}
+
+function setHolder(h) {
+  state.holder = h;
+  $('holder').textContent = h === null ? 'free' : (h === state.client ? 'yours' : `client ${h} (watching)`);
+}
+
+function onTopology(dv) {
+  const n = dv.getUint32(4, true);
+  const m = dv.getUint32(8, true);
+  const index = new Uint32Array(dv.buffer.slice(12, 12 + 12 * m));
+  geometry.setIndex(new THREE.BufferAttribute(index, 1));
+  geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(3 * n), 3));
+  geometry.setAttribute('color', new THREE.BufferAttribute(new Float32Array(3 * n), 3));
+  state.topology = { n, m };
+  state.firstPositions = null;
+  framed = false;
+}
+
+let legendMax = 0;
+let lastFrameAt = performance.now();
+function onFrame(dv, bytes) {
+  if (!state.topology) return;
+  const n = dv.getUint32(8, true);
+  if (n !== state.topology.n) return;
+  const flags = dv.getUint32(12, true);
+  const st = new Float32Array(dv.buffer.slice(16, HEADER));
+  const pos = new Float32Array(dv.buffer.slice(HEADER, HEADER + 12 * n));
+  const scalar = new Float32Array(dv.buffer.slice(HEADER + 12 * n, HEADER + 16 * n));
+  const pa = geometry.getAttribute('position');
+  pa.array.set(pos);
+  pa.needsUpdate = true;
+  if (!state.firstPositions) state.firstPositions = pos.slice();
+  state.positions = pos;
+  // Colour: a legend maximum that rises at once and falls slowly (no flicker).
+  const smax = st[STAT.scalarMax];
+  legendMax = Math.max(smax, legendMax * 0.995, 1e-12);
+  const ca = geometry.getAttribute('color');
+  for (let i = 0; i < n; i++) {
+    const k = Math.min(255, Math.max(0, Math.round((scalar[i] / legendMax) * 255)));
+    ca.array[3 * i] = VIRIDIS[3 * k];
+    ca.array[3 * i + 1] = VIRIDIS[3 * k + 1];
+    ca.array[3 * i + 2] = VIRIDIS[3 * k + 2];
+  }
+  ca.needsUpdate = true;
+  geometry.computeVertexNormals();
+  geometry.computeBoundingSphere();
+  if (!framed) frameCamera();
+  const stress = (flags & 2) !== 0;
+  $('legendtitle').textContent = stress ? 'von Mises (kPa)' : '|u| (mm)';
+  $('legendmax').textContent = stress ? (legendMax / 1e3).toPrecision(3) : (legendMax * 1e3).toPrecision(3);
+  // Stats.
+  state.frames++;
+  state.bytesPerFrame = bytes;
+  state.simFps = st[STAT.simFps];
+  const f = [st[STAT.force], st[STAT.force + 1], st[STAT.force + 2]];
+  state.force = f;
+  state.forceN = Math.hypot(f[0], f[1], f[2]);
+  $('simfps').textContent = `${st[STAT.simFps].toFixed(1)} fps`;
+  $('residual').textContent = `${st[STAT.residual].toExponential(2)} N`;
+  $('cycles').textContent = `${st[STAT.cycles]} (${st[STAT.frameMs].toFixed(1)} ms)`;
+  $('lag').textContent = `${st[STAT.inputLag].toFixed(1)} ms`;
+  state.serverLagMs = st[STAT.inputLag];
+  $('bytes').textContent = `${(bytes / 1024).toFixed(1)} KiB`;
+  $('force').textContent = `${state.forceN.toFixed(3)} N`;
+  const holder = st[STAT.holder];
+  $('grasped').textContent = holder >= 0 ? `${st[STAT.grasped]}` : '–';
+  if (holder >= 0 && holder === state.client) {
+    const s = st[STAT.appliedSeq];
+    if (sentAt.has(s)) {
+      const ms = performance.now() - sentAt.get(s);
+      state.latencyMs = state.latencyMs === null ? ms : 0.8 * state.latencyMs + 0.2 * ms;
+      sentAt.delete(s);
+      $('e2e').textContent = `${state.latencyMs.toFixed(1)} ms`;
+    }
+  }
+  const g = new THREE.Vector3(st[STAT.grasp], st[STAT.grasp + 1], st[STAT.grasp + 2]);
+  if (holder >= 0) {
+    grabMarker.visible = true;
+    grabMarker.position.copy(g);
+    grabMarker.scale.setScalar(diag * 0.006);
+    if (state.forceN > 0) {
+      arrow.visible = true;
+      arrow.position.copy(g);
+      arrow.setDirection(new THREE.Vector3(...f).normalize());
+      // 0.1 N per 10 % of the organ's size, at most 40 %.
+      const len = Math.min(0.4, state.forceN) * diag;
+      arrow.setLength(Math.max(len, diag * 0.01), diag * 0.03, diag * 0.015);
+    }
+  } else {
+    arrow.visible = false;
+    grabMarker.visible = false;
+  }
+  state.residuals.push(st[STAT.residual]);
+  if (state.residuals.length > 240) state.residuals.shift();
+  drawPlot();
+  lastFrameAt = performance.now();
+}
+
+function frameCamera() {
+  geometry.computeBoundingBox();
+  const b = geometry.boundingBox;
+  const c = b.getCenter(new THREE.Vector3());
+  diag = b.getSize(new THREE.Vector3()).length();
+  controls.target.copy(c);
+  camera.position.set(c.x + 0.35 * diag, c.y - 1.5 * diag, c.z + 0.35 * diag);
+  camera.near = diag * 0.01;
+  camera.far = diag * 20;
+  camera.updateProjectionMatrix();
+  sun.position.set(c.x + diag, c.y - 2 * diag, c.z + 2 * diag);
+  controls.update();
+  framed = true;
+}
+
+function drawPlot() {
+  const cv = $('plot');
+  const g = cv.getContext('2d');
+  g.clearRect(0, 0, cv.width, cv.height);
+  const r = state.residuals.filter((x) => x > 0 && Number.isFinite(x)).map(Math.log10);
+  if (r.length < 2) return;
+  const lo = Math.floor(Math.min(...r));
+  const hi = Math.ceil(Math.max(...r)) + (Math.min(...r) === Math.max(...r) ? 1 : 0);
+  g.strokeStyle = '#444';
+  g.fillStyle = '#aaa';
+  g.font = '10px sans-serif';
+  g.fillText(`1e${hi}`, 2, 10);
+  g.fillText(`1e${lo}`, 2, cv.height - 2);
+  g.strokeStyle = '#5ec962';
+  g.beginPath();
+  const w = cv.width - 34;
+  state.residuals.forEach((x, i) => {
+    const v = x > 0 ? Math.log10(x) : lo;
+    const px = 34 + (i / 239) * w;
+    const py = cv.height - ((v - lo) / (hi - lo)) * (cv.height - 4) - 2;
+    if (i === 0) g.moveTo(px, py); else g.lineTo(px, py);
+  });
+  g.stroke();
+}
+
+(function drawLegend() {
+  const cv = $('legend');
+  const g = cv.getContext('2d');
+  for (let y = 0; y < cv.height; y++) {
+    const k = Math.round((1 - y / (cv.height - 1)) * 255);
+    g.fillStyle = `rgb(${VIRIDIS[3 * k] * 255},${VIRIDIS[3 * k + 1] * 255},${VIRIDIS[3 * k + 2] * 255})`;
+    g.fillRect(0, y, cv.width, 1);
+  }
+})();
+
+// --- grasp, move, release, pin ---
+const raycaster = new THREE.Raycaster();
+const ndc = new THREE.Vector2();
+const dragPlane = new THREE.Plane();
+let dragging = false;
+let pendingMove = null;
+const radius = () => Number($('radius').value) * 1e-3;
+$('radius').addEventListener('input', () => { $('radiusv').textContent = $('radius').value; });
+
+function pick(e) {
+  const r = renderer.domElement.getBoundingClientRect();
+  ndc.set(((e.clientX - r.left) / r.width) * 2 - 1, -((e.clientY - r.top) / r.height) * 2 + 1);
+  raycaster.setFromCamera(ndc, camera);
+  const hit = raycaster.intersectObject(mesh, false);
+  return hit.length ? hit[0].point : null;
+}
+
+function modifiers(e) {
+  controls.enabled = !(e.shiftKey || e.ctrlKey || e.metaKey) && !dragging;
+}
+window.addEventListener('keydown', modifiers);
+window.addEventListener('keyup', modifiers);
+
+renderer.domElement.addEventListener('pointerdown', (e) => {
+  if (e.button !== 0) return;
+  if (e.shiftKey) {
+    const p = pick(e);
+    if (!p) return;
+    e.preventDefault();
+    controls.enabled = false;
+    dragging = true;
+    renderer.domElement.setPointerCapture(e.pointerId);
+    const dir = camera.getWorldDirection(new THREE.Vector3());
+    dragPlane.setFromNormalAndCoplanarPoint(dir, p);
+    sentAt.set(send(1, [p.x, p.y, p.z, radius()]), performance.now());
+  } else if (e.ctrlKey || e.metaKey) {
+    const p = pick(e);
+    if (p) send(4, [p.x, p.y, p.z, radius()]);
+  }
+}, { capture: true });
+
+renderer.domElement.addEventListener('pointermove', (e) => {
+  if (!dragging) return;
+  const r = renderer.domElement.getBoundingClientRect();
+  ndc.set(((e.clientX - r.left) / r.width) * 2 - 1, -((e.clientY - r.top) / r.height) * 2 + 1);
+  raycaster.setFromCamera(ndc, camera);
+  const t = raycaster.ray.intersectPlane(dragPlane, new THREE.Vector3());
+  if (t) pendingMove = t;
+});
+
+function endDrag() {
+  if (!dragging) return;
+  dragging = false;
+  pendingMove = null;
+  send(3);
+  controls.enabled = true;
+}
+renderer.domElement.addEventListener('pointerup', endDrag);
+renderer.domElement.addEventListener('pointercancel', endDrag);
+
+$('reset').addEventListener('click', () => send(5));
+$('save').addEventListener('click', () => send(8));
+document.querySelectorAll('input[name=colour]').forEach((x) => x.addEventListener('change', () => {
+  send(7, [], Number(x.value));
+}));
+
+// --- the render loop: one move message per displayed frame at most ---
+let shown = 0;
+let fpsT = performance.now();
+function loop() {
+  requestAnimationFrame(loop);
+  if (pendingMove && dragging) {
+    const s = send(2, [pendingMove.x, pendingMove.y, pendingMove.z]);
+    sentAt.set(s, performance.now());
+    if (sentAt.size > 256) sentAt.delete(sentAt.keys().next().value);
+    pendingMove = null;
+  }
+  controls.update();
+  renderer.render(scene, camera);
+  shown++;
+  const now = performance.now();
+  if (now - fpsT > 1000) {
+    state.displayFps = (shown * 1000) / (now - fpsT);
+    $('dispfps').textContent = `${state.displayFps.toFixed(1)} fps`;
+    shown = 0;
+    fpsT = now;
+  }
+  if (now - lastFrameAt > 3000 && ws.readyState === WebSocket.OPEN) $('status').textContent = 'waiting for frames…';
+  else if (ws.readyState === WebSocket.OPEN) $('status').textContent = 'connected';
+}
+loop();

@@ -1,0 +1,660 @@
+//! Static equilibrium `R(u) = V` by Newton's method with the consistent analytic tangent and a
+//! sparse direct solver (faer's supernodal/simplicial Cholesky `LLᵀ`).
+//!
+//! Per Newton iteration, on the free dofs (constrained dofs hold their imposed values):
+//!
+//! ```text
+//! (K(u) + σ d̄ D) δ = V_s − R(u),     u ← u + α δ
+//! ```
+//!
+//! - `K = Σ_e K_e`, the element tangents of [`crate::fem::FemModel::element_stiffness`]
+//!   (`∂R/∂u`, symmetric), assembled on a sparsity pattern fixed at the start (lower triangle,
+//!   compressed columns); its symbolic factorisation is done once, the numeric one per
+//!   iteration.
+//! - Load stepping: `V_s = s V` and the prescribed displacements `u_c = u_c⁰ + s (g − u_c⁰)`
+//!   for `s = 1/N, 2/N, …, 1` ([`DirectNewtonParams::load_steps`]).
+//! - Regularisation `σ d̄ D`: `D` the lumped mass per node over its mean, `d̄` the mean diagonal
+//!   of K over free dofs, σ ≥ 0. σ starts at 0; a factorisation that fails (K not positive
+//!   definite: a flat membrane's first tangent has no transverse stiffness, a buckling state
+//!   is indefinite) raises σ to `max(σ_min, 10 σ)` and refactors; a full step (α = 1) divides
+//!   σ by 10 (to 0 below σ_min), so near the solution the iteration is plain Newton and
+//!   converges quadratically; a line search that finds no decrease raises σ by 100.
+//! - Backtracking line search, α = 1, ½, ¼ … (at most 12 halvings), on the potential energy
+//!   `Π(u) = E(u) − V_s·u` (Armijo: `Π(u + αδ) ≤ Π(u) − 10⁻⁴ α r·δ`, `r = V_s − R(u)`; δ is a
+//!   descent direction since `K + σ d̄ D` is positive definite once factored), and where Π
+//!   cannot tell (a change within 10⁻⁹ |Π|, its round-off near the solution) on the residual
+//!   norm `‖r(u + αδ)‖₂`, which must fall. The residual norm alone is a poor merit function on
+//!   large rotations: a linearised rotation shows up as spurious axial forces, and a soft
+//!   cantilever's sag stalled under it. An inverted element counts as no decrease.
+//!
+//! Stopping rule (issue 23's common criterion, at the full load):
+//! `max_a |r_a| ≤ rel_tol × max_a |V_a| + abs_tol`, `r_a` the residual force of free node a,
+//! `V_a` the external force of node a (all nodes), `|·|` the Euclidean norm of a node's 3-vector.
+//! Intermediate load steps stop at `max(rel_tol, 1e-6)` of their own scale.
+//!
+//! Entry points: [`solve_system`] on a [`System`] whose force model is a
+//! [`crate::fem::FemModel`], or [`DirectNewton`] for repeated solves.
+
+use super::{Constraints, System};
+use crate::fem::{ElementFailure, FemModel, ForceModel};
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
+use faer::Side;
+
+/// Settings of the direct Newton solver (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectNewtonParams {
+    /// Relative part of the stopping rule (of the largest nodal external force). Default 1e-10.
+    pub rel_tol: f64,
+    /// Absolute floor of the stopping rule (N). Default 1e-14.
+    pub abs_tol: f64,
+    /// Newton iterations at most, all load steps together. Default 200.
+    pub max_newton: usize,
+    /// Number of load steps N (≥ 1). Default 1.
+    pub load_steps: usize,
+    /// Smallest nonzero regularisation σ (relative to the mean diagonal). Default 1e-8.
+    pub sigma_min: f64,
+}
+
+impl Default for DirectNewtonParams {
+    fn default() -> Self {
+        DirectNewtonParams {
+            rel_tol: 1e-10,
+            abs_tol: 1e-14,
+            max_newton: 200,
+            load_steps: 1,
+            sigma_min: 1e-8,
+        }
+    }
+}
+
+/// Outcome of a direct Newton solve.
+#[derive(Clone, Debug, Default)]
+pub struct DirectStatic {
+    /// Largest nodal residual over free nodes at the end (N).
+    pub residual: f64,
+    /// The same at the start, at the full load (N).
+    pub initial_residual: f64,
+    /// The stopping threshold `rel_tol max|V_a| + abs_tol` (N).
+    pub target: f64,
+    /// Newton iterations (tangent assemblies and factorisations, retries not counted).
+    pub newton_steps: usize,
+    /// Numeric factorisations, retries with a larger σ included.
+    pub factorizations: usize,
+    /// Internal-force evaluations (residuals and line-search trials).
+    pub force_evaluations: u64,
+    /// Strain-energy evaluations (the line search's Π).
+    pub energy_evaluations: u64,
+    /// Wall time in assembling tangents and in factorising and solving (s).
+    pub assembly_s: f64,
+    pub factor_s: f64,
+    /// Largest nodal residual after each iteration of the last load step (N).
+    pub history: Vec<f64>,
+    pub converged: bool,
+}
+
+/// Errors of the direct solver.
+#[derive(Debug, thiserror::Error)]
+pub enum DirectNewtonError {
+    #[error("the direct Newton solver needs a finite-element force model (FemModel)")]
+    NotFem,
+    #[error("element {} is inverted or collapsed at a state the solver had to evaluate (det F = {:.3e})", .0.element, .0.det_f)]
+    Inverted(ElementFailure),
+    #[error("sparse factorisation failed: {0}")]
+    Factor(String),
+    #[error("node {node} slides along ({:.3}, {:.3}, {:.3}): the direct Newton solver takes fixed components along x, y or z only", .dir[0], .dir[1], .dir[2])]
+    SlidingNotAxis { node: u32, dir: [f64; 3] },
+    #[error("the direct Newton solver does not take spring grasps (System::springs); use a hard grasp or the Newton-Krylov solver")]
+    Springs,
+}
+
+/// The assembled tangent's structure over the free dofs, fixed for a mesh and constraint set.
+pub struct DirectNewton {
+    /// Free-dof index of each dof, `usize::MAX` where constrained.
+    free: Vec<usize>,
+    nfree: usize,
+    /// Per element, per entry of its `(3 npe)²` matrix (row-major): the slot in `vals`, or
+    /// `u32::MAX` where not assembled (a constrained dof, or above the diagonal).
+    slots: Vec<u32>,
+    /// Values in pattern order: element entries, then one diagonal entry per free dof.
+    vals: Vec<f64>,
+    symbolic: SymbolicSparseColMat<usize>,
+    argsort: Argsort<usize>,
+    llt_symbolic: SymbolicLlt<usize>,
+    /// Regularisation weight per free dof (`m_a / mean m`).
+    weight: Vec<f64>,
+}
+
+impl DirectNewton {
+    /// The pattern of K over the free dofs of `model` under `constraints`.
+    pub fn new(model: &FemModel, constraints: &Constraints) -> Result<Self, DirectNewtonError> {
+        for &(node, dir) in constraints.sliding() {
+            if axis_of(dir).is_none() {
+                return Err(DirectNewtonError::SlidingNotAxis { node, dir });
+            }
+        }
+        let n = model.num_nodes();
+        let mut free = vec![usize::MAX; 3 * n];
+        let mut nfree = 0;
+        for (i, f) in free.iter_mut().enumerate() {
+            if !fixed_dof(constraints, i) {
+                *f = nfree;
+                nfree += 1;
+            }
+        }
+        let ne = model.num_elements();
+        let npe = model.element_nodes(0).len();
+        let d = 3 * npe;
+        let mut pairs = Vec::new();
+        let mut slots = vec![u32::MAX; ne * d * d];
+        for e in 0..ne {
+            let el = model.element_nodes(e);
+            for r in 0..d {
+                let gr = free[3 * el[r / 3] as usize + r % 3];
+                if gr == usize::MAX {
+                    continue;
+                }
+                for c in 0..d {
+                    let gc = free[3 * el[c / 3] as usize + c % 3];
+                    if gc == usize::MAX || gr < gc {
+                        continue;
+                    }
+                    slots[e * d * d + r * d + c] = pairs.len() as u32;
+                    pairs.push(Pair::new(gr, gc));
+                }
+            }
+        }
+        for i in 0..nfree {
+            pairs.push(Pair::new(i, i));
+        }
+        let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(nfree, nfree, &pairs)
+            .map_err(|e| DirectNewtonError::Factor(format!("{e:?}")))?;
+        let llt_symbolic = SymbolicLlt::try_new(symbolic.as_ref(), Side::Lower)
+            .map_err(|e| DirectNewtonError::Factor(format!("{e:?}")))?;
+        let mass = model.lumped_mass();
+        let mean = mass.iter().sum::<f64>() / n.max(1) as f64;
+        let mut weight = vec![1.0; nfree];
+        for (i, &f) in free.iter().enumerate() {
+            if f != usize::MAX && mean > 0.0 {
+                weight[f] = mass[i / 3] / mean;
+            }
+        }
+        Ok(DirectNewton {
+            free,
+            nfree,
+            slots,
+            vals: vec![0.0; pairs.len()],
+            symbolic,
+            argsort,
+            llt_symbolic,
+            weight,
+        })
+    }
+
+    /// Assemble K(u) into the pattern's values (diagonal shifts zero); returns the mean
+    /// diagonal over free dofs. Element matrices are computed in parallel, a block at a time,
+    /// and summed into the pattern in element order (the same bits on any thread count).
+    fn assemble(&mut self, model: &FemModel, u: &[f64]) -> Result<f64, ElementFailure> {
+        use rayon::prelude::*;
+        const BLOCK: usize = 4096;
+        self.vals.iter_mut().for_each(|v| *v = 0.0);
+        let npe = model.element_nodes(0).len();
+        let d = 3 * npe;
+        let ne = model.num_elements();
+        let mut k = vec![0.0; BLOCK.min(ne) * d * d];
+        let mut diag = 0.0;
+        for first in (0..ne).step_by(BLOCK) {
+            let count = BLOCK.min(ne - first);
+            let ok = k[..count * d * d]
+                .par_chunks_mut(d * d)
+                .enumerate()
+                .try_for_each(|(j, out)| model.element_stiffness(first + j, u, out));
+            if ok.is_err() {
+                // Report the lowest failing element, whatever the scheduling.
+                for (j, out) in k[..count * d * d].chunks_mut(d * d).enumerate() {
+                    model.element_stiffness(first + j, u, out)?;
+                }
+            }
+            for j in 0..count {
+                let e = first + j;
+                let s = &self.slots[e * d * d..(e + 1) * d * d];
+                let ke = &k[j * d * d..(j + 1) * d * d];
+                for (q, &slot) in s.iter().enumerate() {
+                    if slot != u32::MAX {
+                        self.vals[slot as usize] += ke[q];
+                        if q / d == q % d {
+                            diag += ke[q].abs();
+                        }
+                    }
+                }
+            }
+        }
+        Ok(diag / self.nfree.max(1) as f64)
+    }
+
+    /// Factor `K + σ d̄ D` (values as assembled) and solve for `rhs` in place.
+    fn factor_solve(&mut self, shift: f64, rhs: &mut [f64]) -> Result<(), String> {
+        let base = self.vals.len() - self.nfree;
+        let mut vals = self.vals.clone();
+        for i in 0..self.nfree {
+            vals[base + i] = shift * self.weight[i];
+        }
+        let mat = SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, &vals)
+            .map_err(|e| format!("{e:?}"))?;
+        let llt = Llt::try_new_with_symbolic(self.llt_symbolic.clone(), mat.as_ref(), Side::Lower)
+            .map_err(|e| format!("{e:?}"))?;
+        let mut b = faer::Mat::<f64>::from_fn(self.nfree, 1, |i, _| rhs[i]);
+        llt.solve_in_place(b.as_mut());
+        for (i, r) in rhs.iter_mut().enumerate() {
+            *r = b[(i, 0)];
+        }
+        if rhs.iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err("the solution is not finite".into())
+        }
+    }
+
+    /// Solve `R(u) = V` for `u` in place: `u`'s constrained dofs are driven to the values
+    /// `constraints` impose at time `t` (over the load steps), the free ones start from `u`.
+    pub fn solve(
+        &mut self,
+        model: &mut FemModel,
+        constraints: &Constraints,
+        f_ext: &[f64],
+        t: f64,
+        u: &mut [f64],
+        params: DirectNewtonParams,
+    ) -> Result<DirectStatic, DirectNewtonError> {
+        let n = u.len();
+        let mut g = u.to_vec();
+        let mut v = vec![0.0; n];
+        constraints.impose(t, &mut g, &mut v);
+        let u0 = u.to_vec();
+        let vmax = (0..n / 3)
+            .map(|a| node_norm(f_ext, a))
+            .fold(0.0f64, f64::max);
+        let target = params.rel_tol * vmax + params.abs_tol;
+        let steps = params.load_steps.max(1);
+        let mut out = DirectStatic {
+            target,
+            ..Default::default()
+        };
+        let mut r = vec![0.0; n];
+        let mut fint = vec![0.0; n];
+        let mut trial = vec![0.0; n];
+        let mut rhs = vec![0.0; self.nfree];
+        let mut sigma = 0.0f64;
+        // Residual on the free dofs at load factor s; returns (2-norm, largest nodal norm).
+        let residual = |model: &mut FemModel,
+                        u: &[f64],
+                        s: f64,
+                        r: &mut [f64],
+                        fint: &mut [f64]|
+         -> Result<(f64, f64), ElementFailure> {
+            model.internal_forces(u, fint)?;
+            for i in 0..n {
+                r[i] = if fixed_dof(constraints, i) {
+                    0.0
+                } else {
+                    s * f_ext[i] - fint[i]
+                };
+            }
+            let two = r.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let max = (0..n / 3).map(|a| node_norm(r, a)).fold(0.0f64, f64::max);
+            Ok((two, max))
+        };
+        {
+            let mut full = u.to_vec();
+            for i in 0..n {
+                if fixed_dof(constraints, i) {
+                    full[i] = g[i];
+                }
+            }
+            out.initial_residual = residual(model, &full, 1.0, &mut r, &mut fint)
+                .map_err(DirectNewtonError::Inverted)?
+                .1;
+            out.force_evaluations += 1;
+        }
+        for step in 1..=steps {
+            let s = step as f64 / steps as f64;
+            for i in 0..n {
+                if fixed_dof(constraints, i) {
+                    u[i] = u0[i] + s * (g[i] - u0[i]);
+                }
+            }
+            let last = step == steps;
+            let tol = if last {
+                target
+            } else {
+                params.rel_tol.max(1e-6) * s * vmax + params.abs_tol
+            };
+            let (mut norm, mut max) =
+                residual(model, u, s, &mut r, &mut fint).map_err(DirectNewtonError::Inverted)?;
+            out.force_evaluations += 1;
+            out.history.clear();
+            while max > tol && out.newton_steps < params.max_newton {
+                out.newton_steps += 1;
+                let clock = std::time::Instant::now();
+                let dbar = self
+                    .assemble(model, u)
+                    .map_err(DirectNewtonError::Inverted)?;
+                out.assembly_s += clock.elapsed().as_secs_f64();
+                let clock = std::time::Instant::now();
+                // Factor, raising σ until K + σ d̄ D is positive definite.
+                loop {
+                    for (i, &f) in self.free.iter().enumerate() {
+                        if f != usize::MAX {
+                            rhs[f] = r[i];
+                        }
+                    }
+                    out.factorizations += 1;
+                    match self.factor_solve(sigma * dbar, &mut rhs) {
+                        Ok(()) => {
+                            out.factor_s += clock.elapsed().as_secs_f64();
+                            break;
+                        }
+                        Err(e) => {
+                            if sigma > 1e6 {
+                                return Err(DirectNewtonError::Factor(e));
+                            }
+                            sigma = (10.0 * sigma).max(params.sigma_min);
+                        }
+                    }
+                }
+                // Backtracking line search on Π, on the residual norm where Π is flat.
+                let slope: f64 = self
+                    .free
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &f)| f != usize::MAX)
+                    .map(|(i, &f)| r[i] * rhs[f])
+                    .sum();
+                let pi0 = potential(model, u, s, f_ext);
+                out.energy_evaluations += 1;
+                let mut alpha = 1.0;
+                let mut accepted = false;
+                for _ in 0..=12 {
+                    trial.copy_from_slice(u);
+                    for (i, &f) in self.free.iter().enumerate() {
+                        if f != usize::MAX {
+                            trial[i] += alpha * rhs[f];
+                        }
+                    }
+                    let pi = potential(model, &trial, s, f_ext);
+                    out.energy_evaluations += 1;
+                    let armijo = pi <= pi0 - 1e-4 * alpha * slope;
+                    let flat = pi.is_finite() && (pi - pi0).abs() <= 1e-9 * pi0.abs();
+                    if !(armijo || flat) {
+                        alpha *= 0.5;
+                        continue;
+                    }
+                    out.force_evaluations += 1;
+                    if let Ok((tn, tm)) = residual(model, &trial, s, &mut r, &mut fint) {
+                        if armijo || tn < norm {
+                            u.copy_from_slice(&trial);
+                            norm = tn;
+                            max = tm;
+                            accepted = true;
+                            break;
+                        }
+                    }
+                    alpha *= 0.5;
+                }
+                if accepted {
+                    if alpha == 1.0 {
+                        sigma = if sigma * 0.1 < params.sigma_min {
+                            0.0
+                        } else {
+                            sigma * 0.1
+                        };
+                    }
+                } else {
+                    // Keep u; restore its residual and regularise harder.
+                    residual(model, u, s, &mut r, &mut fint)
+                        .map_err(DirectNewtonError::Inverted)?;
+                    out.force_evaluations += 1;
+                    sigma = (100.0 * sigma).max(1e3 * params.sigma_min);
+                }
+                out.history.push(max);
+            }
+            out.residual = max;
+            if last {
+                out.converged = max <= tol;
+            } else if max > tol {
+                break;
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// `Π(u) = E(u) − s V·u` (J); +∞ where an element is inverted or the energy is not finite.
+fn potential(model: &FemModel, u: &[f64], s: f64, f_ext: &[f64]) -> f64 {
+    let e = model.strain_energy(u);
+    let w: f64 = f_ext.iter().zip(u).map(|(f, x)| f * x).sum();
+    if e.is_finite() {
+        e - s * w
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Whether dof `i` (3 per node) holds an imposed value. The one place that reads the
+/// constraints per dof.
+fn fixed_dof(constraints: &Constraints, i: usize) -> bool {
+    let a = i / 3;
+    if constraints.is_constrained(a) {
+        return true;
+    }
+    let sliding = constraints.sliding();
+    let start = sliding.partition_point(|&(n, _)| (n as usize) < a);
+    sliding[start..]
+        .iter()
+        .take_while(|&&(n, _)| n as usize == a)
+        .any(|&(_, dir)| axis_of(dir) == Some(i % 3))
+}
+
+/// The axis (0, 1, 2) a unit direction lies along, if it is ±e_x, ±e_y or ±e_z.
+fn axis_of(dir: [f64; 3]) -> Option<usize> {
+    (0..3).find(|&k| {
+        (dir[k].abs() - 1.0).abs() < 1e-12 && dir.iter().map(|c| c * c).sum::<f64>() <= 1.0 + 1e-12
+    })
+}
+
+/// Euclidean norm of node a's 3-vector in `x`.
+fn node_norm(x: &[f64], a: usize) -> f64 {
+    (x[3 * a] * x[3 * a] + x[3 * a + 1] * x[3 * a + 1] + x[3 * a + 2] * x[3 * a + 2]).sqrt()
+}
+
+/// Solve `R(u) = V` on a [`System`] (its external forces `f_ext` and constraints at time `t`)
+/// whose force model is a [`FemModel`]; `u` is the start and receives the equilibrium.
+pub fn solve_system(
+    sys: &mut System,
+    t: f64,
+    u: &mut [f64],
+    params: DirectNewtonParams,
+) -> Result<DirectStatic, DirectNewtonError> {
+    if sys.springs.iter().any(|s| s.k > 0.0) {
+        return Err(DirectNewtonError::Springs);
+    }
+    let System {
+        force,
+        f_ext,
+        constraints,
+        ..
+    } = sys;
+    let model = force.as_fem_mut().ok_or(DirectNewtonError::NotFem)?;
+    let mut solver = DirectNewton::new(model, constraints)?;
+    solver.solve(model, constraints, f_ext, t, u, params)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Scenario;
+    use std::path::Path;
+
+    /// A soft neo-Hookean beam (ν = 0.45) clamped at x = 0, sagging under gravity, with
+    /// `extra` appended (a `[multigrid]` section).
+    fn beam(extra: &str) -> Scenario {
+        let text = format!(
+            r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "box"
+size = [0.1, 0.03, 0.03]
+nodes = 300
+[material]
+law = "neo-hookean"
+young = 5000.0
+poisson = 0.45
+density = 1060.0
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
+[integrator]
+method = "symplectic-euler"
+[run]
+duration = 1.0
+{extra}
+"#
+        );
+        Scenario::from_toml(&text, Path::new("beam-newton.toml")).unwrap()
+    }
+
+    /// A Mooney-Rivlin membrane (C1 = C2 = 1 kPa) fixed on its boundary, sagging under gravity
+    /// from flat (a singular first tangent).
+    fn drape(extra: &str) -> Scenario {
+        let text = format!(
+            r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "rectangle"
+size = [0.1, 0.1]
+nodes = 186
+[material]
+law = "mooney-rivlin"
+c1 = 1000.0
+c2 = 1000.0
+[damping]
+ratio = 1.0
+omega = 177.7
+[[fix]]
+boundary = true
+[integrator]
+method = "symplectic-euler"
+[run]
+duration = 1.0
+{extra}
+"#
+        );
+        Scenario::from_toml(&text, Path::new("drape-newton.toml")).unwrap()
+    }
+
+    fn newton(sc: &Scenario, params: DirectNewtonParams) -> (Vec<f64>, DirectStatic) {
+        let mut sys = sc.build_system().unwrap();
+        let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
+        let out = solve_system(&mut sys, 0.0, &mut u, params).unwrap();
+        (u, out)
+    }
+
+    /// Near the solution the residual falls quadratically: once it is below 1e-2 of the load,
+    /// each iteration's (relative) residual is at most 100 × the square of the previous one,
+    /// down to the round-off floor (1e-11 of the load). Measured, largest nodal residual over
+    /// the largest nodal load: beam 1.6e-3, 7.9e-5, 4.8e-10, 1.0e-12; membrane (from flat)
+    /// 5.2e-2, 1.4e-3, 3.3e-8, 3.1e-13. And the solve converges to 1e-10 of the load.
+    #[test]
+    fn direct_newton_converges_quadratically() {
+        for (name, sc, steps) in [("beam", beam(""), 2), ("membrane", drape(""), 1)] {
+            let params = DirectNewtonParams {
+                load_steps: steps,
+                ..Default::default()
+            };
+            let (_, out) = newton(&sc, params);
+            assert!(out.converged, "{name}: {out:?}");
+            let vmax = (out.target - params.abs_tol) / params.rel_tol;
+            let e: Vec<f64> = out.history.iter().map(|r| r / vmax).collect();
+            let mut checked = 0;
+            for w in e.windows(2) {
+                if w[0] < 1e-2 && w[1] > 1e-11 {
+                    assert!(
+                        w[1] <= 100.0 * w[0] * w[0],
+                        "{name}: residual ratios {e:?} are not quadratic"
+                    );
+                    checked += 1;
+                }
+            }
+            assert!(
+                checked >= 1,
+                "{name}: no iteration near the solution: {e:?}"
+            );
+        }
+    }
+
+    /// Fixed components reach the direct solver: with every node's z held (plane strain) and
+    /// gravity along −y, the beam sags in y, z stays exactly 0, and the free components'
+    /// residual converges; a tilted sliding plane is refused with a message naming the node.
+    #[test]
+    fn direct_newton_holds_fixed_components_and_refuses_tilted_planes() {
+        let mut held = beam(
+            "[[fix]]\nbox = { min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }\ncomponents = [\"z\"]",
+        );
+        held.gravity = [0.0, -9.81, 0.0];
+        let (u, out) = newton(&held, DirectNewtonParams::default());
+        assert!(out.converged, "{out:?}");
+        let max_y = u.chunks(3).map(|c| c[1].abs()).fold(0.0, f64::max);
+        assert!(max_y > 1e-4, "the beam should sag in y: {max_y:e}");
+        assert!(u.chunks(3).all(|c| c[2] == 0.0), "z moved");
+
+        let tilted = beam("[[fix]]\nbox = { min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }\nnormal = [0.0, 1.0, 1.0]");
+        let mut sys = tilted.build_system().unwrap();
+        let mut u = vec![0.0; 3 * tilted.mesh.num_nodes()];
+        let err = solve_system(&mut sys, 0.0, &mut u, DirectNewtonParams::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("along x, y or z only"), "{err}");
+    }
+
+    /// Direct Newton and FAS land on the same equilibrium, displacements within 1e-8 of the
+    /// largest: the sagging beam (tets, 3 levels) and the draped membrane (4 levels).
+    #[test]
+    fn direct_newton_and_fas_agree() {
+        let cases = [
+            ("beam", beam("[multigrid]\nscheme = \"fas\"\nlevels = 3"), 2),
+            (
+                "membrane",
+                drape("[multigrid]\nscheme = \"fas\"\nlevels = 4"),
+                1,
+            ),
+        ];
+        for (name, sc, steps) in cases {
+            let params = DirectNewtonParams {
+                rel_tol: 1e-12,
+                load_steps: steps,
+                ..Default::default()
+            };
+            let (u_newton, out) = newton(&sc, params);
+            assert!(out.converged, "{name}: {out:?}");
+            let scale = u_newton.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+            let mut st = sc.stepper().unwrap();
+            let mut err = f64::INFINITY;
+            for _ in 0..5000 {
+                st.advance().unwrap();
+                let (_, s) = st.finest();
+                err =
+                    s.u.iter()
+                        .zip(&u_newton)
+                        .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
+                        / scale;
+                if err < 1e-9 {
+                    break;
+                }
+            }
+            assert!(
+                err < 1e-8,
+                "{name}: FAS ends {err:e} (relative) from Newton's"
+            );
+        }
+    }
+}

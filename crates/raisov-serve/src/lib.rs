@@ -187,7 +187,7 @@ pub fn run(args: &ServeArgs) -> Result<(), ServeError> {
         method,
         record_path: args.record.clone(),
         grab_stiffness: match args.grab_stiffness {
-            k if k == 0.0 => None,
+            0.0 => None,
             k if k > 0.0 && k.is_finite() => Some(k),
             k => {
                 return Err(ServeError::Scenario(format!(

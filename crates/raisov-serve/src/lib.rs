@@ -8,7 +8,7 @@
 //! use raisov_serve::{session::{Session, SessionConfig, Source}, serve_blocking};
 //! use raisov::sim::Budget;
 //! let source = Source::from_scenario_file("examples/liver_interactive.toml".as_ref())?;
-//! let config = SessionConfig { budget: Budget::Cycles(2), max_fps: 60.0, method: None, record_path: None };
+//! let config = SessionConfig { budget: Budget::Cycles(2), max_fps: 60.0, method: None, record_path: None, grab_stiffness: None };
 //! serve_blocking(source, config, "127.0.0.1", 8080, |url| println!("open {url}"))?;
 //! # Ok::<(), raisov_serve::ServeError>(())
 //! ```
@@ -187,7 +187,7 @@ pub fn run(args: &ServeArgs) -> Result<(), ServeError> {
         method,
         record_path: args.record.clone(),
         grab_stiffness: match args.grab_stiffness {
-            k if k == 0.0 => None,
+            0.0 => None,
             k if k > 0.0 && k.is_finite() => Some(k),
             k => {
                 return Err(ServeError::Scenario(format!(

@@ -12,34 +12,55 @@ pub enum Error {
     /// A file could not be opened, read or written.
     #[error("{path}: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
+        /// The operating system's error.
         #[source]
         source: std::io::Error,
     },
     /// A mesh file is malformed. `line` is 1-based where known.
     #[error("{path}{}: {msg}", line.map(|l| format!(", line {l}")).unwrap_or_default())]
     MeshFormat {
+        /// The file.
         path: PathBuf,
+        /// The 1-based line, where known.
         line: Option<usize>,
+        /// What is wrong.
         msg: String,
     },
     /// A mesh is well-formed but unusable (degenerate element, unused nodes, ...).
     #[error("{path}: {msg}")]
-    BadMesh { path: PathBuf, msg: String },
+    BadMesh {
+        /// The file (or a label for a generated mesh).
+        path: PathBuf,
+        /// What is wrong.
+        msg: String,
+    },
     /// A triangle surface cannot bound a solid: degenerate triangle, open or non-manifold,
     /// not orientable, self-intersecting. The message names the triangles and vertices.
     #[error("bad surface: {msg}")]
-    BadSurface { msg: String },
+    BadSurface {
+        /// What is wrong, naming triangles and vertices.
+        msg: String,
+    },
     /// A scenario file is wrong: unknown key, bad value, missing file.
     #[error("{path}{}: {msg}", line.map(|l| format!(", line {l}")).unwrap_or_default())]
     Scenario {
+        /// The scenario file.
         path: PathBuf,
+        /// The 1-based line, where known.
         line: Option<usize>,
+        /// What is wrong and what would be valid.
         msg: String,
     },
     /// A parameter given through the API is out of range.
     #[error("invalid parameter `{name}`: {msg}")]
-    Param { name: String, msg: String },
+    Param {
+        /// The parameter.
+        name: String,
+        /// What is wrong and what would be valid.
+        msg: String,
+    },
     /// A simulation diverged: where, when and why.
     #[error(transparent)]
     Diverged(#[from] Divergence),
@@ -49,30 +70,52 @@ pub enum Error {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("diverged at t = {time:.6} s (step {step}){}: {cause}", element.map(|e| format!(", element {e}")).unwrap_or_default())]
 pub struct Divergence {
+    /// Simulated time of the failing step (s).
     pub time: f64,
+    /// The failing step's number (1-based).
     pub step: u64,
+    /// The element that inverted, where one did.
     pub element: Option<usize>,
+    /// What blew up.
     pub cause: DivergenceCause,
 }
 
 /// What blew up.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DivergenceCause {
+    /// An element's deformation gradient has `det F ≤ 0`.
     #[error("inverted element (det F = {det_f:.3e} <= 0)")]
-    Inverted { det_f: f64 },
+    Inverted {
+        /// Its determinant.
+        det_f: f64,
+    },
+    /// A displacement or velocity is NaN or infinite.
     #[error("non-finite value in {what} at node {node}")]
-    NonFinite { what: &'static str, node: usize },
+    NonFinite {
+        /// Which vector (`"u"`, `"v"`).
+        what: &'static str,
+        /// The node.
+        node: usize,
+    },
+    /// The kinetic energy passed the stepper's ceiling.
     #[error("energy blow-up: kinetic energy {kinetic:.3e} J exceeds {limit:.3e} J")]
-    EnergyBlowUp { kinetic: f64, limit: f64 },
+    EnergyBlowUp {
+        /// Kinetic energy (J).
+        kinetic: f64,
+        /// The ceiling (J).
+        limit: f64,
+    },
 }
 
 impl Error {
+    /// An I/O error on `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
             source,
         }
     }
+    /// An out-of-range API parameter `name`, with what is wrong and what would be valid.
     pub fn param(name: &str, msg: impl Into<String>) -> Self {
         Error::Param {
             name: name.into(),

@@ -39,17 +39,24 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 // Index loops over x, y, z components read like the equations they implement.
 #![allow(clippy::needless_range_loop)]
+#![warn(missing_docs)]
 
+// Documented separately (edited in parallel).
+#[allow(missing_docs)]
 pub mod contact;
 pub mod error;
 pub mod fem;
 pub mod hierarchy;
 pub mod integrate;
 pub mod io;
+// Documented separately (edited in parallel).
+#[allow(missing_docs)]
 pub mod material;
 pub mod mesh;
 pub mod metrics;
 pub mod multigrid;
+// Documented separately (edited in parallel).
+#[allow(missing_docs)]
 pub mod scenario;
 pub mod sim;
 

@@ -54,6 +54,8 @@
 //! path, in `packed/fused.rs`.
 
 mod element;
+// Documented separately (edited in parallel).
+#[allow(missing_docs)]
 pub mod loads;
 pub mod packed;
 
@@ -69,7 +71,9 @@ use rayon::prelude::*;
 /// (membranes: area ratio `<= 0` or normal flipped against the reference).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ElementFailure {
+    /// The element's index.
     pub element: usize,
+    /// `det F` (tets) or the area ratio (membranes) found there.
     pub det_f: f64,
 }
 
@@ -134,6 +138,7 @@ pub struct FemParams {
 }
 
 impl FemParams {
+    /// Defaults for `material`: density 1000 kg/m³, thickness 1 mm (membranes), f64 element data.
     pub fn new(material: Material) -> Self {
         FemParams {
             material,
@@ -148,7 +153,9 @@ impl FemParams {
 
 /// The finite-element force model of one mesh.
 pub struct FemModel {
+    /// Element type of the mesh.
     pub kind: ElementKind,
+    /// The physics it was built with.
     pub params: FemParams,
     n_nodes: usize,
     cells: Vec<u32>,
@@ -292,6 +299,7 @@ impl FemModel {
         &self.dminv
     }
 
+    /// Number of elements.
     pub fn num_elements(&self) -> usize {
         self.measure.len()
     }

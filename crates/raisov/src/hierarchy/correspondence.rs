@@ -566,13 +566,16 @@ pub struct Correspondence {
     pub down: Transfer,
     /// Coarse nodes located in the fine mesh: the paper's restriction R (fine to coarse).
     pub up: Transfer,
+    /// What the build found (coverage, extrapolation).
     pub report: CorrespondenceReport,
 }
 
 /// What [`Correspondence::build`] found.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CorrespondenceReport {
+    /// Nodes of the fine mesh.
     pub fine_nodes: usize,
+    /// Nodes of the coarse mesh.
     pub coarse_nodes: usize,
     /// Fine nodes outside every coarse element (hosted by eq. 7).
     pub fine_outside: usize,

@@ -34,6 +34,7 @@ pub struct AdaptiveRelaxed {
     pub steps: u64,
     /// The last estimate of the lowest mode's ω₀ (in units of the fictitious step).
     pub omega: f64,
+    /// Whether the residual reached the tolerance.
     pub converged: bool,
 }
 

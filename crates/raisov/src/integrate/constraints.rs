@@ -16,17 +16,32 @@ use crate::fem::loads::TimeFunction;
 #[derive(Clone, Debug, PartialEq)]
 pub enum Motion {
     /// `g(t) = d` for all t ≥ 0.
-    Held { d: [f64; 3] },
+    Held {
+        /// Displacement (m).
+        d: [f64; 3],
+    },
     /// `g(t) = d · min(t / duration, 1)`.
-    Ramp { d: [f64; 3], duration: f64 },
+    Ramp {
+        /// Final displacement (m).
+        d: [f64; 3],
+        /// Ramp time (s).
+        duration: f64,
+    },
     /// Piecewise linear through `(times[k], values[k])`; `times` strictly increasing;
     /// before the first row the first value, after the last the last value.
     Table {
+        /// Times (s), strictly increasing.
         times: Vec<f64>,
+        /// Displacements (m), one per time.
         values: Vec<[f64; 3]>,
     },
     /// `g(t) = d · s(t)`.
-    Function { d: [f64; 3], f: TimeFunction },
+    Function {
+        /// Amplitude displacement (m).
+        d: [f64; 3],
+        /// The time function `s(t)`.
+        f: TimeFunction,
+    },
 }
 
 impl Motion {
@@ -138,6 +153,7 @@ pub struct Constraints {
 }
 
 impl Constraints {
+    /// Constraints of `fixed` nodes and `prescribed` motions (sorted and deduplicated).
     pub fn new(mut fixed: Vec<u32>, prescribed: Vec<(u32, Motion)>) -> Self {
         fixed.sort_unstable();
         fixed.dedup();

@@ -13,12 +13,15 @@ use crate::fem::ElementFailure;
 /// Result of [`relax`].
 #[derive(Clone, Debug)]
 pub struct Relaxed {
+    /// The relaxed state.
     pub state: State,
     /// Final residual norm ‖V − R(u)‖ over free nodes (N).
     pub residual: f64,
     /// Residual at the start, for scale.
     pub initial_residual: f64,
+    /// Steps taken.
     pub steps: u64,
+    /// Whether the residual reached the tolerance.
     pub converged: bool,
 }
 

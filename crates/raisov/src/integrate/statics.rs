@@ -88,11 +88,15 @@ pub fn fictitious_mass(mesh: &crate::mesh::Mesh, mass: &[f64], lambda_max: f64) 
 /// Outcome of [`NewtonSolver::solve`].
 #[derive(Clone, Debug)]
 pub struct Static {
+    /// Final residual norm ‖V − R(u)‖ over free dofs (N).
     pub residual: f64,
+    /// Residual norm at the start (N).
     pub initial_residual: f64,
+    /// Newton steps taken.
     pub newton_steps: usize,
     /// Force evaluations spent (2 per CG product, plus residuals).
     pub force_evaluations: u64,
+    /// Whether the relative tolerance was reached.
     pub converged: bool,
 }
 

@@ -107,6 +107,14 @@ pub trait Stepper: Send {
     fn restore(&mut self, cp: &Checkpoint);
     /// Replace the kinetic-energy ceiling of divergence detection (J; infinite: none).
     fn set_kinetic_limit(&mut self, limit: f64);
+    /// The finest level's `R(u) + Σ_springs k (u_a − d)` (N, 3 per node, every row, as
+    /// [`System::internal_forces`] gives it) at the current state, when the last step ended by
+    /// evaluating it there; `None` when it did not (the default) or the system has changed
+    /// since. A caller that needs the forces at the end of a step takes them from here instead
+    /// of evaluating them again.
+    fn finest_forces(&self) -> Option<&[f64]> {
+        None
+    }
 }
 
 /// Constraints added at run time on top of a stepper's own ([`Stepper::set_runtime_constraints`]).
@@ -317,9 +325,13 @@ pub fn hold(c: &mut super::Constraints, values: &[[f64; 3]]) {
 
 /// Single-level integration (SLIM): one integrator step per time step on one mesh.
 pub struct SingleLevel {
+    /// The mesh's system.
     pub sys: System,
+    /// Its state.
     pub state: State,
+    /// The explicit integrator.
     pub integrator: Box<dyn Integrator>,
+    /// Time step and divergence detection.
     pub params: StepperParams,
     steps: u64,
     /// The system's own constraints once run-time ones were added.
@@ -327,6 +339,7 @@ pub struct SingleLevel {
 }
 
 impl SingleLevel {
+    /// A stepper of `sys` by `method` at `params.dt`, from rest.
     pub fn new(sys: System, method: Method, params: StepperParams) -> Self {
         let n = sys.num_nodes();
         let mut state = State::at_rest(n);

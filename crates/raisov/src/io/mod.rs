@@ -59,6 +59,7 @@ pub const MESH_EXTENSIONS: &[&str] = &["msh", "node", "ele", "vtk", "vtu"];
 /// A mesh read from a file, with what the reader did to it.
 #[derive(Clone, Debug)]
 pub struct LoadedMesh {
+    /// The mesh.
     pub mesh: Mesh,
     /// The format that was read, e.g. `"gmsh 2.2 ascii"`, `"tetgen"`, `"vtk legacy ascii"`.
     pub format: &'static str,

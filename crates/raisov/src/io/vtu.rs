@@ -117,7 +117,9 @@ impl FieldData<'_> {
 /// A named field.
 #[derive(Clone, Copy, Debug)]
 pub struct Field<'a> {
+    /// Name in the file.
     pub name: &'a str,
+    /// The values.
     pub data: FieldData<'a>,
 }
 

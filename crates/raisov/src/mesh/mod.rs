@@ -77,24 +77,34 @@ pub struct OrientationReport {
 /// Summary statistics of a mesh, as printed by `raisov mesh info`.
 #[derive(Clone, Debug)]
 pub struct MeshStats {
+    /// Element type.
     pub kind: ElementKind,
+    /// Number of nodes.
     pub nodes: usize,
+    /// Number of elements.
     pub elements: usize,
     /// Total area (membranes, m^2) or volume (tets, m^3).
     pub measure: f64,
+    /// Bounding box, lower corner (m).
     pub bbox_min: [f64; 3],
+    /// Bounding box, upper corner (m).
     pub bbox_max: [f64; 3],
+    /// Shortest element edge (m).
     pub min_edge: f64,
+    /// Longest element edge (m).
     pub max_edge: f64,
     /// Element quality in [0, 1], 1 for the equilateral triangle or regular tetrahedron:
     /// triangles `4 sqrt(3) A / sum(l^2)`, tetrahedra the radius ratio `3 r_in / R_circ`.
     pub quality_min: f64,
+    /// Mean element quality.
     pub quality_mean: f64,
     /// Elements with negative signed measure (tets only).
     pub inverted: Vec<usize>,
     /// Elements with (near) zero measure.
     pub degenerate: Vec<usize>,
+    /// Nodes on the boundary (boundary faces of tets, boundary edges of membranes).
     pub boundary_nodes: usize,
+    /// Element groups (physical tags) and their element counts.
     pub groups: Vec<(String, usize)>,
 }
 
@@ -103,14 +113,17 @@ pub struct MeshStats {
 pub const DEGENERATE_REL: f64 = 1e-12;
 
 #[inline]
+/// `a − b`.
 pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 #[inline]
+/// `a · b`.
 pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 #[inline]
+/// `a × b`.
 pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
@@ -119,6 +132,7 @@ pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     ]
 }
 #[inline]
+/// Euclidean norm `|a|`.
 pub fn norm(a: [f64; 3]) -> f64 {
     dot(a, a).sqrt()
 }
@@ -146,12 +160,15 @@ impl Mesh {
         }
     }
 
+    /// Nodes per element.
     pub fn npe(&self) -> usize {
         self.kind.nodes_per_element()
     }
+    /// Number of nodes.
     pub fn num_nodes(&self) -> usize {
         self.nodes.len()
     }
+    /// Number of elements.
     pub fn num_elements(&self) -> usize {
         self.cells.len() / self.npe()
     }

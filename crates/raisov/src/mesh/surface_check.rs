@@ -83,7 +83,9 @@ impl SurfaceComponent {
 /// What [`check_surface`] found and repaired.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceReport {
+    /// Number of vertices.
     pub vertices: usize,
+    /// Number of triangles.
     pub triangles: usize,
     /// Vertices no triangle uses (kept in the surface).
     pub unused_vertices: usize,
@@ -95,6 +97,7 @@ pub struct SurfaceReport {
     pub enclosed_volume: f64,
     /// Bounding box of the used vertices.
     pub bbox_min: [f64; 3],
+    /// Upper corner of the bounding box.
     pub bbox_max: [f64; 3],
 }
 

@@ -29,10 +29,15 @@ use std::path::{Path, PathBuf};
 /// One row of the measures CSV.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sample {
+    /// Step number.
     pub step: u64,
+    /// Time (s).
     pub time: f64,
+    /// Kinetic energy (J).
     pub kinetic: f64,
+    /// Residual norm ‖V − R(u)‖ over free nodes (N).
     pub residual: f64,
+    /// Largest nodal displacement |u| (m).
     pub max_u: f64,
     /// max |T − T∞| over non-fixed nodes (NaN when no reference).
     pub stress_err_max: f64,
@@ -89,6 +94,7 @@ pub struct Meter {
 }
 
 impl Meter {
+    /// A meter for `n` nodes, with the steady-state nodal stress `t_inf` (9 per node) when known.
     pub fn new(n: usize, t_inf: Option<Vec<f64>>) -> Self {
         Meter {
             residual: vec![0.0; 3 * n],

@@ -104,8 +104,11 @@ pub enum Smoother {
     /// costs one force evaluation and damps every mode in the interval; this is the smoother
     /// multigrid needs (dynamics damps all modes alike at α/2).
     Chebyshev {
+        /// `b` over the interval's lower end.
         ratio: f64,
+        /// `b / λ_max`.
         stretch: f64,
+        /// The diagonal `D`.
         scaling: Scaling,
     },
 }
@@ -128,11 +131,22 @@ pub enum Scaling {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CoarseSolve {
     /// Explicit damped steps from rest for this much simulated time (s) at the level's step.
-    Explicit { time: f64 },
+    Explicit {
+        /// Simulated time (s).
+        time: f64,
+    },
     /// This many Chebyshev iterations over `[λ_max / ratio, λ_max]`.
-    Chebyshev { iterations: usize, ratio: f64 },
+    Chebyshev {
+        /// Iterations per visit.
+        iterations: usize,
+        /// `λ_max` over the interval's lower end.
+        ratio: f64,
+    },
     /// Matrix-free Newton-Krylov to this relative residual.
-    Newton { rel_tol: f64 },
+    Newton {
+        /// Relative residual at which Newton stops.
+        rel_tol: f64,
+    },
 }
 
 /// Which weights carry state and corrections between levels.
@@ -204,8 +218,11 @@ impl Default for FasParams {
 
 /// The FAS multigrid stepper.
 pub struct Fas {
+    /// The levels, 0 the finest.
     pub levels: Vec<Level>,
+    /// The correspondence of each level with the next coarser one.
     pub links: Links,
+    /// The cycle's parameters.
     pub params: FasParams,
     /// State restriction `R` per link (coarse nodes in the fine mesh).
     restrict: Vec<Transfer>,
@@ -953,6 +970,12 @@ impl Stepper for Fas {
     }
     fn set_kinetic_limit(&mut self, limit: f64) {
         self.params.kinetic_limit = limit;
+    }
+    /// `r[0]` holds the residual at level 0's state exactly when `fresh[0]`, and the system's
+    /// forces were evaluated in the same call ([`crate::integrate::System::residual`]);
+    /// nothing evaluates level 0 at another state after it without clearing `fresh[0]`.
+    fn finest_forces(&self) -> Option<&[f64]> {
+        self.fresh[0].then(|| self.levels[0].sys.last_forces())
     }
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();

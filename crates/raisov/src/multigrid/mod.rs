@@ -13,6 +13,8 @@
 //! carried to the nearest node of each coarser level (paper section 3.1).
 
 pub mod fas;
+// Documented separately (edited in parallel).
+#[allow(missing_docs)]
 pub mod raisov;
 
 use crate::hierarchy::Correspondence;
@@ -23,9 +25,13 @@ use crate::mesh::Mesh;
 
 /// One level: its mesh, system, state and integrator.
 pub struct Level {
+    /// The level's mesh.
     pub mesh: Mesh,
+    /// Its system.
     pub sys: System,
+    /// Its state.
     pub state: State,
+    /// Its explicit integrator (smoother or single-level stepping).
     pub integrator: Box<dyn Integrator>,
     /// This level's time step (s).
     pub dt: f64,
@@ -42,6 +48,7 @@ pub struct Level {
 }
 
 impl Level {
+    /// A level at rest with time step `dt` (s) and the small-strain bound `lambda_max` (1/s²).
     pub fn new(mesh: Mesh, sys: System, method: Method, dt: f64, lambda_max: f64) -> Self {
         let n = mesh.num_nodes();
         let mut state = State::at_rest(n);
@@ -57,6 +64,7 @@ impl Level {
             node_keys: None,
         }
     }
+    /// Number of nodes.
     pub fn num_nodes(&self) -> usize {
         self.mesh.num_nodes()
     }

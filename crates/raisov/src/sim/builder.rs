@@ -228,7 +228,6 @@ impl SimulationBuilder {
                 Box::new(Fas::new(levels, links, p))
             }
         };
-        let model = FemModel::new(&self.mesh, params)?;
-        Simulation::assemble(stepper, self.mesh, None, Box::new(model))
+        Simulation::assemble(stepper, self.mesh, None, params)
     }
 }

@@ -58,7 +58,8 @@
 //! K_FF x = −(K w)_F,     δu = w + x,     column k of K_g = −Σ_{a ∈ g} (K δu)_a,
 //! ```
 //!
-//! three conjugate-gradient solves (lumped-mass preconditioner) with matrix-free products
+//! three conjugate-gradient solves (preconditioned by a V-cycle over the stepper's levels, or
+//! the lumped mass: [`tangent::TangentPreconditioner`]) with matrix-free products
 //! `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)`, each warm-started from the grasp's previous
 //! solution (a spring grasp's, in series with its springs: [`tangent`]). `K_g` is symmetric negative semi-definite at a stable equilibrium; a haptic loop
 //! extrapolates between frames with `f ≈ f_frame + K_g (x_device − x_frame)`.
@@ -105,17 +106,17 @@
 //! ([`Simulation::file_node_ids`] maps back). Everything is SI: metres, newtons, seconds,
 //! pascals, kilograms.
 
-#![warn(missing_docs)]
-
 mod builder;
 pub mod frame;
 mod grab;
 pub mod overrides;
 pub mod tangent;
+mod tangent_mg;
 
 pub use builder::{Scheme, SimulationBuilder};
 pub use frame::{Budget, FrameReport};
 pub use grab::{Coupling, GrabOptions};
+pub use tangent::{TangentPreconditioner, TangentStats};
 
 use crate::fem::{FemModel, ForceModel};
 use crate::integrate::{Checkpoint, Stepper};
@@ -166,12 +167,11 @@ pub struct Simulation {
     /// Level-0 nodes constrained now (own, grasped, pinned).
     constrained: Vec<bool>,
     positions: Vec<[f64; 3]>,
-    /// `R(u)` at the current state, 3 per node.
+    /// `R(u) + Σ_springs k_a (u_a − d_a)` at the current state, 3 per node: the internal
+    /// forces minus the springs' pull `S` ([`crate::integrate::System::internal_forces`]).
     r: Vec<f64>,
     /// Level 0's springs of the spring grasps, as the stepper has them.
     springs: Vec<crate::integrate::Spring>,
-    /// The springs' force on the tissue at the current state, `k_a (d_a − u_a)`, 3 per node.
-    spring_force: Vec<f64>,
     residual: f64,
     support_nodes: Vec<u32>,
     support_forces: Vec<[f64; 3]>,
@@ -179,8 +179,14 @@ pub struct Simulation {
     checkpoint: Checkpoint,
     /// Retries of a rejected frame (each halving the grasps' sub-moves). Default 4.
     max_retries: u32,
-    /// Conjugate-gradient iterations of the last `grab_stiffness`.
-    tangent_iterations: usize,
+    /// The work of the last `grab_stiffness`.
+    tangent_stats: TangentStats,
+    /// The preconditioner of `grab_stiffness`'s solves.
+    tangent_preconditioner: TangentPreconditioner,
+    /// The coarse levels of the multigrid preconditioner, built at its first use.
+    tangent_hierarchy: Option<tangent_mg::TangentHierarchy>,
+    /// The physics of level 0's model (and the coarse levels' of the preconditioner).
+    params: crate::fem::FemParams,
     /// Length scale of the finite-difference tangent products (m).
     length: f64,
     /// The visual surface carried by level 0, when the mesh came from one.
@@ -236,12 +242,11 @@ impl Simulation {
     pub fn from_scenario(sc: &Scenario) -> Result<Simulation> {
         let mut stepper = sc.stepper()?;
         stepper.set_kinetic_limit(f64::INFINITY);
-        let model = FemModel::new(&sc.mesh, sc.fem_params())?;
         let mut sim = Self::assemble(
             stepper,
             sc.mesh.clone(),
             sc.file_ids.clone(),
-            Box::new(model),
+            sc.fem_params(),
         )?;
         if let Some(vs) = &sc.surface {
             let transfer = crate::hierarchy::Transfer::build(&vs.surface.points, &sc.mesh)?;
@@ -275,13 +280,14 @@ impl Simulation {
     }
 
     /// The parts every constructor has: a stepper whose level 0 is `mesh`, and a force model
-    /// of the same mesh and physics.
+    /// of the same mesh and physics, `params`.
     pub(crate) fn assemble(
         mut stepper: Box<dyn Stepper>,
         mesh: Mesh,
         file_ids: Option<Vec<u32>>,
-        model: Box<dyn ForceModel>,
+        params: crate::fem::FemParams,
     ) -> Result<Simulation> {
+        let model: Box<dyn ForceModel> = Box::new(FemModel::new(&mesh, params.clone())?);
         let n = mesh.num_nodes();
         let (sys, _) = stepper.finest();
         let f_ext = sys.f_ext.clone();
@@ -294,8 +300,7 @@ impl Simulation {
                 .map(|e| [e[0], e[1], e[2]])
                 .collect::<Vec<_>>(),
         };
-        let (lo, hi) = mesh.bounding_box();
-        let length = 1e-3 * crate::mesh::norm(crate::mesh::sub(hi, lo));
+        let length = tangent_mg::length_of(&mesh);
         let mut sim = Simulation {
             stepper,
             file_ids,
@@ -311,15 +316,17 @@ impl Simulation {
             positions: vec![[0.0; 3]; n],
             r: vec![0.0; 3 * n],
             springs: Vec::new(),
-            spring_force: vec![0.0; 3 * n],
             residual: 0.0,
             support_nodes: Vec::new(),
             support_forces: Vec::new(),
             stress: None,
             checkpoint: Checkpoint::default(),
             max_retries: 4,
-            tangent_iterations: 0,
-            length: if length > 0.0 { length } else { 1e-3 },
+            tangent_stats: TangentStats::default(),
+            tangent_preconditioner: TangentPreconditioner::default(),
+            tangent_hierarchy: None,
+            params,
+            length,
             mesh,
             visual: None,
         };
@@ -443,22 +450,33 @@ impl Simulation {
         s
     }
 
-    /// After a state change: positions, `R(u)`, the residual and the support forces.
+    /// After a state change: positions, `R(u) − S(u)`, the residual and the support forces.
     /// Fails (changing nothing but these caches) on an inverted element.
+    ///
+    /// The forces come from the stepper when its last step ended by evaluating them at the
+    /// current state ([`crate::integrate::Stepper::finest_forces`]: FAS with the Chebyshev
+    /// smoother, whose last sweep or line search evaluates the fine residual at the state it
+    /// returns, and checks it for inversion there); the same model and state give the same
+    /// bits, so this only saves one force evaluation per frame. Otherwise they are evaluated
+    /// here, which checks the state for inverted elements.
     fn observe(&mut self) -> std::result::Result<(), crate::fem::ElementFailure> {
         self.stress = None;
         let u = &self.stepper.state().u;
-        self.model.internal_forces(u, &mut self.r)?;
+        match self.stepper.finest_forces() {
+            Some(r) => self.r.copy_from_slice(r),
+            None => {
+                self.model.internal_forces(u, &mut self.r)?;
+                for s in &self.springs {
+                    let i = 3 * s.node as usize;
+                    for k in 0..3 {
+                        self.r[i + k] += s.k * (u[i + k] - s.d[k]);
+                    }
+                }
+            }
+        }
         for (a, p) in self.positions.iter_mut().enumerate() {
             let x = self.mesh.nodes[a];
             *p = [x[0] + u[3 * a], x[1] + u[3 * a + 1], x[2] + u[3 * a + 2]];
-        }
-        self.spring_force.fill(0.0);
-        for s in &self.springs {
-            let i = 3 * s.node as usize;
-            for k in 0..3 {
-                self.spring_force[i + k] += s.k * (s.d[k] - u[i + k]);
-            }
         }
         let mut res = 0.0f64;
         for (a, c) in self.constrained.iter().enumerate() {
@@ -479,12 +497,8 @@ impl Simulation {
     /// (zero but on the nodes of spring grasps).
     fn net(&self, a: usize) -> [f64; 3] {
         let i = 3 * a;
-        let (f, r, s) = (
-            &self.f_ext[i..i + 3],
-            &self.r[i..i + 3],
-            &self.spring_force[i..i + 3],
-        );
-        [f[0] + s[0] - r[0], f[1] + s[1] - r[1], f[2] + s[2] - r[2]]
+        let (f, r) = (&self.f_ext[i..i + 3], &self.r[i..i + 3]);
+        [f[0] - r[0], f[1] - r[1], f[2] - r[2]]
     }
 
     /// The supported nodes: constrained, not grasped.

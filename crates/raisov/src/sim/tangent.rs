@@ -1,7 +1,11 @@
 //! The grasp stiffness `K_g = ∂ grab_force / ∂ x_g` by three tangent solves on the free dofs
-//! (equations in the [`super`] module docs): conjugate gradients preconditioned by the lumped
-//! mass, with matrix-free products `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)` as in
-//! [`crate::integrate::statics`], warm-started from the grasp's last solutions.
+//! (equations in the [`super`] module docs): conjugate gradients with matrix-free products
+//! `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)` as in [`crate::integrate::statics`],
+//! warm-started from the grasp's last solutions, preconditioned by one V-cycle of the
+//! linearised problem over the stepper's levels ([`TangentPreconditioner::Multigrid`], the
+//! default where the stepper has more than one level; flexible conjugate gradients) or by the
+//! lumped mass ([`TangentPreconditioner::Mass`]). Both stop at the same relative residual
+//! (`1e-9`), so they give the same `K_g` to that tolerance (a test).
 //!
 //! A spring grasp ([`super::Coupling::Spring`], node springs `k_a`, `Σ k_a = k`) pulls the free
 //! nodes with `S_a = k_a (x_g + o_a − X_a − u_a)` and the tool feels
@@ -18,6 +22,7 @@
 //! `K_g = −(k⁻¹ I + (−K_t)⁻¹)⁻¹ = k K_t (k I − K_t)⁻¹` (a test); as `k → ∞` it tends to the hard
 //! grasp's.
 
+use super::tangent_mg::{Cycle, LevelOp, TangentHierarchy};
 use super::{Coupling, GrabId, Simulation};
 use crate::fem::ElementFailure;
 use crate::{Error, Result};
@@ -25,35 +30,36 @@ use crate::{Error, Result};
 /// Relative residual at which a tangent solve stops.
 const CG_TOL: f64 = 1e-9;
 
+/// The preconditioner of the tangent solves of [`Simulation::grab_stiffness`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum TangentPreconditioner {
+    /// One V-cycle of the linearised problem over the stepper's levels (module docs of
+    /// `tangent_mg` in the source: damped-Jacobi smoothing, rediscretised coarse tangents at
+    /// the restricted state, conjugate gradients on the coarsest); the lumped mass where the
+    /// stepper has one level. The default.
+    #[default]
+    Multigrid,
+    /// The lumped mass `M⁻¹`.
+    Mass,
+}
+
+/// Work of the last [`Simulation::grab_stiffness`].
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct TangentStats {
+    /// Conjugate-gradient iterations of the three solves together.
+    pub iterations: usize,
+    /// Tangent products per level (0 the finest), each two evaluations of that level's
+    /// internal forces; one entry for the mass preconditioner.
+    pub products: Vec<usize>,
+    /// The preconditioner used (the mass where the multigrid one was asked for but the
+    /// stepper has one level).
+    pub preconditioner: TangentPreconditioner,
+}
+
 impl Simulation {
-    /// `q = K(u) v` by central differences of the internal forces (all rows).
-    fn tangent_product(
-        &mut self,
-        u: &[f64],
-        v: &[f64],
-        q: &mut [f64],
-        w: &mut [f64],
-        f: &mut [f64],
-    ) -> std::result::Result<(), ElementFailure> {
-        let vmax = v.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        if vmax == 0.0 {
-            q.fill(0.0);
-            return Ok(());
-        }
-        let umax = u.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        let eps = 1e-7 * umax.max(self.length) / vmax;
-        for i in 0..u.len() {
-            w[i] = u[i] + eps * v[i];
-        }
-        self.model.internal_forces(w, f)?;
-        for i in 0..u.len() {
-            w[i] = u[i] - eps * v[i];
-        }
-        self.model.internal_forces(w, q)?;
-        for i in 0..u.len() {
-            q[i] = (f[i] - q[i]) / (2.0 * eps);
-        }
-        Ok(())
+    /// Choose the preconditioner of [`Simulation::grab_stiffness`]'s solves.
+    pub fn set_tangent_preconditioner(&mut self, p: TangentPreconditioner) {
+        self.tangent_preconditioner = p;
     }
 
     /// The stiffness of grasp `id` at the current state: `K_g[i][k] = ∂ f_i / ∂ x_k` with `f`
@@ -80,17 +86,6 @@ impl Simulation {
                 kdiag[3 * s.node as usize + k] += s.k;
             }
         }
-        let inv_m: Vec<f64> = (0..n)
-            .map(|i| {
-                let m = self.mass[i / 3];
-                if free[i] && m > 0.0 {
-                    1.0 / m
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        let mut s = Scratch::new(n);
         let fail = |e: ElementFailure| {
             Error::param(
                 "grab_stiffness",
@@ -100,8 +95,28 @@ impl Simulation {
                 ),
             )
         };
+        let multigrid = self.tangent_preconditioner == TangentPreconditioner::Multigrid
+            && self.stepper.num_levels() > 1;
+        if multigrid && self.tangent_hierarchy.is_none() {
+            let mut meshes = vec![&self.mesh];
+            for l in 1..self.stepper.num_levels() {
+                if let Some(m) = self.stepper.level_mesh(l) {
+                    meshes.push(m);
+                }
+            }
+            self.tangent_hierarchy = Some(TangentHierarchy::build(&meshes, &self.params)?);
+        }
+        let top = LevelOp::new(u, free, kdiag, &self.mass, self.length);
+        let h = if multigrid {
+            self.tangent_hierarchy.as_mut()
+        } else {
+            None
+        };
+        let mut cy = Cycle::new(&mut *self.model, top, h).map_err(fail)?;
+        let multigrid = cy.ops.len() > 1;
         let mut k_g = [[0.0; 3]; 3];
         let mut iterations = 0;
+        let mut s = Scratch::new(n);
         for axis in 0..3 {
             let x = &mut warm[axis];
             if x.len() != n {
@@ -116,11 +131,10 @@ impl Simulation {
                         s.w[3 * a as usize + axis] = 1.0;
                     }
                     let w = s.w.clone();
-                    self.tangent_product(&u, &w, &mut s.q, &mut s.scratch, &mut s.f)
-                        .map_err(fail)?;
-                    for i in 0..n {
-                        b[i] = if free[i] { -s.q[i] } else { 0.0 };
-                    }
+                    cy.apply(0, &w, &mut s.q).map_err(fail)?;
+                    // The operator zeroes constrained rows and adds the springs' k w, zero
+                    // on the grasped (constrained) nodes: b = −(K w)_F.
+                    b.iter_mut().zip(&s.q).for_each(|(b, q)| *b = -q);
                 }
                 Some(_) => {
                     // b = B e_axis: the springs' pull on the nodes per unit tool move.
@@ -129,15 +143,12 @@ impl Simulation {
                     }
                 }
             }
-            iterations += self
-                .tangent_solve(&u, &free, &kdiag, &inv_m, &b, x, &mut s)
-                .map_err(fail)?;
+            iterations += tangent_solve(&mut cy, multigrid, &b, x, &mut s).map_err(fail)?;
             match total {
                 None => {
-                    // δu = w + x; column = −Σ_{a ∈ g} (K δu)_a.
+                    // δu = w + x; column = −Σ_{a ∈ g} (K δu)_a, all rows (the grasped ones).
                     let du: Vec<f64> = (0..n).map(|i| s.w[i] + x[i]).collect();
-                    self.tangent_product(&u, &du, &mut s.q, &mut s.scratch, &mut s.f)
-                        .map_err(fail)?;
+                    cy.full_product(&du, &mut s.q).map_err(fail)?;
                     for &a in &nodes {
                         for (i, row) in k_g.iter_mut().enumerate() {
                             row[axis] -= s.q[3 * a as usize + i];
@@ -155,105 +166,112 @@ impl Simulation {
                 }
             }
         }
+        let products = cy.products.clone();
+        drop(cy);
         if let Some(g) = self.grabs.get_mut(&id) {
             g.warm = warm;
         }
-        self.tangent_iterations = iterations;
+        self.tangent_stats = TangentStats {
+            iterations,
+            products,
+            preconditioner: if multigrid {
+                TangentPreconditioner::Multigrid
+            } else {
+                TangentPreconditioner::Mass
+            },
+        };
         Ok(k_g)
     }
 
     /// Conjugate-gradient iterations of the last [`Simulation::grab_stiffness`] (the three
     /// solves together).
     pub fn tangent_iterations(&self) -> usize {
-        self.tangent_iterations
+        self.tangent_stats.iterations
     }
 
-    /// Solve `(K_FF + K_s) x = b` on the free dofs (`K_s` the springs' diagonal `kdiag`) by
-    /// conjugate gradients from `x`, preconditioned by `inv_m`; returns the iterations.
-    #[allow(clippy::too_many_arguments)]
-    fn tangent_solve(
-        &mut self,
-        u: &[f64],
-        free: &[bool],
-        kdiag: &[f64],
-        inv_m: &[f64],
-        b: &[f64],
-        x: &mut [f64],
-        s: &mut Scratch,
-    ) -> std::result::Result<usize, ElementFailure> {
-        let n = u.len();
-        let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt();
-        for i in 0..n {
-            if !free[i] {
-                x[i] = 0.0;
-            }
-        }
-        // d = b − A x.
-        self.operator(u, free, kdiag, x, s)?;
-        for i in 0..n {
-            s.d[i] = b[i] - s.q[i];
-            s.z[i] = inv_m[i] * s.d[i];
-        }
-        s.p.copy_from_slice(&s.z);
-        let mut rz: f64 = s.d.iter().zip(&s.z).map(|(a, b)| a * b).sum();
-        let mut it = 0;
-        while it < 20 * n.max(50) {
-            let dn = s.d.iter().map(|v| v * v).sum::<f64>().sqrt();
-            if !(dn > CG_TOL * bnorm) {
-                break;
-            }
-            let p = std::mem::take(&mut s.p);
-            self.operator(u, free, kdiag, &p, s)?;
-            s.p = p;
-            it += 1;
-            let pq: f64 = s.p.iter().zip(&s.q).map(|(a, b)| a * b).sum();
-            if !(pq > 0.0) {
-                break;
-            }
-            let alpha = rz / pq;
-            for i in 0..n {
-                x[i] += alpha * s.p[i];
-                s.d[i] -= alpha * s.q[i];
-                s.z[i] = inv_m[i] * s.d[i];
-            }
-            let rz_new: f64 = s.d.iter().zip(&s.z).map(|(a, b)| a * b).sum();
-            let beta = rz_new / rz;
-            rz = rz_new;
-            for i in 0..n {
-                s.p[i] = s.z[i] + beta * s.p[i];
-            }
-        }
-        Ok(it)
+    /// The work of the last [`Simulation::grab_stiffness`].
+    pub fn tangent_stats(&self) -> &TangentStats {
+        &self.tangent_stats
     }
+}
 
-    /// `s.q = (K + K_s) v` on the free dofs, zero on the others.
-    fn operator(
-        &mut self,
-        u: &[f64],
-        free: &[bool],
-        kdiag: &[f64],
-        v: &[f64],
-        s: &mut Scratch,
-    ) -> std::result::Result<(), ElementFailure> {
-        self.tangent_product(u, v, &mut s.q, &mut s.scratch, &mut s.f)?;
-        for i in 0..u.len() {
-            s.q[i] = if free[i] {
-                s.q[i] + kdiag[i] * v[i]
-            } else {
-                0.0
-            };
+/// Solve `A x = b` on level 0's free dofs by conjugate gradients from `x`, preconditioned by
+/// one V-cycle (flexible, Polak–Ribière `β`) or by the lumped mass; returns the iterations.
+fn tangent_solve(
+    cy: &mut Cycle<'_>,
+    multigrid: bool,
+    b: &[f64],
+    x: &mut [f64],
+    s: &mut Scratch,
+) -> std::result::Result<usize, ElementFailure> {
+    let n = b.len();
+    let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let free = cy.ops[0].free().to_vec();
+    for i in 0..n {
+        if !free[i] {
+            x[i] = 0.0;
         }
-        Ok(())
     }
+    let precondition = |cy: &mut Cycle<'_>, d: &[f64], z: &mut [f64]| {
+        if multigrid {
+            cy.vcycle(0, d, z)
+        } else {
+            let inv_d = cy.ops[0].inv_d();
+            for i in 0..d.len() {
+                z[i] = inv_d[i] * d[i];
+            }
+            Ok(())
+        }
+    };
+    // d = b − A x.
+    cy.apply(0, x, &mut s.q)?;
+    for i in 0..n {
+        s.d[i] = b[i] - s.q[i];
+    }
+    precondition(cy, &s.d, &mut s.z)?;
+    s.p.copy_from_slice(&s.z);
+    let mut rz: f64 = s.d.iter().zip(&s.z).map(|(a, b)| a * b).sum();
+    let mut it = 0;
+    while it < 20 * n.max(50) {
+        let dn = s.d.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if !(dn > CG_TOL * bnorm) {
+            break;
+        }
+        cy.apply(0, &s.p, &mut s.q)?;
+        it += 1;
+        let pq: f64 = s.p.iter().zip(&s.q).map(|(a, b)| a * b).sum();
+        if !(pq > 0.0) {
+            break;
+        }
+        let alpha = rz / pq;
+        s.dprev.copy_from_slice(&s.d);
+        for i in 0..n {
+            x[i] += alpha * s.p[i];
+            s.d[i] -= alpha * s.q[i];
+        }
+        precondition(cy, &s.d, &mut s.z)?;
+        let rz_new: f64 = s.d.iter().zip(&s.z).map(|(a, b)| a * b).sum();
+        let beta = if multigrid {
+            // Flexible: z·(d − d_prev) / (z_prev·d_prev).
+            let num: f64 = (0..n).map(|i| s.z[i] * (s.d[i] - s.dprev[i])).sum();
+            (num / rz).max(0.0)
+        } else {
+            rz_new / rz
+        };
+        rz = rz_new;
+        for i in 0..n {
+            s.p[i] = s.z[i] + beta * s.p[i];
+        }
+    }
+    Ok(it)
 }
 
 /// The tangent solves' vectors.
 struct Scratch {
     w: Vec<f64>,
     q: Vec<f64>,
-    scratch: Vec<f64>,
-    f: Vec<f64>,
     d: Vec<f64>,
+    dprev: Vec<f64>,
     z: Vec<f64>,
     p: Vec<f64>,
 }
@@ -264,9 +282,8 @@ impl Scratch {
         Scratch {
             w: z.clone(),
             q: z.clone(),
-            scratch: z.clone(),
-            f: z.clone(),
             d: z.clone(),
+            dprev: z.clone(),
             z: z.clone(),
             p: z,
         }

@@ -35,10 +35,13 @@ pub enum LevelTarget {
 /// Geometry and quality of one level.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LevelReport {
+    /// Level index, 0 the finest.
     pub level: usize,
     /// Lattice spacing `h`.
     pub h: f64,
+    /// Number of nodes.
     pub nodes: usize,
+    /// Number of tetrahedra.
     pub tets: usize,
     /// Node count over the finer level's (level 0: 1).
     pub ratio: f64,
@@ -46,11 +49,13 @@ pub struct LevelReport {
     pub target_nodes: usize,
     /// Smallest and largest dihedral angle, degrees.
     pub min_dihedral: f64,
+    /// Largest dihedral angle, degrees.
     pub max_dihedral: f64,
     /// Smallest radius ratio `3 r_in / R_circ`.
     pub min_radius_ratio: f64,
     /// Tetrahedra with volume ≤ 0 (none expected).
     pub non_positive: usize,
+    /// Total volume (m³).
     pub volume: f64,
     /// `volume / enclosed volume − 1`.
     pub volume_error: f64,
@@ -61,6 +66,7 @@ pub struct LevelReport {
     pub max_surface_distance: f64,
     /// Mean element edge length.
     pub mean_edge: f64,
+    /// The stuffing's own counters.
     pub stats: StuffStats,
 }
 
@@ -68,7 +74,9 @@ pub struct LevelReport {
 /// hierarchy's concern: [`crate::hierarchy::link_reports`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct LevelsReport {
+    /// Volume enclosed by the surface (m³).
     pub enclosed_volume: f64,
+    /// One report per level, finest first.
     pub levels: Vec<LevelReport>,
 }
 

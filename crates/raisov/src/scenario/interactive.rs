@@ -24,7 +24,7 @@
 //! that frame's lag is not measured (empty in `frames.csv`) and the summary says so instead
 //! of quoting a lag against it; without a reference the summary does not claim to keep up.
 //!
-//! The output directory is locked as in [`super::run`]; `frames.csv` is streamed (one row per
+//! The output directory is locked as in [`mod@super::run`]; `frames.csv` is streamed (one row per
 //! frame, flushed per frame) and the summary keeps running totals only, so memory does not
 //! grow with the number of frames. [`RunOptions::stop`] ends the run after the current frame
 //! with a summary that says it was interrupted. Under the output directory:

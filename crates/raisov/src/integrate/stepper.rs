@@ -32,11 +32,11 @@ pub fn energy_limit(f_ext: &[f64], size: f64, e_prescribed: f64, factor: f64) ->
 /// transferred displacement change exceeded ε, and those that passed a variation (`≤ ε`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SwitchCounts {
-    /// Down-stroke transfers that passed the finer level's state (eq. 10, `|ΔX| > ε`).
+    /// Down-stroke transfers that passed the state (eq. 10, `|ΔX| > ε`).
     pub down_state: u64,
     /// Down-stroke transfers that passed a variation (`|ΔX| ≤ ε`).
     pub down_variation: u64,
-    /// Up-stroke transfers that passed the coarser level's state (eq. 12, `|ΔX| > ε`).
+    /// Up-stroke transfers that passed the state (eq. 12, `|ΔX| > ε`).
     pub up_state: u64,
     /// Up-stroke transfers that passed a variation (`|ΔX| ≤ ε`).
     pub up_variation: u64,

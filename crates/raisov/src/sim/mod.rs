@@ -248,6 +248,14 @@ impl Simulation {
             sc.file_ids.clone(),
             sc.fem_params(),
         )?;
+        if sc.has_model_loads() {
+            // The stepper's level 0 carries the scenario's pressure, traction, timed loads and
+            // tools in its force model; the simulation's own evaluations (frame forces when
+            // the stepper has none, stress, tangents) carry the same.
+            let fem = FemModel::new(&sc.mesh, sc.fem_params())?;
+            let x0 = fem.reference_positions().to_vec();
+            sim.model = sc.wrap_loads(&sc.mesh, x0, Box::new(fem))?;
+        }
         if let Some(vs) = &sc.surface {
             let transfer = crate::hierarchy::Transfer::build(&vs.surface.points, &sc.mesh)?;
             let nv = vs.surface.points.len();
@@ -465,6 +473,7 @@ impl Simulation {
         match self.stepper.finest_forces() {
             Some(r) => self.r.copy_from_slice(r),
             None => {
+                self.model.set_time(self.stepper.state().t);
                 self.model.internal_forces(u, &mut self.r)?;
                 for s in &self.springs {
                     let i = 3 * s.node as usize;

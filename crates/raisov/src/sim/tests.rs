@@ -793,3 +793,54 @@ fn multigrid_preconditioned_grab_stiffness_equals_the_mass_preconditioned_one() 
         eprintln!("{options:?}: mass {im} iterations, multigrid {st:?}");
     }
 }
+
+/// A scenario's pressure reaches the simulation's own force evaluations: a block pressed by
+/// 2 kPa on its whole top face (0.8 N), fixed at its base and integrated at a single level
+/// (the simulation evaluates the frame forces itself), settles with support reactions that
+/// balance the pressure and gravity to 1 %, as FAS over two levels (whose frame forces come
+/// from the stepper) does.
+#[test]
+fn simulation_frames_carry_scenario_pressure() {
+    let text = |extra: &str| {
+        format!(
+            r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "box"
+size = [0.02, 0.02, 0.02]
+divisions = [4, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5.0e4
+poisson = 0.4
+density = 1000.0
+[damping]
+ratio = 1.0
+omega = 300.0
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }}
+[[pressure]]
+group = "zmax"
+value = 2000.0
+[run]
+duration = 1.0
+{extra}
+"#
+        )
+    };
+    for (extra, frames, per_frame) in [("", 60, 200), ("[multigrid]\nlevels = 2\n", 40, 4)] {
+        let mut sim = Simulation::from_toml(&text(extra), ".").unwrap();
+        for _ in 0..frames {
+            let rep = sim.step_frame(Budget::Cycles(per_frame));
+            assert!(rep.accepted, "{extra}: {rep:?}");
+        }
+        let r = sim.reactions().sum;
+        let v = sim.total_load();
+        let pressure = 2000.0 * 0.02 * 0.02;
+        let balance = r[2] + v[2] - pressure;
+        assert!(
+            balance.abs() <= 0.01 * pressure,
+            "{extra}: reactions {r:?} + body force {v:?} against the pressure's {pressure} N: off by {balance:e}"
+        );
+    }
+}

@@ -187,8 +187,13 @@ impl StabilityRow {
 #[derive(Clone, Debug)]
 pub struct InversionRow {
     pub method: String,
+    /// The material law (`law` key) of the block.
+    pub law: &'static str,
     pub bisection: Bisection,
     pub failure: Option<String>,
+    /// At the end of the run at the largest pull survived: the number of elements with
+    /// `det F ≤ 0` and the smallest `det F`. Zero for laws that stop at an inversion.
+    pub end_state: Option<(usize, f64)>,
 }
 
 /// One cost measurement (eq. 14).
@@ -532,13 +537,19 @@ fn stability(
 
 /// The tetrahedral block of the inversion experiment, its bottom fixed and the node nearest
 /// its top centre driven down by `pull` (m) over `ramp` (s), then held for 0.02 s.
-fn block_case(mesh: &MeshDesc, pull: f64, ramp: f64) -> Case {
+/// `law` replaces the neo-Hookean law of [`TISSUE_MATERIAL`] (same E, ν, density).
+fn block_case(mesh: &MeshDesc, pull: f64, ramp: f64, law: &str) -> Case {
+    let material = TISSUE_MATERIAL.replace("\"neo-hookean\"", &format!("{law:?}"));
     Case {
-        name: "block-pull".into(),
+        name: if law == "neo-hookean" {
+            "block-pull".into()
+        } else {
+            format!("block-pull-{law}")
+        },
         mesh: mesh.clone(),
         top: String::new(),
         physics: format!(
-            "{TISSUE_MATERIAL}\n[damping]\nratio = 1.0\nomega = {:.2}\n\n[[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }}\n\n[[displace]]\npoint = [0.02, 0.02, 0.02]\ndisplacement = [0.0, 0.0, {:e}]\nmode = \"ramp\"\nduration = {ramp:e}\n",
+            "{material}\n[damping]\nratio = 1.0\nomega = {:.2}\n\n[[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }}\n\n[[displace]]\npoint = [0.02, 0.02, 0.02]\ndisplacement = [0.0, 0.0, {:e}]\nmode = \"ramp\"\nduration = {ramp:e}\n",
             tissue_omega(0.04),
             -pull
         ),
@@ -557,7 +568,7 @@ fn inversion(cx: &mut Ctx, res: &mut Results, methods: &[Meth], tiny: bool) -> R
         levels,
     };
     let dt_block = scenario(
-        &block_case(&block_mesh, 1e-3, 1.0),
+        &block_case(&block_mesh, 1e-3, 1.0, NEO_HOOKEAN),
         &Meth::Slim("rk4"),
         Step::Safety(0.5),
     )?
@@ -573,11 +584,39 @@ fn inversion(cx: &mut Ctx, res: &mut Results, methods: &[Meth], tiny: bool) -> R
         ramp,
         dt_block
     );
-    for m in methods {
-        cx.save(&block_case(&block_mesh, 0.005, ramp), m, Step::Dt(dt_block))?;
+    // Every method with the neo-Hookean law (an inverted element ends the run), then SLIM
+    // RK4, FAS and RaISoV (paper reading, default ε) with stable neo-Hookean, whose energy
+    // stays finite through inversion: there a run fails only by blowing up, and the
+    // elements still inverted at the end of the hold are counted.
+    let stable: Vec<Meth> = methods
+        .iter()
+        .filter(|m| {
+            matches!(m, Meth::Slim(_) | Meth::Fas)
+                || matches!(
+                    m,
+                    Meth::Raisov {
+                        reading: "paper",
+                        epsilon: None,
+                        ..
+                    }
+                )
+        })
+        .cloned()
+        .collect();
+    let runs = methods
+        .iter()
+        .map(|m| (m, NEO_HOOKEAN))
+        .chain(stable.iter().map(|m| (m, STABLE_NEO_HOOKEAN)));
+    for (m, law) in runs {
+        cx.save(
+            &block_case(&block_mesh, 0.005, ramp, law),
+            m,
+            Step::Dt(dt_block),
+        )?;
         let mut fails: Vec<(f64, String)> = Vec::new();
+        let mut ends: Vec<(f64, (usize, f64))> = Vec::new();
         let b = bisect_stable(2e-4, 0.018, cx.sz.iters, |pull| {
-            let case = block_case(&block_mesh, pull, ramp);
+            let case = block_case(&block_mesh, pull, ramp, law);
             let sc = scenario(&case, m, Step::Dt(dt_block))?;
             let mut st = sc.stepper()?;
             let sim = simulate(
@@ -594,22 +633,46 @@ fn inversion(cx: &mut Ctx, res: &mut Results, methods: &[Meth], tiny: bool) -> R
                     min_evals: 0.0,
                 },
             );
-            cx.tick(&format!("inversion {} {:.2} mm", m.label(), pull * 1e3));
+            cx.tick(&format!(
+                "inversion {} ({law}) {:.2} mm",
+                m.label(),
+                pull * 1e3
+            ));
             if let Outcome::Diverged { what, .. } = &sim.outcome {
                 fails.push((pull, what.clone()));
+            } else {
+                let (_, s) = st.finest();
+                ends.push((pull, inverted_elements(&sc, &s.u)?));
             }
             Ok(!sim.diverged())
         })?;
         let failure = b
             .unstable
             .and_then(|u| fails.iter().find(|f| f.0 == u).map(|f| f.1.clone()));
+        let end_state = b
+            .stable
+            .and_then(|p| ends.iter().find(|e| e.0 == p).map(|e| e.1));
         res.inversion.push(InversionRow {
             method: m.label(),
+            law,
             bisection: b,
             failure,
+            end_state,
         });
     }
     Ok(())
+}
+
+/// The law of [`TISSUE_MATERIAL`].
+const NEO_HOOKEAN: &str = "neo-hookean";
+/// Stable neo-Hookean (Smith, de Goes & Kim 2018), finite through inversion.
+const STABLE_NEO_HOOKEAN: &str = "stable-neo-hookean";
+
+/// The number of elements of `sc`'s finest mesh with `det F ≤ 0` at displacement `u`, and
+/// the smallest `det F`.
+fn inverted_elements(sc: &Scenario, u: &[f64]) -> Result<(usize, f64)> {
+    let fem = raisov::fem::FemModel::new(&sc.mesh, sc.fem_params())?;
+    Ok((fem.count_inverted(u), fem.min_det_f(u).1))
 }
 
 /// Experiment 5, cost of one V-cycle over one single-level step [eq. 14]: SLIM RK4, RaISoV and FAS on

@@ -141,15 +141,18 @@ fn csv_stability(res: &Results) -> (String, String) {
 
 /// CSV of the largest pull each method survives (experiment 4).
 fn csv_inversion(res: &Results) -> String {
-    let mut t = String::from("method,largest_surviving_pull_m,smallest_failing_pull_m,failure\n");
+    let mut t = String::from("method,law,largest_surviving_pull_m,smallest_failing_pull_m,failure,inverted_elements_at_end,min_det_f_at_end\n");
     for r in &res.inversion {
         let _ = writeln!(
             t,
-            "{},{},{},{}",
+            "{},{},{},{},{},{},{}",
             q(&r.method),
+            r.law,
             opt(r.bisection.stable),
             opt(r.bisection.unstable),
-            q(&r.failure.clone().unwrap_or_default())
+            q(&r.failure.clone().unwrap_or_default()),
+            r.end_state.map_or(String::new(), |e| e.0.to_string()),
+            opt(r.end_state.map(|e| e.1))
         );
     }
     t
@@ -613,10 +616,9 @@ fn claim_stable_step(w: &mut String, res: &Results) {
 /// Claim 6 (experiment 4): multigrid survives larger fast pulls without inverting an element.
 fn claim_inversion(w: &mut String, res: &Results) {
     // C6: inversion.
-    let slim_inv = res.inversion.first().and_then(|r| r.bisection.stable);
-    let best_inv = res
-        .inversion
-        .iter()
+    let nh = || res.inversion.iter().filter(|r| r.law == "neo-hookean");
+    let slim_inv = nh().next().and_then(|r| r.bisection.stable);
+    let best_inv = nh()
         .filter(|r| r.method.starts_with("RaISoV"))
         .filter_map(|r| r.bisection.stable.map(|s| (s, r.method.clone())))
         .max_by(|a, b| a.0.total_cmp(&b.0));
@@ -625,12 +627,33 @@ fn claim_inversion(w: &mut String, res: &Results) {
         (Some(_), None) => true,
         _ => false,
     };
+    // The same pulls with stable neo-Hookean (not the paper's law: reported beside it).
+    let stable: Vec<String> = res
+        .inversion
+        .iter()
+        .filter(|r| r.law != "neo-hookean")
+        .map(|r| {
+            format!(
+                "{} {}",
+                r.method,
+                r.bisection
+                    .stable
+                    .map_or("< range bottom".into(), |x| format!("{:.2} mm", x * 1e3))
+            )
+        })
+        .collect();
+    let stable_note = if stable.is_empty() {
+        String::new()
+    } else {
+        format!("; with stable neo-Hookean: {}", stable.join(", "))
+    };
     let _ = writeln!(
         w,
-        "| 3-D: multigrid survives larger fast perturbations without element inversion | shown in a video only | largest pull survived: SLIM RK4 {}; best RaISoV {}; FAS {} | {} |",
+        "| 3-D: multigrid survives larger fast perturbations without element inversion | shown in a video only | largest pull survived: SLIM RK4 {}; best RaISoV {}; FAS {}{} | {} |",
         slim_inv.map_or("< range bottom".into(), |x| format!("{:.2} mm", x * 1e3)),
         best_inv.as_ref().map_or("< range bottom".into(), |(x, l)| format!("{:.2} mm ({l})", x * 1e3)),
-        res.inversion.iter().find(|r| r.method.starts_with("FAS")).and_then(|r| r.bisection.stable).map_or("-".into(), |x| format!("{:.2} mm", x * 1e3)),
+        nh().find(|r| r.method.starts_with("FAS")).and_then(|r| r.bisection.stable).map_or("-".into(), |x| format!("{:.2} mm", x * 1e3)),
+        stable_note,
         yes(c6)
     );
 }
@@ -953,24 +976,27 @@ fn section_stability(w: &mut String, res: &Results) {
 /// Section 4: element inversion.
 fn section_inversion(w: &mut String, res: &Results) {
     let _ = writeln!(w, "## 4. Element inversion in 3-D (section 3.3)\n");
-    let _ = writeln!(w, "{}. Bisection on the pull distance in [0.2, 18] mm; a method survives a pull if no element inverts and the run stays finite and bounded. `inversion.csv`.\n", res.block_desc);
+    let _ = writeln!(w, "{}. Bisection on the pull distance in [0.2, 18] mm. With the neo-Hookean law a method survives a pull if no element inverts and the run stays finite and bounded; with stable neo-Hookean (finite energy through inversion, Smith, de Goes & Kim 2018) an inverted element does not end the run, so a method survives if the run stays finite and bounded, and the last columns count the elements still inverted at the end of the hold of the largest pull survived (the law's restoring force should bring them back). `inversion.csv`.\n", res.block_desc);
     let _ = writeln!(
         w,
-        "| method | largest pull survived | smallest pull failed | failure |"
+        "| method | law | largest pull survived | smallest pull failed | failure | inverted at the end | min det F at the end |"
     );
-    let _ = writeln!(w, "|---|---|---|---|");
+    let _ = writeln!(w, "|---|---|---|---|---|---|---|");
     for r in &res.inversion {
         let _ = writeln!(
             w,
-            "| {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} |",
             r.method,
+            r.law,
             r.bisection
                 .stable
                 .map_or("< 0.2 mm".into(), |x| format!("{:.2} mm", x * 1e3)),
             r.bisection
                 .unstable
                 .map_or("none up to 18 mm".into(), |x| format!("{:.2} mm", x * 1e3)),
-            r.failure.clone().unwrap_or_default()
+            r.failure.clone().unwrap_or_default(),
+            r.end_state.map_or("-".into(), |e| e.0.to_string()),
+            r.end_state.map_or("-".into(), |e| format!("{:.3}", e.1)),
         );
     }
     let _ = writeln!(w);

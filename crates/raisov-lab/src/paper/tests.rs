@@ -109,6 +109,32 @@ fn tiny_paper_run_writes_report_plots_and_csv() {
             );
         }
     }
+    // Section 3.3 with stable neo-Hookean beside the paper's law: SLIM RK4, FAS and RaISoV.
+    let stable: Vec<_> = res
+        .inversion
+        .iter()
+        .filter(|r| r.law == "stable-neo-hookean")
+        .collect();
+    assert_eq!(stable.len(), 3, "{:?}", res.inversion);
+    for r in &res.inversion {
+        // A neo-Hookean run that survived inverted nothing; every survivor was counted.
+        assert_eq!(r.bisection.stable.is_some(), r.end_state.is_some(), "{r:?}");
+        if r.law == "neo-hookean" {
+            assert!(r.end_state.is_none_or(|e| e.0 == 0 && e.1 > 0.0), "{r:?}");
+        }
+    }
+    let slim = |law: &str| {
+        res.inversion
+            .iter()
+            .find(|r| r.law == law && r.method.starts_with("SLIM"))
+            .and_then(|r| r.bisection.stable)
+            .unwrap_or(0.0)
+    };
+    // Inversion does not end a stable neo-Hookean run: single-level integration survives at
+    // least the pull that inverts a neo-Hookean element.
+    assert!(slim("stable-neo-hookean") >= slim("neo-hookean"));
+    let report = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
+    assert!(report.contains("| method | law | largest pull survived |"));
     assert!(res.files.iter().all(|f| f.is_file()));
     // No temporary files left behind.
     let leftovers: Vec<_> = std::fs::read_dir(dir.path())

@@ -484,6 +484,14 @@ impl FemModel {
             .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
     }
 
+    /// The number of elements with `det F ≤ 0` (tets) or a non-positive signed area ratio
+    /// (membranes): inverted or collapsed.
+    pub fn count_inverted(&self, u: &[f64]) -> usize {
+        (0..self.num_elements())
+            .filter(|&e| self.deformation(e, u).1 <= 0.0)
+            .count()
+    }
+
     /// Reference implementation of R(u): serial, element by element, scattered straight into
     /// `r`. The fast path [`ForceModel::internal_forces`] is tested against it.
     pub fn internal_forces_reference(

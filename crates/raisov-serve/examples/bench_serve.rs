@@ -13,7 +13,13 @@
 //!    first frame whose applied seq includes it (40 moves, 50 ms apart, on L0 with the same
 //!    budget).
 //!
-//! `cargo run --release -p raisov-serve --example bench_serve [-- CYCLES]`
+//! 3. With `--organ NODES`: the same path and budget on a liver meshed at load from
+//!    `data/liver_surface.obj` (level 0 of about NODES nodes, four levels of ratio 0.5,
+//!    FAS with a Newton-Krylov coarsest solve as `examples/liver_surface.toml`, held on the
+//!    same cap), in place of the shipped levels: the ≈ 50k-node organ of the live viewer's
+//!    goal is `--organ 50000`.
+//!
+//! `cargo run --release -p raisov-serve --example bench_serve [-- CYCLES] [--organ NODES]`
 
 use futures_util::{SinkExt, StreamExt};
 use raisov::integrate::hold;
@@ -61,12 +67,53 @@ fn examples_dir() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples"))
 }
 
+/// The liver meshed at load from its surface, level 0 of about `nodes` nodes (item 3).
+fn organ(nodes: usize) -> String {
+    format!(
+        r#"
+name = "liver-surface-{nodes}"
+[mesh]
+surface = "../data/liver_surface.obj"
+scale = 0.001
+nodes = {nodes}
+[material]
+law = "neo-hookean"
+young = 5000.0
+poisson = 0.45
+density = 1060.0
+[damping]
+alpha = 30.0
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.195], normal = [0.0, 0.0, -1.0] }}
+[integrator]
+method = "symplectic-euler"
+[run]
+duration = 1.0
+[multigrid]
+scheme = "fas"
+levels = 4
+ratio = 0.5
+coarse = "newton"
+"#
+    )
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let cycles: u32 = std::env::args()
-        .nth(1)
-        .map(|s| s.parse())
-        .transpose()?
-        .unwrap_or(2);
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut cycles: u32 = 2;
+    let mut scene = LIVER.to_string();
+    let mut label = "liver L0..L3 (FAS".to_string();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        if a == "--organ" {
+            let nodes: usize = it.next().ok_or("--organ needs a node count")?.parse()?;
+            scene = organ(nodes);
+            label = "liver meshed from data/liver_surface.obj, 4 levels (FAS, Newton coarsest"
+                .to_string();
+        } else {
+            cycles = a.parse()?;
+        }
+    }
     let base = examples_dir();
     rayon::ThreadPoolBuilder::new()
         .stack_size(8 << 20)
@@ -75,9 +122,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let threads = rayon::current_num_threads();
     // --- 1. the simulation thread on the path ---
     let (fps, lag_mean, lag_max, n_nodes) =
-        rayon::scope(|_| sim_thread(&base, cycles)).map_err(|e| e.to_string())?;
+        rayon::scope(|_| sim_thread(&scene, &base, cycles)).map_err(|e| e.to_string())?;
     println!(
-        "liver L0..L3 (FAS, {n_nodes} nodes at L0, {threads} threads), {cycles} V-cycles/frame, 30 frames:"
+        "{label}, {n_nodes} nodes at L0, {threads} threads), {cycles} V-cycles/frame, 30 frames:"
     );
     println!("  simulation thread: {fps:.1} frames/s (step_frame + surface read + encoding)");
     println!(
@@ -90,7 +137,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .worker_threads(1)
         .enable_all()
         .build()?;
-    let (bytes, lat) = rt.block_on(wire(&base, cycles))?;
+    let (bytes, lat) = rt.block_on(wire(&scene, &base, cycles))?;
     let mut sorted = lat.clone();
     sorted.sort_by(f64::total_cmp);
     let mean = lat.iter().sum::<f64>() / lat.len().max(1) as f64;
@@ -104,9 +151,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 }
 
 /// Frames per second, mean and max relative lag, node count.
-fn sim_thread(base: &std::path::Path, cycles: u32) -> Result<(f64, f64, f64, usize), String> {
+fn sim_thread(
+    scene: &str,
+    base: &std::path::Path,
+    cycles: u32,
+) -> Result<(f64, f64, f64, usize), String> {
     let e = |x: raisov::Error| x.to_string();
-    let mut sim = Simulation::from_toml(LIVER, base).map_err(e)?;
+    let mut sim = Simulation::from_toml(scene, base).map_err(e)?;
     let g = raisov_serve::session::grab_tool(&mut sim, POINT, 0.0, None).map_err(e)?;
     let start = sim.grab_position(g).map_err(e)?;
     let node = sim.grab_nodes(g).map_err(e)?[0] as usize;
@@ -114,7 +165,7 @@ fn sim_thread(base: &std::path::Path, cycles: u32) -> Result<(f64, f64, f64, usi
     // The reference: the same scenario with the grasped node prescribed (nearest node of its
     // own reference position: itself).
     let with_displace = format!(
-        "{LIVER}\n[[displace]]\npoint = [{}, {}, {}]\ndisplacement = [0.0, 0.0, 0.0]\n",
+        "{scene}\n[[displace]]\npoint = [{}, {}, {}]\ndisplacement = [0.0, 0.0, 0.0]\n",
         x_node[0], x_node[1], x_node[2]
     );
     let sc = Scenario::from_toml(&with_displace, &base.join("bench.toml")).map_err(e)?;
@@ -197,10 +248,11 @@ fn norm(v: [f64; 3]) -> f64 {
 
 /// Bytes per frame and the latencies (ms) of 40 moves.
 async fn wire(
+    scene: &str,
     base: &std::path::Path,
     cycles: u32,
 ) -> Result<(usize, Vec<f64>), Box<dyn std::error::Error>> {
-    let source = Source::from_text(LIVER, base.to_path_buf(), "liver", "bench.toml".as_ref())?;
+    let source = Source::from_text(scene, base.to_path_buf(), "liver", "bench.toml".as_ref())?;
     let session = Session::spawn(
         source,
         SessionConfig {

@@ -16,8 +16,9 @@
 //! its centre), written as a Gmsh 2.2 file and driven through a scenario: `[[fix]] normal`
 //! on the x = 0, y = 0, z = 0 faces (symmetry planes, nodes sliding in them), `[[pressure]]`
 //! on the inner surface's group (positive: on a tet mesh it pushes into the body, here away
-//! from the cavity), static equilibrium by the scenario's Newton-Krylov system to 1e-9 of the
-//! initial residual.
+//! from the cavity); the scenario's system (`Scenario::build_system`, the pressure in its force
+//! model) solved for static equilibrium by Newton-Krylov (`integrate::statics`, preconditioned
+//! by the fictitious masses as `method = "newton"` runs) to 1e-9 of the initial residual.
 //!
 //! Tolerance: linear tetrahedra are stiff and the inner surface is faceted (chords of the
 //! sphere), so the displacement approaches Lamé's from below with an error falling as h²:

@@ -114,7 +114,7 @@ fn stretches(n: usize, law: &str, pressures: &[f64]) -> Vec<f64> {
     let text = format!(
         r#"
 [mesh]
-file = "{file}"
+file = '{file}'
 renumber = false
 [material]
 {law}

@@ -136,7 +136,7 @@ fn solve(n: usize) -> [f64; 3] {
     let text = format!(
         r#"
 [mesh]
-file = "{file}"
+file = '{file}'
 renumber = false
 [material]
 law = "neo-hookean"

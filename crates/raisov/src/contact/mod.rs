@@ -35,10 +35,50 @@
 //! tolerance is the user's choice of `k` (`stiffness`, N/m; a stiffer one needs a smaller
 //! `dt` with explicit integrators).
 
+//!
+//! The `contact_pressure` field of frames ([`nominal_pressure`]) is the nominal contact
+//! pressure `p_a = |f_a| / A_a` (Pa), `A_a` the node's tributary area on the reference
+//! boundary: a third of every boundary triangle (tetrahedral meshes) or element (membranes)
+//! it is a corner of.
+
 use crate::fem::loads::LoadReport;
 use crate::fem::{ElementFailure, ForceModel};
 use crate::integrate::Motion;
+use crate::mesh::{ElementKind, Mesh};
 use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Each node's tributary area on the reference boundary (m²): a third of the area of every
+/// boundary triangle (tets) or element (membranes) it is a corner of; zero inside.
+pub fn tributary_areas(mesh: &Mesh) -> Vec<f64> {
+    let mut area = vec![0.0; mesh.num_nodes()];
+    let tris: Vec<[u32; 3]> = match mesh.kind {
+        ElementKind::Tet4 => mesh.boundary_facets(),
+        ElementKind::Tri3 => mesh.elements().map(|e| [e[0], e[1], e[2]]).collect(),
+    };
+    for t in tris {
+        let [a, b, c] = t.map(|i| mesh.nodes[i as usize]);
+        let (e1, e2) = (crate::mesh::sub(b, a), crate::mesh::sub(c, a));
+        let n = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        let third = crate::mesh::norm(n) / 6.0;
+        for i in t {
+            area[i as usize] += third;
+        }
+    }
+    area
+}
+
+/// The nominal contact pressure per node (Pa): `|f_a| / A_a` for the nodal contact forces
+/// `f` (3 per node, N) and the tributary areas of [`tributary_areas`]; zero where `A_a = 0`.
+pub fn nominal_pressure(forces: &[f64], areas: &[f64], out: &mut [f64]) {
+    for ((p, f), &a) in out.iter_mut().zip(forces.chunks_exact(3)).zip(areas) {
+        let m = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+        *p = if a > 0.0 { m / a } else { 0.0 };
+    }
+}
 
 /// The shape of a rigid tool in its reference position (m).
 #[derive(Clone, Debug, PartialEq)]

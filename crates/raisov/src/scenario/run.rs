@@ -9,7 +9,8 @@
 //! - `NAME.pvd` + `frames/NAME_NNNNNN.vtu`: ParaView time series, points in the reference
 //!   configuration with point fields `displacement` (m; the active vectors, so *Warp By
 //!   Vector* shows the deformed body), `velocity` (m/s), `stress` (nodal Cauchy T, Pa),
-//!   `contact_force` (N per node, the force the `[[tool]]`s exert; scenarios with tools), and
+//!   `contact_force` (N per node, the force the `[[tool]]`s exert; scenarios with tools) and
+//!   `contact_pressure` (Pa, its magnitude over the node's tributary boundary area), and
 //!   `file_node_id` (`Int64`, each point's node id in the mesh file) where that differs from
 //!   its position (`[mesh] renumber` reordered the nodes, or the file numbers from 1); binary appended zlib or ASCII per `[output] vtu`
 //!   ([`crate::io::vtu`]);
@@ -388,6 +389,10 @@ struct Frames<'a> {
     stress: Vec<f64>,
     /// The tools' force on each node (N), the `contact_force` field of scenarios with tools.
     contact: Vec<f64>,
+    /// The nominal contact pressure per node (Pa), the `contact_pressure` field, and the
+    /// tributary boundary areas it divides by (computed at the first frame with tools).
+    pressure: Vec<f64>,
+    areas: Option<Vec<f64>>,
     /// Each point's node id in the mesh file, where the scenario renumbered the nodes.
     file_ids: Option<Vec<i64>>,
     surface: Option<SurfaceFrames<'a>>,
@@ -413,6 +418,8 @@ impl<'a> Frames<'a> {
             format,
             stress: vec![0.0; 9 * n],
             contact: vec![0.0; 3 * n],
+            pressure: vec![0.0; n],
+            areas: None,
             file_ids: sc.output_node_ids(),
         })
     }
@@ -420,6 +427,12 @@ impl<'a> Frames<'a> {
         let (sys, s) = stepper.finest();
         sys.force.nodal_stress(&s.u, &mut self.stress);
         let contact = sys.force.contact_forces(&s.u, &mut self.contact);
+        if contact {
+            let areas = self
+                .areas
+                .get_or_insert_with(|| crate::contact::tributary_areas(&sc.mesh));
+            crate::contact::nominal_pressure(&self.contact, areas, &mut self.pressure);
+        }
         let file = format!("{}_{:06}.vtu", self.name, self.count);
         let mut fields = vec![
             Field {
@@ -439,6 +452,10 @@ impl<'a> Frames<'a> {
             fields.push(Field {
                 name: "contact_force",
                 data: FieldData::Vector(&self.contact),
+            });
+            fields.push(Field {
+                name: "contact_pressure",
+                data: FieldData::Scalar(&self.pressure),
             });
         }
         if let Some(ids) = self.file_ids.as_deref() {

@@ -308,3 +308,65 @@ fn sphere_probe_runs_under_the_raisov_paper_cycle() {
     assert_eq!(d.reason, StopReason::Duration, "{d}");
     assert!(fd[2] < 0.0 && fd[2].is_finite(), "{fd:?}");
 }
+
+/// The values of the point field `name` in an ASCII VTU file.
+fn ascii_point_field(path: &Path, name: &str) -> Vec<f64> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let start = text
+        .find(&format!("Name=\"{name}\""))
+        .unwrap_or_else(|| panic!("{name} not in {}", path.display()));
+    let body = &text[start..];
+    let open = body.find('>').unwrap() + 1;
+    let close = body.find("</DataArray>").unwrap();
+    body[open..close]
+        .split_whitespace()
+        .map(|x| x.parse().unwrap())
+        .collect()
+}
+
+/// A rigid plane pressed 0.2 mm onto the block's top (frictionless penalty, static solve):
+/// the frame's `contact_pressure` times each node's tributary area sums to the tool force
+/// (the plane's nodal forces are parallel, so `Σ |f_a| = |F_tool|`), only top nodes carry
+/// it, and at the centre of the top it is within 15 % of the mean pressure `|F| / A_top`.
+#[test]
+fn plane_tool_contact_pressure_field_integrates_to_the_tool_force() {
+    let tool = "[[tool]]\nshape = \"plane\"\npoint = [0.0, 0.0, 0.02]\nnormal = [0.0, 0.0, -1.0]\ndisplacement = [0.0, 0.0, -0.0002]\ntime = { kind = \"ramp\", duration = 1.0 }\n";
+    let text =
+        format!("{BLOCK}{tool}[integrator]\nmethod = \"newton\"\n[output]\nvtu = \"ascii\"\n");
+    let (s, dir) = static_run(&text);
+    assert!(s.converged(), "{s}");
+    let f = s.last.tool;
+    let fmag = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+    assert!(f[2] < 0.0 && fmag > 0.0, "{f:?}");
+    let frames = dir.path().join("out/frames");
+    let mut files: Vec<_> = std::fs::read_dir(&frames)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "vtu"))
+        .collect();
+    files.sort();
+    let last = files.last().expect("a frame");
+    let p = ascii_point_field(last, "contact_pressure");
+    let sc = parse(&text).unwrap();
+    let areas = crate::contact::tributary_areas(&sc.mesh);
+    assert_eq!(p.len(), areas.len());
+    let total: f64 = p.iter().zip(&areas).map(|(p, a)| p * a).sum();
+    assert!((total - fmag).abs() <= 1e-6 * fmag, "{total} vs {fmag}");
+    let mut centre = (f64::INFINITY, 0.0);
+    for (a, x) in sc.mesh.nodes.iter().enumerate() {
+        if p[a] > 0.0 {
+            assert!(x[2] > 0.02 - 1e-9, "node {a} at {x:?} carries contact");
+        }
+        let d = (x[0] - 0.01).powi(2) + (x[1] - 0.01).powi(2) + (x[2] - 0.02).powi(2);
+        if d < centre.0 {
+            centre = (d, p[a]);
+        }
+    }
+    let mean = fmag / (0.02 * 0.02);
+    eprintln!("centre {} Pa, mean {mean} Pa", centre.1);
+    assert!(
+        (centre.1 - mean).abs() <= 0.15 * mean,
+        "centre {} vs mean {mean}",
+        centre.1
+    );
+}

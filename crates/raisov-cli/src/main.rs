@@ -669,7 +669,6 @@ fn cmd_check(path: &Path) -> Result<()> {
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)]
 /// `raisov bench equilibrium`: the table of `raisov_lab::equilibrium` on stdout, progress
 /// on stderr; exit status 3 if a solver missed the stopping rule or an equilibrium disagrees.
 fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>) -> Result<i32> {
@@ -693,6 +692,7 @@ fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>) -> Result<i32> {
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn cmd_bench(
     sizes: &str,
     threads: Vec<usize>,

@@ -228,7 +228,7 @@ scheme = "fas"
 levels = {levels}
 "#
     );
-    let label = if nodes >= 1000 && nodes % 1000 == 0 {
+    let label = if nodes >= 1000 && nodes.is_multiple_of(1000) {
         format!("{}k", nodes / 1000)
     } else {
         nodes.to_string()

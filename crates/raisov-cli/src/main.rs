@@ -42,6 +42,9 @@ struct Cli {
 enum BenchSuite {
     /// The embedding API (`raisov_lab::bench::api`).
     Api,
+    /// Time to static equilibrium: direct Newton, FAS and adaptive dynamic relaxation on the
+    /// liver, the liver pulled, the heart and the 10k drape (`raisov_lab::equilibrium`).
+    Equilibrium,
 }
 
 #[derive(Subcommand)]
@@ -64,10 +67,13 @@ enum Cmd {
     /// Parse and resolve a scenario, print what it would run, and exit.
     Check { scenario: PathBuf },
     /// Performance benchmark of the standard explicit-dynamics work (see `raisov_lab::bench`);
-    /// `raisov bench api`: the embedding API's frame overhead and grasp-stiffness solves.
+    /// `raisov bench api`: the embedding API's frame overhead and grasp-stiffness solves;
+    /// `raisov bench equilibrium`: time to static equilibrium of three solvers.
     Bench {
         /// `api`: the embedding API's figures instead (`raisov_lab::bench::api`; --quick: a
-        /// small cube).
+        /// small cube); `equilibrium`: direct Newton, FAS and adaptive dynamic relaxation to
+        /// one stopping rule (`raisov_lab::equilibrium`; --quick: liver L2 and a 1k drape;
+        /// exit status 3 if a solver misses the rule or an equilibrium disagrees).
         #[arg(value_enum)]
         suite: Option<BenchSuite>,
         /// Box sizes in nodes, e.g. 1k,10k,100k,1M.
@@ -96,6 +102,10 @@ enum Cmd {
         /// f32, arithmetic and state in f64). The other rows are f64.
         #[arg(long, default_value = "f64,f32")]
         precision: String,
+        /// `equilibrium`: directory with liver_L*.msh and heart_L*.msh; default `data`
+        /// (relative to the working directory).
+        #[arg(long)]
+        meshes: Option<PathBuf>,
     },
     /// Reproduce the paper's experiments (Wu & Tendick 2004): CSV, PNG/SVG plots, report.md.
     Paper {
@@ -345,6 +355,12 @@ fn real_main(cli: Cli) -> Result<i32> {
             Ok(0)
         }),
         Cmd::Bench {
+            suite: Some(BenchSuite::Equilibrium),
+            quick,
+            meshes,
+            ..
+        } => on_pool(|| cmd_bench_equilibrium(quick, meshes)),
+        Cmd::Bench {
             suite: None,
             sizes,
             threads,
@@ -354,6 +370,7 @@ fn real_main(cli: Cli) -> Result<i32> {
             check,
             standard_only,
             precision,
+            meshes: _,
         } => ok(cmd_bench(
             &sizes,
             threads,
@@ -650,6 +667,29 @@ fn cmd_check(path: &Path) -> Result<()> {
     println!("output        {}", sc.out_dir.display());
     println!("ok");
     Ok(())
+}
+
+/// `raisov bench equilibrium`: the table of `raisov_lab::equilibrium` on stdout, progress
+/// on stderr; exit status 3 if a solver missed the stopping rule or an equilibrium disagrees.
+fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>) -> Result<i32> {
+    use raisov_lab::equilibrium;
+    let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
+    let cases = equilibrium::cases(&meshes, quick)
+        .map_err(BadInput)
+        .with_context(|| format!("loading the cases (meshes from {})", meshes.display()))?;
+    println!(
+        "raisov bench equilibrium{}: {} thread(s)",
+        if quick { " --quick" } else { "" },
+        rayon::current_num_threads()
+    );
+    let rows = equilibrium::run(&cases, &mut |line| eprintln!("{line}"))?;
+    println!("{}", equilibrium::to_markdown(&rows));
+    if equilibrium::all_ok(&rows) {
+        Ok(0)
+    } else {
+        eprintln!("warning: a solver missed the stopping rule or its equilibrium disagrees with direct Newton's (see the table)");
+        Ok(EXIT_NOT_CONVERGED)
+    }
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -1,5 +1,5 @@
 //! How `raisov run` ends, tested on the built binary: exit codes, real signals, the output
-//! lock, bad numbers in a reference file.
+//! lock, bad numbers in a reference file; and `raisov bench equilibrium` without its meshes.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -227,6 +227,20 @@ fn nan_in_reference_csv_is_bad_input() {
 }
 
 /// `raisov --help` documents the exit codes.
+/// `raisov bench equilibrium` without its meshes is bad input (status 2), naming the file.
+#[test]
+fn bench_equilibrium_without_meshes_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = raisov()
+        .args(["bench", "equilibrium", "--quick", "--meshes"])
+        .arg(dir.path().join("none"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("liver_L2.msh"), "{err}");
+}
+
 #[test]
 fn help_lists_exit_codes() {
     let o = raisov().arg("--help").output().unwrap();

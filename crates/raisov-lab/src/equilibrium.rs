@@ -1,0 +1,548 @@
+//! `raisov bench equilibrium`: time to static equilibrium of three solvers, side by side, on
+//! the same problems and to the same stopping rule.
+//!
+//! Solvers, each at its documented settings:
+//! - **direct Newton** ([`raisov::integrate::newton_direct::solve_system`]): analytic tangent,
+//!   faer sparse Cholesky, backtracking line search; [`Case::load_steps`] load steps (4 on the
+//!   solids, 1 on the membrane), everything else default;
+//! - **FAS** multigrid ([`raisov::scenario::Scenario::stepper`] with the scenario's
+//!   `[multigrid] scheme = "fas"` and its defaults): V-cycles (Krylov-accelerated) advanced
+//!   until the stopping rule holds, the rule checked after every cycle (one finest-level
+//!   residual per cycle, counted in the wall time and in the force evaluations);
+//! - **adaptive dynamic relaxation** (ADR, [`raisov::integrate::adaptive_relax::adaptive_relax`])
+//!   on the finest mesh alone, with `λ_max` from
+//!   [`raisov::integrate::stability::lambda_max_bound`].
+//!
+//! All start from rest (`u = 0`). A prescribed displacement (`[[displace]]`, the pulled
+//! liver) reaches each of the three in [`PULL_INCREMENTS`] equal increments, since imposed at
+//! once with the rest of the body at rest it inverts the pulled node's elements: direct Newton
+//! through its load steps (loads and prescribed values raised together; its intermediate
+//! steps stop at 1e-6 of their own scale); FAS and ADR with gravity in full from the start and
+//! the prescribed value raised in [`PULL_INCREMENTS`] steps, each but the last relaxed to
+//! [`PULL_STAGE_TOL`] × the largest nodal load before the next. Every increment counts in the
+//! figures.
+//!
+//! Stopping rule, common to the three (that of [`raisov::integrate::newton_direct`]): the
+//! largest nodal residual over free nodes `max_a |V_a − R_a(u)|` at most [`REL_TOL`] × the
+//! largest nodal external load `max_a |V_a|` plus the absolute floor [`ABS_TOL`] (N), `|·|` the
+//! Euclidean norm of a node's 3-vector.
+//!
+//! Measured per solver and case: wall time (s, the solve alone: scenario loading and mesh
+//! reading are not timed; FAS's stepper construction, hierarchy included, is), iterations
+//! (Newton iterations, V-cycles, relaxation steps), force evaluations in finest-level units
+//! (coarse levels weighted by their node count; Newton's energy evaluations are not counted),
+//! the final residual (N), whether the rule was met, the largest nodal displacement and the
+//! largest nodal distance to direct Newton's equilibrium. Equilibria agree when that distance
+//! is at most [`AGREE_TOL`] × the largest displacement; a row that does not is flagged in the
+//! table, not panicked on.
+//!
+//! Cases ([`cases`]): the liver L1 of `data/` (7547 nodes; FAS with L2 and L3), millimetres
+//! scaled to metres, neo-Hookean E = 5 kPa, ν = 0.45, ρ = 1060 kg/m³, held on the cap
+//! z ≥ 0.195 m, under gravity; the same liver with the node nearest (0.12, 0.07, 0.10) m also
+//! pulled by (0, −0.01, −0.017) m; the heart L0 of `data/` (FAS with L1, L2, L3), the same
+//! material, held on the cap within 5 mm of its highest point, under gravity; the paper's
+//! drape (10 cm square membrane, 10k nodes, Mooney-Rivlin C1 = C2 = 1 kPa, edges fixed,
+//! gravity; FAS on 5 generated levels). Quick (`--quick`): the liver L2 (FAS with L3) with and
+//! without the pull, and the drape at 1k nodes on 3 levels.
+
+use raisov::integrate::adaptive_relax::adaptive_relax;
+use raisov::integrate::hold;
+use raisov::integrate::newton_direct::{solve_system, DirectNewtonParams};
+use raisov::integrate::stability::lambda_max_bound;
+use raisov::scenario::Scenario;
+use raisov::{Error, Result};
+use std::path::Path;
+use std::time::Instant;
+
+/// Relative part of the stopping rule (of the largest nodal external load).
+pub const REL_TOL: f64 = 1e-8;
+/// Absolute floor of the stopping rule (N).
+pub const ABS_TOL: f64 = 1e-14;
+/// Agreement: largest nodal distance to Newton's equilibrium over the largest displacement.
+pub const AGREE_TOL: f64 = 1e-6;
+/// Increments of a prescribed displacement for FAS and ADR (Newton's load steps on the
+/// solids, too).
+pub const PULL_INCREMENTS: usize = 4;
+/// Stopping rule of the intermediate increments (relative, as [`REL_TOL`]).
+pub const PULL_STAGE_TOL: f64 = 1e-4;
+/// FAS: V-cycles at most.
+pub const MAX_CYCLES: u64 = 20_000;
+/// ADR: steps at most.
+pub const MAX_STEPS: u64 = 1_000_000;
+
+/// One problem of the benchmark.
+pub struct Case {
+    /// Short name (the table's first column).
+    pub name: String,
+    /// The scenario: mesh, material, constraints, loads and its `[multigrid]` for FAS.
+    pub scenario: Scenario,
+    /// Direct Newton's load steps (4 on the solids, 1 on the membrane, [`PULL_INCREMENTS`]
+    /// with a prescribed displacement).
+    pub load_steps: usize,
+}
+
+/// One solver on one case.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub case: String,
+    pub nodes: usize,
+    /// `"direct Newton"`, `"FAS"` or `"ADR"`.
+    pub solver: String,
+    /// Wall time of the solve (s).
+    pub wall_s: f64,
+    /// Newton iterations, V-cycles or relaxation steps.
+    pub iterations: u64,
+    /// Force evaluations in finest-level units.
+    pub force_evaluations: f64,
+    /// Largest nodal residual over free nodes at the end (N).
+    pub residual: f64,
+    /// The stopping threshold (N).
+    pub target: f64,
+    pub converged: bool,
+    /// Largest nodal displacement (m).
+    pub max_u: f64,
+    /// Largest nodal distance to direct Newton's equilibrium (m); `None` without one.
+    pub diff_newton: Option<f64>,
+    /// Details (Newton's factorisations, a failure).
+    pub note: String,
+}
+
+impl Row {
+    /// Whether the equilibrium agrees with Newton's ([`AGREE_TOL`]); `None` without one.
+    pub fn agrees(&self) -> Option<bool> {
+        self.diff_newton.map(|d| d <= AGREE_TOL * self.max_u)
+    }
+}
+
+fn max_nodal(x: &[f64]) -> f64 {
+    x.chunks(3)
+        .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
+        .fold(0.0, f64::max)
+}
+
+fn max_nodal_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.chunks(3)
+        .zip(b.chunks(3))
+        .map(|(x, y)| {
+            let d = [x[0] - y[0], x[1] - y[1], x[2] - y[2]];
+            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
+const LIVER_MATERIAL: &str = r#"
+[material]
+law = "neo-hookean"
+young = 5000.0
+poisson = 0.45
+density = 1060.0
+"#;
+
+const LIVER_PULL: &str = r#"
+[[displace]]
+point = [0.12, 0.07, 0.10]
+displacement = [0.0, -0.01, -0.017]
+mode = "held"
+"#;
+
+fn liver(meshes: &Path, fine: usize, pull: bool) -> Result<Case> {
+    let d = meshes.display();
+    let coarse: Vec<String> = (fine + 1..=3)
+        .map(|l| format!("'{d}/liver_L{l}.msh'"))
+        .collect();
+    let text = format!(
+        r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+file = '{d}/liver_L{fine}.msh'
+scale = 0.001
+{LIVER_MATERIAL}
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.195], normal = [0.0, 0.0, -1.0] }}
+{pull_text}
+[run]
+duration = 1.0
+[multigrid]
+scheme = "fas"
+files = [{files}]
+"#,
+        pull_text = if pull { LIVER_PULL } else { "" },
+        files = coarse.join(", "),
+    );
+    let name = format!("liver L{fine}{}", if pull { " + pull" } else { "" });
+    Ok(Case {
+        scenario: Scenario::from_toml(&text, Path::new("equilibrium-liver.toml"))?,
+        name,
+        load_steps: 4,
+    })
+}
+
+fn heart(meshes: &Path) -> Result<Case> {
+    let d = meshes.display();
+    let fine = meshes.join("heart_L0.msh");
+    let m = raisov::io::gmsh::read_msh(&fine)?.mesh;
+    let z_top = m.nodes.iter().map(|p| p[2]).fold(f64::MIN, f64::max) * 0.001;
+    let text = format!(
+        r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+file = '{d}/heart_L0.msh'
+scale = 0.001
+{LIVER_MATERIAL}
+[[fix]]
+plane = {{ point = [0.0, 0.0, {z_cap:?}], normal = [0.0, 0.0, -1.0] }}
+[run]
+duration = 1.0
+[multigrid]
+scheme = "fas"
+files = ['{d}/heart_L1.msh', '{d}/heart_L2.msh', '{d}/heart_L3.msh']
+"#,
+        z_cap = z_top - 0.005,
+    );
+    Ok(Case {
+        scenario: Scenario::from_toml(&text, Path::new("equilibrium-heart.toml"))?,
+        name: "heart L0".into(),
+        load_steps: 4,
+    })
+}
+
+/// The paper's drape at about `nodes` nodes, FAS on `levels` generated levels.
+pub fn drape(nodes: usize, levels: usize) -> Result<Case> {
+    let text = format!(
+        r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "rectangle"
+size = [0.1, 0.1]
+nodes = {nodes}
+[material]
+law = "mooney-rivlin"
+c1 = 1000.0
+c2 = 1000.0
+[[fix]]
+boundary = true
+[run]
+duration = 1.0
+[multigrid]
+scheme = "fas"
+levels = {levels}
+"#
+    );
+    let label = if nodes >= 1000 && nodes.is_multiple_of(1000) {
+        format!("{}k", nodes / 1000)
+    } else {
+        nodes.to_string()
+    };
+    Ok(Case {
+        scenario: Scenario::from_toml(&text, Path::new("equilibrium-drape.toml"))?,
+        name: format!("membrane {label}"),
+        load_steps: 1,
+    })
+}
+
+/// The benchmark's cases (module docs); `meshes` holds `liver_L*.msh` and `heart_L*.msh`.
+pub fn cases(meshes: &Path, quick: bool) -> Result<Vec<Case>> {
+    if quick {
+        Ok(vec![
+            liver(meshes, 2, false)?,
+            liver(meshes, 2, true)?,
+            drape(1000, 3)?,
+        ])
+    } else {
+        Ok(vec![
+            liver(meshes, 1, false)?,
+            liver(meshes, 1, true)?,
+            heart(meshes)?,
+            drape(10_000, 5)?,
+        ])
+    }
+}
+
+/// The prescribed values at their end (m), in the order of the constraints; `None` if a
+/// motion never settles (a sine).
+fn prescribed_ends(sc: &Scenario) -> Option<Vec<[f64; 3]>> {
+    sc.prescribed
+        .iter()
+        .map(|(_, m)| m.end().is_finite().then(|| m.displacement(m.end())))
+        .collect()
+}
+
+fn scaled(v: &[[f64; 3]], s: f64) -> Vec<[f64; 3]> {
+    v.iter().map(|d| [s * d[0], s * d[1], s * d[2]]).collect()
+}
+
+/// Run the three solvers on `case`, one after the other; a row each, Newton's first.
+pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
+    let sc = &case.scenario;
+    let n = sc.mesh.num_nodes();
+    let ends = prescribed_ends(sc).ok_or_else(|| {
+        Error::param(
+            "bench equilibrium",
+            "prescribed motions must settle (no sine)",
+        )
+    })?;
+    let stages = if ends.is_empty() { 1 } else { PULL_INCREMENTS };
+    let row = |solver: &str| Row {
+        case: case.name.clone(),
+        nodes: n,
+        solver: solver.into(),
+        wall_s: 0.0,
+        iterations: 0,
+        force_evaluations: 0.0,
+        residual: f64::NAN,
+        target: f64::NAN,
+        converged: false,
+        max_u: f64::NAN,
+        diff_newton: None,
+        note: String::new(),
+    };
+
+    // Direct Newton.
+    emit(&format!("{}: direct Newton ...", case.name));
+    let mut newton = row("direct Newton");
+    let mut u_newton = vec![0.0; 3 * n];
+    let mut sys = sc.build_system()?;
+    let target = REL_TOL * max_nodal(&sys.f_ext) + ABS_TOL;
+    let t0 = Instant::now();
+    let out = solve_system(
+        &mut sys,
+        0.0,
+        &mut u_newton,
+        DirectNewtonParams {
+            rel_tol: REL_TOL,
+            abs_tol: ABS_TOL,
+            load_steps: case.load_steps,
+            ..Default::default()
+        },
+    );
+    newton.wall_s = t0.elapsed().as_secs_f64();
+    newton.target = target;
+    let have_newton = match out {
+        Ok(o) => {
+            newton.iterations = o.newton_steps as u64;
+            newton.force_evaluations = o.force_evaluations as f64;
+            newton.residual = o.residual;
+            newton.converged = o.converged;
+            newton.max_u = max_nodal(&u_newton);
+            newton.diff_newton = Some(0.0);
+            newton.note = format!(
+                "{} load step{}, {} factorisations ({:.2} s), {} energy evaluations",
+                case.load_steps,
+                if case.load_steps == 1 { "" } else { "s" },
+                o.factorizations,
+                o.factor_s,
+                o.energy_evaluations
+            );
+            o.converged
+        }
+        Err(e) => {
+            newton.note = format!("failed: {e}");
+            false
+        }
+    };
+    let reference = have_newton.then_some(u_newton.as_slice());
+    let compare = |r: &mut Row, u: &[f64]| {
+        r.max_u = max_nodal(u);
+        r.diff_newton = reference.map(|un| max_nodal_diff(u, un));
+    };
+
+    // FAS, the rule checked after every cycle.
+    emit(&format!("{}: FAS ...", case.name));
+    let mut fas = row("FAS");
+    fas.target = target;
+    let t0 = Instant::now();
+    let fas_out = (|| -> Result<(u64, f64, f64, Vec<f64>, usize)> {
+        let mut st = sc.stepper()?;
+        let mut r = vec![0.0; 3 * n];
+        let mut cycles = 0u64;
+        let mut res = f64::INFINITY;
+        for stage in 1..=stages {
+            let last = stage == stages;
+            if !ends.is_empty() {
+                st.hold_prescribed(&scaled(&ends, stage as f64 / stages as f64));
+            }
+            let goal = if last {
+                target
+            } else {
+                PULL_STAGE_TOL * (target - ABS_TOL) / REL_TOL
+            };
+            res = f64::INFINITY;
+            while res > goal && cycles < MAX_CYCLES {
+                st.advance()?;
+                cycles += 1;
+                let (sys, s) = st.finest();
+                let u = s.u.clone();
+                sys.residual(&u, &mut r)
+                    .map_err(|e| Error::param("FAS", format!("{e:?}")))?;
+                res = max_nodal(&r);
+            }
+        }
+        let evals = st.force_evaluations() + cycles as f64;
+        let levels = st.num_levels();
+        let u = st.state().u.clone();
+        Ok((cycles, evals, res, u, levels))
+    })();
+    fas.wall_s = t0.elapsed().as_secs_f64();
+    match fas_out {
+        Ok((cycles, evals, res, u, levels)) => {
+            fas.iterations = cycles;
+            fas.force_evaluations = evals;
+            fas.residual = res;
+            fas.converged = res <= target;
+            compare(&mut fas, &u);
+            fas.note = format!("{levels} levels");
+            if stages > 1 {
+                fas.note += &format!(", pull in {stages} increments");
+            }
+        }
+        Err(e) => fas.note = format!("failed: {e}"),
+    }
+
+    // Adaptive dynamic relaxation on the finest mesh.
+    emit(&format!("{}: ADR ...", case.name));
+    let mut adr = row("ADR");
+    adr.target = target;
+    let mut sys = sc.build_system()?;
+    let lmax = lambda_max_bound(&sc.mesh, &sc.material, sc.density);
+    let mut u = vec![0.0; 3 * n];
+    let t0 = Instant::now();
+    let mut adr_res: std::result::Result<(), String> = Ok(());
+    for stage in 1..=stages {
+        let last = stage == stages;
+        if !ends.is_empty() {
+            hold(
+                &mut sys.constraints,
+                &scaled(&ends, stage as f64 / stages as f64),
+            );
+        }
+        let (rel, abs) = if last {
+            (REL_TOL, ABS_TOL)
+        } else {
+            (PULL_STAGE_TOL, 0.0)
+        };
+        let left = MAX_STEPS.saturating_sub(adr.iterations);
+        match adaptive_relax(&mut sys, &sc.mesh, lmax, 0.0, &mut u, rel, abs, left) {
+            Ok(o) => {
+                adr.iterations += o.steps;
+                adr.residual = o.residual;
+                adr.converged = last && o.converged;
+                if !o.converged {
+                    break;
+                }
+            }
+            Err(e) => {
+                adr_res = Err(format!("{e:?}"));
+                break;
+            }
+        }
+    }
+    adr.wall_s = t0.elapsed().as_secs_f64();
+    adr.force_evaluations = adr.iterations as f64;
+    match adr_res {
+        Ok(()) => {
+            compare(&mut adr, &u);
+            adr.note = if stages > 1 {
+                format!("finest only, pull in {stages} increments")
+            } else {
+                "finest only".into()
+            };
+        }
+        Err(e) => adr.note = format!("failed: {e}"),
+    }
+    Ok(vec![newton, fas, adr])
+}
+
+/// Run every case ([`run_case`]); `emit` gets a progress line before each solve.
+pub fn run(cases: &[Case], emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
+    let mut rows = Vec::new();
+    for c in cases {
+        rows.extend(run_case(c, emit)?);
+    }
+    Ok(rows)
+}
+
+/// Whether every row converged and agrees with Newton's equilibrium.
+pub fn all_ok(rows: &[Row]) -> bool {
+    rows.iter()
+        .all(|r| r.converged && r.agrees().unwrap_or(false))
+}
+
+/// The rows as a Markdown table, with the stopping rule above it.
+pub fn to_markdown(rows: &[Row]) -> String {
+    let mut s = format!(
+        "Stop: max nodal residual over free nodes <= {REL_TOL:e} x max nodal load + {ABS_TOL:e} N; \
+         agreement: max |u - u_Newton| <= {AGREE_TOL:e} x max |u|.\n\n\
+         | case | nodes | solver | wall (s) | iterations | force evals (finest units) | final residual (N) | target (N) | converged | max \\|u\\| (m) | max \\|u - u_Newton\\| (m) | agrees | notes |\n\
+         |---|---:|---|---:|---:|---:|---:|---:|---|---:|---:|---|---|\n"
+    );
+    for r in rows {
+        let iter_unit = match r.solver.as_str() {
+            "direct Newton" => "iterations",
+            "FAS" => "cycles",
+            _ => "steps",
+        };
+        let diff = r
+            .diff_newton
+            .map_or("-".to_string(), |d| format!("{d:.2e}"));
+        let agrees = match r.agrees() {
+            Some(true) => "yes",
+            Some(false) => "**NO**",
+            None => "-",
+        };
+        s += &format!(
+            "| {} | {} | {} | {:.2} | {} {iter_unit} | {:.0} | {:.2e} | {:.2e} | {} | {:.4e} | {diff} | {agrees} | {} |\n",
+            r.case,
+            r.nodes,
+            r.solver,
+            r.wall_s,
+            r.iterations,
+            r.force_evaluations,
+            r.residual,
+            r.target,
+            if r.converged { "yes" } else { "**NO**" },
+            r.max_u,
+            r.note
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn data() -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data")
+    }
+
+    fn check(rows: &[Row]) {
+        let table = to_markdown(rows);
+        println!("{table}");
+        for r in rows {
+            assert!(
+                r.converged,
+                "{} / {}: not converged\n{table}",
+                r.case, r.solver
+            );
+            assert!(r.residual <= r.target);
+            assert_eq!(r.agrees(), Some(true), "{} / {}\n{table}", r.case, r.solver);
+        }
+        assert!(all_ok(rows));
+    }
+
+    /// A small drape (a few seconds in debug): the machinery and the agreement.
+    #[test]
+    fn small_drape_solvers_agree() {
+        let rows = run(&[drape(300, 2).unwrap()], &mut |_| {}).unwrap();
+        assert_eq!(rows.len(), 3);
+        check(&rows);
+    }
+
+    /// The quick cases of `raisov bench equilibrium --quick`.
+    #[test]
+    #[ignore = "slow in debug: liver meshes; run in release with --ignored"]
+    fn quick_cases_converge_and_agree() {
+        let rows = run(&cases(&data(), true).unwrap(), &mut |_| {}).unwrap();
+        check(&rows);
+    }
+}

@@ -538,6 +538,21 @@ mod tests {
         check(&rows);
     }
 
+    /// The liver L1 under gravity (L2, L3 as FAS's levels) and the 10k drape: direct Newton,
+    /// FAS and adaptive dynamic relaxation reach the common criterion and one equilibrium
+    /// (1e-6 of max |u|).
+    #[test]
+    #[ignore = "slow: liver meshes, 10k membrane; run in release with --ignored"]
+    fn liver_and_10k_drape_solvers_reach_one_equilibrium() {
+        let rows = run(
+            &[liver(&data(), 1, false).unwrap(), drape(10_000, 5).unwrap()],
+            &mut |_| {},
+        )
+        .unwrap();
+        assert_eq!(rows.len(), 6);
+        check(&rows);
+    }
+
     /// The quick cases of `raisov bench equilibrium --quick`.
     #[test]
     #[ignore = "slow in debug: liver meshes; run in release with --ignored"]

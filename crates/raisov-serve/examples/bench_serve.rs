@@ -32,11 +32,8 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use tokio_tungstenite::tungstenite::Message as Ws;
 
-const LIVER: &str = r#"
-name = "liver-L0"
-[mesh]
-file = "../data/liver_L0.msh"
-scale = 0.001
+/// Material, support, integrator and run length shared by both organs.
+const PHYSICS: &str = r#"
 [material]
 law = "neo-hookean"
 young = 5000.0
@@ -50,10 +47,23 @@ plane = { point = [0.0, 0.0, 0.195], normal = [0.0, 0.0, -1.0] }
 method = "symplectic-euler"
 [run]
 duration = 1.0
+"#;
+
+/// The shipped liver levels L0..L3 (items 1 and 2).
+fn liver() -> String {
+    format!(
+        r#"
+name = "liver-L0"
+[mesh]
+file = "../data/liver_L0.msh"
+scale = 0.001
+{PHYSICS}
 [multigrid]
 scheme = "fas"
 files = ["../data/liver_L1.msh", "../data/liver_L2.msh", "../data/liver_L3.msh"]
-"#;
+"#
+    )
+}
 
 const POINT: [f64; 3] = [0.12, 0.07, 0.10];
 const PULL: [f64; 3] = [0.0, -0.01, -0.017];
@@ -77,19 +87,7 @@ name = "liver-surface-{nodes}"
 surface = "../data/liver_surface.obj"
 scale = 0.001
 nodes = {nodes}
-[material]
-law = "neo-hookean"
-young = 5000.0
-poisson = 0.45
-density = 1060.0
-[damping]
-alpha = 30.0
-[[fix]]
-plane = {{ point = [0.0, 0.0, 0.195], normal = [0.0, 0.0, -1.0] }}
-[integrator]
-method = "symplectic-euler"
-[run]
-duration = 1.0
+{PHYSICS}
 [multigrid]
 scheme = "fas"
 levels = 4
@@ -102,7 +100,7 @@ coarse = "{coarse}"
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut cycles: u32 = 2;
-    let mut scene = LIVER.to_string();
+    let mut scene = liver();
     let mut label = "liver L0..L3 (FAS".to_string();
     let (mut organ_nodes, mut coarse) = (None, "newton".to_string());
     let mut it = args.iter();

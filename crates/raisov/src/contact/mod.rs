@@ -57,13 +57,7 @@ pub fn tributary_areas(mesh: &Mesh) -> Vec<f64> {
     };
     for t in tris {
         let [a, b, c] = t.map(|i| mesh.nodes[i as usize]);
-        let (e1, e2) = (crate::mesh::sub(b, a), crate::mesh::sub(c, a));
-        let n = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
-        let third = crate::mesh::norm(n) / 6.0;
+        let third = crate::mesh::tri_area(a, b, c) / 3.0;
         for i in t {
             area[i as usize] += third;
         }

@@ -3,7 +3,7 @@ use crate::fem::{FemModel, FemParams};
 use crate::integrate::Method;
 use crate::material::{lame, Material, NeoHookean, StableNeoHookean};
 use crate::mesh::generate::{box_tets, BoxPattern};
-use crate::mesh::sub;
+use crate::mesh::{cross, sub};
 use crate::multigrid::fas::{CoarseSolve, FasParams};
 use crate::scenario::Scenario;
 use std::path::Path;
@@ -846,12 +846,7 @@ duration = 1.0
         for f in sim.mesh().boundary_facets() {
             if f.iter().all(|a| top.contains(a)) {
                 let [a, b, c] = f.map(|i| x[i as usize]);
-                let (e1, e2) = (sub(b, a), sub(c, a));
-                let n2 = [
-                    e1[1] * e2[2] - e1[2] * e2[1],
-                    e1[2] * e2[0] - e1[0] * e2[2],
-                    e1[0] * e2[1] - e1[1] * e2[0],
-                ];
+                let n2 = cross(sub(b, a), sub(c, a));
                 // Outward on the top face: the normal's z is positive.
                 let sgn = if n2[2] > 0.0 { 1.0 } else { -1.0 };
                 for k in 0..3 {

@@ -106,6 +106,10 @@ enum Cmd {
         /// (relative to the working directory).
         #[arg(long)]
         meshes: Option<PathBuf>,
+        /// `equilibrium`: only the cases with these names (comma-separated, e.g.
+        /// "liver L0,membrane 100k"); default all.
+        #[arg(long, value_delimiter = ',')]
+        case: Vec<String>,
     },
     /// Reproduce the paper's experiments (Wu & Tendick 2004): CSV, PNG/SVG plots, report.md.
     Paper {
@@ -358,8 +362,9 @@ fn real_main(cli: Cli) -> Result<i32> {
             suite: Some(BenchSuite::Equilibrium),
             quick,
             meshes,
+            case,
             ..
-        } => on_pool(|| cmd_bench_equilibrium(quick, meshes)),
+        } => on_pool(|| cmd_bench_equilibrium(quick, meshes, case)),
         Cmd::Bench {
             suite: None,
             sizes,
@@ -371,6 +376,7 @@ fn real_main(cli: Cli) -> Result<i32> {
             standard_only,
             precision,
             meshes: _,
+            case: _,
         } => ok(cmd_bench(
             &sizes,
             threads,
@@ -671,12 +677,23 @@ fn cmd_check(path: &Path) -> Result<()> {
 
 /// `raisov bench equilibrium`: the table of `raisov_lab::equilibrium` on stdout, progress
 /// on stderr; exit status 3 if a solver missed the stopping rule or an equilibrium disagrees.
-fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>) -> Result<i32> {
+fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>, only: Vec<String>) -> Result<i32> {
     use raisov_lab::equilibrium;
     let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
-    let cases = equilibrium::cases(&meshes, quick)
+    let mut cases = equilibrium::cases(&meshes, quick)
         .map_err(BadInput)
         .with_context(|| format!("loading the cases (meshes from {})", meshes.display()))?;
+    if !only.is_empty() {
+        let names: Vec<String> = cases.iter().map(|c| c.name.clone()).collect();
+        if let Some(bad) = only.iter().find(|o| !names.contains(o)) {
+            return Err(BadInput(raisov::Error::param(
+                "--case",
+                format!("no case named {bad:?}; valid: {}", names.join(", ")),
+            ))
+            .into());
+        }
+        cases.retain(|c| only.contains(&c.name));
+    }
     println!(
         "raisov bench equilibrium{}: {} thread(s)",
         if quick { " --quick" } else { "" },
@@ -684,6 +701,13 @@ fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>) -> Result<i32> {
     );
     let rows = equilibrium::run(&cases, &mut |line| eprintln!("{line}"))?;
     println!("{}", equilibrium::to_markdown(&rows));
+    println!("{}", equilibrium::summary_markdown(&rows));
+    let mut frames = Vec::new();
+    for c in cases.iter().filter(|c| c.scenario.prescribed.is_empty()) {
+        eprintln!("{}: FAS frames ...", c.name);
+        frames.extend(equilibrium::frame_budgets(c, &[1, 4])?);
+    }
+    println!("{}", equilibrium::frames_to_markdown(&frames));
     if equilibrium::all_ok(&rows) {
         Ok(0)
     } else {

@@ -1,17 +1,24 @@
 //! `raisov bench equilibrium`: time to static equilibrium of three solvers, side by side, on
 //! the same problems and to the same stopping rule.
 //!
-//! Solvers, each at its documented settings:
+//! Solvers, each at its best settings by one rule: every variant listed is run and the fastest
+//! that meets the stopping rule is reported, the others' wall times in its note:
 //! - **direct Newton** ([`raisov::integrate::newton_direct::solve_system`]): analytic tangent,
-//!   faer sparse Cholesky, backtracking line search; [`Case::load_steps`] load steps (4 on the
-//!   solids, 1 on the membrane), everything else default;
+//!   faer sparse Cholesky, backtracking line search; [`Case::load_steps`] load steps (one;
+//!   [`PULL_INCREMENTS`] with a prescribed displacement); variants: a factorisation at every
+//!   iteration, or each Newton system solved by conjugate gradients preconditioned by the last
+//!   factorisation, refactoring when [`NEWTON_PCG_MAX`] iterations do not reach the
+//!   inexact-Newton tolerance ([`NEWTON_REUSE`]);
 //! - **FAS** multigrid ([`raisov::scenario::Scenario::stepper`] with the scenario's
-//!   `[multigrid] scheme = "fas"` and its defaults): V-cycles (Krylov-accelerated) advanced
-//!   until the stopping rule holds, the rule checked after every cycle (one finest-level
-//!   residual per cycle, counted in the wall time and in the force evaluations);
+//!   `[multigrid] scheme = "fas"` and its defaults but the smoothing): V-cycles
+//!   (Krylov-accelerated) advanced until the stopping rule holds, the rule checked after every
+//!   cycle (one finest-level residual per cycle, counted in the wall time and in the force
+//!   evaluations); variants: 4 (the default), 8 or 16 pre- and post-smoothing sweeps per level
+//!   ([`FAS_SWEEPS`]);
 //! - **adaptive dynamic relaxation** (ADR, [`raisov::integrate::adaptive_relax::adaptive_relax`])
 //!   on the finest mesh alone, with `λ_max` from
-//!   [`raisov::integrate::stability::lambda_max_bound`].
+//!   [`raisov::integrate::stability::lambda_max_bound`]; its damping and step are set by its
+//!   own rule (critical damping of the lowest mode estimated every step), no variants.
 //!
 //! All start from rest (`u = 0`). A prescribed displacement (`[[displace]]`, the pulled
 //! liver) reaches each of the three in [`PULL_INCREMENTS`] equal increments, since imposed at
@@ -39,17 +46,22 @@
 //! Cases ([`cases`]): the liver L1 of `data/` (7547 nodes; FAS with L2 and L3), millimetres
 //! scaled to metres, neo-Hookean E = 5 kPa, ν = 0.45, ρ = 1060 kg/m³, held on the cap
 //! z ≥ 0.195 m, under gravity; the same liver with the node nearest (0.12, 0.07, 0.10) m also
-//! pulled by (0, −0.01, −0.017) m; the heart L0 of `data/` (FAS with L1, L2, L3), the same
-//! material, held on the cap within 5 mm of its highest point, under gravity; the paper's
-//! drape (10 cm square membrane, 10k nodes, Mooney-Rivlin C1 = C2 = 1 kPa, edges fixed,
-//! gravity; FAS on 5 generated levels). Quick (`--quick`): the liver L2 (FAS with L3) with and
+//! pulled by (0, −0.01, −0.017) m; the liver L0 (16 693 nodes; FAS with L1, L2, L3) under
+//! gravity; the heart L0 of `data/` (FAS with L1, L2, L3), the same material, held on the cap
+//! within 5 mm of its highest point, under gravity; the paper's drape (10 cm square membrane,
+//! Mooney-Rivlin C1 = C2 = 1 kPa, edges fixed, gravity) at 10k nodes (FAS on 5 generated
+//! levels) and 100k nodes (7 levels). Quick (`--quick`): the liver L2 (FAS with L3) with and
 //! without the pull, and the drape at 1k nodes on 3 levels.
+//!
+//! [`summary_markdown`] states, per case, FAS's wall time over the best baseline's (direct
+//! Newton or ADR); [`frame_budgets`] runs FAS as the frame loop does, a fixed number of
+//! V-cycles per frame, and reads the residual after given frames.
 
 use raisov::integrate::adaptive_relax::adaptive_relax;
 use raisov::integrate::hold;
 use raisov::integrate::newton_direct::{solve_system, DirectNewtonParams};
 use raisov::integrate::stability::lambda_max_bound;
-use raisov::scenario::Scenario;
+use raisov::scenario::{MultigridScheme, Scenario};
 use raisov::{Error, Result};
 use std::path::Path;
 use std::time::Instant;
@@ -65,6 +77,13 @@ pub const AGREE_TOL: f64 = 1e-6;
 pub const PULL_INCREMENTS: usize = 4;
 /// Stopping rule of the intermediate increments (relative, as [`REL_TOL`]).
 pub const PULL_STAGE_TOL: f64 = 1e-4;
+/// Direct Newton: conjugate-gradient iterations on a kept factorisation before refactoring
+/// ([`DirectNewtonParams::pcg_max`]).
+pub const NEWTON_PCG_MAX: usize = 20;
+/// Direct Newton's sweep: factorisation reuse (CG iterations before refactoring; 0 none).
+pub const NEWTON_REUSE: [usize; 2] = [0, NEWTON_PCG_MAX];
+/// FAS's sweep: pre- and post-smoothing sweeps per level (the default is 4).
+pub const FAS_SWEEPS: [usize; 3] = [4, 8, 16];
 /// FAS: V-cycles at most.
 pub const MAX_CYCLES: u64 = 20_000;
 /// ADR: steps at most.
@@ -76,8 +95,7 @@ pub struct Case {
     pub name: String,
     /// The scenario: mesh, material, constraints, loads and its `[multigrid]` for FAS.
     pub scenario: Scenario,
-    /// Direct Newton's load steps (4 on the solids, 1 on the membrane, [`PULL_INCREMENTS`]
-    /// with a prescribed displacement).
+    /// Direct Newton's load steps (1; [`PULL_INCREMENTS`] with a prescribed displacement).
     pub load_steps: usize,
 }
 
@@ -173,7 +191,7 @@ files = [{files}]
     Ok(Case {
         scenario: Scenario::from_toml(&text, Path::new("equilibrium-liver.toml"))?,
         name,
-        load_steps: 4,
+        load_steps: if pull { PULL_INCREMENTS } else { 1 },
     })
 }
 
@@ -202,7 +220,7 @@ files = ['{d}/heart_L1.msh', '{d}/heart_L2.msh', '{d}/heart_L3.msh']
     Ok(Case {
         scenario: Scenario::from_toml(&text, Path::new("equilibrium-heart.toml"))?,
         name: "heart L0".into(),
-        load_steps: 4,
+        load_steps: 1,
     })
 }
 
@@ -252,8 +270,10 @@ pub fn cases(meshes: &Path, quick: bool) -> Result<Vec<Case>> {
         Ok(vec![
             liver(meshes, 1, false)?,
             liver(meshes, 1, true)?,
+            liver(meshes, 0, false)?,
             heart(meshes)?,
             drape(10_000, 5)?,
+            drape(100_000, 7)?,
         ])
     }
 }
@@ -271,20 +291,10 @@ fn scaled(v: &[[f64; 3]], s: f64) -> Vec<[f64; 3]> {
     v.iter().map(|d| [s * d[0], s * d[1], s * d[2]]).collect()
 }
 
-/// Run the three solvers on `case`, one after the other; a row each, Newton's first.
-pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
-    let sc = &case.scenario;
-    let n = sc.mesh.num_nodes();
-    let ends = prescribed_ends(sc).ok_or_else(|| {
-        Error::param(
-            "bench equilibrium",
-            "prescribed motions must settle (no sine)",
-        )
-    })?;
-    let stages = if ends.is_empty() { 1 } else { PULL_INCREMENTS };
-    let row = |solver: &str| Row {
+fn blank_row(case: &Case, solver: &str) -> Row {
+    Row {
         case: case.name.clone(),
-        nodes: n,
+        nodes: case.scenario.mesh.num_nodes(),
         solver: solver.into(),
         wall_s: 0.0,
         iterations: 0,
@@ -295,63 +305,69 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
         max_u: f64::NAN,
         diff_newton: None,
         note: String::new(),
-    };
+    }
+}
 
-    // Direct Newton.
-    emit(&format!("{}: direct Newton ...", case.name));
-    let mut newton = row("direct Newton");
-    let mut u_newton = vec![0.0; 3 * n];
+/// Direct Newton with factorisation reuse `pcg_max` (0: none); the row and the displacement.
+fn newton_run(case: &Case, pcg_max: usize) -> Result<(Row, Vec<f64>)> {
+    let sc = &case.scenario;
+    let mut row = blank_row(case, "direct Newton");
+    let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
     let mut sys = sc.build_system()?;
-    let target = REL_TOL * max_nodal(&sys.f_ext) + ABS_TOL;
+    row.target = REL_TOL * max_nodal(&sys.f_ext) + ABS_TOL;
     let t0 = Instant::now();
     let out = solve_system(
         &mut sys,
         0.0,
-        &mut u_newton,
+        &mut u,
         DirectNewtonParams {
             rel_tol: REL_TOL,
             abs_tol: ABS_TOL,
             load_steps: case.load_steps,
+            pcg_max,
             ..Default::default()
         },
     );
-    newton.wall_s = t0.elapsed().as_secs_f64();
-    newton.target = target;
-    let have_newton = match out {
+    row.wall_s = t0.elapsed().as_secs_f64();
+    match out {
         Ok(o) => {
-            newton.iterations = o.newton_steps as u64;
-            newton.force_evaluations = o.force_evaluations as f64;
-            newton.residual = o.residual;
-            newton.converged = o.converged;
-            newton.max_u = max_nodal(&u_newton);
-            newton.diff_newton = Some(0.0);
-            newton.note = format!(
-                "{} load step{}, {} factorisations ({:.2} s), {} energy evaluations",
+            row.iterations = o.newton_steps as u64;
+            row.force_evaluations = o.force_evaluations as f64;
+            row.residual = o.residual;
+            row.converged = o.converged;
+            row.max_u = max_nodal(&u);
+            row.note = format!(
+                "{} load step{}, reuse {}: {} factorisations, {} CG iterations ({:.2} s), {} energy evaluations",
                 case.load_steps,
                 if case.load_steps == 1 { "" } else { "s" },
+                if pcg_max == 0 { "none".to_string() } else { format!("{pcg_max} CG") },
                 o.factorizations,
+                o.cg_iterations,
                 o.factor_s,
                 o.energy_evaluations
             );
-            o.converged
         }
-        Err(e) => {
-            newton.note = format!("failed: {e}");
-            false
-        }
-    };
-    let reference = have_newton.then_some(u_newton.as_slice());
-    let compare = |r: &mut Row, u: &[f64]| {
-        r.max_u = max_nodal(u);
-        r.diff_newton = reference.map(|un| max_nodal_diff(u, un));
-    };
+        Err(e) => row.note = format!("failed: {e}"),
+    }
+    Ok((row, u))
+}
 
-    // FAS, the rule checked after every cycle.
-    emit(&format!("{}: FAS ...", case.name));
-    let mut fas = row("FAS");
-    fas.target = target;
+/// FAS with `smooth` pre- and post-smoothing sweeps, the rule checked after every cycle.
+fn fas_run(case: &Case, smooth: usize, ends: &[[f64; 3]]) -> Result<(Row, Vec<f64>)> {
+    let mut sc = case.scenario.clone();
+    if let Some(mg) = sc.multigrid.as_mut() {
+        if let MultigridScheme::Fas(p) = &mut mg.scheme {
+            p.pre_smooth = smooth;
+            p.post_smooth = smooth;
+        }
+    }
+    let n = sc.mesh.num_nodes();
+    let stages = if ends.is_empty() { 1 } else { PULL_INCREMENTS };
+    let mut row = blank_row(case, "FAS");
+    row.target = REL_TOL * max_nodal(&sc.build_system()?.f_ext) + ABS_TOL;
+    let target = row.target;
     let t0 = Instant::now();
-    let fas_out = (|| -> Result<(u64, f64, f64, Vec<f64>, usize)> {
+    let out = (|| -> Result<(u64, f64, f64, Vec<f64>, usize)> {
         let mut st = sc.stepper()?;
         let mut r = vec![0.0; 3 * n];
         let mut cycles = 0u64;
@@ -359,7 +375,7 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
         for stage in 1..=stages {
             let last = stage == stages;
             if !ends.is_empty() {
-                st.hold_prescribed(&scaled(&ends, stage as f64 / stages as f64));
+                st.hold_prescribed(&scaled(ends, stage as f64 / stages as f64));
             }
             let goal = if last {
                 target
@@ -382,37 +398,44 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
         let u = st.state().u.clone();
         Ok((cycles, evals, res, u, levels))
     })();
-    fas.wall_s = t0.elapsed().as_secs_f64();
-    match fas_out {
+    row.wall_s = t0.elapsed().as_secs_f64();
+    match out {
         Ok((cycles, evals, res, u, levels)) => {
-            fas.iterations = cycles;
-            fas.force_evaluations = evals;
-            fas.residual = res;
-            fas.converged = res <= target;
-            compare(&mut fas, &u);
-            fas.note = format!("{levels} levels");
+            row.iterations = cycles;
+            row.force_evaluations = evals;
+            row.residual = res;
+            row.converged = res <= target;
+            row.max_u = max_nodal(&u);
+            row.note = format!("{levels} levels, {smooth}+{smooth} sweeps");
             if stages > 1 {
-                fas.note += &format!(", pull in {stages} increments");
+                row.note += &format!(", pull in {stages} increments");
             }
+            Ok((row, u))
         }
-        Err(e) => fas.note = format!("failed: {e}"),
+        Err(e) => {
+            row.note = format!("failed: {e}");
+            Ok((row, Vec::new()))
+        }
     }
+}
 
-    // Adaptive dynamic relaxation on the finest mesh.
-    emit(&format!("{}: ADR ...", case.name));
-    let mut adr = row("ADR");
-    adr.target = target;
+/// Adaptive dynamic relaxation on the finest mesh.
+fn adr_run(case: &Case, ends: &[[f64; 3]]) -> Result<(Row, Vec<f64>)> {
+    let sc = &case.scenario;
+    let stages = if ends.is_empty() { 1 } else { PULL_INCREMENTS };
+    let mut adr = blank_row(case, "ADR");
     let mut sys = sc.build_system()?;
+    adr.target = REL_TOL * max_nodal(&sys.f_ext) + ABS_TOL;
     let lmax = lambda_max_bound(&sc.mesh, &sc.material, sc.density);
-    let mut u = vec![0.0; 3 * n];
+    let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
     let t0 = Instant::now();
-    let mut adr_res: std::result::Result<(), String> = Ok(());
+    let mut failure: Option<String> = None;
     for stage in 1..=stages {
         let last = stage == stages;
         if !ends.is_empty() {
             hold(
                 &mut sys.constraints,
-                &scaled(&ends, stage as f64 / stages as f64),
+                &scaled(ends, stage as f64 / stages as f64),
             );
         }
         let (rel, abs) = if last {
@@ -431,24 +454,88 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
                 }
             }
             Err(e) => {
-                adr_res = Err(format!("{e:?}"));
+                failure = Some(format!("{e:?}"));
                 break;
             }
         }
     }
     adr.wall_s = t0.elapsed().as_secs_f64();
     adr.force_evaluations = adr.iterations as f64;
-    match adr_res {
-        Ok(()) => {
-            compare(&mut adr, &u);
-            adr.note = if stages > 1 {
-                format!("finest only, pull in {stages} increments")
-            } else {
-                "finest only".into()
-            };
-        }
-        Err(e) => adr.note = format!("failed: {e}"),
+    adr.max_u = max_nodal(&u);
+    adr.note = match failure {
+        Some(e) => format!("failed: {e}"),
+        None if stages > 1 => format!("finest only, pull in {stages} increments"),
+        None => "finest only".into(),
+    };
+    Ok((adr, u))
+}
+
+/// The fastest converged row of a sweep (else the first), its note extended with every
+/// variant's wall time.
+fn best_of(mut variants: Vec<(Row, Vec<f64>)>, label: &str) -> (Row, Vec<f64>) {
+    let summary: Vec<String> = variants
+        .iter()
+        .map(|(r, _)| {
+            format!(
+                "{:.2} s{}",
+                r.wall_s,
+                if r.converged { "" } else { " (not converged)" }
+            )
+        })
+        .collect();
+    let best = variants
+        .iter()
+        .enumerate()
+        .filter(|(_, (r, _))| r.converged)
+        .min_by(|a, b| a.1 .0.wall_s.total_cmp(&b.1 .0.wall_s))
+        .map_or(0, |(i, _)| i);
+    let (mut row, u) = variants.swap_remove(best);
+    if summary.len() > 1 {
+        row.note += &format!("; {label}: {}", summary.join(", "));
     }
+    (row, u)
+}
+
+/// Run the three solvers on `case`, each at its best settings by the module's rule (Newton
+/// over [`NEWTON_REUSE`], FAS over [`FAS_SWEEPS`]); a row each, Newton's first.
+pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
+    let sc = &case.scenario;
+    let ends = prescribed_ends(sc).ok_or_else(|| {
+        Error::param(
+            "bench equilibrium",
+            "prescribed motions must settle (no sine)",
+        )
+    })?;
+    emit(&format!("{}: direct Newton ...", case.name));
+    let (mut newton, u_newton) = best_of(
+        NEWTON_REUSE
+            .iter()
+            .map(|&m| newton_run(case, m))
+            .collect::<Result<_>>()?,
+        "reuse none / 20 CG",
+    );
+    let reference = newton.converged.then_some(u_newton.as_slice());
+    let compare = |r: &mut Row, u: &[f64]| {
+        if r.note.starts_with("failed") || u.is_empty() {
+            return;
+        }
+        r.diff_newton = reference.map(|un| max_nodal_diff(u, un));
+    };
+    if reference.is_some() {
+        newton.diff_newton = Some(0.0);
+    }
+    emit(&format!("{}: FAS ...", case.name));
+    let (mut fas, u_fas) = best_of(
+        FAS_SWEEPS
+            .iter()
+            .map(|&k| fas_run(case, k, &ends))
+            .collect::<Result<_>>()?,
+        "sweeps 4 / 8 / 16",
+    );
+    compare(&mut fas, &u_fas);
+    emit(&format!("{}: ADR ...", case.name));
+    let (mut adr, u_adr) = adr_run(case, &ends)?;
+    compare(&mut adr, &u_adr);
     Ok(vec![newton, fas, adr])
 }
 
@@ -459,6 +546,83 @@ pub fn run(cases: &[Case], emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
         rows.extend(run_case(c, emit)?);
     }
     Ok(rows)
+}
+
+/// The frame loop's view of FAS: one row per budget (V-cycles per frame), the largest nodal
+/// residual over free nodes relative to the largest nodal load after each of the frames in
+/// [`FRAME_MARKS`], from rest, and the mean wall time per frame (ms).
+#[derive(Clone, Debug)]
+pub struct FrameRow {
+    pub case: String,
+    /// V-cycles per frame.
+    pub cycles: u64,
+    /// Relative residual after frame [`FRAME_MARKS`]`[i]`.
+    pub residuals: Vec<f64>,
+    /// Mean wall time per frame (ms).
+    pub ms_per_frame: f64,
+}
+
+/// The frames after which [`frame_budgets`] reads the residual.
+pub const FRAME_MARKS: [usize; 5] = [1, 3, 10, 30, 100];
+
+/// FAS as the interactive frame loop runs it (a frame = a fixed number of V-cycles, warm
+/// started from the last frame) on `case` from rest, for each budget in `cycles`.
+pub fn frame_budgets(case: &Case, cycles: &[u64]) -> Result<Vec<FrameRow>> {
+    let sc = &case.scenario;
+    let n = sc.mesh.num_nodes();
+    let mut rows = Vec::new();
+    for &k in cycles {
+        let mut st = sc.stepper()?;
+        let vmax = max_nodal(&st.finest().0.f_ext);
+        let mut r = vec![0.0; 3 * n];
+        let mut residuals = Vec::new();
+        let mut wall = 0.0;
+        let last = *FRAME_MARKS.last().unwrap_or(&1);
+        for frame in 1..=last {
+            let t0 = Instant::now();
+            for _ in 0..k {
+                st.advance()?;
+            }
+            wall += t0.elapsed().as_secs_f64();
+            if FRAME_MARKS.contains(&frame) {
+                let (sys, s) = st.finest();
+                let u = s.u.clone();
+                sys.residual(&u, &mut r)
+                    .map_err(|e| Error::param("FAS", format!("{e:?}")))?;
+                residuals.push(max_nodal(&r) / vmax);
+            }
+        }
+        rows.push(FrameRow {
+            case: case.name.clone(),
+            cycles: k,
+            residuals,
+            ms_per_frame: 1e3 * wall / last as f64,
+        });
+    }
+    Ok(rows)
+}
+
+/// The frame rows as a Markdown table.
+pub fn frames_to_markdown(rows: &[FrameRow]) -> String {
+    let mut s = String::from(
+        "FAS in the frame loop, from rest: max nodal residual / max nodal load after frame k.\n\n| case | V-cycles per frame | ms per frame |",
+    );
+    for m in FRAME_MARKS {
+        s += &format!(" k = {m} |");
+    }
+    s += "\n|---|---:|---:|";
+    for _ in FRAME_MARKS {
+        s += "---:|";
+    }
+    s += "\n";
+    for r in rows {
+        s += &format!("| {} | {} | {:.1} |", r.case, r.cycles, r.ms_per_frame);
+        for x in &r.residuals {
+            s += &format!(" {x:.2e} |");
+        }
+        s += "\n";
+    }
+    s
 }
 
 /// Whether every row converged and agrees with Newton's equilibrium.
@@ -507,6 +671,44 @@ pub fn to_markdown(rows: &[Row]) -> String {
     s
 }
 
+/// Per case: the best baseline (direct Newton or ADR, the faster that converged), FAS, and the
+/// ratio of their wall times (> 1: FAS is faster).
+pub fn summary_markdown(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "| case | best baseline | its wall (s) | FAS wall (s) | best baseline / FAS |\n|---|---|---:|---:|---:|\n",
+    );
+    let mut names: Vec<&str> = Vec::new();
+    for r in rows {
+        if !names.contains(&r.case.as_str()) {
+            names.push(&r.case);
+        }
+    }
+    for name in names {
+        let of = |solver: &str| {
+            rows.iter()
+                .find(|r| r.case == name && r.solver == solver && r.converged)
+        };
+        let base = [of("direct Newton"), of("ADR")]
+            .into_iter()
+            .flatten()
+            .min_by(|a, b| a.wall_s.total_cmp(&b.wall_s));
+        let fas = of("FAS");
+        match (base, fas) {
+            (Some(b), Some(f)) => {
+                s += &format!(
+                    "| {name} | {} | {:.2} | {:.2} | {:.2} |\n",
+                    b.solver,
+                    b.wall_s,
+                    f.wall_s,
+                    b.wall_s / f.wall_s
+                )
+            }
+            _ => s += &format!("| {name} | - | - | - | - (a solver did not converge) |\n"),
+        }
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -516,7 +718,7 @@ mod tests {
     }
 
     fn check(rows: &[Row]) {
-        let table = to_markdown(rows);
+        let table = to_markdown(rows) + &summary_markdown(rows);
         println!("{table}");
         for r in rows {
             assert!(

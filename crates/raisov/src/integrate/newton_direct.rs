@@ -27,7 +27,18 @@
 //!   large rotations: a linearised rotation shows up as spurious axial forces, and a soft
 //!   cantilever's sag stalled under it. An inverted element counts as no decrease.
 //!
-//! Stopping rule (issue 23's common criterion, at the full load):
+//! Factorisation reuse ([`DirectNewtonParams::pcg_max`] = m > 0, inexact Newton): once a
+//! factorisation `L Lᵀ` of some earlier `K + σ d̄ D` is kept, each Newton system is solved by
+//! conjugate gradients on the current `K + σ d̄ D` preconditioned by `(L Lᵀ)⁻¹`, from δ = 0
+//! to `‖r − (K + σ d̄ D) δ‖₂ ≤ η ‖r‖₂` with Eisenstat and Walker's choice 2,
+//! `η_k = min(0.5, 0.9 (‖r_k‖/‖r_{k−1}‖)²)` (safeguarded by `0.9 η_{k−1}²`, and not below
+//! what the stopping rule needs). A direction of non-positive curvature after the first
+//! iteration truncates CG (Steihaug): the iterate so far still descends (`r·δ > 0`). Where m
+//! iterations do not reach η, or the first direction has non-positive curvature, the
+//! iteration factors at the current state as above and keeps that factor. Near the solution
+//! `K` is positive definite and η → 0, so convergence stays superlinear.
+//!
+//! Stopping rule (that of `raisov bench equilibrium`, at the full load):
 //! `max_a |r_a| ≤ rel_tol × max_a |V_a| + abs_tol`, `r_a` the residual force of free node a,
 //! `V_a` the external force of node a (all nodes), `|·|` the Euclidean norm of a node's 3-vector.
 //! Intermediate load steps stop at `max(rel_tol, 1e-6)` of their own scale.
@@ -285,8 +296,10 @@ impl DirectNewton {
 
     /// Conjugate gradients on `A x = b` (`A = K + σ d̄ D`), preconditioned by the kept factor,
     /// from x = 0 to `‖b − A x‖₂ ≤ tol`, at most `max_iter` iterations. Returns the iterations
-    /// if the tolerance was reached; `None` otherwise (or on a direction of non-positive
-    /// curvature: A is not positive definite there).
+    /// if the tolerance was reached, or if a direction of non-positive curvature (A not
+    /// positive definite there) stops the iteration after the first (Steihaug's truncation: the
+    /// iterate so far is a descent direction of the potential, `b·x > 0`, which the line search
+    /// takes); `None` otherwise, x undefined.
     fn pcg(
         &self,
         a: &SparseColMat<usize, f64>,
@@ -307,7 +320,7 @@ impl DirectNewton {
             sym_lower_matvec(a, &p, &mut q);
             let pq: f64 = p.iter().zip(&q).map(|(a, b)| a * b).sum();
             if pq <= 0.0 || !pq.is_finite() {
-                return None;
+                return (it > 1 && pq.is_finite()).then_some(it - 1);
             }
             let alpha = rz / pq;
             for i in 0..n {

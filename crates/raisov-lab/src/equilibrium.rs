@@ -291,7 +291,7 @@ fn scaled(v: &[[f64; 3]], s: f64) -> Vec<[f64; 3]> {
     v.iter().map(|d| [s * d[0], s * d[1], s * d[2]]).collect()
 }
 
-fn blank_row(case: &Case, solver: &str) -> Row {
+fn blank_row(case: &Case, solver: &str, target: f64) -> Row {
     Row {
         case: case.name.clone(),
         nodes: case.scenario.mesh.num_nodes(),
@@ -300,7 +300,7 @@ fn blank_row(case: &Case, solver: &str) -> Row {
         iterations: 0,
         force_evaluations: 0.0,
         residual: f64::NAN,
-        target: f64::NAN,
+        target,
         converged: false,
         max_u: f64::NAN,
         diff_newton: None,
@@ -309,12 +309,11 @@ fn blank_row(case: &Case, solver: &str) -> Row {
 }
 
 /// Direct Newton with factorisation reuse `pcg_max` (0: none); the row and the displacement.
-fn newton_run(case: &Case, pcg_max: usize) -> Result<(Row, Vec<f64>)> {
+fn newton_run(case: &Case, target: f64, pcg_max: usize) -> Result<(Row, Vec<f64>)> {
     let sc = &case.scenario;
-    let mut row = blank_row(case, "direct Newton");
+    let mut row = blank_row(case, "direct Newton", target);
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
     let mut sys = sc.build_system()?;
-    row.target = REL_TOL * max_nodal(&sys.f_ext) + ABS_TOL;
     let t0 = Instant::now();
     let out = solve_system(
         &mut sys,
@@ -353,7 +352,7 @@ fn newton_run(case: &Case, pcg_max: usize) -> Result<(Row, Vec<f64>)> {
 }
 
 /// FAS with `smooth` pre- and post-smoothing sweeps, the rule checked after every cycle.
-fn fas_run(case: &Case, smooth: usize, ends: &[[f64; 3]]) -> Result<(Row, Vec<f64>)> {
+fn fas_run(case: &Case, target: f64, smooth: usize, ends: &[[f64; 3]]) -> Result<(Row, Vec<f64>)> {
     let mut sc = case.scenario.clone();
     if let Some(mg) = sc.multigrid.as_mut() {
         if let MultigridScheme::Fas(p) = &mut mg.scheme {
@@ -363,9 +362,7 @@ fn fas_run(case: &Case, smooth: usize, ends: &[[f64; 3]]) -> Result<(Row, Vec<f6
     }
     let n = sc.mesh.num_nodes();
     let stages = if ends.is_empty() { 1 } else { PULL_INCREMENTS };
-    let mut row = blank_row(case, "FAS");
-    row.target = REL_TOL * max_nodal(&sc.build_system()?.f_ext) + ABS_TOL;
-    let target = row.target;
+    let mut row = blank_row(case, "FAS", target);
     let t0 = Instant::now();
     let out = (|| -> Result<(u64, f64, f64, Vec<f64>, usize)> {
         let mut st = sc.stepper()?;
@@ -420,12 +417,11 @@ fn fas_run(case: &Case, smooth: usize, ends: &[[f64; 3]]) -> Result<(Row, Vec<f6
 }
 
 /// Adaptive dynamic relaxation on the finest mesh.
-fn adr_run(case: &Case, ends: &[[f64; 3]]) -> Result<(Row, Vec<f64>)> {
+fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]]) -> Result<(Row, Vec<f64>)> {
     let sc = &case.scenario;
     let stages = if ends.is_empty() { 1 } else { PULL_INCREMENTS };
-    let mut adr = blank_row(case, "ADR");
+    let mut adr = blank_row(case, "ADR", target);
     let mut sys = sc.build_system()?;
-    adr.target = REL_TOL * max_nodal(&sys.f_ext) + ABS_TOL;
     let lmax = lambda_max_bound(&sc.mesh, &sc.material, sc.density);
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
     let t0 = Instant::now();
@@ -506,13 +502,23 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
             "prescribed motions must settle (no sine)",
         )
     })?;
+    let target = REL_TOL * max_nodal(&sc.build_system()?.f_ext) + ABS_TOL;
+    let list = |v: &[usize]| {
+        v.iter()
+            .map(|x| x.to_string())
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
     emit(&format!("{}: direct Newton ...", case.name));
     let (mut newton, u_newton) = best_of(
         NEWTON_REUSE
             .iter()
-            .map(|&m| newton_run(case, m))
+            .map(|&m| newton_run(case, target, m))
             .collect::<Result<_>>()?,
-        "reuse none / 20 CG",
+        &format!(
+            "CG iterations before refactoring (0: none) {}",
+            list(&NEWTON_REUSE)
+        ),
     );
     let reference = newton.converged.then_some(u_newton.as_slice());
     let compare = |r: &mut Row, u: &[f64]| {
@@ -528,13 +534,13 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
     let (mut fas, u_fas) = best_of(
         FAS_SWEEPS
             .iter()
-            .map(|&k| fas_run(case, k, &ends))
+            .map(|&k| fas_run(case, target, k, &ends))
             .collect::<Result<_>>()?,
-        "sweeps 4 / 8 / 16",
+        &format!("sweeps {}", list(&FAS_SWEEPS)),
     );
     compare(&mut fas, &u_fas);
     emit(&format!("{}: ADR ...", case.name));
-    let (mut adr, u_adr) = adr_run(case, &ends)?;
+    let (mut adr, u_adr) = adr_run(case, target, &ends)?;
     compare(&mut adr, &u_adr);
     Ok(vec![newton, fas, adr])
 }

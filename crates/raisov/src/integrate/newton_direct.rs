@@ -257,6 +257,15 @@ impl DirectNewton {
         Ok(diag / self.nfree.max(1) as f64)
     }
 
+    /// `out[f] = x[i]` for every free dof i with free index f.
+    fn gather_free(&self, x: &[f64], out: &mut [f64]) {
+        for (i, &f) in self.free.iter().enumerate() {
+            if f != usize::MAX {
+                out[f] = x[i];
+            }
+        }
+    }
+
     /// `K + σ d̄ D` (values as assembled), lower triangle in compressed columns.
     fn matrix(&self, shift: f64) -> Result<SparseColMat<usize, f64>, String> {
         let base = self.vals.len() - self.nfree;
@@ -436,21 +445,16 @@ impl DirectNewton {
                 let mut solved = false;
                 if params.pcg_max > 0 && self.llt.is_some() {
                     let mut eta = match prev_norm {
-                        Some(p) if p > 0.0 => (0.9 * (norm / p).powi(2)).min(0.5),
+                        Some(p) if p > 0.0 => 0.9 * (norm / p).powi(2),
                         _ => 0.5,
                     };
                     if 0.9 * eta_prev * eta_prev > 0.1 {
-                        eta = eta.max(0.9 * eta_prev * eta_prev).min(0.5);
+                        eta = eta.max(0.9 * eta_prev * eta_prev);
                     }
                     eta = eta.max(0.1 * tol / max.max(f64::MIN_POSITIVE)).min(0.5);
                     eta_prev = eta;
-                    let b: Vec<f64> = self
-                        .free
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, &f)| f != usize::MAX)
-                        .map(|(i, _)| r[i])
-                        .collect();
+                    let mut b = vec![0.0; self.nfree];
+                    self.gather_free(&r, &mut b);
                     let a = self
                         .matrix(sigma * dbar)
                         .map_err(DirectNewtonError::Factor)?;
@@ -465,11 +469,7 @@ impl DirectNewton {
                 prev_norm = Some(norm);
                 // Factor, raising σ until K + σ d̄ D is positive definite.
                 while !solved {
-                    for (i, &f) in self.free.iter().enumerate() {
-                        if f != usize::MAX {
-                            rhs[f] = r[i];
-                        }
-                    }
+                    self.gather_free(&r, &mut rhs);
                     out.factorizations += 1;
                     match self.factor_solve(sigma * dbar, &mut rhs) {
                         Ok(()) => {

@@ -1,0 +1,259 @@
+//! `[mesh]` resolved: which mesh file or generated shape a scenario (and each coarser
+//! `[multigrid]` level) is built from, and the build itself: read or generate, scale to
+//! metres, renumber in the banded order (module docs of [`crate::scenario`], "Node order").
+
+use super::spec::{self, defaults, Generator, Named};
+use super::{err, positive};
+use crate::error::Result;
+use crate::io::load_mesh;
+use crate::mesh::generate::{
+    box_tets, box_tets_target, polygon_membrane, rectangle_membrane, BoxPattern,
+};
+use crate::mesh::Mesh;
+use std::path::{Path, PathBuf};
+
+/// What `[mesh]` builds; the coarser `[multigrid]` levels are built the same way.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshSource {
+    pub shape: Shape,
+    /// Coordinate factor to metres.
+    pub scale: f64,
+    /// Renumber mesh files (level files included) in the banded order.
+    pub renumber_files: bool,
+    /// Renumber generated meshes.
+    pub renumber_generated: bool,
+}
+
+/// A mesh file or a generated shape.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    /// A mesh file (the path joined to the scenario's directory).
+    File(PathBuf),
+    /// A rectangular membrane of about `nodes` nodes.
+    Rectangle {
+        width: f64,
+        height: f64,
+        nodes: usize,
+    },
+    /// A polygonal membrane of about `nodes` nodes.
+    Polygon {
+        outline: Vec<[f64; 2]>,
+        nodes: usize,
+    },
+    /// A tetrahedral box.
+    Box {
+        size: [f64; 3],
+        cells: BoxCells,
+        pattern: BoxPattern,
+    },
+}
+
+/// How finely a generated box is cut.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BoxCells {
+    /// About this many nodes.
+    Nodes(usize),
+    /// This many cubes per side.
+    Divisions([usize; 3]),
+}
+
+/// Check `[mesh]` and say what it builds.
+pub(super) fn resolve_mesh_source(
+    m: &spec::MeshSpec,
+    path: &Path,
+    base: &Path,
+) -> Result<MeshSource> {
+    let forbid = |what: &str, keys: &[(&str, bool)]| -> Result<()> {
+        match keys.iter().find(|(_, set)| *set) {
+            Some((k, _)) => Err(err(path, format!("[mesh]: `{k}` does not apply to {what}"))),
+            None => Ok(()),
+        }
+    };
+    let shape = match (&m.file, m.generate) {
+        (Some(_), Some(_)) => {
+            return Err(err(
+                path,
+                "[mesh]: give either `file` or `generate`, not both",
+            ))
+        }
+        (None, None) => {
+            return Err(err(
+                path,
+                format!(
+                    "[mesh]: missing `file` (a .msh, .node/.ele, .vtk or .vtu mesh), `surface` (a closed .obj, .stl or .ply surface to mesh) or `generate` ({})",
+                    Generator::valid()
+                ),
+            ))
+        }
+        (Some(f), None) => {
+            forbid(
+                "`file`",
+                &[
+                    ("size", m.size.is_some()),
+                    ("polygon", m.polygon.is_some()),
+                    ("nodes", m.nodes.is_some()),
+                    ("divisions", m.divisions.is_some()),
+                    ("pattern", m.pattern.is_some()),
+                ],
+            )?;
+            Shape::File(base.join(f))
+        }
+        (None, Some(g)) => {
+            let what = format!("generate = \"{}\"", g.name());
+            let need_nodes = || {
+                m.nodes.ok_or_else(|| {
+                    err(
+                        path,
+                        format!("[mesh]: {what} needs `nodes` (target node count)"),
+                    )
+                })
+            };
+            let size = |len: usize| -> Result<Vec<f64>> {
+                let s = match m.size.clone() {
+                    Some(spec::MeshSize::Lengths(s)) => s,
+                    Some(spec::MeshSize::Length(x)) => vec![x],
+                    None => {
+                        return Err(err(
+                            path,
+                            format!("[mesh]: {what} needs `size` ({len} lengths in m)"),
+                        ))
+                    }
+                };
+                if s.len() != len || s.iter().any(|&x| !(x > 0.0)) {
+                    return Err(err(
+                        path,
+                        format!(
+                            "[mesh]: `size` = {s:?}: need {len} positive lengths (m) for {what}"
+                        ),
+                    ));
+                }
+                Ok(s)
+            };
+            match g {
+                Generator::Rectangle => {
+                    forbid(
+                        &what,
+                        &[
+                            ("polygon", m.polygon.is_some()),
+                            ("divisions", m.divisions.is_some()),
+                            ("pattern", m.pattern.is_some()),
+                        ],
+                    )?;
+                    let s = size(2)?;
+                    Shape::Rectangle {
+                        width: s[0],
+                        height: s[1],
+                        nodes: need_nodes()?,
+                    }
+                }
+                Generator::Polygon => {
+                    forbid(
+                        &what,
+                        &[
+                            ("size", m.size.is_some()),
+                            ("divisions", m.divisions.is_some()),
+                            ("pattern", m.pattern.is_some()),
+                        ],
+                    )?;
+                    let outline = m.polygon.clone().ok_or_else(|| {
+                        err(
+                            path,
+                            "[mesh]: generate = \"polygon\" needs `polygon` = [[x, y], ...] (m)",
+                        )
+                    })?;
+                    Shape::Polygon {
+                        outline,
+                        nodes: need_nodes()?,
+                    }
+                }
+                Generator::Box => {
+                    forbid(&what, &[("polygon", m.polygon.is_some())])?;
+                    let s = size(3)?;
+                    let cells = match (m.divisions, m.nodes) {
+                        (Some(d), None) => BoxCells::Divisions(d),
+                        (None, Some(n)) => BoxCells::Nodes(n),
+                        _ => return Err(err(path, "[mesh]: generate = \"box\" needs exactly one of `nodes` or `divisions`")),
+                    };
+                    Shape::Box {
+                        size: [s[0], s[1], s[2]],
+                        cells,
+                        pattern: m.pattern.unwrap_or(defaults::BOX_PATTERN),
+                    }
+                }
+            }
+        }
+    };
+    let scale = positive(path, "mesh.scale", m.scale.unwrap_or(defaults::SCALE))?;
+    Ok(MeshSource {
+        shape,
+        scale,
+        renumber_files: m.renumber.unwrap_or(defaults::RENUMBER_FILES),
+        renumber_generated: m.renumber.unwrap_or(defaults::RENUMBER_GENERATED),
+    })
+}
+
+impl MeshSource {
+    /// Build `shape` (this source's or a coarser level's; `key` names it in messages), scale
+    /// and renumber it. Returns the mesh, notes for the user, and the file ids of its nodes
+    /// where it was renumbered (see [`super::Scenario::file_ids`]).
+    #[allow(clippy::type_complexity)]
+    pub fn build(
+        &self,
+        shape: &Shape,
+        path: &Path,
+        key: &str,
+    ) -> Result<(Mesh, Vec<String>, Option<Vec<u32>>, Option<Vec<u64>>)> {
+        let mut notes = Vec::new();
+        let mut labels = None;
+        let mut mesh = match shape {
+            Shape::File(p) => {
+                let loaded = load_mesh(p)
+                    .map_err(|e| err(path, format!("`{key}` = \"{}\": {e}", p.display())))?;
+                if !loaded.reoriented.is_empty() {
+                    notes.push(format!(
+                        "{}: reoriented {} inverted elements (first: {})",
+                        p.display(),
+                        loaded.reoriented.len(),
+                        loaded.reoriented[0]
+                    ));
+                }
+                if loaded.unused_nodes_dropped > 0 {
+                    notes.push(format!(
+                        "{}: dropped {} nodes used by no element",
+                        p.display(),
+                        loaded.unused_nodes_dropped
+                    ));
+                }
+                labels = Some(loaded.node_ids);
+                loaded.mesh
+            }
+            Shape::Rectangle {
+                width,
+                height,
+                nodes,
+            } => rectangle_membrane(*width, *height, *nodes)?,
+            Shape::Polygon { outline, nodes } => polygon_membrane(outline, *nodes)?,
+            Shape::Box {
+                size,
+                cells: BoxCells::Divisions(d),
+                pattern,
+            } => box_tets(*size, *d, *pattern)?,
+            Shape::Box {
+                size,
+                cells: BoxCells::Nodes(n),
+                pattern,
+            } => box_tets_target(*size, *n, *pattern)?,
+        };
+        mesh.scale(self.scale);
+        let renumber = match shape {
+            Shape::File(_) => self.renumber_files,
+            _ => self.renumber_generated,
+        };
+        let file_ids = renumber.then(|| {
+            let order = mesh.spatial_order();
+            mesh.renumber(&order);
+            order
+        });
+        Ok((mesh, notes, file_ids, labels))
+    }
+}

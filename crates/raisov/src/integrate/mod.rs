@@ -24,6 +24,7 @@
 
 pub mod adaptive_relax;
 mod constraints;
+pub mod galerkin;
 // Documented separately (edited in parallel).
 #[allow(missing_docs)]
 pub mod newton_direct;

@@ -38,6 +38,16 @@
 //! iteration factors at the current state as above and keeps that factor. Near the solution
 //! `K` is positive definite and η → 0, so convergence stays superlinear.
 //!
+//! Multigrid-preconditioned Newton ([`DirectNewtonParams::multigrid`], with the levels given
+//! to [`DirectNewton::with_levels`]): each Newton system is solved by conjugate gradients on
+//! `K + σ d̄ D` preconditioned by one Galerkin V-cycle ([`super::galerkin`]: coarse operators
+//! `Pᵀ A P` over the hierarchy's host weights, Gauss-Seidel smoothing, a sparse Cholesky
+//! factorisation of the coarsest level only), to the same inexact-Newton tolerance η, with the
+//! same Steihaug truncation; where [`MultigridPcg::max_iter`] iterations do not reach η the
+//! iterate is taken as it is (truncated Newton: a descent direction while the curvature seen is
+//! positive). A first direction of non-positive curvature, or a coarsest operator that does not
+//! factor, raises σ as a failed factorisation does. No factorisation of the fine level is made.
+//!
 //! Stopping rule (that of `raisov bench equilibrium`, at the full load):
 //! `max_a |r_a| ≤ rel_tol × max_a |V_a| + abs_tol`, `r_a` the residual force of free node a,
 //! `V_a` the external force of node a (all nodes), `|·|` the Euclidean norm of a node's 3-vector.
@@ -46,8 +56,10 @@
 //! Entry points: [`solve_system`] on a [`System`] whose force model is a
 //! [`crate::fem::FemModel`], or [`DirectNewton`] for repeated solves.
 
+use super::galerkin::{CoarseFactor, Csr, GalerkinMultigrid, Prolongations};
 use super::{Constraints, System};
 use crate::fem::{ElementFailure, FemModel, ForceModel};
+use crate::hierarchy::Transfer;
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
@@ -71,6 +83,27 @@ pub struct DirectNewtonParams {
     /// factorisation, to the inexact-Newton tolerance, and refactors only when m iterations do
     /// not reach it. Default 0.
     pub pcg_max: usize,
+    /// Multigrid-preconditioned conjugate gradients instead of a factorisation (module docs);
+    /// needs the levels of [`DirectNewton::with_levels`]. Default `None`.
+    pub multigrid: Option<MultigridPcg>,
+}
+
+/// Settings of the multigrid-preconditioned linear solves ([`DirectNewtonParams::multigrid`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MultigridPcg {
+    /// Gauss-Seidel sweeps before and after each coarse correction. Default 2.
+    pub sweeps: usize,
+    /// Conjugate-gradient iterations at most per Newton system. Default 25.
+    pub max_iter: usize,
+}
+
+impl Default for MultigridPcg {
+    fn default() -> Self {
+        MultigridPcg {
+            sweeps: 2,
+            max_iter: 25,
+        }
+    }
 }
 
 impl Default for DirectNewtonParams {
@@ -82,6 +115,7 @@ impl Default for DirectNewtonParams {
             load_steps: 1,
             sigma_min: 1e-8,
             pcg_max: 0,
+            multigrid: None,
         }
     }
 }
@@ -105,8 +139,12 @@ pub struct DirectStatic {
     pub force_evaluations: u64,
     /// Strain-energy evaluations (the line search's Π).
     pub energy_evaluations: u64,
-    /// Conjugate-gradient iterations ([`DirectNewtonParams::pcg_max`] > 0).
+    /// Conjugate-gradient iterations ([`DirectNewtonParams::pcg_max`] > 0, or
+    /// [`DirectNewtonParams::multigrid`]).
     pub cg_iterations: usize,
+    /// Galerkin hierarchies built ([`DirectNewtonParams::multigrid`]), retries with a larger σ
+    /// included; each factors the coarsest level.
+    pub multigrid_setups: usize,
     /// Wall time in assembling tangents and in factorising and solving (s).
     pub assembly_s: f64,
     pub factor_s: f64,
@@ -128,6 +166,12 @@ pub enum DirectNewtonError {
     SlidingNotAxis { node: u32, dir: [f64; 3] },
     #[error("the direct Newton solver does not take spring grasps (System::springs); use a hard grasp or the Newton-Krylov solver")]
     Springs,
+    #[error("level transfer {level} locates {got} nodes, but its finer level has {expected}")]
+    Levels {
+        level: usize,
+        got: usize,
+        expected: usize,
+    },
 }
 
 /// The assembled tangent's structure over the free dofs, fixed for a mesh and constraint set.
@@ -147,6 +191,12 @@ pub struct DirectNewton {
     weight: Vec<f64>,
     /// The last numeric factorisation, kept as the conjugate-gradient preconditioner.
     llt: Option<Llt<usize, f64>>,
+    /// The interpolations of [`DirectNewton::with_levels`] (empty without).
+    prolongations: Prolongations,
+    /// The coarsest Galerkin level's symbolic factorisation (its pattern is fixed).
+    coarse_symbolic: Option<SymbolicLlt<usize>>,
+    /// The last coarsest-level factorisation, reused while the cycles it serves converge.
+    coarse: Option<CoarseFactor>,
 }
 
 impl DirectNewton {
@@ -213,7 +263,37 @@ impl DirectNewton {
             llt_symbolic,
             weight,
             llt: None,
+            prolongations: Prolongations::default(),
+            coarse_symbolic: None,
+            coarse: None,
         })
+    }
+
+    /// The pattern, and the interpolations for [`DirectNewtonParams::multigrid`]: `down[l]`
+    /// locates level l's nodes in level l + 1's mesh (level 0 is `model`'s mesh), as
+    /// [`crate::hierarchy::Correspondence::down`] does.
+    pub fn with_levels(
+        model: &FemModel,
+        constraints: &Constraints,
+        down: &[Transfer],
+    ) -> Result<Self, DirectNewtonError> {
+        let mut s = Self::new(model, constraints)?;
+        let mut expected = model.num_nodes();
+        for (level, t) in down.iter().enumerate() {
+            if t.len() != expected {
+                return Err(DirectNewtonError::Levels {
+                    level,
+                    got: t.len(),
+                    expected,
+                });
+            }
+            expected = t.target_nodes;
+        }
+        let free_dofs: Vec<usize> = (0..s.free.len())
+            .filter(|&i| s.free[i] != usize::MAX)
+            .collect();
+        s.prolongations = Prolongations::new(down, &free_dofs);
+        Ok(s)
     }
 
     /// Assemble K(u) into the pattern's values (diagonal shifts zero); returns the mean
@@ -301,54 +381,6 @@ impl DirectNewton {
         for (i, r) in rhs.iter_mut().enumerate() {
             *r = b[(i, 0)];
         }
-    }
-
-    /// Conjugate gradients on `A x = b` (`A = K + σ d̄ D`), preconditioned by the kept factor,
-    /// from x = 0 to `‖b − A x‖₂ ≤ tol`, at most `max_iter` iterations. Returns the iterations
-    /// if the tolerance was reached, or if a direction of non-positive curvature (A not
-    /// positive definite there) stops the iteration after the first (Steihaug's truncation: the
-    /// iterate so far is a descent direction of the potential, `b·x > 0`, which the line search
-    /// takes); `None` otherwise, x undefined.
-    fn pcg(
-        &self,
-        a: &SparseColMat<usize, f64>,
-        b: &[f64],
-        x: &mut [f64],
-        tol: f64,
-        max_iter: usize,
-    ) -> Option<usize> {
-        let n = b.len();
-        x.iter_mut().for_each(|v| *v = 0.0);
-        let mut r = b.to_vec();
-        let mut z = r.clone();
-        self.apply_factor(&mut z);
-        let mut p = z.clone();
-        let mut q = vec![0.0; n];
-        let mut rz: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
-        for it in 1..=max_iter {
-            sym_lower_matvec(a, &p, &mut q);
-            let pq: f64 = p.iter().zip(&q).map(|(a, b)| a * b).sum();
-            if pq <= 0.0 || !pq.is_finite() {
-                return (it > 1 && pq.is_finite()).then_some(it - 1);
-            }
-            let alpha = rz / pq;
-            for i in 0..n {
-                x[i] += alpha * p[i];
-                r[i] -= alpha * q[i];
-            }
-            if r.iter().map(|v| v * v).sum::<f64>().sqrt() <= tol {
-                return Some(it);
-            }
-            z.copy_from_slice(&r);
-            self.apply_factor(&mut z);
-            let rz_new: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
-            let beta = rz_new / rz;
-            rz = rz_new;
-            for i in 0..n {
-                p[i] = z[i] + beta * p[i];
-            }
-        }
-        None
     }
 
     /// Solve `R(u) = V` for `u` in place: `u`'s constrained dofs are driven to the values
@@ -443,27 +475,85 @@ impl DirectNewton {
                 // Inexact Newton: conjugate gradients preconditioned by the kept factor, to
                 // η ‖r‖₂ (Eisenstat-Walker choice 2, not below what the stopping rule needs).
                 let mut solved = false;
-                if params.pcg_max > 0 && self.llt.is_some() {
-                    let mut eta = match prev_norm {
-                        Some(p) if p > 0.0 => 0.9 * (norm / p).powi(2),
-                        _ => 0.5,
-                    };
-                    if 0.9 * eta_prev * eta_prev > 0.1 {
-                        eta = eta.max(0.9 * eta_prev * eta_prev);
+                if let Some(mgp) = params.multigrid {
+                    let eta = forcing_term(prev_norm, norm, eta_prev, tol, max);
+                    eta_prev = eta;
+                    let mut b = vec![0.0; self.nfree];
+                    self.gather_free(&r, &mut b);
+                    while !solved {
+                        let a = self
+                            .matrix(sigma * dbar)
+                            .map_err(DirectNewtonError::Factor)?;
+                        let mg = GalerkinMultigrid::new(
+                            Csr::from_sym_lower(&a),
+                            &self.prolongations,
+                            mgp.sweeps,
+                        );
+                        let reused = self.coarse.is_some();
+                        if !reused {
+                            out.multigrid_setups += 1;
+                            self.coarse = mg.factor_coarsest(&mut self.coarse_symbolic).ok();
+                        }
+                        let end = match &self.coarse {
+                            Some(coarse) => pcg(
+                                |x, y| mg.matrix().matvec(x, y),
+                                |r, z| mg.apply(coarse, r, z),
+                                &b,
+                                &mut rhs,
+                                eta * norm,
+                                mgp.max_iter,
+                            ),
+                            None => PcgEnd::Breakdown,
+                        };
+                        match end {
+                            PcgEnd::Converged(it) | PcgEnd::Truncated(it) => {
+                                out.cg_iterations += it;
+                                solved = true;
+                            }
+                            PcgEnd::MaxIter if !reused => {
+                                out.cg_iterations += mgp.max_iter;
+                                solved = true;
+                            }
+                            PcgEnd::MaxIter | PcgEnd::Breakdown if reused => {
+                                // Refactor the coarsest level at the current state, same σ.
+                                out.cg_iterations += mgp.max_iter;
+                                self.coarse = None;
+                            }
+                            _ => {
+                                self.coarse = None;
+                                if sigma > 1e6 {
+                                    return Err(DirectNewtonError::Factor(
+                                        "the multigrid-preconditioned solve broke down at every shift".into(),
+                                    ));
+                                }
+                                sigma = (10.0 * sigma).max(params.sigma_min);
+                            }
+                        }
                     }
-                    eta = eta.max(0.1 * tol / max.max(f64::MIN_POSITIVE)).min(0.5);
+                } else if params.pcg_max > 0 && self.llt.is_some() {
+                    let eta = forcing_term(prev_norm, norm, eta_prev, tol, max);
                     eta_prev = eta;
                     let mut b = vec![0.0; self.nfree];
                     self.gather_free(&r, &mut b);
                     let a = self
                         .matrix(sigma * dbar)
                         .map_err(DirectNewtonError::Factor)?;
-                    match self.pcg(&a, &b, &mut rhs, eta * norm, params.pcg_max) {
-                        Some(it) => {
+                    match pcg(
+                        |x, y| sym_lower_matvec(&a, x, y),
+                        |r, z| {
+                            z.copy_from_slice(r);
+                            self.apply_factor(z);
+                        },
+                        &b,
+                        &mut rhs,
+                        eta * norm,
+                        params.pcg_max,
+                    ) {
+                        PcgEnd::Converged(it) | PcgEnd::Truncated(it) => {
                             out.cg_iterations += it;
                             solved = true;
                         }
-                        None => out.cg_iterations += params.pcg_max,
+                        PcgEnd::MaxIter | PcgEnd::Breakdown => out.cg_iterations += params.pcg_max,
                     }
                 }
                 prev_norm = Some(norm);
@@ -549,6 +639,88 @@ impl DirectNewton {
         }
         Ok(out)
     }
+}
+
+/// How a conjugate-gradient solve ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum PcgEnd {
+    /// `‖b − A x‖₂ ≤ tol` after this many iterations.
+    Converged(usize),
+    /// A direction of non-positive curvature after this many iterations (≥ 1): the iterate so
+    /// far is a descent direction of the potential (`b·x > 0`), Steihaug's truncation.
+    Truncated(usize),
+    /// `max_iter` iterations without reaching `tol`; x is the last iterate.
+    MaxIter,
+    /// Non-positive curvature (or a preconditioner that is not positive) at the first
+    /// iteration: x is 0.
+    Breakdown,
+}
+
+/// Conjugate gradients on `A x = b` preconditioned by `B` (`precond(r, z)`: `z = B r`), from
+/// x = 0 to `‖b − A x‖₂ ≤ tol`, at most `max_iter` iterations (module docs).
+fn pcg(
+    matvec: impl Fn(&[f64], &mut [f64]),
+    precond: impl Fn(&[f64], &mut [f64]),
+    b: &[f64],
+    x: &mut [f64],
+    tol: f64,
+    max_iter: usize,
+) -> PcgEnd {
+    let n = b.len();
+    x.iter_mut().for_each(|v| *v = 0.0);
+    let mut r = b.to_vec();
+    let mut z = vec![0.0; n];
+    precond(&r, &mut z);
+    let mut p = z.clone();
+    let mut q = vec![0.0; n];
+    let mut rz: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+    if rz <= 0.0 || !rz.is_finite() {
+        return PcgEnd::Breakdown;
+    }
+    for it in 1..=max_iter {
+        matvec(&p, &mut q);
+        let pq: f64 = p.iter().zip(&q).map(|(a, b)| a * b).sum();
+        if pq <= 0.0 || !pq.is_finite() {
+            return if it > 1 && pq.is_finite() {
+                PcgEnd::Truncated(it - 1)
+            } else {
+                PcgEnd::Breakdown
+            };
+        }
+        let alpha = rz / pq;
+        for i in 0..n {
+            x[i] += alpha * p[i];
+            r[i] -= alpha * q[i];
+        }
+        if r.iter().map(|v| v * v).sum::<f64>().sqrt() <= tol {
+            return PcgEnd::Converged(it);
+        }
+        precond(&r, &mut z);
+        let rz_new: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+        if rz_new <= 0.0 || !rz_new.is_finite() {
+            // The preconditioner is not positive on r: stop with the iterate so far.
+            return PcgEnd::Truncated(it);
+        }
+        let beta = rz_new / rz;
+        rz = rz_new;
+        for i in 0..n {
+            p[i] = z[i] + beta * p[i];
+        }
+    }
+    PcgEnd::MaxIter
+}
+
+/// Eisenstat and Walker's choice 2 with its safeguard, not below what the stopping rule
+/// needs (`tol` against the largest nodal residual `max`), at most 0.5.
+fn forcing_term(prev_norm: Option<f64>, norm: f64, eta_prev: f64, tol: f64, max: f64) -> f64 {
+    let mut eta = match prev_norm {
+        Some(p) if p > 0.0 => 0.9 * (norm / p).powi(2),
+        _ => 0.5,
+    };
+    if 0.9 * eta_prev * eta_prev > 0.1 {
+        eta = eta.max(0.9 * eta_prev * eta_prev);
+    }
+    eta.max(0.1 * tol / max.max(f64::MIN_POSITIVE)).min(0.5)
 }
 
 /// `Π(u) = E(u) − s V·u` (J); +∞ where an element is inverted or the energy is not finite.
@@ -838,6 +1010,71 @@ mode = "held"
 
     /// Direct Newton and FAS land on the same equilibrium, displacements within 1e-8 of the
     /// largest: the sagging beam (tets, 3 levels) and the draped membrane (4 levels).
+    /// Newton with CG preconditioned by the Galerkin V-cycle over generated levels reaches
+    /// plain direct Newton's equilibrium (1e-8 of max |u|) under the same stopping rule,
+    /// without factoring the finest level.
+    #[test]
+    fn multigrid_preconditioned_newton_reaches_the_direct_equilibrium() {
+        let cases = [
+            ("beam", beam("[multigrid]\nscheme = \"fas\"\nlevels = 3"), 2),
+            (
+                "membrane",
+                drape("[multigrid]\nscheme = \"fas\"\nlevels = 3"),
+                1,
+            ),
+        ];
+        for (name, sc, steps) in cases {
+            let plain = DirectNewtonParams {
+                load_steps: steps,
+                ..Default::default()
+            };
+            let (u_plain, out_plain) = newton(&sc, plain);
+            assert!(out_plain.converged, "{name}: {out_plain:?}");
+            let meshes = sc.level_meshes().unwrap();
+            let down: Vec<Transfer> = meshes
+                .windows(2)
+                .map(|w| Transfer::build(&w[0].nodes, &w[1]).unwrap())
+                .collect();
+            let solve = || {
+                let mut sys = sc.build_system().unwrap();
+                let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
+                let model = sys.force.as_fem_mut().unwrap();
+                let mut s = DirectNewton::with_levels(model, &sys.constraints, &down).unwrap();
+                let out = s
+                    .solve(
+                        model,
+                        &sys.constraints,
+                        &sys.f_ext,
+                        0.0,
+                        &mut u,
+                        DirectNewtonParams {
+                            multigrid: Some(MultigridPcg {
+                                sweeps: 2,
+                                max_iter: 1000,
+                            }),
+                            ..plain
+                        },
+                    )
+                    .unwrap();
+                (u, out)
+            };
+            let (u_mg, out_mg) = solve();
+            assert!(out_mg.converged, "{name}: {out_mg:?}");
+            assert!(out_mg.residual <= out_mg.target);
+            assert_eq!(
+                out_mg.factorizations, 0,
+                "{name}: the fine level was factored"
+            );
+            assert!(out_mg.cg_iterations > 0);
+            let scale = u_plain.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+            let err = u_plain
+                .iter()
+                .zip(&u_mg)
+                .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+            assert!(err <= 1e-8 * scale, "{name}: {err:e} of {scale:e}");
+        }
+    }
+
     #[test]
     fn direct_newton_and_fas_agree() {
         let cases = [

@@ -94,7 +94,7 @@ pub const NEWTON_REUSE: [usize; 2] = [0, NEWTON_PCG_MAX];
 /// FAS's sweep: pre- and post-smoothing sweeps per level (the default is 4).
 pub const FAS_SWEEPS: [usize; 3] = [4, 8, 16];
 /// Newton-multigrid: its coarse level has at least 1/`NEWTON_MG_COARSEN` of the finest
-/// level's nodes ([`newton_mg_run`]).
+/// level's nodes (module docs).
 pub const NEWTON_MG_COARSEN: usize = 16;
 /// Newton-multigrid: Gauss-Seidel sweeps before and after the coarse correction.
 pub const NEWTON_MG_SWEEPS: usize = 2;

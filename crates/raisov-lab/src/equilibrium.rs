@@ -24,7 +24,9 @@
 //!   solved by conjugate gradients preconditioned by a Galerkin V-cycle
 //!   ([`raisov::integrate::galerkin`]) over two of the case's levels, the finest and the
 //!   coarsest with at least 1/[`NEWTON_MG_COARSEN`] of its nodes, [`NEWTON_MG_SWEEPS`]
-//!   Gauss-Seidel sweeps; the coarse factorisation is kept while CG converges; no variants.
+//!   Gauss-Seidel sweeps; variants: a Newton iteration reuses the last hierarchy's coarse
+//!   factorisation with operators rebuilt from its tangent, or the whole last hierarchy
+//!   ([`NEWTON_MG_KEEP`]), either until CG fails to converge.
 //!
 //! All start from rest (`u = 0`). A prescribed displacement (`[[displace]]`, the pulled
 //! liver) reaches each solver in [`PULL_INCREMENTS`] equal increments, since imposed at
@@ -98,6 +100,9 @@ pub const FAS_SWEEPS: [usize; 3] = [4, 8, 16];
 pub const NEWTON_MG_COARSEN: usize = 16;
 /// Newton-multigrid: Gauss-Seidel sweeps before and after the coarse correction.
 pub const NEWTON_MG_SWEEPS: usize = 2;
+/// Newton-multigrid's sweep: whether an iteration keeps the whole last hierarchy, or only its
+/// coarsest factorisation ([`MultigridPcg::keep`]).
+pub const NEWTON_MG_KEEP: [bool; 2] = [false, true];
 /// FAS: V-cycles at most.
 pub const MAX_CYCLES: u64 = 20_000;
 /// ADR: steps at most.
@@ -382,9 +387,10 @@ fn newton_mg_levels(meshes: Vec<raisov::mesh::Mesh>) -> Vec<raisov::mesh::Mesh> 
 
 /// Newton with CG preconditioned by a Galerkin V-cycle over [`newton_mg_levels`] (the coarse
 /// level's operator `PᵀKP` factored, the factor reused across Newton iterations while CG
-/// converges; `sweeps` Gauss-Seidel sweeps); the level meshes and their transfers are built in
+/// converges, the operators rebuilt from each tangent unless `keep`; [`NEWTON_MG_SWEEPS`]
+/// Gauss-Seidel sweeps); the level meshes and their transfers are built in
 /// the timed part, as FAS's hierarchy is.
-fn newton_mg_run(case: &Case, target: f64, sweeps: usize) -> Result<(Row, Vec<f64>)> {
+fn newton_mg_run(case: &Case, target: f64, keep: bool) -> Result<(Row, Vec<f64>)> {
     let sc = &case.scenario;
     let mut row = blank_row(case, "Newton-multigrid", target);
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
@@ -415,7 +421,8 @@ fn newton_mg_run(case: &Case, target: f64, sweeps: usize) -> Result<(Row, Vec<f6
                 abs_tol: ABS_TOL,
                 load_steps: case.load_steps,
                 multigrid: Some(MultigridPcg {
-                    sweeps,
+                    sweeps: NEWTON_MG_SWEEPS,
+                    keep,
                     ..Default::default()
                 }),
                 ..Default::default()
@@ -431,10 +438,11 @@ fn newton_mg_run(case: &Case, target: f64, sweeps: usize) -> Result<(Row, Vec<f6
             row.converged = o.converged;
             row.max_u = max_nodal(&u);
             row.note = format!(
-                "{} levels, {} load step{}, {sweeps}+{sweeps} Gauss-Seidel sweeps: {} hierarchies, {} CG iterations ({:.2} s), assembly {:.2} s, {} energy evaluations",
+                "{} levels, {} load step{}, {NEWTON_MG_SWEEPS}+{NEWTON_MG_SWEEPS} Gauss-Seidel sweeps, keeps {}: {} hierarchies, {} CG iterations ({:.2} s), assembly {:.2} s, {} energy evaluations",
                 meshes.len(),
                 case.load_steps,
                 if case.load_steps == 1 { "" } else { "s" },
+                if keep { "all" } else { "the coarse factor" },
                 o.multigrid_setups,
                 o.cg_iterations,
                 o.factor_s,
@@ -588,8 +596,9 @@ fn best_of(mut variants: Vec<(Row, Vec<f64>)>, label: &str) -> (Row, Vec<f64>) {
     (row, u)
 }
 
-/// Run the four solvers on `case`, each at its best settings by the module's rule (Newton
-/// over [`NEWTON_REUSE`], FAS over [`FAS_SWEEPS`]); a row each: direct Newton, FAS, ADR, Newton-multigrid.
+/// Run the four solvers on `case`, each at its best settings by the module's rule (direct
+/// Newton over [`NEWTON_REUSE`], FAS over [`FAS_SWEEPS`], Newton-multigrid over
+/// [`NEWTON_MG_KEEP`]); a row each: direct Newton, FAS, ADR, Newton-multigrid.
 pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
     let sc = &case.scenario;
     let ends = prescribed_ends(sc).ok_or_else(|| {
@@ -639,7 +648,13 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
     let (mut adr, u_adr) = adr_run(case, target, &ends)?;
     compare(&mut adr, &u_adr);
     emit(&format!("{}: Newton-multigrid ...", case.name));
-    let (mut nmg, u_nmg) = newton_mg_run(case, target, NEWTON_MG_SWEEPS)?;
+    let (mut nmg, u_nmg) = best_of(
+        NEWTON_MG_KEEP
+            .iter()
+            .map(|&k| newton_mg_run(case, target, k))
+            .collect::<Result<_>>()?,
+        "keeps the coarse factor / all",
+    );
     compare(&mut nmg, &u_nmg);
     Ok(vec![newton, fas, adr, nmg])
 }

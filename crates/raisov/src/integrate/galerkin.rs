@@ -23,7 +23,9 @@
 //! faer's, with a diagonal shift where the coarsest operator is not positive definite) added,
 //! `z += P_l z_c`; `ν` backward sweeps. The backward sweep is the forward one's adjoint and the
 //! coarsest solve is exact, so `B` is symmetric, and positive definite where every `A_l` is: a
-//! preconditioner for conjugate gradients.
+//! preconditioner for conjugate gradients. Built for one matrix, it may precondition a later
+//! one (a Newton iteration's next tangent): it stays symmetric and positive definite, only
+//! less close to that matrix's inverse.
 //!
 //! Everything is computed in a fixed order: the Galerkin products and the matrix-vector
 //! products are split into row blocks that are independent (the same bits on any thread
@@ -32,9 +34,10 @@
 use crate::hierarchy::Transfer;
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{SparseColMat, Triplet};
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::Side;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Rows per parallel block of the products.
 const ROW_BLOCK: usize = 512;
@@ -297,78 +300,69 @@ impl Prolongations {
     }
 }
 
-/// A Galerkin V-cycle for one matrix (module docs). The coarsest factorisation is kept apart
-/// ([`CoarseFactor`]) so that a caller may reuse an earlier one: the cycle stays symmetric,
-/// only its coarse correction is then that of the earlier operator.
-pub struct GalerkinMultigrid<'p> {
+/// A Galerkin V-cycle for one matrix (module docs), its coarsest level factored.
+pub struct GalerkinMultigrid {
     /// `A_l`, finest first.
     a: Vec<Csr>,
     /// `1 / (A_l)_ii`, 0 where that diagonal is not positive.
     inv_diag: Vec<Vec<f64>>,
-    p: &'p Prolongations,
+    p: Arc<Prolongations>,
     sweeps: usize,
+    coarse: CoarseFactor,
 }
 
 /// A sparse Cholesky factorisation of a coarsest operator.
-pub struct CoarseFactor {
+struct CoarseFactor {
     llt: Llt<usize, f64>,
     /// The shift it needed to factor, relative to the operator's mean diagonal.
-    pub shift: f64,
+    shift: f64,
 }
 
-impl<'p> GalerkinMultigrid<'p> {
-    /// The Galerkin operators of `a0` over `p`'s levels; `sweeps` Gauss-Seidel sweeps before
-    /// and after each coarse correction.
-    pub fn new(a0: Csr, p: &'p Prolongations, sweeps: usize) -> Self {
-        let mut a = vec![a0];
-        for (pl, pt) in &p.levels {
-            let ap = a.last().unwrap().product(pl);
-            let mut c = pt.product(&ap);
-            unit_empty_diagonal(&mut c);
-            a.push(c);
-        }
-        let inv_diag = a
-            .iter()
-            .map(|m| {
-                m.diagonal()
-                    .iter()
-                    .map(|&d| if d > 0.0 { 1.0 / d } else { 0.0 })
-                    .collect()
-            })
-            .collect();
-        GalerkinMultigrid {
+impl GalerkinMultigrid {
+    /// The Galerkin operators of `a0` over `p`'s levels and the coarsest one's factorisation;
+    /// `sweeps` Gauss-Seidel sweeps before and after each coarse correction. `symbolic`, the
+    /// coarsest level's symbolic factorisation from an earlier call on the same hierarchy and
+    /// pattern, is reused where given and filled in where not. Errors where the coarsest
+    /// operator does not factor even shifted by 10⁶ times its mean diagonal.
+    pub fn new(
+        a0: Csr,
+        p: Arc<Prolongations>,
+        sweeps: usize,
+        symbolic: &mut Option<SymbolicLlt<usize>>,
+    ) -> Result<Self, String> {
+        let (a, inv_diag) = operators(a0, &p);
+        let coarse = factor(a.last().unwrap(), symbolic)?;
+        Ok(GalerkinMultigrid {
             a,
             inv_diag,
             p,
             sweeps,
-        }
+            coarse,
+        })
     }
 
-    /// The finest operator `A₀`.
-    pub fn matrix(&self) -> &Csr {
-        &self.a[0]
+    /// The Galerkin operators of a new matrix `a0` (same pattern), keeping the coarsest
+    /// factorisation of the earlier one: the cycle stays symmetric, and positive definite
+    /// where the new operators are, its coarse correction that of the earlier operator.
+    pub fn rebuild(&mut self, a0: Csr) {
+        (self.a, self.inv_diag) = operators(a0, &self.p);
     }
 
-    /// Factor the coarsest operator (module docs); `symbolic`, the symbolic factorisation of
-    /// an earlier call on the same hierarchy, is reused where given and filled in where not.
-    /// Errors where it does not factor even shifted by 10⁶ times its mean diagonal.
-    pub fn factor_coarsest(
-        &self,
-        symbolic: &mut Option<SymbolicLlt<usize>>,
-    ) -> Result<CoarseFactor, String> {
-        factor(self.a.last().unwrap(), symbolic)
+    /// The shift the coarsest operator needed to factor, relative to its mean diagonal.
+    pub fn coarse_shift(&self) -> f64 {
+        self.coarse.shift
     }
 
-    /// `z = B b`, one V-cycle from `z = 0`, with `coarse` the coarsest level's solve.
-    pub fn apply(&self, coarse: &CoarseFactor, b: &[f64], z: &mut [f64]) {
-        self.cycle(coarse, 0, b, z);
+    /// `z = B b`, one V-cycle from `z = 0`.
+    pub fn apply(&self, b: &[f64], z: &mut [f64]) {
+        self.cycle(0, b, z);
     }
 
-    fn cycle(&self, coarse: &CoarseFactor, l: usize, b: &[f64], z: &mut [f64]) {
+    fn cycle(&self, l: usize, b: &[f64], z: &mut [f64]) {
         let a = &self.a[l];
         if l + 1 == self.a.len() {
             let mut m = faer::Mat::<f64>::from_fn(b.len(), 1, |i, _| b[i]);
-            coarse.llt.solve_in_place(m.as_mut());
+            self.coarse.llt.solve_in_place(m.as_mut());
             for (i, zi) in z.iter_mut().enumerate() {
                 *zi = m[(i, 0)];
             }
@@ -387,12 +381,34 @@ impl<'p> GalerkinMultigrid<'p> {
         let mut bc = vec![0.0; pl.cols];
         pt.matvec(&r, &mut bc);
         let mut zc = vec![0.0; pl.cols];
-        self.cycle(coarse, l + 1, &bc, &mut zc);
+        self.cycle(l + 1, &bc, &mut zc);
         pl.matvec_add(&zc, z);
         for _ in 0..self.sweeps {
             gauss_seidel(a, &self.inv_diag[l], b, z, false);
         }
     }
+}
+
+/// The Galerkin operators of `a0` over `p`'s levels, finest first, and their inverse
+/// diagonals (0 where a diagonal is not positive).
+fn operators(a0: Csr, p: &Prolongations) -> (Vec<Csr>, Vec<Vec<f64>>) {
+    let mut a = vec![a0];
+    for (pl, pt) in &p.levels {
+        let ap = a.last().unwrap().product(pl);
+        let mut c = pt.product(&ap);
+        unit_empty_diagonal(&mut c);
+        a.push(c);
+    }
+    let inv_diag = a
+        .iter()
+        .map(|m| {
+            m.diagonal()
+                .iter()
+                .map(|&d| if d > 0.0 { 1.0 / d } else { 0.0 })
+                .collect()
+        })
+        .collect();
+    (a, inv_diag)
 }
 
 /// Give every row without a positive diagonal (a coarse dof that only fixed fine dofs see)
@@ -442,37 +458,38 @@ fn factor(a: &Csr, symbolic: &mut Option<SymbolicLlt<usize>>) -> Result<CoarseFa
     let n = a.rows;
     let diag = a.diagonal();
     let dbar = diag.iter().map(|d| d.abs()).sum::<f64>() / n.max(1) as f64;
-    let mut trip = Vec::with_capacity(a.col.len() / 2 + n);
+    // The lower triangle in compressed columns: column j is row j's entries from the
+    // diagonal on (A is symmetric), row indices ascending, the diagonal first.
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    col_ptr.push(0usize);
+    let mut row_idx = Vec::with_capacity(a.col.len() / 2 + n);
+    let mut vals = Vec::with_capacity(a.col.len() / 2 + n);
     let mut diag_at = Vec::with_capacity(n);
-    for i in 0..n {
-        let (c, v) = a.row(i);
-        for (&j, &x) in c.iter().zip(v) {
-            if j as usize == i {
-                diag_at.push(trip.len());
-            }
-            if j as usize <= i {
-                trip.push(Triplet::new(i, j as usize, x));
-            }
+    for j in 0..n {
+        let (c, v) = a.row(j);
+        let start = c.partition_point(|&k| (k as usize) < j);
+        if c.get(start) != Some(&(j as u32)) {
+            return Err("the coarsest Galerkin operator lacks a diagonal entry".into());
         }
+        diag_at.push(vals.len());
+        row_idx.extend(c[start..].iter().map(|&k| k as usize));
+        vals.extend_from_slice(&v[start..]);
+        col_ptr.push(row_idx.len());
     }
-    if diag_at.len() != n {
-        return Err("the coarsest Galerkin operator lacks a diagonal entry".into());
-    }
+    let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
     if symbolic.is_none() {
-        let mat = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &trip)
-            .map_err(|e| format!("{e:?}"))?;
-        *symbolic =
-            Some(SymbolicLlt::try_new(mat.symbolic(), Side::Lower).map_err(|e| format!("{e:?}"))?);
+        *symbolic = Some(
+            SymbolicLlt::try_new(pattern.as_ref(), Side::Lower).map_err(|e| format!("{e:?}"))?,
+        );
     }
     let symbolic = symbolic.as_ref().unwrap();
     let mut sigma = 0.0f64;
     loop {
-        let mut t = trip.clone();
+        let mut v = vals.clone();
         for &k in &diag_at {
-            t[k].val += sigma * dbar;
+            v[k] += sigma * dbar;
         }
-        let m = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &t)
-            .map_err(|e| format!("{e:?}"))?;
+        let m = SparseColMat::new(pattern.clone(), v);
         match Llt::try_new_with_symbolic(symbolic.clone(), m.as_ref(), Side::Lower) {
             Ok(llt) => return Ok(CoarseFactor { llt, shift: sigma }),
             Err(e) => {
@@ -595,14 +612,13 @@ mod tests {
         let levels = Prolongations {
             levels: vec![(p, pt)],
         };
-        let mg = GalerkinMultigrid::new(a.clone(), &levels, 1);
-        let coarse = mg.factor_coarsest(&mut None).unwrap();
+        let mg = GalerkinMultigrid::new(a.clone(), Arc::new(levels), 1, &mut None).unwrap();
         // Symmetric: x·B y = y·B x.
         let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
         let y: Vec<f64> = (0..n).map(|i| (i as f64 * 1.3).cos()).collect();
         let (mut bx, mut by) = (vec![0.0; n], vec![0.0; n]);
-        mg.apply(&coarse, &x, &mut bx);
-        mg.apply(&coarse, &y, &mut by);
+        mg.apply(&x, &mut bx);
+        mg.apply(&y, &mut by);
         let xby: f64 = x.iter().zip(&by).map(|(a, b)| a * b).sum();
         let ybx: f64 = y.iter().zip(&bx).map(|(a, b)| a * b).sum();
         assert!(
@@ -618,7 +634,7 @@ mod tests {
         let mut z = vec![0.0; n];
         for _ in 0..5 {
             a.matvec(&e, &mut ae);
-            mg.apply(&coarse, &ae, &mut z);
+            mg.apply(&ae, &mut z);
             for (ei, zi) in e.iter_mut().zip(&z) {
                 *ei -= zi;
             }

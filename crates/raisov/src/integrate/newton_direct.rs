@@ -43,10 +43,16 @@
 //! `K + σ d̄ D` preconditioned by one Galerkin V-cycle ([`super::galerkin`]: coarse operators
 //! `Pᵀ A P` over the hierarchy's host weights, Gauss-Seidel smoothing, a sparse Cholesky
 //! factorisation of the coarsest level only), to the same inexact-Newton tolerance η, with the
-//! same Steihaug truncation; where [`MultigridPcg::max_iter`] iterations do not reach η the
-//! iterate is taken as it is (truncated Newton: a descent direction while the curvature seen is
-//! positive). A first direction of non-positive curvature, or a coarsest operator that does not
-//! factor, raises σ as a failed factorisation does. No factorisation of the fine level is made.
+//! same Steihaug truncation. As with factorisation reuse, the hierarchy built at one iteration
+//! preconditions the next ones, whole or ([`MultigridPcg::keep`] false) only its coarsest
+//! factorisation, the Galerkin operators rebuilt from each new tangent; it is rebuilt at the
+//! current state where
+//! [`MultigridPcg::max_iter`] iterations do not reach η or the first direction has
+//! non-positive curvature. With a fresh hierarchy, an iterate that misses η after
+//! [`MultigridPcg::max_iter`] iterations is taken as it is (truncated Newton: a descent
+//! direction while the curvature seen is positive), and a first direction of non-positive
+//! curvature, or a coarsest operator that does not factor, raises σ as a failed factorisation
+//! does. The fine level is never factored.
 //!
 //! Stopping rule (that of `raisov bench equilibrium`, at the full load):
 //! `max_a |r_a| ≤ rel_tol × max_a |V_a| + abs_tol`, `r_a` the residual force of free node a,
@@ -56,7 +62,7 @@
 //! Entry points: [`solve_system`] on a [`System`] whose force model is a
 //! [`crate::fem::FemModel`], or [`DirectNewton`] for repeated solves.
 
-use super::galerkin::{CoarseFactor, Csr, GalerkinMultigrid, Prolongations};
+use super::galerkin::{Csr, GalerkinMultigrid, Prolongations};
 use super::{Constraints, System};
 use crate::fem::{ElementFailure, FemModel, ForceModel};
 use crate::hierarchy::Transfer;
@@ -64,6 +70,7 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
 use faer::Side;
+use std::sync::Arc;
 
 /// Settings of the direct Newton solver (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -95,6 +102,10 @@ pub struct MultigridPcg {
     pub sweeps: usize,
     /// Conjugate-gradient iterations at most per Newton system. Default 25.
     pub max_iter: usize,
+    /// What a Newton iteration takes from the last hierarchy: all of it (`true`), or only its
+    /// coarsest factorisation, the Galerkin operators being rebuilt from the current tangent
+    /// (`false`, the default).
+    pub keep: bool,
 }
 
 impl Default for MultigridPcg {
@@ -102,6 +113,7 @@ impl Default for MultigridPcg {
         MultigridPcg {
             sweeps: 2,
             max_iter: 25,
+            keep: false,
         }
     }
 }
@@ -192,11 +204,11 @@ pub struct DirectNewton {
     /// The last numeric factorisation, kept as the conjugate-gradient preconditioner.
     llt: Option<Llt<usize, f64>>,
     /// The interpolations of [`DirectNewton::with_levels`] (empty without).
-    prolongations: Prolongations,
+    prolongations: Arc<Prolongations>,
     /// The coarsest Galerkin level's symbolic factorisation (its pattern is fixed).
     coarse_symbolic: Option<SymbolicLlt<usize>>,
-    /// The last coarsest-level factorisation, reused while the cycles it serves converge.
-    coarse: Option<CoarseFactor>,
+    /// The last Galerkin hierarchy, kept as the conjugate-gradient preconditioner.
+    mg: Option<GalerkinMultigrid>,
 }
 
 impl DirectNewton {
@@ -263,9 +275,9 @@ impl DirectNewton {
             llt_symbolic,
             weight,
             llt: None,
-            prolongations: Prolongations::default(),
+            prolongations: Arc::new(Prolongations::default()),
             coarse_symbolic: None,
-            coarse: None,
+            mg: None,
         })
     }
 
@@ -292,7 +304,7 @@ impl DirectNewton {
         let free_dofs: Vec<usize> = (0..s.free.len())
             .filter(|&i| s.free[i] != usize::MAX)
             .collect();
-        s.prolongations = Prolongations::new(down, &free_dofs);
+        s.prolongations = Arc::new(Prolongations::new(down, &free_dofs));
         Ok(s)
     }
 
@@ -481,23 +493,29 @@ impl DirectNewton {
                     let mut b = vec![0.0; self.nfree];
                     self.gather_free(&r, &mut b);
                     while !solved {
-                        let a = self
-                            .matrix(sigma * dbar)
-                            .map_err(DirectNewtonError::Factor)?;
-                        let mg = GalerkinMultigrid::new(
-                            Csr::from_sym_lower(&a),
-                            &self.prolongations,
-                            mgp.sweeps,
+                        let a = Csr::from_sym_lower(
+                            &self
+                                .matrix(sigma * dbar)
+                                .map_err(DirectNewtonError::Factor)?,
                         );
-                        let reused = self.coarse.is_some();
+                        let reused = self.mg.is_some();
+                        if let (Some(mg), false) = (self.mg.as_mut(), mgp.keep) {
+                            mg.rebuild(a.clone());
+                        }
                         if !reused {
                             out.multigrid_setups += 1;
-                            self.coarse = mg.factor_coarsest(&mut self.coarse_symbolic).ok();
+                            self.mg = GalerkinMultigrid::new(
+                                a.clone(),
+                                self.prolongations.clone(),
+                                mgp.sweeps,
+                                &mut self.coarse_symbolic,
+                            )
+                            .ok();
                         }
-                        let end = match &self.coarse {
-                            Some(coarse) => pcg(
-                                |x, y| mg.matrix().matvec(x, y),
-                                |r, z| mg.apply(coarse, r, z),
+                        let end = match &self.mg {
+                            Some(mg) => pcg(
+                                |x, y| a.matvec(x, y),
+                                |r, z| mg.apply(r, z),
                                 &b,
                                 &mut rhs,
                                 eta * norm,
@@ -515,12 +533,14 @@ impl DirectNewton {
                                 solved = true;
                             }
                             PcgEnd::MaxIter | PcgEnd::Breakdown if reused => {
-                                // Refactor the coarsest level at the current state, same σ.
-                                out.cg_iterations += mgp.max_iter;
-                                self.coarse = None;
+                                // Rebuild the hierarchy at the current state, same σ.
+                                if end == PcgEnd::MaxIter {
+                                    out.cg_iterations += mgp.max_iter;
+                                }
+                                self.mg = None;
                             }
                             _ => {
-                                self.coarse = None;
+                                self.mg = None;
                                 if sigma > 1e6 {
                                     return Err(DirectNewtonError::Factor(
                                         "the multigrid-preconditioned solve broke down at every shift".into(),
@@ -1035,7 +1055,7 @@ mode = "held"
                 .windows(2)
                 .map(|w| Transfer::build(&w[0].nodes, &w[1]).unwrap())
                 .collect();
-            let solve = || {
+            let solve = |keep: bool| {
                 let mut sys = sc.build_system().unwrap();
                 let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
                 let model = sys.force.as_fem_mut().unwrap();
@@ -1051,6 +1071,7 @@ mode = "held"
                             multigrid: Some(MultigridPcg {
                                 sweeps: 2,
                                 max_iter: 1000,
+                                keep,
                             }),
                             ..plain
                         },
@@ -1058,20 +1079,25 @@ mode = "held"
                     .unwrap();
                 (u, out)
             };
-            let (u_mg, out_mg) = solve();
-            assert!(out_mg.converged, "{name}: {out_mg:?}");
-            assert!(out_mg.residual <= out_mg.target);
-            assert_eq!(
-                out_mg.factorizations, 0,
-                "{name}: the fine level was factored"
-            );
-            assert!(out_mg.cg_iterations > 0);
-            let scale = u_plain.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-            let err = u_plain
-                .iter()
-                .zip(&u_mg)
-                .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
-            assert!(err <= 1e-8 * scale, "{name}: {err:e} of {scale:e}");
+            for keep in [false, true] {
+                let (u_mg, out_mg) = solve(keep);
+                assert!(out_mg.converged, "{name}, keep {keep}: {out_mg:?}");
+                assert!(out_mg.residual <= out_mg.target);
+                assert_eq!(
+                    out_mg.factorizations, 0,
+                    "{name}: the fine level was factored"
+                );
+                assert!(out_mg.cg_iterations > 0);
+                let scale = u_plain.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+                let err = u_plain
+                    .iter()
+                    .zip(&u_mg)
+                    .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+                assert!(
+                    err <= 1e-8 * scale,
+                    "{name}, keep {keep}: {err:e} of {scale:e}"
+                );
+            }
         }
     }
 

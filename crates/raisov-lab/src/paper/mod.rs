@@ -238,6 +238,8 @@ pub struct Results {
     pub block_desc: String,
     pub cost: Vec<CostRow>,
     pub steady: Vec<SteadyRow>,
+    /// Section 7: the static-equilibrium rows of [`crate::equilibrium`] (empty where skipped).
+    pub equilibrium: Vec<crate::equilibrium::Row>,
     pub notes: Vec<String>,
     pub files: Vec<PathBuf>,
     pub wall: f64,
@@ -291,7 +293,14 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         + (3 * n_meth + 2) * (sz.iters as u64 + 2)
         + n_meth * (sz.iters as u64 + 2)
         + 2
-        + 5 * (1 + sz.steady_big.len() as u64 + u64::from(!sz.liver.is_empty()));
+        + 5 * (1 + sz.steady_big.len() as u64 + u64::from(!sz.liver.is_empty()))
+        + if opts.tiny {
+            0
+        } else if opts.quick {
+            3
+        } else {
+            6
+        };
     progress(Progress::Planned(planned));
     let mut cx = Ctx {
         sz,
@@ -312,6 +321,8 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
     cx.stage(&mut res, "5. cost");
     time_to_steady(&mut cx, &mut res, opts, &drape, &methods)?;
     cx.stage(&mut res, "6. time to steady state");
+    equilibrium(&mut cx, &mut res, opts)?;
+    cx.stage(&mut res, "7. static equilibrium");
     res.wall = cx.start.elapsed().as_secs_f64();
     res.files = std::mem::take(&mut cx.files);
     report::write_all(&opts.out_dir, &mut res)?;
@@ -736,6 +747,40 @@ fn cost(cx: &mut Ctx, res: &mut Results) -> Result<()> {
             fas_cycle: bf,
             setup,
         });
+    }
+    Ok(())
+}
+
+/// Section 7: the four static solvers of [`crate::equilibrium`] side by side on its cases
+/// (quick: its quick cases), from the meshes under `opts.meshes_dir`; skipped with a note in
+/// the tiny configuration or where the liver and heart meshes are not there.
+fn equilibrium(cx: &mut Ctx, res: &mut Results, opts: &PaperOptions) -> Result<()> {
+    if opts.tiny {
+        res.notes
+            .push("static equilibrium (section 7) skipped in the tiny configuration".into());
+        return Ok(());
+    }
+    let Some(dir) = opts.meshes_dir.as_ref() else {
+        res.notes.push(
+            "static equilibrium (section 7) skipped: no mesh directory (--meshes DIR)".into(),
+        );
+        return Ok(());
+    };
+    let cases = match crate::equilibrium::cases(dir, opts.quick) {
+        Ok(c) => c,
+        Err(e) => {
+            res.notes.push(format!(
+                "static equilibrium (section 7) skipped: the liver and heart meshes under {} \
+                 could not be read ({e})",
+                dir.display()
+            ));
+            return Ok(());
+        }
+    };
+    for case in &cases {
+        res.equilibrium
+            .extend(crate::equilibrium::run_case(case, &mut |_| {})?);
+        (cx.progress)(Progress::Done(&case.name));
     }
     Ok(())
 }

@@ -265,6 +265,15 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
     let (t, ts) = csv_steady(res);
     write_text(&out.join("steady_state.csv"), &t, &mut files)?;
     write_text(&out.join("steady_state_series.csv"), &ts, &mut files)?;
+    if !res.equilibrium.is_empty() {
+        write_text(
+            &out.join("equilibrium.md"),
+            &(crate::equilibrium::to_markdown(&res.equilibrium)
+                + "\n"
+                + &crate::equilibrium::summary_markdown(&res.equilibrium)),
+            &mut files,
+        )?;
+    }
 
     // ---- plots ----
     files.extend(write_chart(
@@ -425,6 +434,7 @@ fn report_text(out: &Path, res: &Results) -> String {
     section_inversion(w, res);
     section_cost(w, res);
     section_steady(w, res);
+    section_equilibrium(w, res);
     closing(w, out, res);
     r
 }
@@ -1085,6 +1095,31 @@ fn section_steady(w: &mut String, res: &Results) {
         }
     }
     let _ = writeln!(w);
+}
+
+/// Section 7: the four static solvers side by side ([`crate::equilibrium`]).
+fn section_equilibrium(w: &mut String, res: &Results) {
+    let _ = writeln!(
+        w,
+        "## 7. Static equilibrium, four solvers side by side
+"
+    );
+    if res.equilibrium.is_empty() {
+        let _ = writeln!(
+            w,
+            "Not run in this configuration (see the notes).
+"
+        );
+        return;
+    }
+    let _ = writeln!(w, "Direct Newton (sparse Cholesky), FAS, adaptive dynamic relaxation and Newton-multigrid (CG preconditioned by a Galerkin V-cycle) from rest to one stopping rule, each at the fastest of its variants; cases, settings and what is timed: module docs of `raisov_lab::equilibrium` (the same run as `raisov bench equilibrium`{}). Also in `equilibrium.md`.
+", if res.quick { " --quick" } else { "" });
+    let _ = writeln!(w, "{}", crate::equilibrium::to_markdown(&res.equilibrium));
+    let _ = writeln!(
+        w,
+        "{}",
+        crate::equilibrium::summary_markdown(&res.equilibrium)
+    );
 }
 
 /// Stage times, notes, abbreviations, the scenario text and the list of files.

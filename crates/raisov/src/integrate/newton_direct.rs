@@ -52,7 +52,7 @@
 //! [`MultigridPcg::max_iter`] iterations is taken as it is (truncated Newton: a descent
 //! direction while the curvature seen is positive), and a first direction of non-positive
 //! curvature, or a coarsest operator that does not factor, raises σ as a failed factorisation
-//! does. The fine level is never factored.
+//! does. With coarser levels the fine level is never factored.
 //!
 //! Stopping rule (that of `raisov bench equilibrium`, at the full load):
 //! `max_a |r_a| ≤ rel_tol × max_a |V_a| + abs_tol`, `r_a` the residual force of free node a,
@@ -90,8 +90,9 @@ pub struct DirectNewtonParams {
     /// factorisation, to the inexact-Newton tolerance, and refactors only when m iterations do
     /// not reach it. Default 0.
     pub pcg_max: usize,
-    /// Multigrid-preconditioned conjugate gradients instead of a factorisation (module docs);
-    /// needs the levels of [`DirectNewton::with_levels`]. Default `None`.
+    /// Multigrid-preconditioned conjugate gradients instead of a factorisation (module docs),
+    /// over the levels of [`DirectNewton::with_levels`]; without coarser levels the fine level
+    /// is the coarsest and is factored, so CG converges in one iteration. Default `None`.
     pub multigrid: Option<MultigridPcg>,
 }
 

@@ -108,7 +108,8 @@ enum Cmd {
         #[arg(long)]
         meshes: Option<PathBuf>,
         /// `equilibrium`: only the cases with these names (comma-separated, e.g.
-        /// "liver L0,membrane 100k"); default all.
+        /// "liver L0,membrane 100k"); default all but the liver meshed from its surface
+        /// ("liver mesher 17k", "liver mesher 70k"), which run only when named.
         #[arg(long, value_delimiter = ',')]
         case: Vec<String>,
     },
@@ -685,7 +686,10 @@ fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>, only: Vec<String>
         .map_err(BadInput)
         .with_context(|| format!("loading the cases (meshes from {})", meshes.display()))?;
     if !only.is_empty() {
-        let names: Vec<String> = cases.iter().map(|c| c.name.clone()).collect();
+        let mut names: Vec<String> = cases.iter().map(|c| c.name.clone()).collect();
+        if !quick {
+            names.extend(equilibrium::MESHER_CASES.iter().map(|(n, _)| n.to_string()));
+        }
         if let Some(bad) = only.iter().find(|o| !names.contains(o)) {
             return Err(BadInput(raisov::Error::param(
                 "--case",
@@ -694,6 +698,16 @@ fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>, only: Vec<String>
             .into());
         }
         cases.retain(|c| only.contains(&c.name));
+        for (name, nodes) in equilibrium::MESHER_CASES {
+            if !quick && only.iter().any(|o| o == name) {
+                eprintln!("{name}: meshing liver_surface.obj ...");
+                cases.push(
+                    equilibrium::mesher_case(&meshes, name, nodes)
+                        .map_err(BadInput)
+                        .with_context(|| format!("meshing the case {name:?}"))?,
+                );
+            }
+        }
     }
     println!(
         "raisov bench equilibrium{}: {} thread(s)",

@@ -59,7 +59,9 @@
 //! within 5 mm of its highest point, under gravity; the paper's drape (10 cm square membrane,
 //! Mooney-Rivlin C1 = C2 = 1 kPa, edges fixed, gravity) at 10k nodes (FAS on 5 generated
 //! levels) and 100k nodes (7 levels). Quick (`--quick`): the liver L2 (FAS with L3) with and
-//! without the pull, and the drape at 1k nodes on 3 levels.
+//! without the pull, and the drape at 1k nodes on 3 levels. Run only when named
+//! ([`MESHER_CASES`]): the liver meshed from `liver_surface.obj` by the project's mesher at
+//! about 17k and 70k nodes, FAS on generated levels halving down to about 2000 nodes.
 //!
 //! [`summary_markdown`] states, per case, FAS's wall time over the best baseline's (direct
 //! Newton or ADR); [`frame_budgets`] runs FAS as the frame loop does, a fixed number of
@@ -69,7 +71,7 @@ use raisov::hierarchy::Transfer;
 use raisov::integrate::adaptive_relax::adaptive_relax;
 use raisov::integrate::hold;
 use raisov::integrate::newton_direct::{
-    solve_system, DirectNewton, DirectNewtonError, DirectNewtonParams, MultigridPcg,
+    solve_system, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg,
 };
 use raisov::integrate::stability::lambda_max_bound;
 use raisov::scenario::{MultigridScheme, Scenario};
@@ -277,6 +279,45 @@ levels = {levels}
     })
 }
 
+/// The liver cases meshed from `liver_surface.obj` by the project's mesher, by name and level-0
+/// node target: run only when named with `--case` ([`mesher_case`]).
+pub const MESHER_CASES: [(&str, usize); 2] =
+    [("liver mesher 17k", 17_000), ("liver mesher 70k", 70_000)];
+
+/// The liver meshed at load from `meshes/liver_surface.obj` (millimetres) at about `nodes`
+/// nodes, the same material, support and gravity as the shipped liver; FAS on generated levels
+/// halving the node count down to about 2000 nodes.
+pub fn mesher_case(meshes: &Path, name: &str, nodes: usize) -> Result<Case> {
+    let mut levels = 1;
+    while nodes >> levels >= 2000 {
+        levels += 1;
+    }
+    let text = format!(
+        r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+surface = '{d}/liver_surface.obj'
+scale = 0.001
+nodes = {nodes}
+{LIVER_MATERIAL}
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.195], normal = [0.0, 0.0, -1.0] }}
+[run]
+duration = 1.0
+[multigrid]
+scheme = "fas"
+levels = {levels}
+ratio = 0.5
+"#,
+        d = meshes.display(),
+    );
+    Ok(Case {
+        scenario: Scenario::from_toml(&text, Path::new("equilibrium-liver-mesher.toml"))?,
+        name: name.into(),
+        load_steps: 1,
+    })
+}
+
 /// The benchmark's cases (module docs); `meshes` holds `liver_L*.msh` and `heart_L*.msh`.
 pub fn cases(meshes: &Path, quick: bool) -> Result<Vec<Case>> {
     if quick {
@@ -327,6 +368,15 @@ pub fn blank_row(case: &Case, solver: &str, target: f64) -> Row {
     }
 }
 
+/// A Newton row's figures from its outcome and equilibrium `u`.
+fn newton_figures(row: &mut Row, o: &DirectStatic, u: &[f64]) {
+    row.iterations = o.newton_steps as u64;
+    row.force_evaluations = o.force_evaluations as f64;
+    row.residual = o.residual;
+    row.converged = o.converged;
+    row.max_u = max_nodal(u);
+}
+
 /// Direct Newton with factorisation reuse `pcg_max` (0: none); the row and the displacement.
 fn newton_run(case: &Case, target: f64, pcg_max: usize) -> Result<(Row, Vec<f64>)> {
     let sc = &case.scenario;
@@ -349,11 +399,7 @@ fn newton_run(case: &Case, target: f64, pcg_max: usize) -> Result<(Row, Vec<f64>
     row.wall_s = t0.elapsed().as_secs_f64();
     match out {
         Ok(o) => {
-            row.iterations = o.newton_steps as u64;
-            row.force_evaluations = o.force_evaluations as f64;
-            row.residual = o.residual;
-            row.converged = o.converged;
-            row.max_u = max_nodal(&u);
+            newton_figures(&mut row, &o, &u);
             row.note = format!(
                 "{} load step{}, reuse {}: {} factorisations, {} CG iterations ({:.2} s), {} energy evaluations",
                 case.load_steps,
@@ -432,11 +478,7 @@ fn newton_mg_run(case: &Case, target: f64, keep: bool) -> Result<(Row, Vec<f64>)
     row.wall_s = t0.elapsed().as_secs_f64();
     match out {
         Ok(o) => {
-            row.iterations = o.newton_steps as u64;
-            row.force_evaluations = o.force_evaluations as f64;
-            row.residual = o.residual;
-            row.converged = o.converged;
-            row.max_u = max_nodal(&u);
+            newton_figures(&mut row, &o, &u);
             row.note = format!(
                 "{} levels, {} load step{}, {NEWTON_MG_SWEEPS}+{NEWTON_MG_SWEEPS} Gauss-Seidel sweeps, keeps {}: {} hierarchies, {} CG iterations ({:.2} s), assembly {:.2} s, {} energy evaluations",
                 meshes.len(),

@@ -348,6 +348,12 @@ impl GalerkinMultigrid {
         (self.a, self.inv_diag) = operators(a0, &self.p);
     }
 
+    /// The finest operator `A₀` (the matrix of [`GalerkinMultigrid::new`] or the latest
+    /// [`GalerkinMultigrid::rebuild`]).
+    pub fn matrix(&self) -> &Csr {
+        &self.a[0]
+    }
+
     /// The shift the coarsest operator needed to factor, relative to its mean diagonal.
     pub fn coarse_shift(&self) -> f64 {
         self.coarse.shift

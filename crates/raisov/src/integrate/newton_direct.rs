@@ -500,22 +500,26 @@ impl DirectNewton {
                                 .map_err(DirectNewtonError::Factor)?,
                         );
                         let reused = self.mg.is_some();
-                        if let (Some(mg), false) = (self.mg.as_mut(), mgp.keep) {
-                            mg.rebuild(a.clone());
-                        }
-                        if !reused {
-                            out.multigrid_setups += 1;
-                            self.mg = GalerkinMultigrid::new(
-                                a.clone(),
-                                self.prolongations.clone(),
-                                mgp.sweeps,
-                                &mut self.coarse_symbolic,
-                            )
-                            .ok();
+                        // The current matrix: the hierarchy's finest operator, unless the
+                        // whole earlier hierarchy is kept.
+                        let mut current = None;
+                        match (self.mg.as_mut(), mgp.keep) {
+                            (Some(mg), false) => mg.rebuild(a),
+                            (Some(_), true) => current = Some(a),
+                            (None, _) => {
+                                out.multigrid_setups += 1;
+                                self.mg = GalerkinMultigrid::new(
+                                    a,
+                                    self.prolongations.clone(),
+                                    mgp.sweeps,
+                                    &mut self.coarse_symbolic,
+                                )
+                                .ok();
+                            }
                         }
                         let end = match &self.mg {
                             Some(mg) => pcg(
-                                |x, y| a.matvec(x, y),
+                                |x, y| current.as_ref().unwrap_or(mg.matrix()).matvec(x, y),
                                 |r, z| mg.apply(r, z),
                                 &b,
                                 &mut rhs,

@@ -24,7 +24,7 @@
 //!   solved by conjugate gradients preconditioned by a Galerkin V-cycle
 //!   ([`raisov::integrate::galerkin`]) over two of the case's levels, the finest and the
 //!   coarsest with at least 1/[`NEWTON_MG_COARSEN`] of its nodes, [`NEWTON_MG_SWEEPS`]
-//!   Gauss-Seidel sweeps; variants: a Newton iteration reuses the last hierarchy's coarse
+//!   node-block Gauss-Seidel sweeps over a colouring; variants: a Newton iteration reuses the last hierarchy's coarse
 //!   factorisation with operators rebuilt from its tangent, or the whole last hierarchy
 //!   ([`NEWTON_MG_KEEP`]), either until CG fails to converge.
 //!
@@ -99,8 +99,8 @@ pub const NEWTON_REUSE: [usize; 2] = [0, NEWTON_PCG_MAX];
 pub const FAS_SWEEPS: [usize; 3] = [4, 8, 16];
 /// Newton-multigrid: its coarse level has at least 1/`NEWTON_MG_COARSEN` of the finest
 /// level's nodes (module docs).
-pub const NEWTON_MG_COARSEN: usize = 16;
-/// Newton-multigrid: Gauss-Seidel sweeps before and after the coarse correction.
+pub const NEWTON_MG_COARSEN: usize = raisov::integrate::newton_direct::COARSEN;
+/// Newton-multigrid: node-block Gauss-Seidel sweeps (over a colouring) before and after the coarse correction.
 pub const NEWTON_MG_SWEEPS: usize = 2;
 /// Newton-multigrid's sweep: whether an iteration keeps the whole last hierarchy, or only its
 /// coarsest factorisation ([`MultigridPcg::keep`]).
@@ -419,10 +419,8 @@ fn newton_run(case: &Case, target: f64, pcg_max: usize) -> Result<(Row, Vec<f64>
 /// Newton-multigrid's levels ([`newton_mg_run`]): the finest, and the coarsest of the others
 /// with at least 1/[`NEWTON_MG_COARSEN`] of its nodes (none where no level qualifies).
 fn newton_mg_levels(meshes: Vec<raisov::mesh::Mesh>) -> Vec<raisov::mesh::Mesh> {
-    let n0 = meshes[0].num_nodes();
-    let coarse = (1..meshes.len())
-        .rev()
-        .find(|&i| meshes[i].num_nodes() * NEWTON_MG_COARSEN >= n0);
+    let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
+    let coarse = raisov::integrate::newton_direct::coarse_level(&nodes);
     meshes
         .into_iter()
         .enumerate()
@@ -434,7 +432,7 @@ fn newton_mg_levels(meshes: Vec<raisov::mesh::Mesh>) -> Vec<raisov::mesh::Mesh> 
 /// Newton with CG preconditioned by a Galerkin V-cycle over [`newton_mg_levels`] (the coarse
 /// level's operator `PᵀKP` factored, the factor reused across Newton iterations while CG
 /// converges, the operators rebuilt from each tangent unless `keep`; [`NEWTON_MG_SWEEPS`]
-/// Gauss-Seidel sweeps); the level meshes and their transfers are built in
+/// node-block Gauss-Seidel sweeps); the level meshes and their transfers are built in
 /// the timed part, as FAS's hierarchy is.
 fn newton_mg_run(case: &Case, target: f64, keep: bool) -> Result<(Row, Vec<f64>)> {
     let sc = &case.scenario;
@@ -480,7 +478,7 @@ fn newton_mg_run(case: &Case, target: f64, keep: bool) -> Result<(Row, Vec<f64>)
         Ok(o) => {
             newton_figures(&mut row, &o, &u);
             row.note = format!(
-                "{} levels, {} load step{}, {NEWTON_MG_SWEEPS}+{NEWTON_MG_SWEEPS} Gauss-Seidel sweeps, keeps {}: {} hierarchies, {} CG iterations ({:.2} s), assembly {:.2} s, {} energy evaluations",
+                "{} levels, {} load step{}, {NEWTON_MG_SWEEPS}+{NEWTON_MG_SWEEPS} block Gauss-Seidel sweeps, keeps {}: {} hierarchies, {} CG iterations ({:.2} s), assembly {:.2} s, {} energy evaluations",
                 meshes.len(),
                 case.load_steps,
                 if case.load_steps == 1 { "" } else { "s" },

@@ -18,7 +18,7 @@
 //! restricted to the interpolated displacements, whatever the two meshes' shapes.
 //!
 //! One V-cycle `z = B b` ([`GalerkinMultigrid::apply`]) on level l, from `z = 0`:
-//! `ν` forward Gauss-Seidel sweeps on `A_l z = b`; the residual restricted, `b_c = P_lᵀ (b − A_l z)`;
+//! `ν` forward sweeps of the smoother ([`super::smoother`]) on `A_l z = b`; the residual restricted, `b_c = P_lᵀ (b − A_l z)`;
 //! the coarse correction `z_c = B_{l+1} b_c` (on the coarsest level a sparse Cholesky solve,
 //! faer's, with a diagonal shift where the coarsest operator is not positive definite) added,
 //! `z += P_l z_c`; `ν` backward sweeps. The backward sweep is the forward one's adjoint and the
@@ -29,8 +29,9 @@
 //!
 //! Everything is computed in a fixed order: the Galerkin products and the matrix-vector
 //! products are split into row blocks that are independent (the same bits on any thread
-//! count), and the Gauss-Seidel sweeps run on one thread.
+//! count), and so are the smoothers' ([`super::smoother`]).
 
+use super::smoother::{gauss_seidel, Colouring, Smoother};
 use crate::hierarchy::Transfer;
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
@@ -107,7 +108,7 @@ impl Csr {
 
     /// Row `i`: its columns and values.
     #[inline]
-    fn row(&self, i: usize) -> (&[u32], &[f64]) {
+    pub(crate) fn row(&self, i: usize) -> (&[u32], &[f64]) {
         let r = self.ptr[i]..self.ptr[i + 1];
         (&self.col[r.clone()], &self.val[r])
     }
@@ -223,7 +224,7 @@ impl Csr {
     }
 
     /// The diagonal (0 where absent).
-    fn diagonal(&self) -> Vec<f64> {
+    pub(crate) fn diagonal(&self) -> Vec<f64> {
         (0..self.rows)
             .map(|i| {
                 let (c, v) = self.row(i);
@@ -277,6 +278,9 @@ pub fn prolongation(t: &Transfer, dofs: &[usize]) -> Csr {
 pub struct Prolongations {
     /// `(P_l, P_lᵀ)`, level l's rows from level l + 1's columns.
     pub levels: Vec<(Csr, Csr)>,
+    /// Level l's dofs (`3 node + component` of each row of `A_l`), for each level but the
+    /// coarsest.
+    pub dofs: Vec<Vec<usize>>,
 }
 
 impl Prolongations {
@@ -284,14 +288,18 @@ impl Prolongations {
     /// level 0's rows being its free dofs `free_dofs` (`3 node + component`, ascending).
     pub fn new(down: &[Transfer], free_dofs: &[usize]) -> Prolongations {
         let mut levels = Vec::with_capacity(down.len());
+        let mut all = Vec::with_capacity(down.len());
         let mut dofs = free_dofs.to_vec();
         for t in down {
             let p = prolongation(&t.convex(), &dofs);
             let pt = p.transpose();
-            dofs = (0..3 * t.target_nodes).collect();
+            all.push(std::mem::replace(
+                &mut dofs,
+                (0..3 * t.target_nodes).collect(),
+            ));
             levels.push((p, pt));
         }
-        Prolongations { levels }
+        Prolongations { levels, dofs: all }
     }
 
     /// Whether there is no coarser level.
@@ -304,11 +312,23 @@ impl Prolongations {
 pub struct GalerkinMultigrid {
     /// `A_l`, finest first.
     a: Vec<Csr>,
-    /// `1 / (A_l)_ii`, 0 where that diagonal is not positive.
-    inv_diag: Vec<Vec<f64>>,
+    /// The smoother's inverse diagonals of each level but the coarsest.
+    relax: Vec<Relax>,
     p: Arc<Prolongations>,
     sweeps: usize,
+    smoother: Smoother,
+    /// Each smoothed level's node blocks and colours ([`Smoother::ColouredBlock`]); fixed by
+    /// the pattern, so kept by [`GalerkinMultigrid::rebuild`].
+    colourings: Vec<Colouring>,
     coarse: CoarseFactor,
+}
+
+/// What one level's smoother needs from its operator's values.
+enum Relax {
+    /// `1 / A_ii`, 0 where that diagonal is not positive ([`Smoother::GaussSeidel`]).
+    Point(Vec<f64>),
+    /// Each node block's inverse diagonal block ([`Colouring::inverses`]).
+    Block(Vec<[f64; 9]>),
 }
 
 /// A sparse Cholesky factorisation of a coarsest operator.
@@ -320,7 +340,7 @@ struct CoarseFactor {
 
 impl GalerkinMultigrid {
     /// The Galerkin operators of `a0` over `p`'s levels and the coarsest one's factorisation;
-    /// `sweeps` Gauss-Seidel sweeps before and after each coarse correction. `symbolic`, the
+    /// `sweeps` sweeps of `smoother` before and after each coarse correction. `symbolic`, the
     /// coarsest level's symbolic factorisation from an earlier call on the same hierarchy and
     /// pattern, is reused where given and filled in where not. Errors where the coarsest
     /// operator does not factor even shifted by 10⁶ times its mean diagonal.
@@ -328,24 +348,61 @@ impl GalerkinMultigrid {
         a0: Csr,
         p: Arc<Prolongations>,
         sweeps: usize,
+        smoother: Smoother,
         symbolic: &mut Option<SymbolicLlt<usize>>,
     ) -> Result<Self, String> {
-        let (a, inv_diag) = operators(a0, &p);
+        let a = operators(a0, &p);
         let coarse = factor(a.last().unwrap(), symbolic)?;
-        Ok(GalerkinMultigrid {
+        let colourings = match smoother {
+            Smoother::GaussSeidel => Vec::new(),
+            Smoother::ColouredBlock => a[..a.len() - 1]
+                .iter()
+                .zip(&p.dofs)
+                .map(|(al, dofs)| Colouring::new(al, dofs))
+                .collect(),
+        };
+        let mut mg = GalerkinMultigrid {
             a,
-            inv_diag,
+            relax: Vec::new(),
             p,
             sweeps,
+            smoother,
+            colourings,
             coarse,
-        })
+        };
+        mg.relax = mg.relaxation();
+        Ok(mg)
     }
 
     /// The Galerkin operators of a new matrix `a0` (same pattern), keeping the coarsest
     /// factorisation of the earlier one: the cycle stays symmetric, and positive definite
     /// where the new operators are, its coarse correction that of the earlier operator.
     pub fn rebuild(&mut self, a0: Csr) {
-        (self.a, self.inv_diag) = operators(a0, &self.p);
+        self.a = operators(a0, &self.p);
+        self.relax = self.relaxation();
+    }
+
+    /// The smoother's inverse diagonals of each level but the coarsest.
+    fn relaxation(&self) -> Vec<Relax> {
+        let smoothed = &self.a[..self.a.len() - 1];
+        match self.smoother {
+            Smoother::GaussSeidel => smoothed
+                .iter()
+                .map(|m| {
+                    Relax::Point(
+                        m.diagonal()
+                            .iter()
+                            .map(|&d| if d > 0.0 { 1.0 / d } else { 0.0 })
+                            .collect(),
+                    )
+                })
+                .collect(),
+            Smoother::ColouredBlock => smoothed
+                .iter()
+                .zip(&self.colourings)
+                .map(|(m, c)| Relax::Block(c.inverses(m)))
+                .collect(),
+        }
     }
 
     /// The finest operator `A₀` (the matrix of [`GalerkinMultigrid::new`] or the latest
@@ -364,6 +421,14 @@ impl GalerkinMultigrid {
         self.cycle(0, b, z);
     }
 
+    /// One smoothing sweep on level `l`.
+    fn smooth(&self, l: usize, b: &[f64], z: &mut [f64], forward: bool) {
+        match &self.relax[l] {
+            Relax::Point(inv) => gauss_seidel(&self.a[l], inv, b, z, forward),
+            Relax::Block(inv) => self.colourings[l].sweep(&self.a[l], inv, b, z, forward),
+        }
+    }
+
     fn cycle(&self, l: usize, b: &[f64], z: &mut [f64]) {
         let a = &self.a[l];
         if l + 1 == self.a.len() {
@@ -376,7 +441,7 @@ impl GalerkinMultigrid {
         }
         z.iter_mut().for_each(|v| *v = 0.0);
         for _ in 0..self.sweeps {
-            gauss_seidel(a, &self.inv_diag[l], b, z, true);
+            self.smooth(l, b, z, true);
         }
         let mut r = vec![0.0; b.len()];
         a.matvec(z, &mut r);
@@ -390,14 +455,13 @@ impl GalerkinMultigrid {
         self.cycle(l + 1, &bc, &mut zc);
         pl.matvec_add(&zc, z);
         for _ in 0..self.sweeps {
-            gauss_seidel(a, &self.inv_diag[l], b, z, false);
+            self.smooth(l, b, z, false);
         }
     }
 }
 
-/// The Galerkin operators of `a0` over `p`'s levels, finest first, and their inverse
-/// diagonals (0 where a diagonal is not positive).
-fn operators(a0: Csr, p: &Prolongations) -> (Vec<Csr>, Vec<Vec<f64>>) {
+/// The Galerkin operators of `a0` over `p`'s levels, finest first.
+fn operators(a0: Csr, p: &Prolongations) -> Vec<Csr> {
     let mut a = vec![a0];
     for (pl, pt) in &p.levels {
         let ap = a.last().unwrap().product(pl);
@@ -405,16 +469,7 @@ fn operators(a0: Csr, p: &Prolongations) -> (Vec<Csr>, Vec<Vec<f64>>) {
         unit_empty_diagonal(&mut c);
         a.push(c);
     }
-    let inv_diag = a
-        .iter()
-        .map(|m| {
-            m.diagonal()
-                .iter()
-                .map(|&d| if d > 0.0 { 1.0 / d } else { 0.0 })
-                .collect()
-        })
-        .collect();
-    (a, inv_diag)
+    a
 }
 
 /// Give every row without a positive diagonal (a coarse dof that only fixed fine dofs see)
@@ -442,20 +497,6 @@ fn unit_empty_diagonal(c: &mut Csr) {
     c.ptr = ptr;
     c.col = col;
     c.val = val;
-}
-
-/// One Gauss-Seidel sweep on `A z = b`, rows ascending (`forward`) or descending.
-fn gauss_seidel(a: &Csr, inv_diag: &[f64], b: &[f64], z: &mut [f64], forward: bool) {
-    let mut relax = |i: usize| {
-        let (c, v) = a.row(i);
-        let s: f64 = c.iter().zip(v).map(|(&k, &x)| x * z[k as usize]).sum();
-        z[i] += (b[i] - s) * inv_diag[i];
-    };
-    if forward {
-        (0..a.rows).for_each(&mut relax);
-    } else {
-        (0..a.rows).rev().for_each(&mut relax);
-    }
 }
 
 /// Sparse Cholesky of `a` (its lower triangle), shifting the diagonal by `σ d̄` (`d̄` the mean
@@ -617,35 +658,43 @@ mod tests {
         let pt = p.transpose();
         let levels = Prolongations {
             levels: vec![(p, pt)],
+            dofs: vec![(0..n).collect()],
         };
-        let mg = GalerkinMultigrid::new(a.clone(), Arc::new(levels), 1, &mut None).unwrap();
-        // Symmetric: x·B y = y·B x.
-        let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
-        let y: Vec<f64> = (0..n).map(|i| (i as f64 * 1.3).cos()).collect();
-        let (mut bx, mut by) = (vec![0.0; n], vec![0.0; n]);
-        mg.apply(&x, &mut bx);
-        mg.apply(&y, &mut by);
-        let xby: f64 = x.iter().zip(&by).map(|(a, b)| a * b).sum();
-        let ybx: f64 = y.iter().zip(&bx).map(|(a, b)| a * b).sum();
-        assert!(
-            (xby - ybx).abs() < 1e-12 * xby.abs().max(1.0),
-            "{xby} vs {ybx}"
-        );
-        // Stationary iteration e ← (I − B A) e contracts the error by a mesh-independent
-        // factor (two-grid with one symmetric Gauss-Seidel sweep on the 1-D Laplacian: well
-        // below 0.5 per cycle).
-        let mut e = x.clone();
-        let e0 = e.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let mut ae = vec![0.0; n];
-        let mut z = vec![0.0; n];
-        for _ in 0..5 {
-            a.matvec(&e, &mut ae);
-            mg.apply(&ae, &mut z);
-            for (ei, zi) in e.iter_mut().zip(&z) {
-                *ei -= zi;
+        for smoother in [Smoother::GaussSeidel, Smoother::ColouredBlock] {
+            let mg =
+                GalerkinMultigrid::new(a.clone(), Arc::new(levels.clone()), 1, smoother, &mut None)
+                    .unwrap();
+            // Symmetric: x·B y = y·B x.
+            let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+            let y: Vec<f64> = (0..n).map(|i| (i as f64 * 1.3).cos()).collect();
+            let (mut bx, mut by) = (vec![0.0; n], vec![0.0; n]);
+            mg.apply(&x, &mut bx);
+            mg.apply(&y, &mut by);
+            let xby: f64 = x.iter().zip(&by).map(|(a, b)| a * b).sum();
+            let ybx: f64 = y.iter().zip(&bx).map(|(a, b)| a * b).sum();
+            assert!(
+                (xby - ybx).abs() < 1e-12 * xby.abs().max(1.0),
+                "{xby} vs {ybx}"
+            );
+            // Stationary iteration e ← (I − B A) e contracts the error by a mesh-independent
+            // factor (two-grid with one symmetric Gauss-Seidel sweep on the 1-D Laplacian: well
+            // below 0.5 per cycle).
+            let mut e = x.clone();
+            let e0 = e.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let mut ae = vec![0.0; n];
+            let mut z = vec![0.0; n];
+            for _ in 0..5 {
+                a.matvec(&e, &mut ae);
+                mg.apply(&ae, &mut z);
+                for (ei, zi) in e.iter_mut().zip(&z) {
+                    *ei -= zi;
+                }
             }
+            let e5 = e.iter().map(|v| v * v).sum::<f64>().sqrt();
+            assert!(
+                e5 < 0.5f64.powi(5) * e0,
+                "{smoother:?}: error {e0} -> {e5} in 5 cycles"
+            );
         }
-        let e5 = e.iter().map(|v| v * v).sum::<f64>().sqrt();
-        assert!(e5 < 0.5f64.powi(5) * e0, "error {e0} -> {e5} in 5 cycles");
     }
 }

@@ -29,6 +29,7 @@ pub mod galerkin;
 #[allow(missing_docs)]
 pub mod newton_direct;
 pub mod relax;
+pub mod smoother;
 pub mod stability;
 pub mod statics;
 mod stepper;

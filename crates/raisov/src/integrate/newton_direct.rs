@@ -41,7 +41,8 @@
 //! Multigrid-preconditioned Newton ([`DirectNewtonParams::multigrid`], with the levels given
 //! to [`DirectNewton::with_levels`]): each Newton system is solved by conjugate gradients on
 //! `K + σ d̄ D` preconditioned by one Galerkin V-cycle ([`super::galerkin`]: coarse operators
-//! `Pᵀ A P` over the hierarchy's host weights, Gauss-Seidel smoothing, a sparse Cholesky
+//! `Pᵀ A P` over the hierarchy's host weights, node-block Gauss-Seidel smoothing over a
+//! colouring ([`super::smoother`]), a sparse Cholesky
 //! factorisation of the coarsest level only), to the same inexact-Newton tolerance η, with the
 //! same Steihaug truncation. As with factorisation reuse, the hierarchy built at one iteration
 //! preconditions the next ones, whole or ([`MultigridPcg::keep`] false) only its coarsest
@@ -63,14 +64,28 @@
 //! [`crate::fem::FemModel`], or [`DirectNewton`] for repeated solves.
 
 use super::galerkin::{Csr, GalerkinMultigrid, Prolongations};
+pub use super::smoother::Smoother;
 use super::{Constraints, System};
 use crate::fem::{ElementFailure, FemModel, ForceModel};
 use crate::hierarchy::Transfer;
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
+use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::Side;
 use std::sync::Arc;
+
+/// Newton-multigrid's coarse level has at least 1/`COARSEN` of the finest level's nodes
+/// ([`coarse_level`]).
+pub const COARSEN: usize = 16;
+
+/// Of levels with `nodes[l]` nodes (finest first), the coarsest but the finest with at least
+/// 1/[`COARSEN`] of the finest level's nodes: the coarse level of a two-level Newton-multigrid
+/// (deeper hierarchies' Galerkin operators grow denser than the fine one, and each level's
+/// smoothing costs). `None` where no level qualifies.
+pub fn coarse_level(nodes: &[usize]) -> Option<usize> {
+    let n0 = *nodes.first()?;
+    (1..nodes.len()).rev().find(|&i| nodes[i] * COARSEN >= n0)
+}
 
 /// Settings of the direct Newton solver (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -99,8 +114,10 @@ pub struct DirectNewtonParams {
 /// Settings of the multigrid-preconditioned linear solves ([`DirectNewtonParams::multigrid`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MultigridPcg {
-    /// Gauss-Seidel sweeps before and after each coarse correction. Default 2.
+    /// Smoothing sweeps before and after each coarse correction. Default 2.
     pub sweeps: usize,
+    /// The smoother. Default [`Smoother::ColouredBlock`].
+    pub smoother: Smoother,
     /// Conjugate-gradient iterations at most per Newton system. Default 25.
     pub max_iter: usize,
     /// What a Newton iteration takes from the last hierarchy: all of it (`true`), or only its
@@ -113,6 +130,7 @@ impl Default for MultigridPcg {
     fn default() -> Self {
         MultigridPcg {
             sweeps: 2,
+            smoother: Smoother::default(),
             max_iter: 25,
             keep: false,
         }
@@ -195,10 +213,12 @@ pub struct DirectNewton {
     /// Per element, per entry of its `(3 npe)²` matrix (row-major): the slot in `vals`, or
     /// `u32::MAX` where not assembled (a constrained dof, or above the diagonal).
     slots: Vec<u32>,
-    /// Values in pattern order: element entries, then one diagonal entry per free dof.
+    /// The lower triangle's values in compressed columns (`symbolic`'s order), element
+    /// entries summed into them in element order.
     vals: Vec<f64>,
+    /// The slot in `vals` of each free dof's diagonal.
+    diag: Vec<u32>,
     symbolic: SymbolicSparseColMat<usize>,
-    argsort: Argsort<usize>,
     llt_symbolic: SymbolicLlt<usize>,
     /// Regularisation weight per free dof (`m_a / mean m`).
     weight: Vec<f64>,
@@ -254,8 +274,24 @@ impl DirectNewton {
         for i in 0..nfree {
             pairs.push(Pair::new(i, i));
         }
-        let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(nfree, nfree, &pairs)
+        let (symbolic, _) = SymbolicSparseColMat::try_new_from_indices(nfree, nfree, &pairs)
             .map_err(|e| DirectNewtonError::Factor(format!("{e:?}")))?;
+        // Slots index the compressed columns directly: assembly sums into the matrix.
+        let (cp, ri) = (symbolic.col_ptr(), symbolic.row_idx());
+        let position = |p: &Pair<usize, usize>| -> u32 {
+            let rows = &ri[cp[p.col]..cp[p.col + 1]];
+            let k = rows
+                .binary_search(&p.row)
+                .ok()
+                .or_else(|| rows.iter().position(|&r| r == p.row))
+                .expect("every pair is in the pattern built from the pairs");
+            (cp[p.col] + k) as u32
+        };
+        for slot in slots.iter_mut().filter(|s| **s != u32::MAX) {
+            *slot = position(&pairs[*slot as usize]);
+        }
+        let diag: Vec<u32> = pairs[pairs.len() - nfree..].iter().map(position).collect();
+        let nnz = ri.len();
         let llt_symbolic = SymbolicLlt::try_new(symbolic.as_ref(), Side::Lower)
             .map_err(|e| DirectNewtonError::Factor(format!("{e:?}")))?;
         let mass = model.lumped_mass();
@@ -270,9 +306,9 @@ impl DirectNewton {
             free,
             nfree,
             slots,
-            vals: vec![0.0; pairs.len()],
+            vals: vec![0.0; nnz],
+            diag,
             symbolic,
-            argsort,
             llt_symbolic,
             weight,
             llt: None,
@@ -361,13 +397,11 @@ impl DirectNewton {
 
     /// `K + σ d̄ D` (values as assembled), lower triangle in compressed columns.
     fn matrix(&self, shift: f64) -> Result<SparseColMat<usize, f64>, String> {
-        let base = self.vals.len() - self.nfree;
         let mut vals = self.vals.clone();
-        for i in 0..self.nfree {
-            vals[base + i] = shift * self.weight[i];
+        for (&d, w) in self.diag.iter().zip(&self.weight) {
+            vals[d as usize] += shift * w;
         }
-        SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, &vals)
-            .map_err(|e| format!("{e:?}"))
+        Ok(SparseColMat::new(self.symbolic.clone(), vals))
     }
 
     /// Factor `K + σ d̄ D`, keep the factor, and solve for `rhs` in place.
@@ -512,6 +546,7 @@ impl DirectNewton {
                                     a,
                                     self.prolongations.clone(),
                                     mgp.sweeps,
+                                    mgp.smoother,
                                     &mut self.coarse_symbolic,
                                 )
                                 .ok();
@@ -1060,7 +1095,7 @@ mode = "held"
                 .windows(2)
                 .map(|w| Transfer::build(&w[0].nodes, &w[1]).unwrap())
                 .collect();
-            let solve = |keep: bool| {
+            let solve = |keep: bool, smoother: Smoother| {
                 let mut sys = sc.build_system().unwrap();
                 let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
                 let model = sys.force.as_fem_mut().unwrap();
@@ -1075,6 +1110,7 @@ mode = "held"
                         DirectNewtonParams {
                             multigrid: Some(MultigridPcg {
                                 sweeps: 2,
+                                smoother,
                                 max_iter: 1000,
                                 keep,
                             }),
@@ -1084,9 +1120,16 @@ mode = "held"
                     .unwrap();
                 (u, out)
             };
-            for keep in [false, true] {
-                let (u_mg, out_mg) = solve(keep);
-                assert!(out_mg.converged, "{name}, keep {keep}: {out_mg:?}");
+            for (keep, smoother) in [
+                (false, Smoother::ColouredBlock),
+                (true, Smoother::ColouredBlock),
+                (false, Smoother::GaussSeidel),
+            ] {
+                let (u_mg, out_mg) = solve(keep, smoother);
+                assert!(
+                    out_mg.converged,
+                    "{name}, keep {keep}, {smoother:?}: {out_mg:?}"
+                );
                 assert!(out_mg.residual <= out_mg.target);
                 assert_eq!(
                     out_mg.factorizations, 0,
@@ -1100,7 +1143,7 @@ mode = "held"
                     .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
                 assert!(
                     err <= 1e-8 * scale,
-                    "{name}, keep {keep}: {err:e} of {scale:e}"
+                    "{name}, keep {keep}, {smoother:?}: {err:e} of {scale:e}"
                 );
             }
         }

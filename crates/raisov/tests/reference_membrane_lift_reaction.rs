@@ -18,11 +18,14 @@
 //! References: (1) direct Newton with the analytic tangent and sparse Cholesky
 //! (`integrate::newton_direct`, 10 load steps, largest nodal residual 1e-12 N), on the system
 //! of the scenario without `[multigrid]`; (2) for the example as shipped, also the scenario with
-//! `[integrator] method = "newton"` (matrix-free Newton-Krylov, 10 increments, relative
-//! residual 1e-10; `scenario::run_static`). Under gravity that solve does not converge: it
-//! stalls at a relative residual of 7.6 after 34 Newton steps (its summary says so and
-//! `raisov run` exits with status 3), 15 % of the lift away from the equilibrium that FAS and
-//! direct Newton agree on, so the second test uses direct Newton alone. The Newton solves
+//! `[integrator] method = "newton"` and `solver = "krylov"` (matrix-free Newton-Krylov, 10
+//! increments, relative residual 1e-10; `scenario::run_static`). Under gravity that solve
+//! does not converge: it stalls at a relative residual of 7.6 after 34 Newton steps (its
+//! summary says so and `raisov run` exits with status 3), 15 % of the lift away from the
+//! equilibrium that FAS and direct Newton agree on, so the second test leaves it out; (3) in
+//! both tests, the scenario's default static solve (`solver = "auto"`, which with the
+//! example's `[multigrid]` levels is Newton-multigrid), which converges under gravity too
+//! and agrees with direct Newton within 1e-9. The Newton solves
 //! solve the same discrete problem as FAS, so they differ from the FAS run only by the FAS
 //! run's residual at its stop (`residual_tol = 1e-6` of the peak residual).
 //!
@@ -46,7 +49,7 @@
 
 use raisov::integrate::newton_direct::{solve_system, DirectNewtonParams};
 use raisov::metrics::reactions;
-use raisov::scenario::{run, run_static, RunOptions, Scenario, StopReason};
+use raisov::scenario::{run, run_static, RunOptions, Scenario, StaticSolver, StopReason};
 use std::path::{Path, PathBuf};
 
 const EXAMPLE: &str = concat!(
@@ -148,6 +151,15 @@ fn check(gravity: Option<f64>) {
         "method = \"newton\"",
     );
     let static_text = replace_once(&static_text, "residual_tol = 1e-6", "residual_tol = 1e-10");
+    // The scenario's default static solver, "auto": with the example's [multigrid] levels it
+    // is Newton-multigrid (assembled tangent, CG preconditioned by the Galerkin V-cycle).
+    let sc_auto = Scenario::from_toml(&static_text, Path::new(EXAMPLE)).unwrap();
+    // The matrix-free Newton-Krylov solve of the same scenario without [multigrid].
+    let static_text = replace_once(
+        &static_text,
+        "method = \"newton\"",
+        "method = \"newton\"\nsolver = \"krylov\"",
+    );
     let cut = static_text
         .find("[multigrid]")
         .expect("[multigrid] section");
@@ -202,7 +214,37 @@ fn check(gravity: Option<f64>) {
         "direct Newton's reactions unbalanced by {b_dn:e}"
     );
 
-    // The scenario's own static solve (matrix-free Newton-Krylov, `run_static`), where it
+    // The scenario's default static solve (Newton-multigrid), with and without gravity.
+    {
+        let dir_auto = out_dir(&format!("{tag}-auto"));
+        let st = run_static(
+            &sc_auto,
+            RunOptions {
+                out_dir: Some(dir_auto.clone()),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert!(st.converged(), "{st}");
+        assert_eq!(st.solver, StaticSolver::Multigrid, "{st}");
+        let u_auto = displacements(&dir_auto, n);
+        let pre_auto = st.last.reaction_prescribed;
+        let (r_a, d_a) = (rel(pre_auto, pre_dn), max_diff(&u_auto, &u_direct));
+        println!(
+            "  Newton-multigrid (max nodal residual {:.3e} N, {} Newton steps) against direct \
+             Newton: centre reaction {r_a:.2e}, max |du| {:.2e} of the lift",
+            st.report.residual,
+            st.report.newton_steps,
+            d_a / LIFT
+        );
+        assert!(
+            r_a < 1e-9,
+            "Newton-multigrid and direct Newton differ by {r_a:e}"
+        );
+        assert!(d_a < 1e-9 * LIFT, "Newton-multigrid differs by {d_a:e} m");
+    }
+
+    // The scenario's matrix-free Newton-Krylov solve (`solver = "krylov"`), where it
     // converges (not under gravity: module documentation).
     if gravity.is_none() {
         let dir_static = out_dir(&format!("{tag}-newton"));

@@ -54,8 +54,8 @@ pub use levels::{LevelConstraints, LevelMeshes, Multigrid, MultigridScheme};
 use mesh_source::resolve_mesh_source;
 pub use mesh_source::{BoxCells, MeshSource, Shape};
 pub use run::{run, run_static, run_with, RunOptions, RunSummary, StaticSummary, StopReason};
-pub use spec::ScenarioSpec;
 use spec::{defaults, Law, MotionMode, Named, Stop};
+pub use spec::{ScenarioSpec, StaticSolver};
 use std::path::{Path, PathBuf};
 
 /// How a run ends.
@@ -191,13 +191,30 @@ pub struct Scenario {
 /// The settings of a static solve (`method = "newton"`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StaticSolve {
-    /// Stop when `‖V − R(u)‖ ≤ rel_tol · max(‖V − R(0)‖, ‖V‖)` (`[run] residual_tol`,
-    /// default 1e-7).
+    /// `[run] residual_tol`, default 1e-7. [`StaticSolver::Krylov`] stops when
+    /// `‖V − R(u)‖ ≤ rel_tol · max(‖V − R(0)‖, ‖V‖)`; [`StaticSolver::Direct`] and
+    /// [`StaticSolver::Multigrid`] when the largest nodal residual over free nodes is at most
+    /// `rel_tol` times (the largest nodal load + the largest nodal out-of-balance force at the
+    /// start, prescribed motions imposed) plus 1e-14 N.
     pub rel_tol: f64,
     /// Newton steps at most per increment (`[integrator] max_newton`, default 50).
     pub max_newton: usize,
-    /// Load increments (`[integrator] increments`, default 10).
-    pub increments: usize,
+    /// Load increments (`[integrator] increments`); `None`: 10 for [`StaticSolver::Krylov`],
+    /// 1 for the others ([`StaticSolve::increments`]).
+    pub increments: Option<usize>,
+    /// `[integrator] solver`, default [`StaticSolver::Auto`] (resolved when the system is
+    /// built: [`run::run_static`]).
+    pub solver: StaticSolver,
+}
+
+impl StaticSolve {
+    /// The load increments for a resolved `solver`.
+    pub fn increments(&self, solver: StaticSolver) -> usize {
+        self.increments.unwrap_or(match solver {
+            StaticSolver::Krylov => defaults::INCREMENTS,
+            _ => defaults::ASSEMBLED_INCREMENTS,
+        })
+    }
 }
 
 fn err(path: &Path, msg: impl Into<String>) -> Error {
@@ -472,6 +489,7 @@ impl Scenario {
         for (k, set) in [
             ("max_newton", spec.integrator.max_newton.is_some()),
             ("increments", spec.integrator.increments.is_some()),
+            ("solver", spec.integrator.solver.is_some()),
         ] {
             if set && !newton {
                 return Err(err(
@@ -491,16 +509,18 @@ impl Scenario {
                     "method = \"newton\" solves for the loads at their end: a `sine` time function never ends",
                 ));
             }
-            for (k, set) in [
-                ("[multigrid]", spec.multigrid.is_some()),
-                ("[interactive]", spec.interactive.is_some()),
-            ] {
-                if set {
-                    return Err(err(
-                        path,
-                        format!("`{k}` does not apply to method = \"newton\" (a static solve)"),
-                    ));
-                }
+            if spec.interactive.is_some() {
+                return Err(err(
+                    path,
+                    "`[interactive]` does not apply to method = \"newton\" (a static solve)",
+                ));
+            }
+            let solver = spec.integrator.solver.unwrap_or(defaults::STATIC_SOLVER);
+            if solver == StaticSolver::Multigrid && spec.multigrid.is_none() {
+                return Err(err(
+                    path,
+                    "`integrator.solver` = \"multigrid\" needs the coarser levels of a `[multigrid]` section (`levels`, `nodes` or `files`)",
+                ));
             }
             let rel_tol = positive(
                 path,
@@ -511,14 +531,14 @@ impl Scenario {
             if max_newton == 0 {
                 return Err(err(path, "`integrator.max_newton` = 0: must be at least 1"));
             }
-            let increments = spec.integrator.increments.unwrap_or(defaults::INCREMENTS);
-            if increments == 0 {
+            if spec.integrator.increments == Some(0) {
                 return Err(err(path, "`integrator.increments` = 0: must be at least 1"));
             }
             Some(StaticSolve {
                 rel_tol,
                 max_newton,
-                increments,
+                increments: spec.integrator.increments,
+                solver,
             })
         } else {
             None

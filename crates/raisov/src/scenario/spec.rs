@@ -129,13 +129,22 @@
 //!                                 # "central-difference" | "newton";
 //!                                 # default "symplectic-euler". "newton": no dynamics, the static
 //!                                 # equilibrium R(u) = V with the motions at their end, by
-//!                                 # Newton-Krylov (crate::integrate::statics), to a relative
-//!                                 # residual `[run] residual_tol` (default 1e-7); `dt` and
-//!                                 # the other [run] keys are not used; not with [multigrid]
-//!                                 # or [interactive]. Exit status 3 if it does not converge
+//!                                 # Newton's method (`solver`) to `[run] residual_tol`
+//!                                 # (default 1e-7): "krylov" relative to its starting
+//!                                 # residual (2-norm), "direct" and "multigrid" the largest
+//!                                 # nodal residual relative to the largest nodal load plus
+//!                                 # the starting out-of-balance force (plus 1e-14 N); `dt`
+//!                                 # and the other [run] keys are not used;
+//!                                 # of [multigrid] only the levels are used; not with
+//!                                 # [interactive]. Exit status 3 if it does not converge
+//! solver = "auto"                 # newton: "auto" (default) | "multigrid" | "direct" |
+//!                                 # "krylov" (StaticSolver): "auto" is "multigrid" where
+//!                                 # [multigrid] gives a level with >= 1/16 of the nodes, else
+//!                                 # "direct"; "krylov" where pressure, a tool or springs act
 //! max_newton = 50                 # newton: Newton steps at most per increment, default 50
 //! increments = 10                 # newton: loads and prescribed displacements applied in
-//!                                 # this many equal increments, default 10
+//!                                 # this many equal increments, default 10 for "krylov",
+//!                                 # 1 for "direct" and "multigrid"
 //! dt = 1e-4                       # s; default: safety × estimated critical step
 //!                                 # (crate::integrate::stability)
 //! safety = 0.5                    # fraction of the estimated critical step, default 0.5
@@ -232,7 +241,7 @@ use std::path::{Path, PathBuf};
 /// The default of every scenario key that has one (the FAS settings default to
 /// [`crate::multigrid::fas::FasParams::default`]). The module documentation lists them per key.
 pub mod defaults {
-    use super::Law;
+    use super::{Law, StaticSolver};
     use crate::integrate::Method;
     use crate::mesh::generate::BoxPattern;
     use crate::multigrid::raisov::Reading;
@@ -258,8 +267,13 @@ pub mod defaults {
     pub const ALPHA: f64 = 0.0;
     /// `gravity` (m/s²): none.
     pub const GRAVITY: [f64; 3] = [0.0; 3];
-    /// `[integrator] increments` of `method = "newton"`.
+    /// `[integrator] increments` of `method = "newton"` with `solver = "krylov"`.
     pub const INCREMENTS: usize = 10;
+    /// `[integrator] increments` of `method = "newton"` with `solver = "direct"` or
+    /// `"multigrid"` (their line search and regularisation globalise a single step).
+    pub const ASSEMBLED_INCREMENTS: usize = 1;
+    /// `[integrator] solver` of `method = "newton"`.
+    pub const STATIC_SOLVER: StaticSolver = StaticSolver::Auto;
     /// `[integrator] max_newton` of `method = "newton"`.
     pub const MAX_NEWTON: usize = 50;
     /// The relative residual of `method = "newton"` (`[run] residual_tol` sets it).
@@ -391,6 +405,26 @@ named_enum! {
         Polygon = "polygon",
         /// A tetrahedral box `size = [x, y, z]`.
         Box = "box",
+    }
+}
+
+named_enum! {
+    /// `[integrator] solver` of `method = "newton"`: how each Newton system is solved.
+    pub enum StaticSolver {
+        /// `"multigrid"` where the scenario has a coarser level with at least 1/16 of the
+        /// finest level's nodes, else `"direct"`; `"krylov"` where the assembled tangent does
+        /// not cover the forces (pressure, tool contact, springs).
+        Auto = "auto",
+        /// The assembled analytic tangent, conjugate gradients preconditioned by a Galerkin
+        /// V-cycle over the finest level and that coarser one
+        /// ([`crate::integrate::newton_direct::MultigridPcg`]).
+        Multigrid = "multigrid",
+        /// The assembled analytic tangent, sparse Cholesky, the factor reused as the
+        /// preconditioner of conjugate gradients ([`crate::integrate::newton_direct`]).
+        Direct = "direct",
+        /// Matrix-free Newton-Krylov: finite-difference tangent products, conjugate gradients
+        /// ([`crate::integrate::statics`]); covers every force.
+        Krylov = "krylov",
     }
 }
 
@@ -875,6 +909,7 @@ pub struct DisplaceSpec {
 #[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {
     pub method: Option<Solve>,
+    pub solver: Option<StaticSolver>,
     pub dt: Option<f64>,
     pub max_newton: Option<usize>,
     pub increments: Option<usize>,

@@ -1049,10 +1049,111 @@ fn newton_static_solve_matches_the_steady_dynamic_run() {
         assert!((a - b).abs() <= 1e-7, "{a} vs {b}");
     }
     // A static solve is told apart from a dynamic one's settings.
-    let e = error_of(&format!("{statics}[multigrid]\nlevels = 2\n"));
+    let e = error_of(&format!("{statics}[interactive]\n"));
     assert!(e.contains("does not apply to method = \"newton\""), "{e}");
     let e = error_of(&format!("{BASE}[integrator]\nincrements = 3\n"));
     assert!(e.contains("applies to method = \"newton\""), "{e}");
+    let e = error_of(&format!("{BASE}[integrator]\nsolver = \"direct\"\n"));
+    assert!(
+        e.contains("`integrator.solver` applies to method = \"newton\""),
+        "{e}"
+    );
+}
+
+/// `[integrator] solver`: the three static solvers land on one equilibrium of the lifted
+/// membrane (reactions within 1e-9 of the lift's, nodal stresses within 1e-9 of their
+/// largest), and `"auto"` takes `"multigrid"` with `[multigrid]` levels, `"direct"` without.
+#[test]
+fn static_solvers_reach_one_equilibrium() {
+    let lift = "[[displace]]\npoint = [0.0, 0.0, 0.0]\ndisplacement = [0.0, 0.0, 0.01]\n";
+    let base = BASE.replace("duration = 0.01", "residual_tol = 1e-10");
+    let text = |solver: &str, levels: bool| {
+        format!(
+            "{base}{lift}[integrator]\nmethod = \"newton\"\n{}{}",
+            if solver.is_empty() {
+                String::new()
+            } else {
+                format!("solver = \"{solver}\"\n")
+            },
+            if levels {
+                "[multigrid]\nlevels = 3\n"
+            } else {
+                ""
+            }
+        )
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let solve = |solver: &str, levels: bool| {
+        let sc = parse(&text(solver, levels)).unwrap();
+        let sub = format!("{solver}-{levels}");
+        let s = super::run::run_static(
+            &sc,
+            RunOptions {
+                out_dir: Some(dir.path().join(&sub)),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert!(s.converged(), "{s}");
+        let stress: Vec<f64> =
+            std::fs::read_to_string(dir.path().join(&sub).join("nodal_stress.csv"))
+                .unwrap()
+                .lines()
+                .skip(1)
+                .flat_map(|l| {
+                    l.split(',')
+                        .skip(4)
+                        .map(|x| x.parse::<f64>().unwrap())
+                        .collect::<Vec<_>>()
+                })
+                .collect();
+        (s, stress)
+    };
+    let (krylov, t_k) = solve("krylov", false);
+    assert_eq!(krylov.solver, StaticSolver::Krylov);
+    let (direct, t_d) = solve("", false);
+    assert_eq!(direct.solver, StaticSolver::Direct, "{direct}");
+    assert_eq!(direct.increments, 1);
+    let (mg, t_m) = solve("", true);
+    assert_eq!(mg.solver, StaticSolver::Multigrid, "{mg}");
+    assert!(
+        mg.to_string()
+            .contains("CG preconditioned by a Galerkin V-cycle"),
+        "{mg}"
+    );
+    let scale = krylov.last.reaction_prescribed[2];
+    assert!(scale > 0.0, "{krylov}");
+    let smax = t_k.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    for (name, s, t) in [("direct", &direct, &t_d), ("multigrid", &mg, &t_m)] {
+        for k in 0..3 {
+            let (a, b) = (
+                krylov.last.reaction_prescribed[k],
+                s.last.reaction_prescribed[k],
+            );
+            assert!(
+                (a - b).abs() <= 1e-9 * scale,
+                "{name} reaction {k}: {a:e} vs {b:e}"
+            );
+            // Equilibrium: the fixed and prescribed reactions balance (no loads).
+            let gap = s.last.reaction_fixed[k] + s.last.reaction_prescribed[k] + s.applied[k];
+            assert!(gap.abs() <= 1e-9 * scale, "{name} balance {k}: {gap:e}");
+        }
+        assert_eq!(t.len(), t_k.len());
+        let worst = t
+            .iter()
+            .zip(&t_k)
+            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+        assert!(
+            worst <= 1e-9 * smax,
+            "{name}: stress off by {worst:e} of {smax:e}"
+        );
+    }
+    // Asked for where it cannot run: a clear error naming the key.
+    let e = error_of(&text("multigrid", false));
+    assert!(
+        e.contains("needs the coarser levels of a `[multigrid]` section"),
+        "{e}"
+    );
 }
 
 /// `[[displace]] radius`: a surface patch, the nodes `Simulation::grab` takes at the same

@@ -120,6 +120,31 @@ fn reactions_balance_pressure_loads() {
         "{BLOCK}[[pressure]]\ngroup = \"zmax\"\nvalue = {p}\ntime = {{ kind = \"ramp\", duration = 1.0 }}\n[integrator]\nmethod = \"newton\"\n"
     ));
     assert!(s.converged(), "{s}");
+    // A follower pressure is outside the assembled tangent: "auto" takes Newton-Krylov and
+    // says why; "direct" asked for is an error naming the key.
+    assert_eq!(s.solver, crate::scenario::StaticSolver::Krylov, "{s}");
+    assert!(
+        s.to_string().contains("pressure or tool contact acts"),
+        "{s}"
+    );
+    let sc = parse(&format!(
+        "{BLOCK}[[pressure]]\ngroup = \"zmax\"\nvalue = {p}\n[integrator]\nmethod = \"newton\"\nsolver = \"direct\"\n"
+    ))
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let e = run::run_static(
+        &sc,
+        RunOptions {
+            out_dir: Some(dir.path().join("out")),
+            ..Default::default()
+        },
+    )
+    .expect_err("direct with pressure")
+    .to_string();
+    assert!(
+        e.contains("`integrator.solver` = \"direct\" does not apply") && e.contains("\"krylov\""),
+        "{e}"
+    );
     let a = s.applied;
     let area = 0.02 * 0.02;
     eprintln!("applied {a:?}, reactions {:?}", s.last.reaction_fixed);

@@ -1,0 +1,566 @@
+//! The static solve of a scenario (`[integrator] method = "newton"`): `R(u) = V` with the
+//! prescribed motions at their end, by Newton's method with one of three linear solvers
+//! ([`StaticSolver`]):
+//!
+//! - `"multigrid"`: the assembled analytic tangent `K`, each Newton system `K δu = V − R(u)`
+//!   solved by conjugate gradients preconditioned by a Galerkin V-cycle over the finest level
+//!   and one coarser `[multigrid]` level ([`crate::integrate::newton_direct::coarse_level`]);
+//! - `"direct"`: the same tangent factored by sparse Cholesky, the factor reused as the
+//!   preconditioner of conjugate gradients while they converge in 20 iterations;
+//! - `"krylov"`: matrix-free Newton-Krylov, tangent products by finite differences of the
+//!   force ([`crate::integrate::statics`]).
+//!
+//! The two assembled solvers share [`crate::integrate::newton_direct`]: a line search on the
+//! energy, a diagonal regularisation `σ d̄ D` where `K` is not positive definite (a flat
+//! membrane's first tangent), Eisenstat-Walker tolerances for the inner solves. They stop when
+//! the largest nodal residual over free nodes is at most `residual_tol` times (the largest
+//! nodal load + the largest nodal out-of-balance force at the start, the prescribed motions
+//! imposed and the free nodes where they are) plus 1e-14 N; `"krylov"` when `‖V − R(u)‖₂` is at most `residual_tol` times
+//! its starting value. `"auto"` takes `"multigrid"` where a coarse level qualifies, `"direct"`
+//! where not, and `"krylov"` where the assembled tangent does not hold every force: pressure
+//! (a follower load), tool contact or spring grasps, or a node sliding along a direction
+//! that is not x, y or z.
+
+use super::{write_nodal_stress, Frames, RunOptions};
+use crate::error::{Error, Result};
+use crate::integrate::newton_direct::{
+    coarse_level, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg,
+};
+use crate::integrate::statics::Static;
+use crate::integrate::{Stepper, System};
+use crate::io::{write_atomic, OutputLock};
+use crate::metrics::{CsvStream, Meter, Sample};
+use crate::scenario::{Scenario, StaticSolve, StaticSolver};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Absolute floor of the assembled solvers' stopping rule (N).
+const ABS_TOL: f64 = 1e-14;
+/// Conjugate-gradient iterations preconditioned by a kept factor before `"direct"`
+/// refactors ([`DirectNewtonParams::pcg_max`]).
+const DIRECT_PCG_MAX: usize = 20;
+
+/// What a static solve (`method = "newton"`) reports.
+#[derive(Clone, Debug)]
+pub struct StaticSummary {
+    pub name: String,
+    pub nodes: usize,
+    pub elements: usize,
+    /// The linear solver that ran (`"auto"` resolved).
+    pub solver: StaticSolver,
+    /// The solver's own report: residuals, Newton steps, force evaluations, convergence.
+    /// `"krylov"`: residual 2-norms; `"direct"`, `"multigrid"`: largest nodal residuals.
+    pub report: Static,
+    /// `[run] residual_tol` ([`StaticSolve::rel_tol`]).
+    pub rel_tol: f64,
+    /// `"direct"`, `"multigrid"`: the residual to reach (N); `"krylov"`: none.
+    pub target: Option<f64>,
+    /// What the solver says of its work (conjugate-gradient iterations, factorisations,
+    /// hierarchies); why it chose its solver where `"auto"` was asked for.
+    pub detail: String,
+    /// Why an assembled solve stopped early other than on an inverted element (a
+    /// factorisation that failed at every shift).
+    pub failure: Option<String>,
+    /// Load increments.
+    pub increments: usize,
+    /// The element that inverted, where the solve stopped on one.
+    pub inverted: Option<(usize, f64)>,
+    pub wall: f64,
+    /// The state solved for: reactions and `max |u|` ([`crate::metrics::Sample`]).
+    pub last: Sample,
+    pub applied: [f64; 3],
+    pub out_dir: PathBuf,
+}
+
+impl StaticSummary {
+    /// Whether the residual reached the tolerance.
+    pub fn converged(&self) -> bool {
+        self.inverted.is_none() && self.failure.is_none() && self.report.converged
+    }
+}
+
+impl std::fmt::Display for StaticSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let r = &self.report;
+        writeln!(f, "scenario        {} (static)", self.name)?;
+        writeln!(
+            f,
+            "mesh            {} nodes, {} elements",
+            self.nodes, self.elements
+        )?;
+        let how = match self.solver {
+            StaticSolver::Krylov => "Newton-Krylov, matrix-free (finite-difference tangent, CG)",
+            StaticSolver::Direct => "Newton, assembled tangent, sparse Cholesky (reused by CG)",
+            _ => "Newton, assembled tangent, CG preconditioned by a Galerkin V-cycle",
+        };
+        writeln!(
+            f,
+            "solve           {how}, {} load increment{}",
+            self.increments,
+            if self.increments == 1 { "" } else { "s" }
+        )?;
+        if !self.detail.is_empty() {
+            writeln!(f, "                {}", self.detail)?;
+        }
+        let rel = r.residual / r.initial_residual.max(f64::MIN_POSITIVE);
+        match (self.inverted, &self.failure) {
+            (Some((e, det)), _) => writeln!(
+                f,
+                "stopped         did not converge: element {e} would invert (det F = {det:.3e})"
+            )?,
+            (None, Some(why)) => writeln!(f, "stopped         did not converge: {why}")?,
+            (None, None) if r.converged && self.target.is_some() => writeln!(
+                f,
+                "stopped         converged: largest nodal residual {:.3e} N <= {:.3e} N \
+                 ({:.1e} of the largest nodal load + starting out-of-balance force, \
+                 + {ABS_TOL:.0e} N)",
+                r.residual,
+                self.target.unwrap_or(0.0),
+                self.rel_tol
+            )?,
+            (None, None) if self.target.is_some() => writeln!(
+                f,
+                "stopped         did not converge: largest nodal residual {:.3e} N > {:.3e} N \
+                 (`integrator.max_newton` reached)",
+                r.residual,
+                self.target.unwrap_or(0.0),
+            )?,
+            (None, None) if r.converged => writeln!(
+                f,
+                "stopped         converged: relative residual {rel:.3e} <= {:.1e}",
+                self.rel_tol
+            )?,
+            (None, None) => writeln!(
+                f,
+                "stopped         did not converge: relative residual {rel:.3e} > {:.1e} (stalled \
+                 or `integrator.max_newton` reached)",
+                self.rel_tol
+            )?,
+        }
+        writeln!(f, "newton steps    {}", r.newton_steps)?;
+        writeln!(
+            f,
+            "residual        {:.4e} N (start {:.4e} N){}",
+            r.residual,
+            r.initial_residual,
+            if self.target.is_some() {
+                ", largest nodal"
+            } else {
+                ", 2-norm"
+            }
+        )?;
+        writeln!(f, "force evals     {}", r.force_evaluations)?;
+        writeln!(f, "wall time       {:.3} s", self.wall)?;
+        writeln!(f, "max |u|         {:.4e} m", self.last.max_u)?;
+        let v = |x: [f64; 3]| format!("[{:.4e}, {:.4e}, {:.4e}] N", x[0], x[1], x[2]);
+        writeln!(f, "reactions       fixed {}", v(self.last.reaction_fixed))?;
+        writeln!(
+            f,
+            "                prescribed {}",
+            v(self.last.reaction_prescribed)
+        )?;
+        writeln!(
+            f,
+            "applied loads   {} (loads, surface loads and body force)",
+            v(self.applied)
+        )?;
+        if self.last.tool != [0.0; 3] || self.last.penetration > 0.0 {
+            writeln!(
+                f,
+                "tool contact    {} (on the body), penetration {:.4e} m",
+                v(self.last.tool),
+                self.last.penetration
+            )?;
+        }
+        write!(f, "output          {}", self.out_dir.display())
+    }
+}
+
+/// Solve a scenario with `method = "newton"` for static equilibrium `R(u) = V`, the
+/// prescribed motions at their end ([`Scenario::motion_end`]), from the undeformed state in
+/// `increments` steps of the loads and prescribed displacements (`k / increments` of them,
+/// `k = 1..increments`), each warm-started from the last, by the solver of
+/// [`StaticSolve::solver`] (module docs). Writes what [`super::run_with`] writes:
+/// `measures.csv` (the start and the solution), two frames, `nodal_stress.csv` and
+/// `summary.txt` with the solver's convergence report.
+pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
+    let Some(settings) = sc.statics else {
+        return Err(Error::Scenario {
+            path: sc.path.clone(),
+            line: None,
+            msg: "not a static solve: `[integrator] method` is not \"newton\"".into(),
+        });
+    };
+    let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
+    let _lock = OutputLock::acquire(&out)?;
+    let n = sc.mesh.num_nodes();
+    let mut stepper = crate::integrate::SingleLevel::new(
+        sc.build_system()?,
+        sc.method,
+        crate::integrate::StepperParams {
+            dt: sc.dt,
+            kinetic_limit: f64::INFINITY,
+        },
+    );
+    let plan = plan(sc, &settings, &mut stepper.sys)?;
+    let increments = settings.increments(plan.solver);
+    let mut meter = Meter::new(n, None);
+    let mut frames = Frames::new(sc, &out)?;
+    let csv = out.join("measures.csv");
+    let mut rows = CsvStream::create(&csv)?;
+    let start = Instant::now();
+    let first = meter.sample(&mut stepper.sys, &stepper.state, 0);
+    rows.push(&first)?;
+    frames.write(sc, &mut stepper)?;
+    rows.flush()?;
+    let t = sc.motion_end();
+    let solved = {
+        let (sys, s) = (&mut stepper.sys, &mut stepper.state);
+        s.t = t;
+        let mut u = s.u.clone();
+        let solved = match plan.solver {
+            StaticSolver::Krylov => krylov(sc, &settings, increments, sys, t, &mut u, &first),
+            _ => assembled(&settings, increments, plan.down.as_deref(), sys, t, &mut u),
+        };
+        s.u.copy_from_slice(&u);
+        s.v.iter_mut().for_each(|x| *x = 0.0);
+        solved
+    };
+    let Solved {
+        mut report,
+        inverted,
+        target,
+        failure,
+        detail,
+    } = solved;
+    if inverted.is_some() {
+        report.residual = stepper
+            .sys
+            .residual(&stepper.state.u, &mut vec![0.0; 3 * n])
+            .unwrap_or(f64::NAN);
+    }
+    let detail = [plan.why, detail]
+        .into_iter()
+        .filter(|x| !x.is_empty())
+        .collect::<Vec<_>>()
+        .join("; ");
+    let wall = start.elapsed().as_secs_f64();
+    let mut last = meter.sample(&mut stepper.sys, &stepper.state, report.newton_steps as u64);
+    last.force_evals = report.force_evaluations as f64;
+    last.wall = wall;
+    rows.push(&last)?;
+    frames.write(sc, &mut stepper)?;
+    rows.flush()?;
+    let applied = {
+        let (sys, s) = stepper.finest();
+        let mut tn = vec![0.0; 9 * n];
+        sys.force.nodal_stress(&s.u, &mut tn);
+        write_nodal_stress(&out.join("nodal_stress.csv"), sc, &s.u, &tn)?;
+        let mut v = sys.force.load_report(&s.u).applied;
+        for (i, f) in sys.f_ext.iter().enumerate() {
+            v[i % 3] += f;
+        }
+        v
+    };
+    let summary = StaticSummary {
+        name: sc.name.clone(),
+        nodes: n,
+        elements: sc.mesh.num_elements(),
+        solver: plan.solver,
+        report,
+        rel_tol: settings.rel_tol,
+        target,
+        detail,
+        failure,
+        increments,
+        inverted,
+        wall,
+        last,
+        applied,
+        out_dir: out.clone(),
+    };
+    let text = summary.to_string();
+    write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;
+    Ok(summary)
+}
+
+/// The solver a static solve runs, and the level transfers of `"multigrid"`.
+struct Plan {
+    solver: StaticSolver,
+    /// `"multigrid"`: the finest level's nodes located in the coarse level's mesh.
+    down: Option<Vec<crate::hierarchy::Transfer>>,
+    /// Why `"auto"` chose as it did (empty where the solver was asked for).
+    why: String,
+}
+
+/// Resolve [`StaticSolve::solver`] against the built system (module docs); an error where an
+/// assembled solver was asked for and does not apply, naming the key and why.
+fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan> {
+    let asked = settings.solver;
+    let krylov = Plan {
+        solver: StaticSolver::Krylov,
+        down: None,
+        why: String::new(),
+    };
+    if asked == StaticSolver::Krylov {
+        return Ok(krylov);
+    }
+    let blocker = if sys.springs.iter().any(|s| s.k > 0.0) {
+        Some("spring grasps act")
+    } else if sys.force.as_fem_mut().is_none() {
+        Some("pressure or tool contact acts (forces outside the assembled tangent)")
+    } else if sys
+        .constraints
+        .sliding()
+        .iter()
+        .any(|&(_, d)| d.iter().filter(|x| **x != 0.0).count() != 1)
+    {
+        Some("a node slides along a direction that is not x, y or z")
+    } else {
+        None
+    };
+    if let Some(b) = blocker {
+        if asked == StaticSolver::Auto {
+            return Ok(Plan {
+                why: format!("solver \"auto\" took \"krylov\": {b}"),
+                ..krylov
+            });
+        }
+        return Err(Error::Scenario {
+            path: sc.path.clone(),
+            line: None,
+            msg: format!(
+                "`integrator.solver` = \"{}\" does not apply: {b}; valid here: \"krylov\" or \"auto\"",
+                spec_name(asked)
+            ),
+        });
+    }
+    let direct = Plan {
+        solver: StaticSolver::Direct,
+        down: None,
+        why: String::new(),
+    };
+    if asked == StaticSolver::Direct {
+        return Ok(direct);
+    }
+    if sc.multigrid.is_none() {
+        return Ok(Plan {
+            why: "solver \"auto\" took \"direct\": no [multigrid] levels".into(),
+            ..direct
+        });
+    }
+    let meshes = sc.level_meshes()?;
+    let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
+    let Some(c) = coarse_level(&nodes) else {
+        let msg = format!(
+            "no [multigrid] level has at least 1/{} of the finest level's {} nodes (levels: {:?})",
+            crate::integrate::newton_direct::COARSEN,
+            nodes[0],
+            &nodes[1..]
+        );
+        if asked == StaticSolver::Auto {
+            return Ok(Plan {
+                why: format!("solver \"auto\" took \"direct\": {msg}"),
+                ..direct
+            });
+        }
+        return Err(Error::Scenario {
+            path: sc.path.clone(),
+            line: None,
+            msg: format!("`integrator.solver` = \"multigrid\": {msg}"),
+        });
+    };
+    let down = crate::hierarchy::Transfer::build(&meshes[0].nodes, &meshes[c])?;
+    Ok(Plan {
+        solver: StaticSolver::Multigrid,
+        down: Some(vec![down]),
+        why: format!(
+            "levels of {} and {} nodes{}",
+            nodes[0],
+            nodes[c],
+            if asked == StaticSolver::Auto {
+                " (solver \"auto\")"
+            } else {
+                ""
+            }
+        ),
+    })
+}
+
+fn spec_name(s: StaticSolver) -> &'static str {
+    use crate::scenario::spec::Named;
+    s.name()
+}
+
+/// What a solver returns to [`run_static`].
+struct Solved {
+    report: Static,
+    inverted: Option<(usize, f64)>,
+    target: Option<f64>,
+    failure: Option<String>,
+    detail: String,
+}
+
+/// Matrix-free Newton-Krylov over `increments` load increments.
+fn krylov(
+    sc: &Scenario,
+    settings: &StaticSolve,
+    increments: usize,
+    sys: &mut System,
+    t: f64,
+    u: &mut [f64],
+    first: &Sample,
+) -> Solved {
+    use crate::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
+    let diag = fictitious_mass(&sc.mesh, &sys.mass, 1.0);
+    let mut newton = NewtonSolver::with_diagonal(sys, &diag);
+    let p = NewtonParams {
+        rel_tol: settings.rel_tol,
+        max_newton: settings.max_newton,
+        length: 1e-3
+            * crate::mesh::norm({
+                let (lo, hi) = sc.mesh.bounding_box();
+                crate::mesh::sub(hi, lo)
+            }),
+        ..Default::default()
+    };
+    // Increments: loads and prescribed displacements scaled by k / increments, each
+    // solve warm-started from the last.
+    let f0 = sys.f_ext.clone();
+    let g: Vec<[f64; 3]> = sys
+        .constraints
+        .prescribed
+        .iter()
+        .map(|(_, m)| m.displacement(t))
+        .collect();
+    let mut total = Static {
+        residual: first.residual,
+        initial_residual: first.residual,
+        newton_steps: 0,
+        force_evaluations: 0,
+        converged: false,
+    };
+    let mut inverted = None;
+    let m = increments;
+    for k in 1..=m {
+        let f = k as f64 / m as f64;
+        for (x, x0) in sys.f_ext.iter_mut().zip(&f0) {
+            *x = f * x0;
+        }
+        sys.force.set_load_factor(f);
+        let held: Vec<[f64; 3]> = g.iter().map(|d| d.map(|x| f * x)).collect();
+        crate::integrate::hold(&mut sys.constraints, &held);
+        match newton.solve(sys, t, u, p) {
+            Ok(r) => {
+                total.residual = r.residual;
+                total.newton_steps += r.newton_steps;
+                total.force_evaluations += r.force_evaluations;
+                total.converged = r.converged;
+                if k == 1 {
+                    total.initial_residual = r.initial_residual;
+                }
+            }
+            Err(e) => {
+                inverted = Some((e.element, e.det_f));
+                total.converged = false;
+                break;
+            }
+        }
+    }
+    Solved {
+        report: total,
+        inverted,
+        target: None,
+        failure: None,
+        detail: String::new(),
+    }
+}
+
+/// The largest nodal internal force over the nodes that are not fixed or prescribed, with the
+/// prescribed motions at time `t` and the free nodes at `u` (the out-of-balance force a
+/// displacement-driven solve starts from); 0 where that state inverts an element.
+fn prescribed_force_scale(sys: &mut System, t: f64, u: &[f64]) -> f64 {
+    let n = u.len();
+    use crate::fem::ForceModel;
+    let (mut ug, mut v, mut f) = (u.to_vec(), vec![0.0; n], vec![0.0f64; n]);
+    sys.constraints.impose(t, &mut ug, &mut v);
+    let Some(model) = sys.force.as_fem_mut() else {
+        return 0.0;
+    };
+    if model.internal_forces(&ug, &mut f).is_err() {
+        return 0.0;
+    }
+    (0..n / 3)
+        .filter(|&a| !sys.constraints.is_constrained(a))
+        .map(|a| (f[3 * a].powi(2) + f[3 * a + 1].powi(2) + f[3 * a + 2].powi(2)).sqrt())
+        .fold(0.0, f64::max)
+}
+
+/// Newton with the assembled tangent ([`crate::integrate::newton_direct`]): sparse Cholesky,
+/// or with `down` CG preconditioned by the Galerkin V-cycle over those levels.
+fn assembled(
+    settings: &StaticSolve,
+    increments: usize,
+    down: Option<&[crate::hierarchy::Transfer]>,
+    sys: &mut System,
+    t: f64,
+    u: &mut [f64],
+) -> Solved {
+    let params = DirectNewtonParams {
+        rel_tol: settings.rel_tol,
+        abs_tol: ABS_TOL + settings.rel_tol * prescribed_force_scale(sys, t, u),
+        max_newton: settings.max_newton.saturating_mul(increments),
+        load_steps: increments,
+        pcg_max: if down.is_some() { 0 } else { DIRECT_PCG_MAX },
+        multigrid: down.map(|_| MultigridPcg::default()),
+        ..Default::default()
+    };
+    let out: std::result::Result<DirectStatic, DirectNewtonError> = match sys.force.as_fem_mut() {
+        None => Err(DirectNewtonError::NotFem),
+        Some(model) => match down {
+            Some(d) => DirectNewton::with_levels(model, &sys.constraints, d),
+            None => DirectNewton::new(model, &sys.constraints),
+        }
+        .and_then(|mut s| s.solve(model, &sys.constraints, &sys.f_ext, t, u, params)),
+    };
+    let failed = |failure: Option<String>, inverted: Option<(usize, f64)>| Solved {
+        report: Static {
+            residual: f64::NAN,
+            initial_residual: f64::NAN,
+            newton_steps: 0,
+            force_evaluations: 0,
+            converged: false,
+        },
+        inverted,
+        target: Some(f64::NAN),
+        failure,
+        detail: String::new(),
+    };
+    match out {
+        Ok(o) => Solved {
+            report: Static {
+                residual: o.residual,
+                initial_residual: o.initial_residual,
+                newton_steps: o.newton_steps,
+                force_evaluations: o.force_evaluations,
+                converged: o.converged,
+            },
+            inverted: None,
+            target: Some(o.target),
+            failure: None,
+            detail: if down.is_some() {
+                format!(
+                    "{} CG iterations, {} hierarchies",
+                    o.cg_iterations, o.multigrid_setups
+                )
+            } else {
+                format!(
+                    "{} factorisations, {} CG iterations",
+                    o.factorizations, o.cg_iterations
+                )
+            },
+        },
+        Err(DirectNewtonError::Inverted(e)) => failed(None, Some((e.element, e.det_f))),
+        Err(e) => failed(Some(e.to_string()), None),
+    }
+}

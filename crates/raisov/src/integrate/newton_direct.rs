@@ -41,8 +41,8 @@
 //! Multigrid-preconditioned Newton ([`DirectNewtonParams::multigrid`], with the levels given
 //! to [`DirectNewton::with_levels`]): each Newton system is solved by conjugate gradients on
 //! `K + σ d̄ D` preconditioned by one Galerkin V-cycle ([`super::galerkin`]: coarse operators
-//! `Pᵀ A P` over the hierarchy's host weights, node-block Gauss-Seidel smoothing over a
-//! colouring ([`super::smoother`]), a sparse Cholesky
+//! `Pᵀ A P` over the hierarchy's host weights, Gauss-Seidel smoothing ([`super::smoother`]),
+//! a sparse Cholesky
 //! factorisation of the coarsest level only), to the same inexact-Newton tolerance η, with the
 //! same Steihaug truncation. As with factorisation reuse, the hierarchy built at one iteration
 //! preconditions the next ones, whole or ([`MultigridPcg::keep`] false) only its coarsest
@@ -116,7 +116,7 @@ pub struct DirectNewtonParams {
 pub struct MultigridPcg {
     /// Smoothing sweeps before and after each coarse correction. Default 2.
     pub sweeps: usize,
-    /// The smoother. Default [`Smoother::ColouredBlock`].
+    /// The smoother. Default [`Smoother::GaussSeidel`].
     pub smoother: Smoother,
     /// Conjugate-gradient iterations at most per Newton system. Default 25.
     pub max_iter: usize,

@@ -160,26 +160,7 @@ impl std::fmt::Display for RunSummary {
         writeln!(f, "kinetic energy  {:.4e} J", self.last.kinetic)?;
         writeln!(f, "residual        {:.4e} N", self.last.residual)?;
         writeln!(f, "max |u|         {:.4e} m", self.last.max_u)?;
-        let v = |x: [f64; 3]| format!("[{:.4e}, {:.4e}, {:.4e}] N", x[0], x[1], x[2]);
-        writeln!(f, "reactions       fixed {}", v(self.last.reaction_fixed))?;
-        writeln!(
-            f,
-            "                prescribed {}",
-            v(self.last.reaction_prescribed)
-        )?;
-        writeln!(
-            f,
-            "applied loads   {} (loads, surface loads and body force)",
-            v(self.applied)
-        )?;
-        if self.last.tool != [0.0; 3] || self.last.penetration > 0.0 {
-            writeln!(
-                f,
-                "tool contact    {} (on the body), penetration {:.4e} m",
-                v(self.last.tool),
-                self.last.penetration
-            )?;
-        }
+        write_balance(f, &self.last, self.applied)?;
         if self.last.stress_err_max.is_finite() {
             writeln!(
                 f,
@@ -195,6 +176,36 @@ impl std::fmt::Display for RunSummary {
         }
         write!(f, "output          {}", self.out_dir.display())
     }
+}
+
+/// The summary lines of the reactions, the applied loads and the tools' contact force: what
+/// balances at equilibrium.
+fn write_balance(
+    f: &mut std::fmt::Formatter<'_>,
+    last: &Sample,
+    applied: [f64; 3],
+) -> std::fmt::Result {
+    let v = |x: [f64; 3]| format!("[{:.4e}, {:.4e}, {:.4e}] N", x[0], x[1], x[2]);
+    writeln!(f, "reactions       fixed {}", v(last.reaction_fixed))?;
+    writeln!(
+        f,
+        "                prescribed {}",
+        v(last.reaction_prescribed)
+    )?;
+    writeln!(
+        f,
+        "applied loads   {} (loads, surface loads and body force)",
+        v(applied)
+    )?;
+    if last.tool != [0.0; 3] || last.penetration > 0.0 {
+        writeln!(
+            f,
+            "tool contact    {} (on the body), penetration {:.4e} m",
+            v(last.tool),
+            last.penetration
+        )?;
+    }
+    Ok(())
 }
 
 impl Scenario {

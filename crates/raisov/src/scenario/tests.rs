@@ -27,6 +27,23 @@ fn parse(text: &str) -> Result<Scenario> {
     Scenario::from_toml(text, Path::new("test.toml"))
 }
 
+/// The first `k` fields after the coordinates (ux, uy, uz, then the stress T row by row) of
+/// every row of `out/nodal_stress.csv`, in file order.
+fn nodal_stress(out: &Path, k: usize) -> Vec<f64> {
+    std::fs::read_to_string(out.join("nodal_stress.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .flat_map(|l| {
+            l.split(',')
+                .skip(4)
+                .take(k)
+                .map(|x| x.parse::<f64>().unwrap())
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
 /// The scenario error message, asserting it names the file.
 fn error_of(text: &str) -> String {
     let e = parse(text).expect_err("should fail");
@@ -1031,20 +1048,7 @@ fn newton_static_solve_matches_the_steady_dynamic_run() {
         let gap = s.last.reaction_fixed[k] + rs[k] + s.applied[k];
         assert!(gap.abs() <= 1e-6 * rs[2], "balance {k}: {gap:e}");
     }
-    let read = |sub: &str| -> Vec<f64> {
-        std::fs::read_to_string(dir.path().join(sub).join("nodal_stress.csv"))
-            .unwrap()
-            .lines()
-            .skip(1)
-            .flat_map(|l| {
-                l.split(',')
-                    .skip(4)
-                    .take(3)
-                    .map(|x| x.parse::<f64>().unwrap())
-                    .collect::<Vec<_>>()
-            })
-            .collect()
-    };
+    let read = |sub: &str| nodal_stress(&dir.path().join(sub), 3);
     for (a, b) in read("d").iter().zip(read("s")) {
         assert!((a - b).abs() <= 1e-7, "{a} vs {b}");
     }
@@ -1095,18 +1099,7 @@ fn static_solvers_reach_one_equilibrium() {
         )
         .unwrap();
         assert!(s.converged(), "{s}");
-        let stress: Vec<f64> =
-            std::fs::read_to_string(dir.path().join(&sub).join("nodal_stress.csv"))
-                .unwrap()
-                .lines()
-                .skip(1)
-                .flat_map(|l| {
-                    l.split(',')
-                        .skip(4)
-                        .map(|x| x.parse::<f64>().unwrap())
-                        .collect::<Vec<_>>()
-                })
-                .collect();
+        let stress = nodal_stress(&dir.path().join(&sub), 12);
         (s, stress)
     };
     let (krylov, t_k) = solve("krylov", false);

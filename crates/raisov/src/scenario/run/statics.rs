@@ -21,7 +21,7 @@
 //! (a follower load), tool contact or spring grasps, or a node sliding along a direction
 //! that is not x, y or z.
 
-use super::{write_nodal_stress, Frames, RunOptions};
+use super::{write_balance, write_nodal_stress, Frames, RunOptions};
 use crate::error::{Error, Result};
 use crate::integrate::newton_direct::{
     coarse_level, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg,
@@ -152,26 +152,7 @@ impl std::fmt::Display for StaticSummary {
         writeln!(f, "force evals     {}", r.force_evaluations)?;
         writeln!(f, "wall time       {:.3} s", self.wall)?;
         writeln!(f, "max |u|         {:.4e} m", self.last.max_u)?;
-        let v = |x: [f64; 3]| format!("[{:.4e}, {:.4e}, {:.4e}] N", x[0], x[1], x[2]);
-        writeln!(f, "reactions       fixed {}", v(self.last.reaction_fixed))?;
-        writeln!(
-            f,
-            "                prescribed {}",
-            v(self.last.reaction_prescribed)
-        )?;
-        writeln!(
-            f,
-            "applied loads   {} (loads, surface loads and body force)",
-            v(self.applied)
-        )?;
-        if self.last.tool != [0.0; 3] || self.last.penetration > 0.0 {
-            writeln!(
-                f,
-                "tool contact    {} (on the body), penetration {:.4e} m",
-                v(self.last.tool),
-                self.last.penetration
-            )?;
-        }
+        write_balance(f, &self.last, self.applied)?;
         write!(f, "output          {}", self.out_dir.display())
     }
 }

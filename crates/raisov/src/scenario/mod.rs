@@ -515,6 +515,31 @@ impl Scenario {
                     "`[interactive]` does not apply to method = \"newton\" (a static solve)",
                 ));
             }
+            if let Some(m) = &spec.multigrid {
+                for (k, set) in [
+                    ("scheme", m.scheme.is_some()),
+                    ("reading", m.reading.is_some()),
+                    ("epsilon", m.epsilon.is_some()),
+                    ("pre_smooth", m.pre_smooth.is_some()),
+                    ("post_smooth", m.post_smooth.is_some()),
+                    ("coarse", m.coarse.is_some()),
+                    ("coarse_time", m.coarse_time.is_some()),
+                    ("coarse_iterations", m.coarse_iterations.is_some()),
+                    ("smoother", m.smoother.is_some()),
+                    ("transfer", m.transfer.is_some()),
+                    ("scaling", m.scaling.is_some()),
+                    ("accelerate", m.accelerate.is_some()),
+                    ("level_methods", m.level_methods.is_some()),
+                    ("level_dt", m.level_dt.is_some()),
+                ] {
+                    if set {
+                        return Err(err(
+                            path,
+                            format!("`multigrid.{k}` does not apply to method = \"newton\": a static solve takes only the levels of [multigrid] (`levels`, `ratio`, `level_nodes`, `files`)"),
+                        ));
+                    }
+                }
+            }
             let solver = spec.integrator.solver.unwrap_or(defaults::STATIC_SOLVER);
             if solver == StaticSolver::Multigrid && spec.multigrid.is_none() {
                 return Err(err(

@@ -135,8 +135,8 @@
 //!                                 # nodal residual relative to the largest nodal load plus
 //!                                 # the starting out-of-balance force (plus 1e-14 N); `dt`
 //!                                 # and the other [run] keys are not used;
-//!                                 # of [multigrid] only the levels are used; not with
-//!                                 # [interactive]. Exit status 3 if it does not converge
+//!                                 # of [multigrid] only the levels (its other keys are
+//!                                 # errors); not with [interactive]. Exit status 3 if it does not converge
 //! solver = "auto"                 # newton: "auto" (default) | "multigrid" | "direct" |
 //!                                 # "krylov" (StaticSolver): "auto" is "multigrid" where
 //!                                 # [multigrid] gives a level with >= 1/16 of the nodes, else

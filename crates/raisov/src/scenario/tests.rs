@@ -1057,6 +1057,13 @@ fn newton_static_solve_matches_the_steady_dynamic_run() {
     assert!(e.contains("does not apply to method = \"newton\""), "{e}");
     let e = error_of(&format!("{BASE}[integrator]\nincrements = 3\n"));
     assert!(e.contains("applies to method = \"newton\""), "{e}");
+    let e = error_of(&format!(
+        "{statics}[multigrid]\nlevels = 2\nscheme = \"fas\"\n"
+    ));
+    assert!(
+        e.contains("`multigrid.scheme` does not apply to method = \"newton\""),
+        "{e}"
+    );
     let e = error_of(&format!("{BASE}[integrator]\nsolver = \"direct\"\n"));
     assert!(
         e.contains("`integrator.solver` applies to method = \"newton\""),

@@ -833,7 +833,7 @@ fn fixed_dof(constraints: &Constraints, i: usize) -> bool {
 }
 
 /// The axis (0, 1, 2) a unit direction lies along, if it is ±e_x, ±e_y or ±e_z.
-fn axis_of(dir: [f64; 3]) -> Option<usize> {
+pub(crate) fn axis_of(dir: [f64; 3]) -> Option<usize> {
     (0..3).find(|&k| {
         (dir[k].abs() - 1.0).abs() < 1e-12 && dir.iter().map(|c| c * c).sum::<f64>() <= 1.0 + 1e-12
     })

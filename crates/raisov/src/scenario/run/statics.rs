@@ -24,12 +24,14 @@
 use super::{write_balance, write_nodal_stress, Frames, RunOptions};
 use crate::error::{Error, Result};
 use crate::integrate::newton_direct::{
-    coarse_level, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg,
+    axis_of, coarse_level, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic,
+    MultigridPcg,
 };
 use crate::integrate::statics::Static;
 use crate::integrate::{Stepper, System};
 use crate::io::{write_atomic, OutputLock};
 use crate::metrics::{CsvStream, Meter, Sample};
+use crate::scenario::spec::Named;
 use crate::scenario::{Scenario, StaticSolve, StaticSolver};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -294,7 +296,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
         .constraints
         .sliding()
         .iter()
-        .any(|&(_, d)| d.iter().filter(|x| **x != 0.0).count() != 1)
+        .any(|&(_, d)| axis_of(d).is_none())
     {
         Some("a node slides along a direction that is not x, y or z")
     } else {
@@ -312,7 +314,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
             line: None,
             msg: format!(
                 "`integrator.solver` = \"{}\" does not apply: {b}; valid here: \"krylov\" or \"auto\"",
-                spec_name(asked)
+                asked.name()
             ),
         });
     }
@@ -366,11 +368,6 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
             }
         ),
     })
-}
-
-fn spec_name(s: StaticSolver) -> &'static str {
-    use crate::scenario::spec::Named;
-    s.name()
 }
 
 /// What a solver returns to [`run_static`].

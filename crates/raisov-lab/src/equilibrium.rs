@@ -5,7 +5,7 @@
 //! that meets the stopping rule is reported, the others' wall times in its note:
 //! - **direct Newton** ([`raisov::integrate::newton_direct::solve_system`]): analytic tangent,
 //!   faer sparse Cholesky, backtracking line search; [`Case::load_steps`] load steps (one;
-//!   [`PULL_INCREMENTS`] with a prescribed displacement); variants: a factorisation at every
+//!   the prescribed displacement in the first iteration's lift); variants: a factorisation at every
 //!   iteration, or each Newton system solved by conjugate gradients preconditioned by the last
 //!   factorisation, refactoring when [`NEWTON_PCG_MAX`] iterations do not reach the
 //!   inexact-Newton tolerance ([`NEWTON_REUSE`]);
@@ -30,11 +30,11 @@
 //!   Gauss-Seidel over a colouring or point Gauss-Seidel (the library's default).
 //!
 //! All start from rest (`u = 0`). A prescribed displacement (`[[displace]]`, the pulled
-//! liver) reaches each solver in [`PULL_INCREMENTS`] equal increments, since imposed at
-//! once with the rest of the body at rest it inverts the pulled node's elements: direct Newton
-//! and Newton-multigrid through their load steps (loads and prescribed values raised together;
-//! their intermediate steps stop at 1e-6 of their own scale); FAS and ADR with gravity in full from the start and
-//! the prescribed value raised in [`PULL_INCREMENTS`] steps, each but the last relaxed to
+//! liver), imposed at once with the rest of the body at rest, inverts the pulled node's
+//! elements. Direct Newton and Newton-multigrid take it in one load step: their first
+//! iteration moves the free nodes by the linear response to it (the lifted iteration of
+//! [`raisov::integrate::newton_direct`]). FAS and ADR take it in [`PULL_INCREMENTS`] equal
+//! increments, gravity in full from the start, each increment but the last relaxed to
 //! [`PULL_STAGE_TOL`] × the largest nodal load before the next. Every increment counts in the
 //! figures.
 //!
@@ -88,8 +88,7 @@ pub const REL_TOL: f64 = 1e-8;
 pub const ABS_TOL: f64 = 1e-14;
 /// Agreement: largest nodal distance to Newton's equilibrium over the largest displacement.
 pub const AGREE_TOL: f64 = 1e-6;
-/// Increments of a prescribed displacement for FAS and ADR (Newton's load steps on the
-/// solids, too).
+/// Increments of a prescribed displacement for FAS and ADR.
 pub const PULL_INCREMENTS: usize = 4;
 /// Stopping rule of the intermediate increments (relative, as [`REL_TOL`]).
 pub const PULL_STAGE_TOL: f64 = 1e-4;
@@ -126,7 +125,7 @@ pub struct Case {
     pub name: String,
     /// The scenario: mesh, material, constraints, loads and its `[multigrid]` for FAS.
     pub scenario: Scenario,
-    /// Direct Newton's load steps (1; [`PULL_INCREMENTS`] with a prescribed displacement).
+    /// Direct Newton's and Newton-multigrid's load steps.
     pub load_steps: usize,
 }
 
@@ -222,7 +221,7 @@ files = [{files}]
     Ok(Case {
         scenario: Scenario::from_toml(&text, Path::new("equilibrium-liver.toml"))?,
         name,
-        load_steps: if pull { PULL_INCREMENTS } else { 1 },
+        load_steps: 1,
     })
 }
 
@@ -378,6 +377,15 @@ pub fn blank_row(case: &Case, solver: &str, target: f64) -> Row {
     }
 }
 
+/// ", pull lifted" where a Newton solve moved its constrained dofs in a lifted iteration.
+fn lifted(o: &DirectStatic) -> &'static str {
+    if o.lifted_steps > 0 {
+        ", pull lifted"
+    } else {
+        ""
+    }
+}
+
 /// A Newton row's figures from its outcome and equilibrium `u`.
 fn newton_figures(row: &mut Row, o: &DirectStatic, u: &[f64]) {
     row.iterations = o.newton_steps as u64;
@@ -411,9 +419,10 @@ fn newton_run(case: &Case, target: f64, pcg_max: usize) -> Result<(Row, Vec<f64>
         Ok(o) => {
             newton_figures(&mut row, &o, &u);
             row.note = format!(
-                "{} load step{}, reuse {}: {} factorisations, {} CG iterations ({:.2} s), {} energy evaluations",
+                "{} load step{}{}, reuse {}: {} factorisations, {} CG iterations ({:.2} s), {} energy evaluations",
                 case.load_steps,
                 if case.load_steps == 1 { "" } else { "s" },
+                lifted(&o),
                 if pcg_max == 0 { "none".to_string() } else { format!("{pcg_max} CG") },
                 o.factorizations,
                 o.cg_iterations,
@@ -493,10 +502,11 @@ fn newton_mg_run(
         Ok(o) => {
             newton_figures(&mut row, &o, &u);
             row.note = format!(
-                "{} levels, {} load step{}, {NEWTON_MG_SWEEPS}+{NEWTON_MG_SWEEPS} {} sweeps, keeps {}: {} hierarchies, {} CG iterations ({:.2} s), assembly {:.2} s, {} energy evaluations",
+                "{} levels, {} load step{}{}, {NEWTON_MG_SWEEPS}+{NEWTON_MG_SWEEPS} {} sweeps, keeps {}: {} hierarchies, {} CG iterations ({:.2} s), assembly {:.2} s, {} energy evaluations",
                 meshes.len(),
                 case.load_steps,
                 if case.load_steps == 1 { "" } else { "s" },
+                lifted(&o),
                 match smoother {
                     Smoother::ColouredBlock => "coloured block Gauss-Seidel",
                     Smoother::GaussSeidel => "point Gauss-Seidel",

@@ -144,7 +144,9 @@
 //! max_newton = 50                 # newton: Newton steps at most per increment, default 50
 //! increments = 10                 # newton: loads and prescribed displacements applied in
 //!                                 # this many equal increments, default 10 for "krylov",
-//!                                 # 1 for "direct" and "multigrid"
+//!                                 # 1 for "direct" and "multigrid" (whose first iteration
+//!                                 # of an increment lifts the prescribed motion: the free
+//!                                 # nodes follow it linearly)
 //! dt = 1e-4                       # s; default: safety × estimated critical step
 //!                                 # (crate::integrate::stability)
 //! safety = 0.5                    # fraction of the estimated critical step, default 0.5

@@ -1232,3 +1232,80 @@ fn interactive_scenarios_default_to_stable_neo_hookean() {
     let named = parse(&format!("{BASE}\n[interactive]\n")).unwrap();
     assert!(matches!(named.material, Material::MooneyRivlin(_)));
 }
+
+/// A static pull that inverts the elements around its node when imposed alone (the rest of
+/// the beam at rest), with no load: the default one increment takes it (the solver's lifted
+/// first iteration), against a stopping target scaled by the pull's extrapolated
+/// out-of-balance force (not the bare 1e-14 N floor, which nothing reaches), and lands on the
+/// equilibrium of eight increments: the pulled node's reaction within 1e-8, balanced by the
+/// fixed end's.
+#[test]
+fn static_pull_that_inverts_when_imposed_alone_converges_in_one_increment() {
+    let text = |increments: usize| {
+        format!(
+            r#"
+[mesh]
+generate = "box"
+size = [0.1, 0.03, 0.03]
+nodes = 300
+[material]
+law = "neo-hookean"
+young = 5000.0
+poisson = 0.45
+density = 1060.0
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
+[[displace]]
+point = [0.1, 0.03, 0.03]
+displacement = [0.0, -0.015, 0.0]
+[integrator]
+method = "newton"
+solver = "direct"
+{}
+[run]
+residual_tol = 1e-11
+"#,
+            if increments == 1 {
+                String::new()
+            } else {
+                format!("increments = {increments}")
+            }
+        )
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let solve = |increments: usize| {
+        let sc = parse(&text(increments)).unwrap();
+        super::run::run_static(
+            &sc,
+            RunOptions {
+                out_dir: Some(dir.path().join(increments.to_string())),
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    };
+    let one = solve(1);
+    let eight = solve(8);
+    assert_eq!(one.increments, 1);
+    assert!(one.converged(), "{one}");
+    assert!(eight.converged(), "{eight}");
+    let target = one.target.unwrap();
+    assert!(target > 1e-12, "target {target:e} N is the bare floor");
+    let scale = eight.last.reaction_prescribed[1].abs();
+    assert!(scale > 0.0, "{eight}");
+    for k in 0..3 {
+        let (a, b) = (
+            one.last.reaction_prescribed[k],
+            eight.last.reaction_prescribed[k],
+        );
+        assert!(
+            (a - b).abs() <= 1e-8 * scale,
+            "reaction {k}: {a:e} vs {b:e}"
+        );
+        let gap = one.last.reaction_fixed[k] + a;
+        assert!(
+            gap.abs() <= 1e-8 * scale,
+            "balance {k}: {gap:e} of {scale:e}, {one}"
+        );
+    }
+}

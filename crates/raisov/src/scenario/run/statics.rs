@@ -15,8 +15,12 @@
 //! membrane's first tangent), Eisenstat-Walker tolerances for the inner solves. They stop when
 //! the largest nodal residual over free nodes is at most `residual_tol` times (the largest
 //! nodal load + the largest nodal out-of-balance force at the start, the prescribed motions
-//! imposed and the free nodes where they are) plus 1e-14 N; `"krylov"` when `‖V − R(u)‖₂` is at most `residual_tol` times
-//! its starting value. `"auto"` takes `"multigrid"` where a coarse level qualifies, `"direct"`
+//! imposed and the free nodes where they are; where that state inverts an element, the force
+//! of the largest fraction ½, ¼, … of the motions that does not, over that fraction) plus
+//! 1e-14 N; `"krylov"` when `‖V − R(u)‖₂` is at most `residual_tol` times its starting value.
+//! The assembled solvers start with the prescribed nodes at rest; each increment's first
+//! iteration moves them with the free nodes' linear response (the lifted iteration of
+//! [`crate::integrate::newton_direct`]). `"auto"` takes `"multigrid"` where a coarse level qualifies, `"direct"`
 //! where not, and `"krylov"` where the assembled tangent does not hold every force: pressure
 //! (a follower load), tool contact or spring grasps, or a node sliding along a direction
 //! that is not x, y or z.
@@ -456,7 +460,10 @@ fn krylov(
 
 /// The largest nodal internal force over the nodes that are not fixed or prescribed, with the
 /// prescribed motions at time `t` and the free nodes at `u` (the out-of-balance force a
-/// displacement-driven solve starts from); 0 where that state inverts an element.
+/// displacement-driven solve starts from). Where that state inverts an element (a large
+/// prescribed displacement, which the solver's lifted first iteration takes), the motions'
+/// fraction f = ½, ¼, … (at most 20 halvings) that inverts none gives it, times 1/f (its
+/// linear extrapolation); 0 where none does.
 fn prescribed_force_scale(sys: &mut System, t: f64, u: &[f64]) -> f64 {
     let n = u.len();
     use crate::fem::ForceModel;
@@ -465,13 +472,22 @@ fn prescribed_force_scale(sys: &mut System, t: f64, u: &[f64]) -> f64 {
     let Some(model) = sys.force.as_fem_mut() else {
         return 0.0;
     };
-    if model.internal_forces(&ug, &mut f).is_err() {
-        return 0.0;
+    let mut fraction = 1.0;
+    let mut trial = ug.clone();
+    for _ in 0..=20 {
+        if model.internal_forces(&trial, &mut f).is_ok() {
+            return (0..n / 3)
+                .filter(|&a| !sys.constraints.is_constrained(a))
+                .map(|a| (f[3 * a].powi(2) + f[3 * a + 1].powi(2) + f[3 * a + 2].powi(2)).sqrt())
+                .fold(0.0, f64::max)
+                / fraction;
+        }
+        fraction *= 0.5;
+        for i in 0..n {
+            trial[i] = u[i] + fraction * (ug[i] - u[i]);
+        }
     }
-    (0..n / 3)
-        .filter(|&a| !sys.constraints.is_constrained(a))
-        .map(|a| (f[3 * a].powi(2) + f[3 * a + 1].powi(2) + f[3 * a + 2].powi(2)).sqrt())
-        .fold(0.0, f64::max)
+    0.0
 }
 
 /// Newton with the assembled tangent ([`crate::integrate::newton_direct`]): sparse Cholesky,
@@ -484,9 +500,18 @@ fn assembled(
     t: f64,
     u: &mut [f64],
 ) -> Solved {
+    // The solve starts with the constrained nodes at rest (a `"held"` motion is already
+    // imposed on the initial state): its lifted first iteration moves them to their values
+    // together with the free nodes' linear response.
+    for a in 0..u.len() / 3 {
+        if sys.constraints.is_constrained(a) {
+            u[3 * a..3 * a + 3].iter_mut().for_each(|x| *x = 0.0);
+        }
+    }
+    let scale = prescribed_force_scale(sys, t, u);
     let params = DirectNewtonParams {
         rel_tol: settings.rel_tol,
-        abs_tol: ABS_TOL + settings.rel_tol * prescribed_force_scale(sys, t, u),
+        abs_tol: ABS_TOL + settings.rel_tol * scale,
         max_newton: settings.max_newton.saturating_mul(increments),
         load_steps: increments,
         pcg_max: if down.is_some() { 0 } else { DIRECT_PCG_MAX },

@@ -62,48 +62,10 @@ impl Csr {
     /// The full symmetric matrix whose lower triangle `a` holds in compressed columns (row
     /// indices ascending within a column, as faer keeps them).
     pub fn from_sym_lower(a: &SparseColMat<usize, f64>) -> Csr {
-        let n = a.nrows();
-        let cp = a.symbolic().col_ptr();
-        let ri = a.symbolic().row_idx();
-        let v = a.val();
-        let mut ptr = vec![0usize; n + 1];
-        for j in 0..n {
-            for &i in &ri[cp[j]..cp[j + 1]] {
-                ptr[i + 1] += 1;
-                if i != j {
-                    ptr[j + 1] += 1;
-                }
-            }
-        }
-        for i in 0..n {
-            ptr[i + 1] += ptr[i];
-        }
-        let nnz = ptr[n];
-        let mut next = ptr[..n].to_vec();
-        let mut col = vec![0u32; nnz];
-        let mut val = vec![0.0; nnz];
-        // Columns in ascending order: row i receives its columns j < i first (from column j),
-        // then, from column i, the diagonal and the columns above it, ascending.
-        for j in 0..n {
-            for k in cp[j]..cp[j + 1] {
-                let i = ri[k];
-                col[next[i]] = j as u32;
-                val[next[i]] = v[k];
-                next[i] += 1;
-                if i != j {
-                    col[next[j]] = i as u32;
-                    val[next[j]] = v[k];
-                    next[j] += 1;
-                }
-            }
-        }
-        Csr {
-            rows: n,
-            cols: n,
-            ptr,
-            col,
-            val,
-        }
+        let scatter = SymScatter::new(a.nrows(), a.symbolic().col_ptr(), a.symbolic().row_idx());
+        let mut c = scatter.pattern.clone();
+        scatter.fill(a.val(), &mut c);
+        c
     }
 
     /// Row `i`: its columns and values.
@@ -231,6 +193,83 @@ impl Csr {
                 c.binary_search(&(i as u32)).map_or(0.0, |k| v[k])
             })
             .collect()
+    }
+}
+
+/// Where each entry of a symmetric matrix's lower triangle (compressed columns, row indices
+/// ascending within a column) lands in the full matrix's compressed rows: assembled values
+/// are copied into a [`Csr`] of the full pattern without building it again.
+#[derive(Clone, Debug)]
+pub struct SymScatter {
+    /// The full matrix's pattern (values zero).
+    pub pattern: Csr,
+    /// Per lower entry k at (row i, column j): its position in row i.
+    lower: Vec<u32>,
+    /// Per lower entry: its position in row j, `u32::MAX` on the diagonal.
+    upper: Vec<u32>,
+}
+
+impl SymScatter {
+    /// The scatter of the lower-triangle pattern `(col_ptr, row_idx)` of an `n × n` matrix.
+    pub fn new(n: usize, cp: &[usize], ri: &[usize]) -> SymScatter {
+        let mut ptr = vec![0usize; n + 1];
+        for j in 0..n {
+            for &i in &ri[cp[j]..cp[j + 1]] {
+                ptr[i + 1] += 1;
+                if i != j {
+                    ptr[j + 1] += 1;
+                }
+            }
+        }
+        for i in 0..n {
+            ptr[i + 1] += ptr[i];
+        }
+        let nnz = ptr[n];
+        let mut next = ptr[..n].to_vec();
+        let mut col = vec![0u32; nnz];
+        let mut lower = vec![0u32; ri.len()];
+        let mut upper = vec![u32::MAX; ri.len()];
+        // Columns in ascending order: row i receives its columns j < i first (from column j),
+        // then, from column i, the diagonal and the columns above it, ascending.
+        for j in 0..n {
+            for k in cp[j]..cp[j + 1] {
+                let i = ri[k];
+                col[next[i]] = j as u32;
+                lower[k] = next[i] as u32;
+                next[i] += 1;
+                if i != j {
+                    col[next[j]] = i as u32;
+                    upper[k] = next[j] as u32;
+                    next[j] += 1;
+                }
+            }
+        }
+        SymScatter {
+            pattern: Csr {
+                rows: n,
+                cols: n,
+                ptr,
+                col,
+                val: vec![0.0; nnz],
+            },
+            lower,
+            upper,
+        }
+    }
+
+    /// `out`'s values (of [`SymScatter::pattern`]) from the lower triangle's values `v`.
+    pub fn fill(&self, v: &[f64], out: &mut Csr) {
+        for (k, &x) in v.iter().enumerate() {
+            out.val[self.lower[k] as usize] = x;
+            if self.upper[k] != u32::MAX {
+                out.val[self.upper[k] as usize] = x;
+            }
+        }
+    }
+
+    /// The position in the full rows of lower entry `k` (its own row's copy).
+    pub fn position(&self, k: usize) -> usize {
+        self.lower[k] as usize
     }
 }
 
@@ -376,9 +415,32 @@ impl GalerkinMultigrid {
 
     /// The Galerkin operators of a new matrix `a0` (same pattern), keeping the coarsest
     /// factorisation of the earlier one: the cycle stays symmetric, and positive definite
-    /// where the new operators are, its coarse correction that of the earlier operator.
+    /// where the new operators are, its coarse correction that of the earlier operator. Only
+    /// the smoothed levels' operators are formed; with coarser levels the coarsest stays the
+    /// earlier one, which its kept factorisation is of (the cycle uses it through that
+    /// factorisation alone).
     pub fn rebuild(&mut self, a0: Csr) {
-        self.a = operators(a0, &self.p);
+        self.a[0] = a0;
+        self.refresh();
+    }
+
+    /// The finest operator, to be written in place (same pattern) before
+    /// [`GalerkinMultigrid::refresh`].
+    pub fn finest_mut(&mut self) -> &mut Csr {
+        &mut self.a[0]
+    }
+
+    /// [`GalerkinMultigrid::rebuild`] with the finest operator as it now is.
+    pub fn refresh(&mut self) {
+        let levels = self.a.len();
+        let mut a = vec![std::mem::take(&mut self.a[0])];
+        if levels > 1 {
+            for (pl, pt) in &self.p.levels[..levels - 2] {
+                a.push(galerkin_product(a.last().unwrap(), pl, pt));
+            }
+            a.push(self.a.pop().expect("the coarsest operator"));
+        }
+        self.a = a;
         self.relax = self.relaxation();
     }
 
@@ -464,12 +526,17 @@ impl GalerkinMultigrid {
 fn operators(a0: Csr, p: &Prolongations) -> Vec<Csr> {
     let mut a = vec![a0];
     for (pl, pt) in &p.levels {
-        let ap = a.last().unwrap().product(pl);
-        let mut c = pt.product(&ap);
-        unit_empty_diagonal(&mut c);
-        a.push(c);
+        a.push(galerkin_product(a.last().unwrap(), pl, pt));
     }
     a
+}
+
+/// `Pᵀ A P`, rows without a positive diagonal given a unit one.
+fn galerkin_product(a: &Csr, pl: &Csr, pt: &Csr) -> Csr {
+    let ap = a.product(pl);
+    let mut c = pt.product(&ap);
+    unit_empty_diagonal(&mut c);
+    c
 }
 
 /// Give every row without a positive diagonal (a coarse dof that only fixed fine dofs see)
@@ -623,6 +690,69 @@ mod tests {
             }
         }
         assert_eq!(dense(&pt.transpose()), dp);
+    }
+
+    /// The full rows filled through [`SymScatter`] from a lower triangle in compressed
+    /// columns equal the matrix, the diagonal found by [`SymScatter::position`]; a
+    /// rebuilt two-level hierarchy takes the new finest operator and keeps the coarsest, whose
+    /// factorisation it keeps.
+    #[test]
+    fn scatter_fills_the_full_rows_and_rebuild_keeps_the_coarsest_operator() {
+        let n = 9;
+        let mut a = laplace(n);
+        for (k, v) in a.val.iter_mut().enumerate() {
+            *v *= 1.0 + 0.1 * k as f64; // unsymmetric values, mirrored below
+        }
+        // Lower triangle of a in compressed columns: column j holds rows i >= j, A(i, j) = A(j, i).
+        let (mut cp, mut ri, mut v) = (vec![0usize], Vec::new(), Vec::new());
+        for j in 0..n {
+            let (c, x) = a.row(j);
+            for (&i, &x) in c.iter().zip(x) {
+                if i as usize >= j {
+                    ri.push(i as usize);
+                    v.push(x);
+                }
+            }
+            cp.push(ri.len());
+        }
+        let scatter = SymScatter::new(n, &cp, &ri);
+        let mut full = scatter.pattern.clone();
+        scatter.fill(&v, &mut full);
+        for j in 0..n {
+            full.val[scatter.position(cp[j])] += 100.0; // the first entry of column j: (j, j)
+        }
+        for i in 0..n {
+            let (c, x) = full.row(i);
+            for (&j, &x) in c.iter().zip(x) {
+                let (lo, hi) = (i.max(j as usize), i.min(j as usize));
+                let (cc, xx) = a.row(hi);
+                let want = xx[cc.iter().position(|&q| q as usize == lo).unwrap()]
+                    + if lo == hi { 100.0 } else { 0.0 };
+                assert_eq!(x, want, "({i}, {j})");
+            }
+        }
+        let p = Csr {
+            rows: n,
+            cols: 1,
+            ptr: (0..=n).collect(),
+            col: vec![0; n],
+            val: vec![1.0; n],
+        };
+        let pt = p.transpose();
+        let levels = Arc::new(Prolongations {
+            levels: vec![(p, pt)],
+            dofs: vec![(0..n).collect()],
+        });
+        let l = laplace(n);
+        let mut mg =
+            GalerkinMultigrid::new(l.clone(), levels, 1, Smoother::GaussSeidel, &mut None).unwrap();
+        let coarse = mg.a[1].clone();
+        let mut doubled = l.clone();
+        doubled.val.iter_mut().for_each(|v| *v *= 2.0);
+        mg.finest_mut().val.copy_from_slice(&doubled.val);
+        mg.refresh();
+        assert_eq!(mg.matrix(), &doubled);
+        assert_eq!(mg.a[1], coarse);
     }
 
     #[test]

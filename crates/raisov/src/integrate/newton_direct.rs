@@ -55,7 +55,8 @@
 //! factorisation of the coarsest level only), to the same inexact-Newton tolerance η, with the
 //! same Steihaug truncation. As with factorisation reuse, the hierarchy built at one iteration
 //! preconditions the next ones, whole or ([`MultigridPcg::keep`] false) only its coarsest
-//! factorisation, the Galerkin operators rebuilt from each new tangent; it is rebuilt at the
+//! factorisation, the smoothed levels' Galerkin operators rebuilt from each new tangent (the coarsest
+//! is only used through its factorisation); it is rebuilt at the
 //! current state where
 //! [`MultigridPcg::max_iter`] iterations do not reach η or the first direction has
 //! non-positive curvature. With a fresh hierarchy, an iterate that misses η after
@@ -72,14 +73,14 @@
 //! Entry points: [`solve_system`] on a [`System`] whose force model is a
 //! [`crate::fem::FemModel`], or [`DirectNewton`] for repeated solves.
 
-use super::galerkin::{Csr, GalerkinMultigrid, Prolongations};
+use super::galerkin::{Csr, GalerkinMultigrid, Prolongations, SymScatter};
 pub use super::smoother::Smoother;
 use super::{Constraints, System};
 use crate::fem::{ElementFailure, FemModel, ForceModel};
 use crate::hierarchy::Transfer;
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::Side;
 use std::sync::Arc;
 
@@ -130,7 +131,7 @@ pub struct MultigridPcg {
     /// Conjugate-gradient iterations at most per Newton system. Default 25.
     pub max_iter: usize,
     /// What a Newton iteration takes from the last hierarchy: all of it (`true`), or only its
-    /// coarsest factorisation, the Galerkin operators being rebuilt from the current tangent
+    /// coarsest factorisation, the smoothed levels' Galerkin operators being rebuilt from the current tangent
     /// (`false`, the default).
     pub keep: bool,
 }
@@ -231,7 +232,8 @@ pub struct DirectNewton {
     /// The slot in `vals` of each free dof's diagonal.
     diag: Vec<u32>,
     symbolic: SymbolicSparseColMat<usize>,
-    llt_symbolic: SymbolicLlt<usize>,
+    /// The symbolic factorisation of the pattern, made at the first factorisation.
+    llt_symbolic: Option<SymbolicLlt<usize>>,
     /// Regularisation weight per free dof (`m_a / mean m`).
     weight: Vec<f64>,
     /// The last numeric factorisation, kept as the conjugate-gradient preconditioner.
@@ -242,6 +244,9 @@ pub struct DirectNewton {
     coarse_symbolic: Option<SymbolicLlt<usize>>,
     /// The last Galerkin hierarchy, kept as the conjugate-gradient preconditioner.
     mg: Option<GalerkinMultigrid>,
+    /// Where the lower triangle's values land in the full rows of the hierarchy's finest
+    /// operator, made at the first multigrid-preconditioned solve.
+    scatter: Option<SymScatter>,
 }
 
 impl DirectNewton {
@@ -261,10 +266,55 @@ impl DirectNewton {
                 nfree += 1;
             }
         }
+        // The pattern from the node graph: node a's neighbours (itself included), sorted;
+        // column j (free dof of node a) holds the free dofs of a's neighbours at or below j,
+        // in dof order, which is free-index order.
         let ne = model.num_elements();
         let npe = model.element_nodes(0).len();
         let d = 3 * npe;
-        let mut pairs = Vec::new();
+        let mut edges: Vec<(u32, u32)> = Vec::with_capacity(ne * npe * npe);
+        for e in 0..ne {
+            let el = model.element_nodes(e);
+            for &a in el {
+                for &b in el {
+                    edges.push((a, b));
+                }
+            }
+        }
+        edges.sort_unstable();
+        edges.dedup();
+        let mut first = vec![0usize; n + 1];
+        for &(a, _) in &edges {
+            first[a as usize + 1] += 1;
+        }
+        for a in 0..n {
+            first[a + 1] += first[a];
+        }
+        let mut col_ptr = Vec::with_capacity(nfree + 1);
+        let mut row_idx = Vec::new();
+        col_ptr.push(0usize);
+        for j in 0..3 * n {
+            let gc = free[j];
+            if gc == usize::MAX {
+                continue;
+            }
+            for &(_, b) in &edges[first[j / 3]..first[j / 3 + 1]] {
+                for i in 3 * b as usize..3 * b as usize + 3 {
+                    if free[i] != usize::MAX && free[i] >= gc {
+                        row_idx.push(free[i]);
+                    }
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        drop(edges);
+        let position = |gr: usize, gc: usize| -> u32 {
+            let rows = &row_idx[col_ptr[gc]..col_ptr[gc + 1]];
+            let k = rows
+                .binary_search(&gr)
+                .expect("every element entry is in the pattern built from the elements");
+            (col_ptr[gc] + k) as u32
+        };
         let mut slots = vec![u32::MAX; ne * d * d];
         for e in 0..ne {
             let el = model.element_nodes(e);
@@ -278,34 +328,13 @@ impl DirectNewton {
                     if gc == usize::MAX || gr < gc {
                         continue;
                     }
-                    slots[e * d * d + r * d + c] = pairs.len() as u32;
-                    pairs.push(Pair::new(gr, gc));
+                    slots[e * d * d + r * d + c] = position(gr, gc);
                 }
             }
         }
-        for i in 0..nfree {
-            pairs.push(Pair::new(i, i));
-        }
-        let (symbolic, _) = SymbolicSparseColMat::try_new_from_indices(nfree, nfree, &pairs)
-            .map_err(|e| DirectNewtonError::Factor(format!("{e:?}")))?;
-        // Slots index the compressed columns directly: assembly sums into the matrix.
-        let (cp, ri) = (symbolic.col_ptr(), symbolic.row_idx());
-        let position = |p: &Pair<usize, usize>| -> u32 {
-            let rows = &ri[cp[p.col]..cp[p.col + 1]];
-            let k = rows
-                .binary_search(&p.row)
-                .ok()
-                .or_else(|| rows.iter().position(|&r| r == p.row))
-                .expect("every pair is in the pattern built from the pairs");
-            (cp[p.col] + k) as u32
-        };
-        for slot in slots.iter_mut().filter(|s| **s != u32::MAX) {
-            *slot = position(&pairs[*slot as usize]);
-        }
-        let diag: Vec<u32> = pairs[pairs.len() - nfree..].iter().map(position).collect();
-        let nnz = ri.len();
-        let llt_symbolic = SymbolicLlt::try_new(symbolic.as_ref(), Side::Lower)
-            .map_err(|e| DirectNewtonError::Factor(format!("{e:?}")))?;
+        let diag: Vec<u32> = (0..nfree).map(|f| position(f, f)).collect();
+        let nnz = row_idx.len();
+        let symbolic = SymbolicSparseColMat::new_checked(nfree, nfree, col_ptr, None, row_idx);
         let mass = model.lumped_mass();
         let mean = mass.iter().sum::<f64>() / n.max(1) as f64;
         let mut weight = vec![1.0; nfree];
@@ -321,12 +350,13 @@ impl DirectNewton {
             vals: vec![0.0; nnz],
             diag,
             symbolic,
-            llt_symbolic,
+            llt_symbolic: None,
             weight,
             llt: None,
             prolongations: Arc::new(Prolongations::default()),
             coarse_symbolic: None,
             mg: None,
+            scatter: None,
         })
     }
 
@@ -445,7 +475,14 @@ impl DirectNewton {
     fn factor_solve(&mut self, shift: f64, rhs: &mut [f64]) -> Result<(), String> {
         self.llt = None;
         let mat = self.matrix(shift)?;
-        let llt = Llt::try_new_with_symbolic(self.llt_symbolic.clone(), mat.as_ref(), Side::Lower)
+        if self.llt_symbolic.is_none() {
+            self.llt_symbolic = Some(
+                SymbolicLlt::try_new(self.symbolic.as_ref(), Side::Lower)
+                    .map_err(|e| format!("{e:?}"))?,
+            );
+        }
+        let symbolic = self.llt_symbolic.clone().expect("made above");
+        let llt = Llt::try_new_with_symbolic(symbolic, mat.as_ref(), Side::Lower)
             .map_err(|e| format!("{e:?}"))?;
         self.llt = Some(llt);
         self.apply_factor(rhs);
@@ -577,20 +614,38 @@ impl DirectNewton {
                 if let Some(mgp) = params.multigrid {
                     let eta = forcing_term(prev_norm, norm, eta_prev, tol, max);
                     eta_prev = eta;
+                    let scatter = self.scatter.get_or_insert_with(|| {
+                        SymScatter::new(
+                            self.nfree,
+                            self.symbolic.col_ptr(),
+                            self.symbolic.row_idx(),
+                        )
+                    });
                     while !solved {
-                        let a = Csr::from_sym_lower(
-                            &self
-                                .matrix(sigma * dbar)
-                                .map_err(DirectNewtonError::Factor)?,
-                        );
+                        let shift = sigma * dbar;
+                        let full = |out: &mut Csr| {
+                            scatter.fill(&self.vals, out);
+                            for (&d, w) in self.diag.iter().zip(&self.weight) {
+                                out.val[scatter.position(d as usize)] += shift * w;
+                            }
+                        };
                         let reused = self.mg.is_some();
                         // The current matrix: the hierarchy's finest operator, unless the
                         // whole earlier hierarchy is kept.
                         let mut current = None;
                         match (self.mg.as_mut(), mgp.keep) {
-                            (Some(mg), false) => mg.rebuild(a),
-                            (Some(_), true) => current = Some(a),
+                            (Some(mg), false) => {
+                                full(mg.finest_mut());
+                                mg.refresh();
+                            }
+                            (Some(_), true) => {
+                                let mut a = scatter.pattern.clone();
+                                full(&mut a);
+                                current = Some(a);
+                            }
                             (None, _) => {
+                                let mut a = scatter.pattern.clone();
+                                full(&mut a);
                                 out.multigrid_setups += 1;
                                 self.mg = GalerkinMultigrid::new(
                                     a,

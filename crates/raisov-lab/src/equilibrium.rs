@@ -27,7 +27,7 @@
 //!   smoothing sweeps; variants ([`NEWTON_MG_VARIANTS`]): a Newton iteration reuses the
 //!   last hierarchy's coarse factorisation with operators rebuilt from its tangent, or the
 //!   whole last hierarchy, either until CG fails to converge; the smoother is node-block
-//!   Gauss-Seidel over a colouring or point Gauss-Seidel (the library's default).
+//!   Gauss-Seidel over a colouring, damped node-block Jacobi, or point Gauss-Seidel (the library's default).
 //!
 //! All start from rest (`u = 0`). A prescribed displacement (`[[displace]]`, the pulled
 //! liver), imposed at once with the rest of the body at rest, inverts the pulled node's
@@ -108,9 +108,11 @@ pub const NEWTON_MG_SWEEPS: usize = 2;
 /// its coarsest factorisation ([`MultigridPcg::keep`]), and the smoother
 /// ([`MultigridPcg::smoother`]: node-block Gauss-Seidel over a colouring, or point
 /// Gauss-Seidel).
-pub const NEWTON_MG_VARIANTS: [(bool, Smoother); 4] = [
+pub const NEWTON_MG_VARIANTS: [(bool, Smoother); 6] = [
     (false, Smoother::ColouredBlock),
     (true, Smoother::ColouredBlock),
+    (false, Smoother::BlockJacobi),
+    (true, Smoother::BlockJacobi),
     (false, Smoother::GaussSeidel),
     (true, Smoother::GaussSeidel),
 ];
@@ -509,6 +511,7 @@ fn newton_mg_run(
                 lifted(&o),
                 match smoother {
                     Smoother::ColouredBlock => "coloured block Gauss-Seidel",
+                    Smoother::BlockJacobi => "block Jacobi",
                     Smoother::GaussSeidel => "point Gauss-Seidel",
                 },
                 if keep { "all" } else { "the coarse factor" },
@@ -722,7 +725,7 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
             .iter()
             .map(|&v| newton_mg_run(case, target, v))
             .collect::<Result<_>>()?,
-        "keeps the coarse factor / all with coloured block Gauss-Seidel, then with point Gauss-Seidel",
+        "keeps the coarse factor / all with coloured block Gauss-Seidel, then block Jacobi, then point Gauss-Seidel",
     );
     compare(&mut nmg, &u_nmg);
     Ok(vec![newton, fas, adr, nmg])

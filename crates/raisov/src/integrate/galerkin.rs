@@ -368,6 +368,8 @@ enum Relax {
     Point(Vec<f64>),
     /// Each node block's inverse diagonal block ([`Colouring::inverses`]).
     Block(Vec<[f64; 9]>),
+    /// The same, and the damping ω ([`Smoother::BlockJacobi`]).
+    Jacobi(Vec<[f64; 9]>, f64),
 }
 
 /// A sparse Cholesky factorisation of a coarsest operator.
@@ -394,7 +396,7 @@ impl GalerkinMultigrid {
         let coarse = factor(a.last().unwrap(), symbolic)?;
         let colourings = match smoother {
             Smoother::GaussSeidel => Vec::new(),
-            Smoother::ColouredBlock => a[..a.len() - 1]
+            Smoother::ColouredBlock | Smoother::BlockJacobi => a[..a.len() - 1]
                 .iter()
                 .zip(&p.dofs)
                 .map(|(al, dofs)| Colouring::new(al, dofs))
@@ -464,6 +466,15 @@ impl GalerkinMultigrid {
                 .zip(&self.colourings)
                 .map(|(m, c)| Relax::Block(c.inverses(m)))
                 .collect(),
+            Smoother::BlockJacobi => smoothed
+                .iter()
+                .zip(&self.colourings)
+                .map(|(m, c)| {
+                    let inv = c.inverses(m);
+                    let omega = c.jacobi_damping(m, &inv);
+                    Relax::Jacobi(inv, omega)
+                })
+                .collect(),
         }
     }
 
@@ -488,6 +499,9 @@ impl GalerkinMultigrid {
         match &self.relax[l] {
             Relax::Point(inv) => gauss_seidel(&self.a[l], inv, b, z, forward),
             Relax::Block(inv) => self.colourings[l].sweep(&self.a[l], inv, b, z, forward),
+            Relax::Jacobi(inv, omega) => {
+                self.colourings[l].jacobi_sweep(&self.a[l], inv, *omega, b, z)
+            }
         }
     }
 
@@ -790,7 +804,11 @@ mod tests {
             levels: vec![(p, pt)],
             dofs: vec![(0..n).collect()],
         };
-        for smoother in [Smoother::GaussSeidel, Smoother::ColouredBlock] {
+        for smoother in [
+            Smoother::GaussSeidel,
+            Smoother::ColouredBlock,
+            Smoother::BlockJacobi,
+        ] {
             let mg =
                 GalerkinMultigrid::new(a.clone(), Arc::new(levels.clone()), 1, smoother, &mut None)
                     .unwrap();

@@ -1305,6 +1305,8 @@ mode = "held"
                 (false, Smoother::ColouredBlock),
                 (true, Smoother::ColouredBlock),
                 (false, Smoother::GaussSeidel),
+                (false, Smoother::BlockJacobi),
+                (true, Smoother::BlockJacobi),
             ] {
                 let (u_mg, out_mg) = solve(keep, smoother);
                 assert!(

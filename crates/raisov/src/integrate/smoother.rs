@@ -20,6 +20,19 @@
 //!   vertex-block Gauss-Seidel of Vertex Block Descent, on the Newton system). `D_b⁻¹` is the
 //!   inverse by Cholesky; a block that is not positive definite falls back to the reciprocal
 //!   of its positive diagonal entries (0 elsewhere), as the point sweep does.
+//! - [`Smoother::BlockJacobi`]: damped node-block Jacobi, every block at once from the same
+//!   `z`,
+//!
+//!   ```text
+//!   z ← z + ω D⁻¹ (b − A z),     ω = 4 / (3 · 1.1 λ̃),
+//!   ```
+//!
+//!   `D⁻¹` the blocks' inverses as above, `λ̃` the largest eigenvalue of `D⁻¹A` estimated by
+//!   [`POWER_ITERATIONS`] power iterations from a fixed start (raised by 10 % since the
+//!   estimate falls short of it): `4 / (3 λ_max)` minimises the largest factor
+//!   `|1 − ω λ|` over the upper half of the spectrum, the error the coarse level cannot
+//!   represent. Rows in parallel, in memory order, the same bits on any thread count; the
+//!   sweep is its own adjoint, so forward and backward are the same.
 
 use super::galerkin::Csr;
 use rayon::prelude::*;
@@ -36,7 +49,12 @@ pub enum Smoother {
     /// Node-block Gauss-Seidel over a colouring, colours' blocks in parallel. It visits the
     /// matrix rows colour by colour, which costs memory traffic on large meshes.
     ColouredBlock,
+    /// Damped node-block Jacobi, rows in parallel in memory order.
+    BlockJacobi,
 }
+
+/// Power iterations of [`Smoother::BlockJacobi`]'s estimate of `λ_max(D⁻¹A)`.
+pub const POWER_ITERATIONS: usize = 8;
 
 /// The node blocks of one level's rows and their colouring: fixed by the level's dofs and
 /// its operator's pattern.
@@ -159,6 +177,75 @@ impl Colouring {
                     *zi += dk[i];
                 }
             }
+        }
+    }
+}
+
+impl Colouring {
+    /// `y = D⁻¹ x` over the node blocks, `inv` from [`Colouring::inverses`].
+    fn block_apply(&self, inv: &[[f64; 9]], x: &[f64], y: &mut [f64]) {
+        let start = &self.start;
+        y.par_chunks_mut(3 * MIN_BLOCKS_PER_TASK)
+            .enumerate()
+            .for_each(|(part, out)| {
+                let first_row = part * 3 * MIN_BLOCKS_PER_TASK;
+                let last_row = first_row + out.len();
+                // The blocks are runs of consecutive rows: walk those that meet this part,
+                // from the one holding its first row, writing the rows inside it.
+                let mut k = start.partition_point(|&r| r <= first_row) - 1;
+                while k + 1 < start.len() && start[k] < last_row {
+                    let (r0, r1) = (start[k], start[k + 1]);
+                    let d = &inv[k];
+                    for i in 0..r1 - r0 {
+                        if (first_row..last_row).contains(&(r0 + i)) {
+                            let v: f64 = (0..r1 - r0).map(|j| d[3 * i + j] * x[r0 + j]).sum();
+                            out[r0 + i - first_row] = v;
+                        }
+                    }
+                    k += 1;
+                }
+            });
+    }
+
+    /// `ω` of [`Smoother::BlockJacobi`] for `a` (module docs), `inv` its block inverses.
+    pub fn jacobi_damping(&self, a: &Csr, inv: &[[f64; 9]]) -> f64 {
+        let n = a.rows;
+        let mut x: Vec<f64> = (0..n)
+            .map(|i| 1.0 + 0.5 * (i as f64 * 0.618).sin())
+            .collect();
+        let (mut ax, mut y) = (vec![0.0; n], vec![0.0; n]);
+        let mut lambda = 0.0;
+        for _ in 0..POWER_ITERATIONS {
+            let norm = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if norm == 0.0 || !norm.is_finite() {
+                break;
+            }
+            x.iter_mut().for_each(|v| *v /= norm);
+            a.matvec(&x, &mut ax);
+            self.block_apply(inv, &ax, &mut y);
+            lambda = x.iter().zip(&y).map(|(a, b)| a * b).sum::<f64>();
+            std::mem::swap(&mut x, &mut y);
+        }
+        let lambda = x.iter().map(|v| v * v).sum::<f64>().sqrt().max(lambda);
+        if lambda > 0.0 && lambda.is_finite() {
+            4.0 / (3.0 * 1.1 * lambda)
+        } else {
+            0.0
+        }
+    }
+
+    /// One damped block-Jacobi sweep on `a z = b` (module docs).
+    pub fn jacobi_sweep(&self, a: &Csr, inv: &[[f64; 9]], omega: f64, b: &[f64], z: &mut [f64]) {
+        let n = a.rows;
+        let mut r = vec![0.0; n];
+        a.matvec(z, &mut r);
+        for (ri, bi) in r.iter_mut().zip(b) {
+            *ri = bi - *ri;
+        }
+        let mut d = vec![0.0; n];
+        self.block_apply(inv, &r, &mut d);
+        for (zi, di) in z.iter_mut().zip(&d) {
+            *zi += omega * di;
         }
     }
 }
@@ -372,5 +459,64 @@ mod tests {
             .map(|(r, b)| (r - b).abs())
             .fold(0.0, f64::max);
         assert!(worst < 1e-10, "residual {worst} after 40 symmetric sweeps");
+    }
+
+    /// Block Jacobi over a ring long enough that blocks straddle the parallel parts (every
+    /// seventh node has two free dofs): a sweep equals `z + ω D⁻¹ (b − A z)` computed block by
+    /// block, the damping is positive, and repeated sweeps converge.
+    #[test]
+    fn block_jacobi_sweep_is_damped_block_jacobi_and_converges() {
+        let n = 301;
+        let a = ring(n);
+        let dofs: Vec<usize> = (0..3 * n).filter(|&d| d % 21 != 2).collect();
+        let mut sub = Csr {
+            rows: dofs.len(),
+            cols: dofs.len(),
+            ptr: vec![0],
+            ..Default::default()
+        };
+        for &r in &dofs {
+            let (c, v) = a.row(r);
+            for (&j, &x) in c.iter().zip(v) {
+                if let Ok(p) = dofs.binary_search(&(j as usize)) {
+                    sub.col.push(p as u32);
+                    sub.val.push(x);
+                }
+            }
+            sub.ptr.push(sub.col.len());
+        }
+        let blocks = Colouring::new(&sub, &dofs);
+        let inv = blocks.inverses(&sub);
+        let omega = blocks.jacobi_damping(&sub, &inv);
+        assert!(omega > 0.0 && omega < 4.0 / 3.0, "ω = {omega}");
+        let b: Vec<f64> = (0..sub.rows).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut z: Vec<f64> = (0..sub.rows).map(|i| (i as f64 * 0.11).cos()).collect();
+        let mut r = vec![0.0; sub.rows];
+        sub.matvec(&z, &mut r);
+        let mut want = z.clone();
+        for k in 0..blocks.start.len() - 1 {
+            let (r0, r1) = (blocks.start[k], blocks.start[k + 1]);
+            for i in 0..r1 - r0 {
+                want[r0 + i] += omega
+                    * (0..r1 - r0)
+                        .map(|j| inv[k][3 * i + j] * (b[r0 + j] - r[r0 + j]))
+                        .sum::<f64>();
+            }
+        }
+        blocks.jacobi_sweep(&sub, &inv, omega, &b, &mut z);
+        for (x, y) in z.iter().zip(&want) {
+            assert!((x - y).abs() < 1e-14, "{x} vs {y}");
+        }
+        let mut z = vec![0.0; sub.rows];
+        for _ in 0..200 {
+            blocks.jacobi_sweep(&sub, &inv, omega, &b, &mut z);
+        }
+        sub.matvec(&z, &mut r);
+        let worst = r
+            .iter()
+            .zip(&b)
+            .map(|(r, b)| (r - b).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-10, "residual {worst} after 200 sweeps");
     }
 }

@@ -52,6 +52,7 @@ pub mod io;
 // Documented separately (edited in parallel).
 #[allow(missing_docs)]
 pub mod material;
+pub mod memory;
 pub mod mesh;
 pub mod metrics;
 pub mod multigrid;

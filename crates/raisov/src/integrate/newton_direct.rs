@@ -206,6 +206,8 @@ pub enum DirectNewtonError {
     Inverted(ElementFailure),
     #[error("sparse factorisation failed: {0}")]
     Factor(String),
+    #[error("{0}")]
+    Memory(String),
     #[error("node {node} slides along ({:.3}, {:.3}, {:.3}): the direct Newton solver takes fixed components along x, y or z only", .dir[0], .dir[1], .dir[2])]
     SlidingNotAxis { node: u32, dir: [f64; 3] },
     #[error("the direct Newton solver does not take spring grasps (System::springs); use a hard grasp or the Newton-Krylov solver")]
@@ -272,6 +274,14 @@ impl DirectNewton {
         let ne = model.num_elements();
         let npe = model.element_nodes(0).len();
         let d = 3 * npe;
+        // The node pairs and the element slots, then the pattern (at most one value and row
+        // index per element entry).
+        let entries = (ne * d * d) as u64;
+        crate::memory::check(
+            &format!("the tangent's pattern over {ne} elements"),
+            entries * (4 + 8) + (ne * npe * npe) as u64 * 8,
+        )
+        .map_err(DirectNewtonError::Memory)?;
         let mut edges: Vec<(u32, u32)> = Vec::with_capacity(ne * npe * npe);
         for e in 0..ne {
             let el = model.element_nodes(e);
@@ -471,17 +481,45 @@ impl DirectNewton {
         Ok(SparseColMat::new(self.symbolic.clone(), vals))
     }
 
+    /// The symbolic factorisation, made once, after checking that the factor fits in the
+    /// available memory ([`crate::memory`]).
+    fn prepare_factor(&mut self) -> Result<(), DirectNewtonError> {
+        if self.llt_symbolic.is_some() {
+            return Ok(());
+        }
+        let factor = |e| DirectNewtonError::Factor(format!("{e:?}"));
+        let counted = faer::sparse::linalg::cholesky::factorize_symbolic_cholesky(
+            self.symbolic.as_ref(),
+            Side::Lower,
+            Default::default(),
+            Default::default(),
+        )
+        .map_err(factor)?;
+        // The factor's values, and as much again for the numeric factorisation's workspace.
+        let bytes = 16 * counted.len_val() as u64;
+        crate::memory::check(
+            &format!(
+                "the sparse Cholesky factor of {} dofs ({} nonzeros)",
+                self.nfree,
+                counted.len_val()
+            ),
+            bytes,
+        )
+        .map_err(DirectNewtonError::Memory)?;
+        drop(counted);
+        self.llt_symbolic =
+            Some(SymbolicLlt::try_new(self.symbolic.as_ref(), Side::Lower).map_err(factor)?);
+        Ok(())
+    }
+
     /// Factor `K + σ d̄ D`, keep the factor, and solve for `rhs` in place.
     fn factor_solve(&mut self, shift: f64, rhs: &mut [f64]) -> Result<(), String> {
         self.llt = None;
         let mat = self.matrix(shift)?;
-        if self.llt_symbolic.is_none() {
-            self.llt_symbolic = Some(
-                SymbolicLlt::try_new(self.symbolic.as_ref(), Side::Lower)
-                    .map_err(|e| format!("{e:?}"))?,
-            );
-        }
-        let symbolic = self.llt_symbolic.clone().expect("made above");
+        let symbolic = self
+            .llt_symbolic
+            .clone()
+            .expect("prepare_factor before the first factorisation");
         let llt = Llt::try_new_with_symbolic(symbolic, mat.as_ref(), Side::Lower)
             .map_err(|e| format!("{e:?}"))?;
         self.llt = Some(llt);
@@ -721,6 +759,9 @@ impl DirectNewton {
                 }
                 prev_norm = Some(norm);
                 // Factor, raising σ until K + σ d̄ D is positive definite.
+                if !solved {
+                    self.prepare_factor()?;
+                }
                 while !solved {
                     rhs.copy_from_slice(&b);
                     out.factorizations += 1;

@@ -1147,19 +1147,24 @@ duration = 1.0
         }
     }
 
-    /// A prescribed displacement that would invert elements if applied at once (the tip node
-    /// of the beam pushed 1.5 cm into it, sideways) is applied over the load steps: the solve converges,
-    /// the node sits at its prescribed value, and only the start's record is infinite.
-    #[test]
-    fn direct_newton_applies_a_large_prescribed_displacement_over_its_load_steps() {
-        let sc = beam(
+    /// The beam with its tip node pushed 1.5 cm sideways into it, held from t = 0.
+    fn pushed_beam() -> Scenario {
+        beam(
             r#"
 [[displace]]
 point = [0.1, 0.03, 0.03]
 displacement = [0.0, -0.015, 0.0]
 mode = "held"
 "#,
-        );
+        )
+    }
+
+    /// A prescribed displacement that would invert elements if applied at once (the tip node
+    /// of the beam pushed 1.5 cm into it, sideways) is applied over the load steps: the solve converges,
+    /// the node sits at its prescribed value, and only the start's record is infinite.
+    #[test]
+    fn direct_newton_applies_a_large_prescribed_displacement_over_its_load_steps() {
+        let sc = pushed_beam();
         let (node, _) = sc.prescribed[0];
         let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
         u[3 * node as usize + 1] = -0.015;
@@ -1186,14 +1191,7 @@ mode = "held"
     /// with the multigrid-free CG reuse alike.
     #[test]
     fn direct_newton_lifts_a_large_prescribed_displacement_in_one_step() {
-        let sc = beam(
-            r#"
-[[displace]]
-point = [0.1, 0.03, 0.03]
-displacement = [0.0, -0.015, 0.0]
-mode = "held"
-"#,
-        );
+        let sc = pushed_beam();
         let (stepped, _) = newton(
             &sc,
             DirectNewtonParams {

@@ -358,6 +358,27 @@ mod tests {
         a
     }
 
+    /// The rows and columns `dofs` (ascending) of `a`.
+    fn restrict(a: &Csr, dofs: &[usize]) -> Csr {
+        let mut sub = Csr {
+            rows: dofs.len(),
+            cols: dofs.len(),
+            ptr: vec![0],
+            ..Default::default()
+        };
+        for &r in dofs {
+            let (c, v) = a.row(r);
+            for (&j, &x) in c.iter().zip(v) {
+                if let Ok(p) = dofs.binary_search(&(j as usize)) {
+                    sub.col.push(p as u32);
+                    sub.val.push(x);
+                }
+            }
+            sub.ptr.push(sub.col.len());
+        }
+        sub
+    }
+
     #[test]
     fn block_inverse_inverts_and_falls_back_on_indefinite_blocks() {
         let d = [4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0];
@@ -389,23 +410,7 @@ mod tests {
         let a = ring(n);
         // Node 4 has only two free dofs.
         let dofs: Vec<usize> = (0..3 * n).filter(|&d| d != 13).collect();
-        let keep: Vec<usize> = dofs.clone();
-        let mut sub = Csr {
-            rows: keep.len(),
-            cols: keep.len(),
-            ptr: vec![0],
-            ..Default::default()
-        };
-        for &r in &keep {
-            let (c, v) = a.row(r);
-            for (&j, &x) in c.iter().zip(v) {
-                if let Ok(p) = keep.binary_search(&(j as usize)) {
-                    sub.col.push(p as u32);
-                    sub.val.push(x);
-                }
-            }
-            sub.ptr.push(sub.col.len());
-        }
+        let sub = restrict(&a, &dofs);
         let col = Colouring::new(&sub, &dofs);
         // An odd ring needs three colours; no two neighbours share one.
         assert_eq!(col.colours(), 3);
@@ -469,22 +474,7 @@ mod tests {
         let n = 301;
         let a = ring(n);
         let dofs: Vec<usize> = (0..3 * n).filter(|&d| d % 21 != 2).collect();
-        let mut sub = Csr {
-            rows: dofs.len(),
-            cols: dofs.len(),
-            ptr: vec![0],
-            ..Default::default()
-        };
-        for &r in &dofs {
-            let (c, v) = a.row(r);
-            for (&j, &x) in c.iter().zip(v) {
-                if let Ok(p) = dofs.binary_search(&(j as usize)) {
-                    sub.col.push(p as u32);
-                    sub.val.push(x);
-                }
-            }
-            sub.ptr.push(sub.col.len());
-        }
+        let sub = restrict(&a, &dofs);
         let blocks = Colouring::new(&sub, &dofs);
         let inv = blocks.inverses(&sub);
         let omega = blocks.jacobi_damping(&sub, &inv);

@@ -463,6 +463,16 @@ impl DirectNewton {
         Ok(diag / self.nfree.max(1) as f64)
     }
 
+    /// `out = u + α δ`, `δ` over the free dofs (free-index order).
+    fn step_to(&self, u: &[f64], alpha: f64, delta: &[f64], out: &mut [f64]) {
+        out.copy_from_slice(u);
+        for (i, &f) in self.free.iter().enumerate() {
+            if f != usize::MAX {
+                out[i] += alpha * delta[f];
+            }
+        }
+    }
+
     /// `out[f] = x[i]` for every free dof i with free index f.
     fn gather_free(&self, x: &[f64], out: &mut [f64]) {
         for (i, &f) in self.free.iter().enumerate() {
@@ -790,12 +800,7 @@ impl DirectNewton {
                     let mut alpha = 1.0;
                     let mut accepted = false;
                     for _ in 0..=12 {
-                        trial.copy_from_slice(u);
-                        for (i, &f) in self.free.iter().enumerate() {
-                            if f != usize::MAX {
-                                trial[i] += alpha * rhs[f];
-                            }
-                        }
+                        self.step_to(u, alpha, &rhs, &mut trial);
                         out.force_evaluations += 1;
                         if let Ok((tn, tm)) = residual(model, &trial, s, &mut r, &mut fint) {
                             u.copy_from_slice(&trial);
@@ -826,12 +831,7 @@ impl DirectNewton {
                 let mut alpha = 1.0;
                 let mut accepted = false;
                 for _ in 0..=12 {
-                    trial.copy_from_slice(u);
-                    for (i, &f) in self.free.iter().enumerate() {
-                        if f != usize::MAX {
-                            trial[i] += alpha * rhs[f];
-                        }
-                    }
+                    self.step_to(u, alpha, &rhs, &mut trial);
                     let pi = potential(model, &trial, s, f_ext);
                     out.energy_evaluations += 1;
                     let armijo = pi <= pi0 - 1e-4 * alpha * slope;

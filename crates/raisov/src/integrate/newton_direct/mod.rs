@@ -18,7 +18,9 @@
 //!   `(K_ff + σ d̄ D) δ_f = r_f − K_fc Δ_c` (the free dofs' linear response to the move; `K_fc`
 //!   summed from the same element matrices as `K_ff`). The new state has `u_c + Δ_c` and
 //!   `u_f + α δ_f`, α the largest of 1, ½, … (12 halvings, then 0) whose state inverts no
-//!   element: Π is no merit function for a step that moves the constrained dofs. A prescribed
+//!   element and has a residual 2-norm at most that of the motions imposed alone (α = 0; a
+//!   flat membrane's regularised first tangent can send `δ_f` far): Π is no merit function
+//!   for a step that moves the constrained dofs. A prescribed
 //!   displacement that would invert the elements around its node if imposed alone (the rest
 //!   of the body at rest) is thus taken in one step where the linear response keeps them
 //!   valid. The following iterations are the plain Newton ones below.
@@ -790,27 +792,34 @@ impl DirectNewton {
                 out.factor_s += clock.elapsed().as_secs_f64();
                 if lifting {
                     // The lifted step: the constrained dofs in full, the free ones by the
-                    // largest α = 1, ½, … (at most 12 halvings, then 0) whose state inverts
-                    // no element. Π is no merit here (the constrained dofs move).
+                    // largest α = 1, ½, … (at most 12 halvings) whose state inverts no element
+                    // and whose residual 2-norm is at most that of the motion imposed alone
+                    // (α = 0), else α = 0. Π is no merit here (the constrained dofs move).
                     lifting = false;
                     out.lifted_steps += 1;
                     for i in 0..n {
                         u[i] += pending[i];
                     }
+                    out.force_evaluations += 1;
+                    let alone = residual(model, u, s, &mut r, &mut fint);
+                    let bound = alone.as_ref().map_or(f64::INFINITY, |&(tn, _)| tn);
                     let mut alpha = 1.0;
                     let mut accepted = false;
                     for _ in 0..=12 {
                         self.step_to(u, alpha, &rhs, &mut trial);
                         out.force_evaluations += 1;
                         if let Ok((tn, tm)) = residual(model, &trial, s, &mut r, &mut fint) {
-                            u.copy_from_slice(&trial);
-                            (norm, max) = (tn, tm);
-                            accepted = true;
-                            break;
+                            if tn <= bound {
+                                u.copy_from_slice(&trial);
+                                (norm, max) = (tn, tm);
+                                accepted = true;
+                                break;
+                            }
                         }
                         alpha *= 0.5;
                     }
                     if !accepted {
+                        alone.map_err(DirectNewtonError::Inverted)?;
                         (norm, max) = residual(model, u, s, &mut r, &mut fint)
                             .map_err(DirectNewtonError::Inverted)?;
                         out.force_evaluations += 1;

@@ -357,7 +357,7 @@ pub struct GalerkinMultigrid {
     sweeps: usize,
     smoother: Smoother,
     /// Each smoothed level's node blocks and colours ([`Smoother::ColouredBlock`]); fixed by
-    /// the pattern, so kept by [`GalerkinMultigrid::rebuild`].
+    /// the pattern, so kept by [`GalerkinMultigrid::refresh`].
     colourings: Vec<Colouring>,
     coarse: CoarseFactor,
 }
@@ -415,24 +415,18 @@ impl GalerkinMultigrid {
         Ok(mg)
     }
 
-    /// The Galerkin operators of a new matrix `a0` (same pattern), keeping the coarsest
-    /// factorisation of the earlier one: the cycle stays symmetric, and positive definite
-    /// where the new operators are, its coarse correction that of the earlier operator. Only
-    /// the smoothed levels' operators are formed; with coarser levels the coarsest stays the
-    /// earlier one, which its kept factorisation is of (the cycle uses it through that
-    /// factorisation alone).
-    pub fn rebuild(&mut self, a0: Csr) {
-        self.a[0] = a0;
-        self.refresh();
-    }
-
     /// The finest operator, to be written in place (same pattern) before
     /// [`GalerkinMultigrid::refresh`].
     pub fn finest_mut(&mut self) -> &mut Csr {
         &mut self.a[0]
     }
 
-    /// [`GalerkinMultigrid::rebuild`] with the finest operator as it now is.
+    /// The Galerkin operators of the finest operator as it now is (written through
+    /// [`GalerkinMultigrid::finest_mut`]), keeping the coarsest factorisation of the earlier
+    /// one: the cycle stays symmetric, and positive definite where the new operators are, its
+    /// coarse correction that of the earlier operator. Only the smoothed levels' operators are
+    /// formed; with coarser levels the coarsest stays the earlier one, which its kept
+    /// factorisation is of (the cycle uses it through that factorisation alone).
     pub fn refresh(&mut self) {
         let levels = self.a.len();
         let mut a = vec![std::mem::take(&mut self.a[0])];
@@ -479,7 +473,7 @@ impl GalerkinMultigrid {
     }
 
     /// The finest operator `A₀` (the matrix of [`GalerkinMultigrid::new`] or the latest
-    /// [`GalerkinMultigrid::rebuild`]).
+    /// [`GalerkinMultigrid::refresh`]).
     pub fn matrix(&self) -> &Csr {
         &self.a[0]
     }
@@ -708,10 +702,10 @@ mod tests {
 
     /// The full rows filled through [`SymScatter`] from a lower triangle in compressed
     /// columns equal the matrix, the diagonal found by [`SymScatter::position`]; a
-    /// rebuilt two-level hierarchy takes the new finest operator and keeps the coarsest, whose
+    /// refreshed two-level hierarchy takes the new finest operator and keeps the coarsest, whose
     /// factorisation it keeps.
     #[test]
-    fn scatter_fills_the_full_rows_and_rebuild_keeps_the_coarsest_operator() {
+    fn scatter_fills_the_full_rows_and_refresh_keeps_the_coarsest_operator() {
         let n = 9;
         let mut a = laplace(n);
         for (k, v) in a.val.iter_mut().enumerate() {

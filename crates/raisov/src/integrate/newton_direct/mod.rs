@@ -57,9 +57,8 @@
 //! factorisation of the coarsest level only), to the same inexact-Newton tolerance η, with the
 //! same Steihaug truncation. As with factorisation reuse, the hierarchy built at one iteration
 //! preconditions the next ones, whole or ([`MultigridPcg::keep`] false) only its coarsest
-//! factorisation, the smoothed levels' Galerkin operators rebuilt from each new tangent (the coarsest
-//! is only used through its factorisation); it is rebuilt at the
-//! current state where
+//! factorisation, the smoothed levels' Galerkin operators rebuilt from each new tangent (the
+//! coarsest is only used through its factorisation); it is rebuilt at the current state where
 //! [`MultigridPcg::max_iter`] iterations do not reach η or the first direction has
 //! non-positive curvature. With a fresh hierarchy, an iterate that misses η after
 //! [`MultigridPcg::max_iter`] iterations is taken as it is (truncated Newton: a descent
@@ -133,8 +132,8 @@ pub struct MultigridPcg {
     /// Conjugate-gradient iterations at most per Newton system. Default 25.
     pub max_iter: usize,
     /// What a Newton iteration takes from the last hierarchy: all of it (`true`), or only its
-    /// coarsest factorisation, the smoothed levels' Galerkin operators being rebuilt from the current tangent
-    /// (`false`, the default).
+    /// coarsest factorisation, the smoothed levels' Galerkin operators being rebuilt from the
+    /// current tangent (`false`, the default).
     pub keep: bool,
 }
 

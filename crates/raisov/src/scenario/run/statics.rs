@@ -20,8 +20,9 @@
 //! 1e-14 N; `"krylov"` when `‖V − R(u)‖₂` is at most `residual_tol` times its starting value.
 //! The assembled solvers start with the prescribed nodes at rest; each increment's first
 //! iteration moves them with the free nodes' linear response (the lifted iteration of
-//! [`crate::integrate::newton_direct`]). `"auto"` takes `"multigrid"` where a coarse level qualifies, `"direct"`
-//! where not, and `"krylov"` where the assembled tangent does not hold every force: pressure
+//! [`crate::integrate::newton_direct`]). `"auto"` takes `"multigrid"` where a coarse level
+//! qualifies, `"direct"` where not, and `"krylov"` where the assembled tangent does not hold
+//! every force: pressure
 //! (a follower load), tool contact or spring grasps, or a node sliding along a direction
 //! that is not x, y or z.
 

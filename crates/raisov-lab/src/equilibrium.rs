@@ -8,7 +8,7 @@
 //!   the prescribed displacement in the first iteration's lift); variants: a factorisation at every
 //!   iteration, or each Newton system solved by conjugate gradients preconditioned by the last
 //!   factorisation, refactoring when [`NEWTON_PCG_MAX`] iterations do not reach the
-//!   inexact-Newton tolerance ([`NEWTON_REUSE`]);
+//!   inexact-Newton tolerance, the latter also from the coarse start below ([`NEWTON_REUSE`]);
 //! - **FAS** multigrid ([`raisov::scenario::Scenario::stepper`] with the scenario's
 //!   `[multigrid] scheme = "fas"` and its defaults but the smoothing): V-cycles
 //!   (Krylov-accelerated) advanced until the stopping rule holds, the rule checked after every
@@ -27,9 +27,15 @@
 //!   smoothing sweeps; variants ([`NEWTON_MG_VARIANTS`]): a Newton iteration reuses the
 //!   last hierarchy's coarse factorisation with operators rebuilt from its tangent, or the
 //!   whole last hierarchy, either until CG fails to converge; the smoother is node-block
-//!   Gauss-Seidel over a colouring, damped node-block Jacobi, or point Gauss-Seidel (the library's default).
+//!   Gauss-Seidel over a colouring, damped node-block Jacobi, or point Gauss-Seidel (the
+//!   library's default); each from rest and from the coarse start.
 //!
-//! All start from rest (`u = 0`). A prescribed displacement (`[[displace]]`, the pulled
+//! The coarse start ([`raisov::integrate::newton_direct::coarse_start`], nested iteration):
+//! the coarse level of Newton-multigrid, with the scenario's constraints and loads carried to
+//! it, solved by direct Newton over [`Case::load_steps`] load steps, its equilibrium
+//! interpolated to the fine nodes as the fine solve's start (one load step); its time counts.
+//!
+//! All other runs start from rest (`u = 0`). A prescribed displacement (`[[displace]]`, the pulled
 //! liver), imposed at once with the rest of the body at rest, inverts the pulled node's
 //! elements. Direct Newton and Newton-multigrid take it in one load step: their first
 //! iteration moves the free nodes by the linear response to it (the lifted iteration of
@@ -73,8 +79,8 @@ use raisov::hierarchy::Transfer;
 use raisov::integrate::adaptive_relax::adaptive_relax;
 use raisov::integrate::hold;
 use raisov::integrate::newton_direct::{
-    solve_system, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg,
-    Smoother,
+    coarse_start, solve_system, CoarseStart, DirectNewton, DirectNewtonError, DirectNewtonParams,
+    DirectStatic, MultigridPcg, Smoother,
 };
 use raisov::integrate::stability::lambda_max_bound;
 use raisov::scenario::{MultigridScheme, Scenario};
@@ -95,8 +101,11 @@ pub const PULL_STAGE_TOL: f64 = 1e-4;
 /// Direct Newton: conjugate-gradient iterations on a kept factorisation before refactoring
 /// ([`DirectNewtonParams::pcg_max`]).
 pub const NEWTON_PCG_MAX: usize = 20;
-/// Direct Newton's sweep: factorisation reuse (CG iterations before refactoring; 0 none).
-pub const NEWTON_REUSE: [usize; 2] = [0, NEWTON_PCG_MAX];
+/// Direct Newton's sweep: factorisation reuse (CG iterations before refactoring; 0 none),
+/// and whether it starts from the coarse level's equilibrium
+/// ([`raisov::integrate::newton_direct::coarse_start`], on Newton-multigrid's coarse level).
+pub const NEWTON_REUSE: [(usize, bool); 3] =
+    [(0, false), (NEWTON_PCG_MAX, false), (NEWTON_PCG_MAX, true)];
 /// FAS's sweep: pre- and post-smoothing sweeps per level (the default is 4).
 pub const FAS_SWEEPS: [usize; 3] = [4, 8, 16];
 /// Newton-multigrid: its coarse level has at least 1/`NEWTON_MG_COARSEN` of the finest
@@ -106,15 +115,21 @@ pub const NEWTON_MG_COARSEN: usize = raisov::integrate::newton_direct::COARSEN;
 pub const NEWTON_MG_SWEEPS: usize = 2;
 /// Newton-multigrid's variants: whether an iteration keeps the whole last hierarchy, or only
 /// its coarsest factorisation ([`MultigridPcg::keep`]), and the smoother
-/// ([`MultigridPcg::smoother`]: node-block Gauss-Seidel over a colouring, or point
-/// Gauss-Seidel).
-pub const NEWTON_MG_VARIANTS: [(bool, Smoother); 6] = [
-    (false, Smoother::ColouredBlock),
-    (true, Smoother::ColouredBlock),
-    (false, Smoother::BlockJacobi),
-    (true, Smoother::BlockJacobi),
-    (false, Smoother::GaussSeidel),
-    (true, Smoother::GaussSeidel),
+/// ([`MultigridPcg::smoother`]: node-block Gauss-Seidel over a colouring, damped node-block
+/// Jacobi, or point Gauss-Seidel), and whether it starts from the coarse start (module docs).
+pub const NEWTON_MG_VARIANTS: [(bool, Smoother, bool); 12] = [
+    (false, Smoother::ColouredBlock, false),
+    (true, Smoother::ColouredBlock, false),
+    (false, Smoother::BlockJacobi, false),
+    (true, Smoother::BlockJacobi, false),
+    (false, Smoother::GaussSeidel, false),
+    (true, Smoother::GaussSeidel, false),
+    (false, Smoother::ColouredBlock, true),
+    (true, Smoother::ColouredBlock, true),
+    (false, Smoother::BlockJacobi, true),
+    (true, Smoother::BlockJacobi, true),
+    (false, Smoother::GaussSeidel, true),
+    (true, Smoother::GaussSeidel, true),
 ];
 /// FAS: V-cycles at most.
 pub const MAX_CYCLES: u64 = 20_000;
@@ -388,6 +403,53 @@ fn lifted(o: &DirectStatic) -> &'static str {
     }
 }
 
+/// Direct Newton's coarse start: the coarse level of Newton-multigrid
+/// ([`newton_mg_levels`]) solved and interpolated into `u`
+/// ([`raisov::integrate::newton_direct::coarse_start`]); `None` where the case has no such
+/// level.
+fn start_from_coarse(
+    case: &Case,
+    sys: &mut raisov::integrate::System,
+    u: &mut [f64],
+) -> Result<Option<CoarseStart>> {
+    let sc = &case.scenario;
+    let meshes = newton_mg_levels(sc.level_meshes()?);
+    if meshes.len() < 2 {
+        return Ok(None);
+    }
+    let down = Transfer::build(&meshes[0].nodes, &meshes[1])?;
+    let mut coarse = sc.level_system(&meshes[1], 1)?;
+    let model = sys
+        .force
+        .as_fem_mut()
+        .ok_or_else(|| Error::param("bench equilibrium", "not a finite-element model"))?;
+    Ok(Some(coarse_start(
+        &mut coarse,
+        0.0,
+        case.load_steps,
+        &down,
+        model,
+        &sys.constraints,
+        u,
+    )))
+}
+
+/// What a row's note says of its coarse start.
+fn start_note(start: Option<&CoarseStart>) -> String {
+    match start {
+        None => String::new(),
+        Some(s) if s.applied => format!(
+            "coarse start ({} Newton iterations, {:.2} s), ",
+            s.coarse.as_ref().map_or(0, |o| o.newton_steps),
+            s.wall_s
+        ),
+        Some(s) => format!(
+            "coarse start not taken ({}), ",
+            s.skipped.as_deref().unwrap_or("?")
+        ),
+    }
+}
+
 /// A Newton row's figures from its outcome and equilibrium `u`.
 fn newton_figures(row: &mut Row, o: &DirectStatic, u: &[f64]) {
     row.iterations = o.newton_steps as u64;
@@ -398,12 +460,26 @@ fn newton_figures(row: &mut Row, o: &DirectStatic, u: &[f64]) {
 }
 
 /// Direct Newton with factorisation reuse `pcg_max` (0: none); the row and the displacement.
-fn newton_run(case: &Case, target: f64, pcg_max: usize) -> Result<(Row, Vec<f64>)> {
+fn newton_run(
+    case: &Case,
+    target: f64,
+    (pcg_max, nested): (usize, bool),
+) -> Result<(Row, Vec<f64>)> {
     let sc = &case.scenario;
     let mut row = blank_row(case, "direct Newton", target);
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
     let mut sys = sc.build_system()?;
     let t0 = Instant::now();
+    let start = if nested {
+        start_from_coarse(case, &mut sys, &mut u)?
+    } else {
+        None
+    };
+    let load_steps = if start.as_ref().is_some_and(|s| s.applied) {
+        1
+    } else {
+        case.load_steps
+    };
     let out = solve_system(
         &mut sys,
         0.0,
@@ -411,7 +487,7 @@ fn newton_run(case: &Case, target: f64, pcg_max: usize) -> Result<(Row, Vec<f64>
         DirectNewtonParams {
             rel_tol: REL_TOL,
             abs_tol: ABS_TOL,
-            load_steps: case.load_steps,
+            load_steps,
             pcg_max,
             ..Default::default()
         },
@@ -421,9 +497,10 @@ fn newton_run(case: &Case, target: f64, pcg_max: usize) -> Result<(Row, Vec<f64>
         Ok(o) => {
             newton_figures(&mut row, &o, &u);
             row.note = format!(
-                "{} load step{}{}, reuse {}: {} factorisations, {} CG iterations ({:.2} s), {} energy evaluations",
-                case.load_steps,
-                if case.load_steps == 1 { "" } else { "s" },
+                "{}{} load step{}{}, reuse {}: {} factorisations, {} CG iterations ({:.2} s), {} energy evaluations",
+                start_note(start.as_ref()),
+                load_steps,
+                if load_steps == 1 { "" } else { "s" },
                 lifted(&o),
                 if pcg_max == 0 { "none".to_string() } else { format!("{pcg_max} CG") },
                 o.factorizations,
@@ -458,7 +535,7 @@ fn newton_mg_levels(meshes: Vec<raisov::mesh::Mesh>) -> Vec<raisov::mesh::Mesh> 
 fn newton_mg_run(
     case: &Case,
     target: f64,
-    (keep, smoother): (bool, Smoother),
+    (keep, smoother, nested): (bool, Smoother, bool),
 ) -> Result<(Row, Vec<f64>)> {
     let sc = &case.scenario;
     let mut row = blank_row(case, "Newton-multigrid", target);
@@ -478,6 +555,25 @@ fn newton_mg_run(
         .force
         .as_fem_mut()
         .ok_or_else(|| Error::param("bench equilibrium", "not a finite-element model"))?;
+    let start = if nested && meshes.len() > 1 {
+        let mut coarse = sc.level_system(&meshes[1], 1)?;
+        Some(coarse_start(
+            &mut coarse,
+            0.0,
+            case.load_steps,
+            &down[0],
+            model,
+            &sys.constraints,
+            &mut u,
+        ))
+    } else {
+        None
+    };
+    let load_steps = if start.as_ref().is_some_and(|s| s.applied) {
+        1
+    } else {
+        case.load_steps
+    };
     let out = DirectNewton::with_levels(model, &sys.constraints, &down).and_then(|mut s| {
         s.solve(
             model,
@@ -488,7 +584,7 @@ fn newton_mg_run(
             DirectNewtonParams {
                 rel_tol: REL_TOL,
                 abs_tol: ABS_TOL,
-                load_steps: case.load_steps,
+                load_steps,
                 multigrid: Some(MultigridPcg {
                     sweeps: NEWTON_MG_SWEEPS,
                     keep,
@@ -504,10 +600,11 @@ fn newton_mg_run(
         Ok(o) => {
             newton_figures(&mut row, &o, &u);
             row.note = format!(
-                "{} levels, {} load step{}{}, {NEWTON_MG_SWEEPS}+{NEWTON_MG_SWEEPS} {} sweeps, keeps {}: {} hierarchies, {} CG iterations ({:.2} s), assembly {:.2} s, {} energy evaluations",
+                "{} levels, {}{} load step{}{}, {NEWTON_MG_SWEEPS}+{NEWTON_MG_SWEEPS} {} sweeps, keeps {}: {} hierarchies, {} CG iterations ({:.2} s), assembly {:.2} s, {} energy evaluations",
                 meshes.len(),
-                case.load_steps,
-                if case.load_steps == 1 { "" } else { "s" },
+                start_note(start.as_ref()),
+                load_steps,
+                if load_steps == 1 { "" } else { "s" },
                 lifted(&o),
                 match smoother {
                     Smoother::ColouredBlock => "coloured block Gauss-Seidel",
@@ -692,10 +789,7 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
             .iter()
             .map(|&m| newton_run(case, target, m))
             .collect::<Result<_>>()?,
-        &format!(
-            "CG iterations before refactoring (0: none) {}",
-            list(&NEWTON_REUSE)
-        ),
+        &format!("reuse none / {NEWTON_PCG_MAX} CG / {NEWTON_PCG_MAX} CG from the coarse start"),
     );
     let reference = newton.converged.then_some(u_newton.as_slice());
     let compare = |r: &mut Row, u: &[f64]| {
@@ -725,7 +819,7 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
             .iter()
             .map(|&v| newton_mg_run(case, target, v))
             .collect::<Result<_>>()?,
-        "keeps the coarse factor / all with coloured block Gauss-Seidel, then block Jacobi, then point Gauss-Seidel",
+        "keeps the coarse factor / all with coloured block Gauss-Seidel, then block Jacobi, then point Gauss-Seidel; the same six from the coarse start",
     );
     compare(&mut nmg, &u_nmg);
     Ok(vec![newton, fas, adr, nmg])

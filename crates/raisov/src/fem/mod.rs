@@ -477,6 +477,11 @@ impl FemModel {
         }
     }
 
+    /// `det F` of element e (tets) or its signed area ratio (membranes).
+    pub fn element_det_f(&self, e: usize, u: &[f64]) -> f64 {
+        self.deformation(e, u).1
+    }
+
     /// Smallest `det F` over elements (tets) or signed area ratio (membranes), and where.
     pub fn min_det_f(&self, u: &[f64]) -> (usize, f64) {
         (0..self.num_elements())

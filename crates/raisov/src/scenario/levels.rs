@@ -12,7 +12,9 @@ use super::{build_system, err, positive, select, BoxCells, Scenario, Selector, S
 use crate::error::Result;
 use crate::hierarchy::Correspondence;
 use crate::integrate::stability::{critical_step_estimate, lambda_max_bound};
-use crate::integrate::{energy_limit_for, Method, Motion, SingleLevel, Stepper, StepperParams};
+use crate::integrate::{
+    energy_limit_for, Method, Motion, SingleLevel, Stepper, StepperParams, System,
+};
 use crate::mesh::Mesh;
 use crate::multigrid::fas::{CoarseSolve, Fas, FasParams, Smoother};
 use crate::multigrid::raisov::{Raisov, RaisovParams};
@@ -473,6 +475,16 @@ impl Scenario {
         })
     }
 
+    /// The system of level `level` on its mesh `mesh` (a mesh of [`Scenario::level_meshes`]):
+    /// the scenario's physics with the constraints and loads of [`Scenario::constraints_on`].
+    pub fn level_system(&self, mesh: &Mesh, level: usize) -> Result<System> {
+        if level == 0 {
+            return self.build_system();
+        }
+        let c = self.constraints_on(mesh, level)?;
+        build_system(self, mesh, &c.fixed, &c.sliding, &c.prescribed, &c.loads)
+    }
+
     /// Build every level (mesh, system with its own constraints, integrator, step) and the
     /// correspondences between consecutive levels.
     pub fn build_levels(&self) -> Result<(Vec<Level>, crate::multigrid::Links)> {
@@ -509,12 +521,7 @@ impl Scenario {
         }
         let mut levels = Vec::with_capacity(m);
         for (i, (mesh, node_keys)) in meshes.into_iter().zip(keys).enumerate() {
-            let c = self.constraints_on(&mesh, i)?;
-            let sys = if i == 0 {
-                self.build_system()?
-            } else {
-                build_system(self, &mesh, &c.fixed, &c.sliding, &c.prescribed, &c.loads)?
-            };
+            let sys = self.level_system(&mesh, i)?;
             let lambda_max = lambda_max_bound(&mesh, &self.material, self.density);
             let mut level = Level::new(mesh, sys, methods[i], dts[i], lambda_max);
             level.node_keys = node_keys;

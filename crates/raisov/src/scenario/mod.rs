@@ -205,6 +205,11 @@ pub struct StaticSolve {
     /// `[integrator] solver`, default [`StaticSolver::Auto`] (resolved when the system is
     /// built: [`run::run_static`]).
     pub solver: StaticSolver,
+    /// `[integrator] coarse_start`: [`StaticSolver::Multigrid`] starts from the coarse level's
+    /// equilibrium, interpolated ([`crate::integrate::newton_direct::coarse_start`]). Default
+    /// true for membranes, false for tetrahedra (`raisov bench equilibrium`: about 3× faster
+    /// on the 100k drape, no faster on the liver).
+    pub coarse_start: bool,
 }
 
 impl StaticSolve {
@@ -490,6 +495,7 @@ impl Scenario {
             ("max_newton", spec.integrator.max_newton.is_some()),
             ("increments", spec.integrator.increments.is_some()),
             ("solver", spec.integrator.solver.is_some()),
+            ("coarse_start", spec.integrator.coarse_start.is_some()),
         ] {
             if set && !newton {
                 return Err(err(
@@ -559,11 +565,26 @@ impl Scenario {
             if spec.integrator.increments == Some(0) {
                 return Err(err(path, "`integrator.increments` = 0: must be at least 1"));
             }
+            if spec.integrator.coarse_start == Some(true)
+                && matches!(solver, StaticSolver::Direct | StaticSolver::Krylov)
+            {
+                return Err(err(
+                    path,
+                    format!(
+                        "`integrator.coarse_start` = true applies to solver = \"multigrid\" (or \"auto\"), not \"{}\"",
+                        solver.name()
+                    ),
+                ));
+            }
             Some(StaticSolve {
                 rel_tol,
                 max_newton,
                 increments: spec.integrator.increments,
                 solver,
+                coarse_start: spec
+                    .integrator
+                    .coarse_start
+                    .unwrap_or(mesh.kind == ElementKind::Tri3),
             })
         } else {
             None

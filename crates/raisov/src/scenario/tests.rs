@@ -1079,8 +1079,9 @@ fn static_solvers_reach_one_equilibrium() {
     let lift = "[[displace]]\npoint = [0.0, 0.0, 0.0]\ndisplacement = [0.0, 0.0, 0.01]\n";
     let base = BASE.replace("duration = 0.01", "residual_tol = 1e-10");
     let text = |solver: &str, levels: bool| {
+        let (solver, extra) = solver.split_once('+').unwrap_or((solver, ""));
         format!(
-            "{base}{lift}[integrator]\nmethod = \"newton\"\n{}{}",
+            "{base}{lift}[integrator]\nmethod = \"newton\"\n{extra}{}{}",
             if solver.is_empty() {
                 String::new()
             } else {
@@ -1121,10 +1122,25 @@ fn static_solvers_reach_one_equilibrium() {
             .contains("CG preconditioned by a Galerkin V-cycle"),
         "{mg}"
     );
+    // The coarse start (nested iteration): the default on this membrane; and without it.
+    assert!(
+        mg.to_string().contains("coarse start: ")
+            && mg
+                .to_string()
+                .contains("Newton iterations on the coarse level"),
+        "{mg}"
+    );
+    let (cold, t_c) = solve("+coarse_start = false\n", true);
+    assert_eq!(cold.solver, StaticSolver::Multigrid, "{cold}");
+    assert!(!cold.to_string().contains("coarse start"), "{cold}");
     let scale = krylov.last.reaction_prescribed[2];
     assert!(scale > 0.0, "{krylov}");
     let smax = t_k.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-    for (name, s, t) in [("direct", &direct, &t_d), ("multigrid", &mg, &t_m)] {
+    for (name, s, t) in [
+        ("direct", &direct, &t_d),
+        ("multigrid", &mg, &t_m),
+        ("multigrid from rest", &cold, &t_c),
+    ] {
         for k in 0..3 {
             let (a, b) = (
                 krylov.last.reaction_prescribed[k],
@@ -1152,6 +1168,11 @@ fn static_solvers_reach_one_equilibrium() {
     let e = error_of(&text("multigrid", false));
     assert!(
         e.contains("needs the coarser levels of a `[multigrid]` section"),
+        "{e}"
+    );
+    let e = error_of(&text("direct+coarse_start = true\n", true));
+    assert!(
+        e.contains("`integrator.coarse_start` = true applies to solver = \"multigrid\""),
         "{e}"
     );
 }

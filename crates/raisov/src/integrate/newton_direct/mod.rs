@@ -71,8 +71,15 @@
 //! `V_a` the external force of node a (all nodes), `|·|` the Euclidean norm of a node's 3-vector.
 //! Intermediate load steps stop at `max(rel_tol, 1e-6)` of their own scale.
 //!
+//! Nested iteration ([`coarse_start`]): the start `u` may be the equilibrium of a coarser
+//! discretisation, interpolated (module `nested` in the source).
+//!
 //! Entry points: [`solve_system`] on a [`System`] whose force model is a
 //! [`crate::fem::FemModel`], or [`DirectNewton`] for repeated solves.
+
+mod nested;
+
+pub use nested::{coarse_start, CoarseStart, COARSE_PCG_MAX, COARSE_REL_TOL};
 
 use super::galerkin::{Csr, GalerkinMultigrid, Prolongations, SymScatter};
 pub use super::smoother::Smoother;

@@ -25,12 +25,19 @@
 //! every force: pressure
 //! (a follower load), tool contact or spring grasps, or a node sliding along a direction
 //! that is not x, y or z.
+//!
+//! With `[integrator] coarse_start` (default: membranes yes, tetrahedra no) `"multigrid"` starts from the coarse
+//! level's equilibrium, interpolated (nested iteration,
+//! [`crate::integrate::newton_direct::coarse_start`]): the coarse level, with the
+//! scenario's constraints and loads carried to it, is solved by direct Newton over the
+//! increments, the fine level then in one. The stopping rule's starting out-of-balance force
+//! is that of the rest state, as without it.
 
 use super::{write_balance, write_nodal_stress, Frames, RunOptions};
 use crate::error::{Error, Result};
 use crate::integrate::newton_direct::{
-    axis_of, coarse_level, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic,
-    MultigridPcg,
+    axis_of, coarse_level, coarse_start, DirectNewton, DirectNewtonError, DirectNewtonParams,
+    DirectStatic, MultigridPcg,
 };
 use crate::integrate::statics::Static;
 use crate::integrate::{Stepper, System};
@@ -208,7 +215,21 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
         let mut u = s.u.clone();
         let solved = match plan.solver {
             StaticSolver::Krylov => krylov(sc, &settings, increments, sys, t, &mut u, &first),
-            _ => assembled(&settings, increments, plan.down.as_deref(), sys, t, &mut u),
+            _ => {
+                let mut coarse = match (&plan.coarse, settings.coarse_start) {
+                    (Some((mesh, level)), true) => Some(sc.level_system(mesh, *level)?),
+                    _ => None,
+                };
+                assembled(
+                    &settings,
+                    increments,
+                    plan.down.as_deref(),
+                    coarse.as_mut(),
+                    sys,
+                    t,
+                    &mut u,
+                )
+            }
         };
         s.u.copy_from_slice(&u);
         s.v.iter_mut().for_each(|x| *x = 0.0);
@@ -277,6 +298,8 @@ struct Plan {
     solver: StaticSolver,
     /// `"multigrid"`: the finest level's nodes located in the coarse level's mesh.
     down: Option<Vec<crate::hierarchy::Transfer>>,
+    /// `"multigrid"`: the coarse level's mesh and its index among the levels.
+    coarse: Option<(crate::mesh::Mesh, usize)>,
     /// Why `"auto"` chose as it did (empty where the solver was asked for).
     why: String,
 }
@@ -288,6 +311,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
     let krylov = Plan {
         solver: StaticSolver::Krylov,
         down: None,
+        coarse: None,
         why: String::new(),
     };
     if asked == StaticSolver::Krylov {
@@ -326,6 +350,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
     let direct = Plan {
         solver: StaticSolver::Direct,
         down: None,
+        coarse: None,
         why: String::new(),
     };
     if asked == StaticSolver::Direct {
@@ -362,6 +387,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
     Ok(Plan {
         solver: StaticSolver::Multigrid,
         down: Some(vec![down]),
+        coarse: meshes.into_iter().nth(c).map(|m| (m, c)),
         why: format!(
             "levels of {} and {} nodes{}",
             nodes[0],
@@ -497,6 +523,7 @@ fn assembled(
     settings: &StaticSolve,
     increments: usize,
     down: Option<&[crate::hierarchy::Transfer]>,
+    coarse: Option<&mut System>,
     sys: &mut System,
     t: f64,
     u: &mut [f64],
@@ -510,11 +537,39 @@ fn assembled(
         }
     }
     let scale = prescribed_force_scale(sys, t, u);
+    let start = match (coarse, down, sys.force.as_fem_mut()) {
+        (Some(c), Some(d), Some(model)) => Some(coarse_start(
+            c,
+            t,
+            increments,
+            &d[0],
+            model,
+            &sys.constraints,
+            u,
+        )),
+        _ => None,
+    };
+    let start_note = match &start {
+        None => String::new(),
+        Some(s) if s.applied => format!(
+            "coarse start: {} Newton iterations on the coarse level ({:.3} s); ",
+            s.coarse.as_ref().map_or(0, |o| o.newton_steps),
+            s.wall_s
+        ),
+        Some(s) => format!(
+            "coarse start not taken: {}; ",
+            s.skipped.as_deref().unwrap_or("")
+        ),
+    };
     let params = DirectNewtonParams {
         rel_tol: settings.rel_tol,
         abs_tol: ABS_TOL + settings.rel_tol * scale,
         max_newton: settings.max_newton.saturating_mul(increments),
-        load_steps: increments,
+        load_steps: if start.as_ref().is_some_and(|s| s.applied) {
+            1
+        } else {
+            increments
+        },
         pcg_max: if down.is_some() { 0 } else { DIRECT_PCG_MAX },
         multigrid: down.map(|_| MultigridPcg::default()),
         ..Default::default()
@@ -554,7 +609,7 @@ fn assembled(
             failure: None,
             detail: if down.is_some() {
                 format!(
-                    "{} CG iterations, {} hierarchies",
+                    "{start_note}{} CG iterations, {} hierarchies",
                     o.cg_iterations, o.multigrid_setups
                 )
             } else {

@@ -1,0 +1,237 @@
+//! Nested iteration (a coarse start): the fine Newton iteration starts from the equilibrium of
+//! a coarser discretisation of the same body, interpolated.
+//!
+//! ```text
+//! R_H(u_H) = V_H            (the coarse level's static problem, its own mesh, constraints, loads)
+//! u_h⁰     = I_H^h u_H      (u_h⁰(θ) = Σ_j ω_θj u_H(j), the host weights of the fine nodes)
+//! ```
+//!
+//! The fine nodes outside the coarse mesh ([`Transfer::outside`]: where the fine surface
+//! bulges out of the coarse one) are not interpolated: their displacement is the discrete
+//! harmonic extension of the inside nodes', [`HARMONIC_SWEEPS`] Jacobi sweeps of
+//! `u_a ← mean of u_b over a's mesh neighbours b`, from the convex interpolation
+//! ([`Transfer::convex`]). Extrapolated weights (2-3 at the liver's surface) and the convex
+//! ones alike move such nodes millimetres away from their neighbours and invert fine
+//! elements (30 of the liver L0's 79 680 from its L2 level). Where the coarse mesh cannot
+//! resolve a boundary layer (a node of the fixed cap between free nodes that the coarse
+//! field moves by millimetres) fine elements still invert (4 on the liver L0); up to
+//! [`REPAIR_ROUNDS`] rounds add their nodes and their neighbours to the extended set, then
+//! up to [`SHRINK_ROUNDS`] rounds halve the displacement of the free nodes of the elements
+//! still inverted (a sliver at the fixed cap whose free corner the extension moves past
+//! the plane of its three held ones).
+//!
+//! `R_H` is the coarse mesh's own discretisation (rediscretised, not Galerkin), so `u_h⁰`
+//! differs from the fine equilibrium by the discretisation error of the coarse mesh: the
+//! large, smooth part of the displacement (a sag under gravity, a drape's shape, the field of
+//! a pull) is in place before the first fine tangent, and the fine iteration has only that
+//! difference left to remove, mostly in Newton's quadratic phase. The coarse problem, with
+//! `1/16` of the nodes or more ([`super::COARSEN`]), is solved by direct Newton with
+//! factorisation reuse ([`COARSE_PCG_MAX`]) to [`COARSE_REL_TOL`], over the caller's load
+//! steps; the fine iteration then takes the full load in one step.
+//!
+//! The constrained fine dofs take their imposed values, and keep them through the harmonic
+//! extension below. The start is not taken (`u` is left as it was) where the coarse solve
+//! fails or does not converge, or where the start inverts a fine element (`det F ≤ 0`).
+
+use super::{solve_system, DirectNewtonParams, DirectStatic};
+use crate::fem::FemModel;
+use crate::hierarchy::Transfer;
+use crate::integrate::{Constraints, System};
+
+/// Relative stopping rule of the coarse solve (of its largest nodal external force).
+pub const COARSE_REL_TOL: f64 = 1e-6;
+
+/// Conjugate-gradient iterations on a kept factorisation before the coarse solve refactors
+/// ([`DirectNewtonParams::pcg_max`]).
+pub const COARSE_PCG_MAX: usize = 20;
+
+/// What [`coarse_start`] did.
+#[derive(Clone, Debug, Default)]
+pub struct CoarseStart {
+    /// The coarse solve's outcome (`None` where it failed before an outcome).
+    pub coarse: Option<DirectStatic>,
+    /// Whether `u` now holds the interpolated coarse equilibrium.
+    pub applied: bool,
+    /// Why not, where not.
+    pub skipped: Option<String>,
+    /// Wall time of the coarse solve and the interpolation (s).
+    pub wall_s: f64,
+}
+
+/// Solve `coarse` at time `t` over `load_steps` load steps from rest, and where that
+/// succeeds write its equilibrium, interpolated at the fine nodes by `fine_in_coarse` (the
+/// fine nodes located in the coarse mesh), into the fine displacement `u`, the values
+/// `fine_constraints` impose at `t` on the constrained dofs (module docs). `fine` checks
+/// that the start inverts no element.
+pub fn coarse_start(
+    coarse: &mut System,
+    t: f64,
+    load_steps: usize,
+    fine_in_coarse: &Transfer,
+    fine: &FemModel,
+    fine_constraints: &Constraints,
+    u: &mut [f64],
+) -> CoarseStart {
+    let clock = std::time::Instant::now();
+    let mut uc = vec![0.0; coarse.mass.len() * 3];
+    let solved = solve_system(
+        coarse,
+        t,
+        &mut uc,
+        DirectNewtonParams {
+            rel_tol: COARSE_REL_TOL,
+            load_steps: load_steps.max(1),
+            pcg_max: COARSE_PCG_MAX,
+            ..Default::default()
+        },
+    );
+    let mut out = CoarseStart::default();
+    match solved {
+        Err(e) => out.skipped = Some(format!("the coarse solve failed: {e}")),
+        Ok(o) => {
+            if !o.converged {
+                out.skipped = Some(format!(
+                    "the coarse solve did not converge ({} Newton iterations, residual {:.3e} N)",
+                    o.newton_steps, o.residual
+                ));
+            } else {
+                let mut start = vec![0.0; u.len()];
+                match fine_in_coarse.convex().interpolate(&uc, 3, &mut start) {
+                    Err(e) => out.skipped = Some(format!("interpolation: {e}")),
+                    Ok(()) => {
+                        let mut v = vec![0.0; u.len()];
+                        fine_constraints.impose(t, &mut start, &mut v);
+                        repair(fine, fine_constraints, &fine_in_coarse.outside, &mut start);
+                        fine_constraints.impose(t, &mut start, &mut v);
+                        let (e, det) = fine.min_det_f(&start);
+                        if det > 0.0 && start.iter().all(|x| x.is_finite()) {
+                            u.copy_from_slice(&start);
+                            out.applied = true;
+                        } else {
+                            out.skipped = Some(format!(
+                                "the interpolated coarse equilibrium inverts fine element {e} (det F = {det:.3e})"
+                            ));
+                        }
+                    }
+                }
+            }
+            out.coarse = Some(o);
+        }
+    }
+    out.wall_s = clock.elapsed().as_secs_f64();
+    out
+}
+
+/// Jacobi sweeps of each harmonic extension.
+pub const HARMONIC_SWEEPS: usize = 30;
+
+/// Rounds of repair of inverted elements by harmonic extension.
+pub const REPAIR_ROUNDS: usize = 4;
+
+/// Rounds of repair of inverted elements by halving their free nodes' displacements.
+pub const SHRINK_ROUNDS: usize = 10;
+
+/// The harmonic extension over the `outside` nodes, then up to [`REPAIR_ROUNDS`] rounds that
+/// add the nodes of the elements still inverted, and their neighbours, to the extended set
+/// (module docs); the nodes `held` constrains keep their values.
+fn repair(fine: &FemModel, held: &Constraints, outside: &[u32], u: &mut [f64]) {
+    let n = u.len() / 3;
+    let graph = node_graph(fine, n);
+    let mut set = vec![false; n];
+    for &a in outside {
+        set[a as usize] = true;
+    }
+    for round in 0..=REPAIR_ROUNDS {
+        if round > 0 {
+            let inverted: Vec<usize> = (0..fine.num_elements())
+                .filter(|&e| fine.element_det_f(e, u) <= 0.0)
+                .collect();
+            if inverted.is_empty() {
+                return;
+            }
+            for e in inverted {
+                for &a in fine.element_nodes(e) {
+                    set[a as usize] = true;
+                    for &b in graph.neighbours(a as usize) {
+                        set[b as usize] = true;
+                    }
+                }
+            }
+        }
+        let nodes: Vec<usize> = (0..n)
+            .filter(|&a| set[a] && !held.is_constrained(a))
+            .collect();
+        harmonic(&graph, &nodes, u);
+    }
+    for _ in 0..SHRINK_ROUNDS {
+        let inverted: Vec<usize> = (0..fine.num_elements())
+            .filter(|&e| fine.element_det_f(e, u) <= 0.0)
+            .collect();
+        if inverted.is_empty() {
+            return;
+        }
+        let mut shrink = vec![false; n];
+        for e in inverted {
+            for &a in fine.element_nodes(e) {
+                shrink[a as usize] = !held.is_constrained(a as usize);
+            }
+        }
+        for (a, _) in shrink.iter().enumerate().filter(|(_, &s)| s) {
+            u[3 * a..3 * a + 3].iter_mut().for_each(|x| *x *= 0.5);
+        }
+    }
+}
+
+/// The mesh graph: each node's neighbours (nodes sharing an element), sorted.
+struct Graph {
+    ptr: Vec<usize>,
+    adj: Vec<u32>,
+}
+
+impl Graph {
+    fn neighbours(&self, a: usize) -> &[u32] {
+        &self.adj[self.ptr[a]..self.ptr[a + 1]]
+    }
+}
+
+fn node_graph(fine: &FemModel, n: usize) -> Graph {
+    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for e in 0..fine.num_elements() {
+        let nodes = fine.element_nodes(e);
+        for &a in nodes {
+            lists[a as usize].extend(nodes.iter().filter(|&&b| b != a));
+        }
+    }
+    let mut ptr = Vec::with_capacity(n + 1);
+    ptr.push(0);
+    let mut adj = Vec::new();
+    for mut l in lists {
+        l.sort_unstable();
+        l.dedup();
+        adj.extend(l);
+        ptr.push(adj.len());
+    }
+    Graph { ptr, adj }
+}
+
+/// [`HARMONIC_SWEEPS`] Jacobi sweeps of `u_a ← mean of u_b over a's neighbours b` over
+/// `nodes`, the others held.
+fn harmonic(graph: &Graph, nodes: &[usize], u: &mut [f64]) {
+    let mut next = vec![[0.0; 3]; nodes.len()];
+    for _ in 0..HARMONIC_SWEEPS {
+        for (m, &a) in next.iter_mut().zip(nodes) {
+            let list = graph.neighbours(a);
+            let mut s = [0.0; 3];
+            for &b in list {
+                for k in 0..3 {
+                    s[k] += u[3 * b as usize + k];
+                }
+            }
+            let c = list.len().max(1) as f64;
+            *m = s.map(|x| x / c);
+        }
+        for (m, &a) in next.iter().zip(nodes) {
+            u[3 * a..3 * a + 3].copy_from_slice(m);
+        }
+    }
+}

@@ -18,7 +18,8 @@
 //! - **adaptive dynamic relaxation** (ADR, [`raisov::integrate::adaptive_relax::adaptive_relax`])
 //!   on the finest mesh alone, with `λ_max` from
 //!   [`raisov::integrate::stability::lambda_max_bound`]; its damping and step are set by its
-//!   own rule (critical damping of the lowest mode estimated every step), no variants;
+//!   own rule (critical damping of the lowest mode estimated every step); variants: from rest,
+//!   or from the coarse start below (the pull then in one increment);
 //! - **Newton-multigrid** (direct Newton's iteration with
 //!   [`raisov::integrate::newton_direct::DirectNewtonParams::multigrid`]): each Newton system
 //!   solved by conjugate gradients preconditioned by a Galerkin V-cycle
@@ -33,7 +34,8 @@
 //! The coarse start ([`raisov::integrate::newton_direct::coarse_start`], nested iteration):
 //! the coarse level of Newton-multigrid, with the scenario's constraints and loads carried to
 //! it, solved by direct Newton over [`Case::load_steps`] load steps, its equilibrium
-//! interpolated to the fine nodes as the fine solve's start (one load step); its time counts.
+//! interpolated to the fine nodes as the fine solve's start (one load step, or for ADR one
+//! increment); its time counts. FAS starts from rest: its coarse levels already correct it.
 //!
 //! All other runs start from rest (`u = 0`). A prescribed displacement (`[[displace]]`, the pulled
 //! liver), imposed at once with the rest of the body at rest, inverts the pulled node's
@@ -53,8 +55,9 @@
 //! reading are not timed; FAS's stepper construction, hierarchy included, is), iterations
 //! (Newton iterations, V-cycles, relaxation steps), force evaluations in finest-level units
 //! (coarse levels weighted by their node count; Newton's energy evaluations are not counted),
-//! the final residual (N), whether the rule was met, the largest nodal displacement and the
-//! largest nodal distance to direct Newton's equilibrium. Equilibria agree when that distance
+//! the final residual (N), whether the rule was met, the largest nodal displacement, the
+//! largest nodal distance to direct Newton's equilibrium, and (in the note) the potential
+//! energy `Π = E(u) − V·u` of the equilibrium reached. Equilibria agree when that distance
 //! is at most [`AGREE_TOL`] × the largest displacement; a row that does not is flagged in the
 //! table, not panicked on.
 //!
@@ -68,7 +71,8 @@
 //! levels) and 100k nodes (7 levels). Quick (`--quick`): the liver L2 (FAS with L3) with and
 //! without the pull, and the drape at 1k nodes on 3 levels. Run only when named
 //! ([`MESHER_CASES`]): the liver meshed from `liver_surface.obj` by the project's mesher at
-//! about 17k and 70k nodes, FAS on generated levels halving down to about 2000 nodes.
+//! about 17k and 70k nodes, FAS on generated levels halving down to about 2000 nodes; the 70k
+//! one runs each solver's variants of [`REDUCED`] only.
 //!
 //! [`summary_markdown`] states, per case, the fastest solver, and how much faster than every
 //! other solver FAS and Newton-multigrid are (the defaults of a `[multigrid]` run to steady
@@ -131,6 +135,16 @@ pub const NEWTON_MG_VARIANTS: [(bool, Smoother, bool); 12] = [
     (false, Smoother::GaussSeidel, true),
     (true, Smoother::GaussSeidel, true),
 ];
+/// Mesher livers of at least this many nodes run the reduced sweep ([`REDUCED`]).
+pub const REDUCED_FROM: usize = 50_000;
+/// The reduced sweep of the largest mesher liver: the variants within 10 % of their solver's
+/// fastest on the 17k mesher liver (`bench/RESULTS.md`: direct Newton without reuse took 3.7
+/// times as long as with it, FAS with 4 and 8 sweeps 1.6 and 1.1 times as long as with 16,
+/// Newton-multigrid keeping the whole hierarchy 1.26-1.56 times as long as keeping the coarse
+/// factor), and each one's coarse start: direct Newton reusing its factorisation, FAS with
+/// 16 sweeps, ADR, Newton-multigrid keeping the coarse factor with each smoother.
+pub const REDUCED: &str =
+    "direct Newton reuse only, FAS 16 sweeps only, Newton-multigrid keeps the coarse factor only";
 /// FAS: V-cycles at most.
 pub const MAX_CYCLES: u64 = 20_000;
 /// ADR: steps at most.
@@ -144,6 +158,8 @@ pub struct Case {
     pub scenario: Scenario,
     /// Direct Newton's and Newton-multigrid's load steps.
     pub load_steps: usize,
+    /// Run only the variants [`REDUCED`] keeps (the largest mesher liver).
+    pub reduced: bool,
 }
 
 /// One solver on one case.
@@ -239,6 +255,7 @@ files = [{files}]
         scenario: Scenario::from_toml(&text, Path::new("equilibrium-liver.toml"))?,
         name,
         load_steps: 1,
+        reduced: false,
     })
 }
 
@@ -268,6 +285,7 @@ files = ['{d}/heart_L1.msh', '{d}/heart_L2.msh', '{d}/heart_L3.msh']
         scenario: Scenario::from_toml(&text, Path::new("equilibrium-heart.toml"))?,
         name: "heart L0".into(),
         load_steps: 1,
+        reduced: false,
     })
 }
 
@@ -302,6 +320,7 @@ levels = {levels}
         scenario: Scenario::from_toml(&text, Path::new("equilibrium-drape.toml"))?,
         name: format!("membrane {label}"),
         load_steps: 1,
+        reduced: false,
     })
 }
 
@@ -341,6 +360,7 @@ ratio = 0.5
         scenario: Scenario::from_toml(&text, Path::new("equilibrium-liver-mesher.toml"))?,
         name: name.into(),
         load_steps: 1,
+        reduced: nodes >= REDUCED_FROM,
     })
 }
 
@@ -403,7 +423,7 @@ fn lifted(o: &DirectStatic) -> &'static str {
     }
 }
 
-/// Direct Newton's coarse start: the coarse level of Newton-multigrid
+/// The coarse start of direct Newton and ADR: the coarse level of Newton-multigrid
 /// ([`newton_mg_levels`]) solved and interpolated into `u`
 /// ([`raisov::integrate::newton_direct::coarse_start`]); `None` where the case has no such
 /// level.
@@ -432,6 +452,12 @@ fn start_from_coarse(
         &sys.constraints,
         u,
     )))
+}
+
+/// `Π(u) = E(u) − V·u` (J): the strain energy less the external forces' work, the
+/// constrained dofs at their imposed values in every state compared.
+fn potential(sys: &raisov::integrate::System, u: &[f64]) -> f64 {
+    sys.force.strain_energy(u) - sys.f_ext.iter().zip(u).map(|(f, x)| f * x).sum::<f64>()
 }
 
 /// What a row's note says of its coarse start.
@@ -690,14 +716,25 @@ fn fas_run(case: &Case, target: f64, smooth: usize, ends: &[[f64; 3]]) -> Result
 }
 
 /// Adaptive dynamic relaxation on the finest mesh.
-fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]]) -> Result<(Row, Vec<f64>)> {
+fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]], nested: bool) -> Result<(Row, Vec<f64>)> {
     let sc = &case.scenario;
-    let stages = if ends.is_empty() { 1 } else { PULL_INCREMENTS };
+    let mut stages = if ends.is_empty() { 1 } else { PULL_INCREMENTS };
     let mut adr = blank_row(case, "ADR", target);
     let mut sys = sc.build_system()?;
     let lmax = lambda_max_bound(&sc.mesh, &sc.material, sc.density);
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
     let t0 = Instant::now();
+    let start = if nested {
+        if !ends.is_empty() {
+            hold(&mut sys.constraints, ends);
+        }
+        start_from_coarse(case, &mut sys, &mut u)?
+    } else {
+        None
+    };
+    if start.as_ref().is_some_and(|s| s.applied) {
+        stages = 1;
+    }
     let mut failure: Option<String> = None;
     for stage in 1..=stages {
         let last = stage == stages;
@@ -736,6 +773,10 @@ fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]]) -> Result<(Row, Vec<f64>
         None if stages > 1 => format!("finest only, pull in {stages} increments"),
         None => "finest only".into(),
     };
+    if let Some(st) = &start {
+        let note = start_note(Some(st));
+        adr.note = format!("{}, {}", adr.note, note.trim_end_matches(", "));
+    }
     Ok((adr, u))
 }
 
@@ -744,13 +785,13 @@ fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]]) -> Result<(Row, Vec<f64>
 fn best_of(mut variants: Vec<(Row, Vec<f64>)>, label: &str) -> (Row, Vec<f64>) {
     let summary: Vec<String> = variants
         .iter()
-        .map(|(r, _)| {
-            format!(
-                "{:.2} s{}",
-                r.wall_s,
-                if r.converged { "" } else { " (not converged)" }
-            )
-        })
+        .map(
+            |(r, _)| match (r.converged, r.note.strip_prefix("failed: ")) {
+                (true, _) => format!("{:.2} s", r.wall_s),
+                (false, Some(why)) => format!("{:.2} s (failed: {why})", r.wall_s),
+                (false, None) => format!("{:.2} s (not converged)", r.wall_s),
+            },
+        )
         .collect();
     let best = variants
         .iter()
@@ -783,43 +824,88 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
             .collect::<Vec<_>>()
             .join(" / ")
     };
+    let reduced = case.reduced;
     emit(&format!("{}: direct Newton ...", case.name));
+    let reuse: Vec<(usize, bool)> = NEWTON_REUSE
+        .into_iter()
+        .filter(|&(m, _)| !reduced || m > 0)
+        .collect();
     let (mut newton, u_newton) = best_of(
-        NEWTON_REUSE
+        reuse
             .iter()
             .map(|&m| newton_run(case, target, m))
             .collect::<Result<_>>()?,
-        &format!("reuse none / {NEWTON_PCG_MAX} CG / {NEWTON_PCG_MAX} CG from the coarse start"),
+        &format!(
+            "reuse {}",
+            reuse
+                .iter()
+                .map(|&(m, nested)| format!(
+                    "{}{}",
+                    if m == 0 {
+                        "none".to_string()
+                    } else {
+                        format!("{m} CG")
+                    },
+                    if nested { " from the coarse start" } else { "" }
+                ))
+                .collect::<Vec<_>>()
+                .join(" / ")
+        ),
     );
     let reference = newton.converged.then_some(u_newton.as_slice());
+    // The potential energy of each equilibrium, to tell which is lower where two differ.
+    let probe = sc.build_system()?;
+    let energy = |r: &mut Row, u: &[f64]| {
+        if r.note.starts_with("failed") || u.is_empty() {
+            return;
+        }
+        r.note += &format!("; Π = {:.9e} J", potential(&probe, u));
+    };
     let compare = |r: &mut Row, u: &[f64]| {
         if r.note.starts_with("failed") || u.is_empty() {
             return;
         }
         r.diff_newton = reference.map(|un| max_nodal_diff(u, un));
+        energy(r, u);
     };
     if reference.is_some() {
         newton.diff_newton = Some(0.0);
     }
+    energy(&mut newton, &u_newton);
     emit(&format!("{}: FAS ...", case.name));
+    let sweeps: Vec<usize> = FAS_SWEEPS
+        .into_iter()
+        .filter(|&k| !reduced || k == 16)
+        .collect();
     let (mut fas, u_fas) = best_of(
-        FAS_SWEEPS
+        sweeps
             .iter()
             .map(|&k| fas_run(case, target, k, &ends))
             .collect::<Result<_>>()?,
-        &format!("sweeps {}", list(&FAS_SWEEPS)),
+        &format!("sweeps {}", list(&sweeps)),
     );
     compare(&mut fas, &u_fas);
     emit(&format!("{}: ADR ...", case.name));
-    let (mut adr, u_adr) = adr_run(case, target, &ends)?;
+    let (mut adr, u_adr) = best_of(
+        [false, true]
+            .into_iter()
+            .map(|nested| adr_run(case, target, &ends, nested))
+            .collect::<Result<_>>()?,
+        "from rest / from the coarse start",
+    );
     compare(&mut adr, &u_adr);
     emit(&format!("{}: Newton-multigrid ...", case.name));
     let (mut nmg, u_nmg) = best_of(
         NEWTON_MG_VARIANTS
             .iter()
+            .filter(|v| !reduced || !v.0)
             .map(|&v| newton_mg_run(case, target, v))
             .collect::<Result<_>>()?,
-        "keeps the coarse factor / all with coloured block Gauss-Seidel, then block Jacobi, then point Gauss-Seidel; the same six from the coarse start",
+        if reduced {
+            "keeps the coarse factor with coloured block Gauss-Seidel, block Jacobi, point Gauss-Seidel; the same three from the coarse start"
+        } else {
+            "keeps the coarse factor / all with coloured block Gauss-Seidel, then block Jacobi, then point Gauss-Seidel; the same six from the coarse start"
+        },
     );
     compare(&mut nmg, &u_nmg);
     Ok(vec![newton, fas, adr, nmg])

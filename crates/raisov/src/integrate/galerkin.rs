@@ -347,6 +347,18 @@ impl Prolongations {
     }
 }
 
+/// Why a Galerkin hierarchy could not be set up.
+#[derive(Debug, thiserror::Error)]
+pub enum GalerkinError {
+    /// The coarsest level's Cholesky factor would not fit in the available memory
+    /// ([`crate::memory`]); the message names both sizes.
+    #[error("{0}")]
+    Memory(String),
+    /// The coarsest operator does not factor, even shifted.
+    #[error("{0}")]
+    Factor(String),
+}
+
 /// A Galerkin V-cycle for one matrix (module docs), its coarsest level factored.
 pub struct GalerkinMultigrid {
     /// `A_l`, finest first.
@@ -383,15 +395,17 @@ impl GalerkinMultigrid {
     /// The Galerkin operators of `a0` over `p`'s levels and the coarsest one's factorisation;
     /// `sweeps` sweeps of `smoother` before and after each coarse correction. `symbolic`, the
     /// coarsest level's symbolic factorisation from an earlier call on the same hierarchy and
-    /// pattern, is reused where given and filled in where not. Errors where the coarsest
-    /// operator does not factor even shifted by 10⁶ times its mean diagonal.
+    /// pattern, is reused where given and filled in where not, after checking that the
+    /// factor fits in the available memory ([`GalerkinError::Memory`]). Errors where the
+    /// coarsest operator does not factor even shifted by 10⁶ times its mean diagonal
+    /// ([`GalerkinError::Factor`]).
     pub fn new(
         a0: Csr,
         p: Arc<Prolongations>,
         sweeps: usize,
         smoother: Smoother,
         symbolic: &mut Option<SymbolicLlt<usize>>,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, GalerkinError> {
         let a = operators(a0, &p);
         let coarse = factor(a.last().unwrap(), symbolic)?;
         let colourings = match smoother {
@@ -576,7 +590,10 @@ fn unit_empty_diagonal(c: &mut Csr) {
 
 /// Sparse Cholesky of `a` (its lower triangle), shifting the diagonal by `σ d̄` (`d̄` the mean
 /// diagonal; σ = 0, 10⁻¹⁰, 10⁻⁹, …) until it factors; the factor and σ.
-fn factor(a: &Csr, symbolic: &mut Option<SymbolicLlt<usize>>) -> Result<CoarseFactor, String> {
+fn factor(
+    a: &Csr,
+    symbolic: &mut Option<SymbolicLlt<usize>>,
+) -> Result<CoarseFactor, GalerkinError> {
     let n = a.rows;
     let diag = a.diagonal();
     let dbar = diag.iter().map(|d| d.abs()).sum::<f64>() / n.max(1) as f64;
@@ -591,7 +608,9 @@ fn factor(a: &Csr, symbolic: &mut Option<SymbolicLlt<usize>>) -> Result<CoarseFa
         let (c, v) = a.row(j);
         let start = c.partition_point(|&k| (k as usize) < j);
         if c.get(start) != Some(&(j as u32)) {
-            return Err("the coarsest Galerkin operator lacks a diagonal entry".into());
+            return Err(GalerkinError::Factor(
+                "the coarsest Galerkin operator lacks a diagonal entry".into(),
+            ));
         }
         diag_at.push(vals.len());
         row_idx.extend(c[start..].iter().map(|&k| k as usize));
@@ -600,9 +619,25 @@ fn factor(a: &Csr, symbolic: &mut Option<SymbolicLlt<usize>>) -> Result<CoarseFa
     }
     let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
     if symbolic.is_none() {
-        *symbolic = Some(
-            SymbolicLlt::try_new(pattern.as_ref(), Side::Lower).map_err(|e| format!("{e:?}"))?,
-        );
+        let fail = |e| GalerkinError::Factor(format!("{e:?}"));
+        // The factor's values, and as much again for the numeric factorisation's workspace.
+        let counted = faer::sparse::linalg::cholesky::factorize_symbolic_cholesky(
+            pattern.as_ref(),
+            Side::Lower,
+            Default::default(),
+            Default::default(),
+        )
+        .map_err(fail)?;
+        crate::memory::check(
+            &format!(
+                "the coarsest Galerkin level's Cholesky factor ({n} dofs, {} nonzeros)",
+                counted.len_val()
+            ),
+            16 * counted.len_val() as u64,
+        )
+        .map_err(GalerkinError::Memory)?;
+        drop(counted);
+        *symbolic = Some(SymbolicLlt::try_new(pattern.as_ref(), Side::Lower).map_err(fail)?);
     }
     let symbolic = symbolic.as_ref().unwrap();
     let mut sigma = 0.0f64;
@@ -616,9 +651,9 @@ fn factor(a: &Csr, symbolic: &mut Option<SymbolicLlt<usize>>) -> Result<CoarseFa
             Ok(llt) => return Ok(CoarseFactor { llt, shift: sigma }),
             Err(e) => {
                 if sigma >= 1e6 {
-                    return Err(format!(
+                    return Err(GalerkinError::Factor(format!(
                         "the coarsest Galerkin operator does not factor: {e:?}"
-                    ));
+                    )));
                 }
                 sigma = if sigma == 0.0 { 1e-10 } else { 10.0 * sigma };
             }

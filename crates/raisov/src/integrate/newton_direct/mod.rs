@@ -81,7 +81,7 @@ mod nested;
 
 pub use nested::{coarse_start, CoarseStart, COARSE_PCG_MAX, COARSE_REL_TOL};
 
-use super::galerkin::{Csr, GalerkinMultigrid, Prolongations, SymScatter};
+use super::galerkin::{Csr, GalerkinError, GalerkinMultigrid, Prolongations, SymScatter};
 pub use super::smoother::Smoother;
 use super::{Constraints, System};
 use crate::fem::{ElementFailure, FemModel, ForceModel};
@@ -703,14 +703,19 @@ impl DirectNewton {
                                 let mut a = scatter.pattern.clone();
                                 full(&mut a);
                                 out.multigrid_setups += 1;
-                                self.mg = GalerkinMultigrid::new(
+                                self.mg = match GalerkinMultigrid::new(
                                     a,
                                     self.prolongations.clone(),
                                     mgp.sweeps,
                                     mgp.smoother,
                                     &mut self.coarse_symbolic,
-                                )
-                                .ok();
+                                ) {
+                                    Ok(mg) => Some(mg),
+                                    Err(GalerkinError::Memory(m)) => {
+                                        return Err(DirectNewtonError::Memory(m))
+                                    }
+                                    Err(GalerkinError::Factor(_)) => None,
+                                };
                             }
                         }
                         let end = match &self.mg {

@@ -132,7 +132,8 @@ pub const REPAIR_ROUNDS: usize = 4;
 pub const SHRINK_ROUNDS: usize = 10;
 
 /// The harmonic extension over the `outside` nodes, then up to [`REPAIR_ROUNDS`] rounds that
-/// add the nodes of the elements still inverted, and their neighbours, to the extended set
+/// add the nodes of the elements still inverted, and their neighbours, to the extended set,
+/// then up to [`SHRINK_ROUNDS`] halvings of the free nodes of the elements still inverted
 /// (module docs); the nodes `held` constrains keep their values.
 fn repair(fine: &FemModel, held: &Constraints, outside: &[u32], u: &mut [f64]) {
     let n = u.len() / 3;

@@ -462,18 +462,7 @@ fn potential(sys: &raisov::integrate::System, u: &[f64]) -> f64 {
 
 /// What a row's note says of its coarse start.
 fn start_note(start: Option<&CoarseStart>) -> String {
-    match start {
-        None => String::new(),
-        Some(s) if s.applied => format!(
-            "coarse start ({} Newton iterations, {:.2} s), ",
-            s.coarse.as_ref().map_or(0, |o| o.newton_steps),
-            s.wall_s
-        ),
-        Some(s) => format!(
-            "coarse start not taken ({}), ",
-            s.skipped.as_deref().unwrap_or("?")
-        ),
-    }
+    start.map_or(String::new(), |s| format!("{}, ", s.describe()))
 }
 
 /// A Newton row's figures from its outcome and equilibrium `u`.

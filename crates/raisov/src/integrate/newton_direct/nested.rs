@@ -58,6 +58,25 @@ pub struct CoarseStart {
     pub wall_s: f64,
 }
 
+impl CoarseStart {
+    /// One line for a summary: the coarse solve's Newton iterations and wall time, or why the
+    /// start was not taken.
+    pub fn describe(&self) -> String {
+        if self.applied {
+            format!(
+                "coarse start: {} Newton iterations on the coarse level ({:.3} s)",
+                self.coarse.as_ref().map_or(0, |o| o.newton_steps),
+                self.wall_s
+            )
+        } else {
+            format!(
+                "coarse start not taken: {}",
+                self.skipped.as_deref().unwrap_or("")
+            )
+        }
+    }
+}
+
 /// Solve `coarse` at time `t` over `load_steps` load steps from rest, and where that
 /// succeeds write its equilibrium, interpolated at the fine nodes by `fine_in_coarse` (the
 /// fine nodes located in the coarse mesh), into the fine displacement `u`, the values

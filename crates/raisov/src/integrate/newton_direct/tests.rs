@@ -60,6 +60,16 @@ duration = 1.0
     Scenario::from_toml(&text, Path::new("drape-newton.toml")).unwrap()
 }
 
+/// The largest displacement of `reference` and the largest difference of `u` from it.
+fn max_diff(reference: &[f64], u: &[f64]) -> (f64, f64) {
+    let scale = reference.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    let err = reference
+        .iter()
+        .zip(u)
+        .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+    (scale, err)
+}
+
 fn newton(sc: &Scenario, params: DirectNewtonParams) -> (Vec<f64>, DirectStatic) {
     let mut sys = sc.build_system().unwrap();
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
@@ -232,11 +242,7 @@ fn factorisation_reuse_reaches_the_same_equilibrium_with_fewer_factorisations() 
             out_reuse.factorizations,
             out_reuse.newton_steps
         );
-        let scale = u_plain.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        let err = u_plain
-            .iter()
-            .zip(&u_reuse)
-            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+        let (scale, err) = max_diff(&u_plain, &u_reuse);
         assert!(err <= 1e-8 * scale, "{name}: {err:e} of {scale:e}");
     }
 }
@@ -311,11 +317,7 @@ fn multigrid_preconditioned_newton_reaches_the_direct_equilibrium() {
                 "{name}: the fine level was factored"
             );
             assert!(out_mg.cg_iterations > 0);
-            let scale = u_plain.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-            let err = u_plain
-                .iter()
-                .zip(&u_mg)
-                .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+            let (scale, err) = max_diff(&u_plain, &u_mg);
             assert!(
                 err <= 1e-8 * scale,
                 "{name}, keep {keep}, {smoother:?}: {err:e} of {scale:e}"
@@ -444,11 +446,7 @@ fn coarse_start_reaches_the_same_equilibrium_in_fewer_fine_iterations() {
             warm.newton_steps,
             cold.newton_steps
         );
-        let scale = u_cold.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        let err = u_cold
-            .iter()
-            .zip(&u_warm)
-            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+        let (scale, err) = max_diff(&u_cold, &u_warm);
         assert!(err <= 1e-8 * scale, "{name}: {err:e} of {scale:e}");
     }
 }

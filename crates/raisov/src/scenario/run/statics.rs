@@ -549,18 +549,9 @@ fn assembled(
         )),
         _ => None,
     };
-    let start_note = match &start {
-        None => String::new(),
-        Some(s) if s.applied => format!(
-            "coarse start: {} Newton iterations on the coarse level ({:.3} s); ",
-            s.coarse.as_ref().map_or(0, |o| o.newton_steps),
-            s.wall_s
-        ),
-        Some(s) => format!(
-            "coarse start not taken: {}; ",
-            s.skipped.as_deref().unwrap_or("")
-        ),
-    };
+    let start_note = start
+        .as_ref()
+        .map_or(String::new(), |s| format!("{}; ", s.describe()));
     let params = DirectNewtonParams {
         rel_tol: settings.rel_tol,
         abs_tol: ABS_TOL + settings.rel_tol * scale,

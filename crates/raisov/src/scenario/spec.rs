@@ -151,8 +151,9 @@
 //!                                 # fine iteration from the coarse level's equilibrium,
 //!                                 # interpolated (nested iteration; the coarse level solved by
 //!                                 # direct Newton over `increments`, the fine in one), default
-//!                                 # true for membranes (a drape from flat: 3x faster), false
-//!                                 # for tetrahedra (the liver: no faster), see
+//!                                 # true for membranes (the 100k drape from flat about 3x
+//!                                 # faster), false for tetrahedra (the liver no faster; both
+//!                                 # by `raisov bench equilibrium`), see
 //!                                 # integrate::newton_direct::coarse_start
 //! dt = 1e-4                       # s; default: safety × estimated critical step
 //!                                 # (crate::integrate::stability)

@@ -490,11 +490,7 @@ fn newton_run(
     } else {
         None
     };
-    let load_steps = if start.as_ref().is_some_and(|s| s.applied) {
-        1
-    } else {
-        case.load_steps
-    };
+    let load_steps = CoarseStart::fine_load_steps(start.as_ref(), case.load_steps);
     let out = solve_system(
         &mut sys,
         0.0,
@@ -584,11 +580,7 @@ fn newton_mg_run(
     } else {
         None
     };
-    let load_steps = if start.as_ref().is_some_and(|s| s.applied) {
-        1
-    } else {
-        case.load_steps
-    };
+    let load_steps = CoarseStart::fine_load_steps(start.as_ref(), case.load_steps);
     let out = DirectNewton::with_levels(model, &sys.constraints, &down).and_then(|mut s| {
         s.solve(
             model,
@@ -721,9 +713,7 @@ fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]], nested: bool) -> Result<
     } else {
         None
     };
-    if start.as_ref().is_some_and(|s| s.applied) {
-        stages = 1;
-    }
+    stages = CoarseStart::fine_load_steps(start.as_ref(), stages);
     let mut failure: Option<String> = None;
     for stage in 1..=stages {
         let last = stage == stages;
@@ -763,8 +753,7 @@ fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]], nested: bool) -> Result<
         None => "finest only".into(),
     };
     if let Some(st) = &start {
-        let note = start_note(Some(st));
-        adr.note = format!("{}, {}", adr.note, note.trim_end_matches(", "));
+        adr.note = format!("{}, {}", adr.note, st.describe());
     }
     Ok((adr, u))
 }

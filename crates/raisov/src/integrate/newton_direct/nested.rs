@@ -59,6 +59,16 @@ pub struct CoarseStart {
 }
 
 impl CoarseStart {
+    /// The fine solve's load steps: one after a start that was taken (the coarse solve
+    /// applied the `requested` ones), else `requested`.
+    pub fn fine_load_steps(start: Option<&CoarseStart>, requested: usize) -> usize {
+        if start.is_some_and(|s| s.applied) {
+            1
+        } else {
+            requested
+        }
+    }
+
     /// One line for a summary: the coarse solve's Newton iterations and wall time, or why the
     /// start was not taken.
     pub fn describe(&self) -> String {

@@ -60,6 +60,21 @@ duration = 1.0
     Scenario::from_toml(&text, Path::new("drape-newton.toml")).unwrap()
 }
 
+/// The beam (FAS over 3 levels, two load steps) and the drape (FAS over `drape_levels`
+/// levels, one load step): name, scenario, load steps.
+fn beam_and_drape(drape_levels: usize) -> [(&'static str, Scenario, usize); 2] {
+    [
+        ("beam", beam("[multigrid]\nscheme = \"fas\"\nlevels = 3"), 2),
+        (
+            "membrane",
+            drape(&format!(
+                "[multigrid]\nscheme = \"fas\"\nlevels = {drape_levels}"
+            )),
+            1,
+        ),
+    ]
+}
+
 /// The largest displacement of `reference` and the largest difference of `u` from it.
 fn max_diff(reference: &[f64], u: &[f64]) -> (f64, f64) {
     let scale = reference.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
@@ -254,14 +269,7 @@ fn factorisation_reuse_reaches_the_same_equilibrium_with_fewer_factorisations() 
 /// without factoring the finest level.
 #[test]
 fn multigrid_preconditioned_newton_reaches_the_direct_equilibrium() {
-    let cases = [
-        ("beam", beam("[multigrid]\nscheme = \"fas\"\nlevels = 3"), 2),
-        (
-            "membrane",
-            drape("[multigrid]\nscheme = \"fas\"\nlevels = 3"),
-            1,
-        ),
-    ];
+    let cases = beam_and_drape(3);
     for (name, sc, steps) in cases {
         let plain = DirectNewtonParams {
             load_steps: steps,
@@ -328,14 +336,7 @@ fn multigrid_preconditioned_newton_reaches_the_direct_equilibrium() {
 
 #[test]
 fn direct_newton_and_fas_agree() {
-    let cases = [
-        ("beam", beam("[multigrid]\nscheme = \"fas\"\nlevels = 3"), 2),
-        (
-            "membrane",
-            drape("[multigrid]\nscheme = \"fas\"\nlevels = 4"),
-            1,
-        ),
-    ];
+    let cases = beam_and_drape(4);
     for (name, sc, steps) in cases {
         let params = DirectNewtonParams {
             rel_tol: 1e-12,
@@ -373,14 +374,7 @@ fn direct_newton_and_fas_agree() {
 /// beam over two load steps 29 and 7; membrane from flat 12 and 7.
 #[test]
 fn coarse_start_reaches_the_same_equilibrium_in_fewer_fine_iterations() {
-    let cases = [
-        ("beam", beam("[multigrid]\nscheme = \"fas\"\nlevels = 3"), 2),
-        (
-            "membrane",
-            drape("[multigrid]\nscheme = \"fas\"\nlevels = 3"),
-            1,
-        ),
-    ];
+    let cases = beam_and_drape(3);
     for (name, sc, steps) in cases {
         let meshes = sc.level_meshes().unwrap();
         let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();

@@ -36,8 +36,8 @@
 use super::{write_balance, write_nodal_stress, Frames, RunOptions};
 use crate::error::{Error, Result};
 use crate::integrate::newton_direct::{
-    axis_of, coarse_level, coarse_start, DirectNewton, DirectNewtonError, DirectNewtonParams,
-    DirectStatic, MultigridPcg,
+    axis_of, coarse_level, coarse_start, CoarseStart, DirectNewton, DirectNewtonError,
+    DirectNewtonParams, DirectStatic, MultigridPcg,
 };
 use crate::integrate::statics::Static;
 use crate::integrate::{Stepper, System};
@@ -556,11 +556,7 @@ fn assembled(
         rel_tol: settings.rel_tol,
         abs_tol: ABS_TOL + settings.rel_tol * scale,
         max_newton: settings.max_newton.saturating_mul(increments),
-        load_steps: if start.as_ref().is_some_and(|s| s.applied) {
-            1
-        } else {
-            increments
-        },
+        load_steps: CoarseStart::fine_load_steps(start.as_ref(), increments),
         pcg_max: if down.is_some() { 0 } else { DIRECT_PCG_MAX },
         multigrid: down.map(|_| MultigridPcg::default()),
         ..Default::default()

@@ -426,6 +426,27 @@ impl Transfer {
         t
     }
 
+    /// The same hosts, eq. 7's extrapolated weights kept where they leave `[0, 1]` by at most
+    /// `limit` (linear fields reproduced there too) and made convex ([`Transfer::convex`])
+    /// at the points beyond it, far outside their host.
+    pub fn limited(&self, limit: f64) -> Transfer {
+        let convex = self.convex();
+        let mut t = self.clone();
+        let mut max_extrapolation: f64 = 0.0;
+        for (w, c) in t.weights.iter_mut().zip(&convex.weights) {
+            let reach = w[..t.npe]
+                .iter()
+                .fold(0.0f64, |m, &x| m.max(-x).max(x - 1.0));
+            if reach > limit {
+                *w = *c;
+            } else {
+                max_extrapolation = max_extrapolation.max(reach);
+            }
+        }
+        t.max_extrapolation = max_extrapolation;
+        t
+    }
+
     /// Number of points.
     pub fn len(&self) -> usize {
         self.host.len()

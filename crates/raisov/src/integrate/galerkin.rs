@@ -10,8 +10,14 @@
 //! ```
 //!
 //! `P_l` interpolates the coarser level's nodal 3-vectors to the finer level's dofs with the
-//! host weights `ω` of paper eq. 6 ([`crate::hierarchy::Transfer`], made convex by
-//! [`crate::hierarchy::Transfer::convex`]), component by component; on level 0 only the free
+//! host weights `ω` of paper eq. 6 ([`crate::hierarchy::Transfer`]), component by component.
+//! A fine node outside the coarse mesh (a quarter of the liver L0's, at its surface) keeps the
+//! extrapolated weights of eq. 7, so `P_l` reproduces every linear field, linearised rigid
+//! motions included, at every fine node: the coarse space then holds the soft, near-rigid
+//! modes of a body hanging from a small support, which are what the smoother cannot reduce.
+//! Convex weights reproduce only constants there, and conjugate gradients need more
+//! iterations (`bench/RESULTS.md`). Only a node whose weights leave `[0, 1]` by more than
+//! [`EXTRAPOLATION_LIMIT`] takes convex ones ([`crate::hierarchy::Transfer::limited`]). On level 0 only the free
 //! dofs are rows, so the coarse operators carry the fine level's Dirichlet conditions and need
 //! none of their own. A coarse dof every fine row of which is fixed has an empty row; it gets a
 //! unit diagonal. Unlike a rediscretised coarse level, `A_{l+1}` is exactly the fine energy
@@ -39,6 +45,10 @@ use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::Side;
 use rayon::prelude::*;
 use std::sync::Arc;
+
+/// How far outside `[0, 1]` a fine node's host weights may reach and still be used as they
+/// are (module docs); the liver levels' reach 2-3.
+pub const EXTRAPOLATION_LIMIT: f64 = 4.0;
 
 /// Rows per parallel block of the products.
 const ROW_BLOCK: usize = 512;
@@ -323,14 +333,15 @@ pub struct Prolongations {
 }
 
 impl Prolongations {
-    /// From the transfers `down[l]` (level l's nodes in level l + 1's mesh, made convex here),
+    /// From the transfers `down[l]` (level l's nodes in level l + 1's mesh, limited here to
+    /// [`EXTRAPOLATION_LIMIT`]),
     /// level 0's rows being its free dofs `free_dofs` (`3 node + component`, ascending).
     pub fn new(down: &[Transfer], free_dofs: &[usize]) -> Prolongations {
         let mut levels = Vec::with_capacity(down.len());
         let mut all = Vec::with_capacity(down.len());
         let mut dofs = free_dofs.to_vec();
         for t in down {
-            let p = prolongation(&t.convex(), &dofs);
+            let p = prolongation(&t.limited(EXTRAPOLATION_LIMIT), &dofs);
             let pt = p.transpose();
             all.push(std::mem::replace(
                 &mut dofs,
@@ -873,5 +884,62 @@ mod tests {
                 "{smoother:?}: error {e0} -> {e5} in 5 cycles"
             );
         }
+    }
+
+    /// The interpolation reproduces a linear field at every fine node of the liver L1 in the
+    /// liver L3 (independent meshes; about a quarter of L1's nodes lie outside L3), to
+    /// round-off, so linearised rigid motions are in the coarse space. With convex weights it
+    /// does not: outside nodes err by a sizeable fraction of the field's range.
+    #[test]
+    fn interpolation_reproduces_linear_fields_outside_the_coarse_mesh() {
+        let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data"));
+        let fine = crate::io::gmsh::read_msh(&dir.join("liver_L1.msh"))
+            .unwrap()
+            .mesh;
+        let coarse = crate::io::gmsh::read_msh(&dir.join("liver_L3.msh"))
+            .unwrap()
+            .mesh;
+        let t = Transfer::build(&fine.nodes, &coarse).unwrap();
+        let outside = t
+            .weights
+            .iter()
+            .filter(|w| w[..t.npe].iter().any(|&x| x < -1e-9))
+            .count();
+        assert!(outside * 10 > fine.nodes.len(), "{outside} nodes outside");
+        assert_eq!(t.limited(EXTRAPOLATION_LIMIT).weights, t.weights);
+        let field = |x: &[f64; 3]| {
+            [
+                0.3 * x[0] - 0.2 * x[1] + 0.5 * x[2] + 1.0,
+                -0.4 * x[0] + 0.1 * x[1] + 0.7 * x[2] - 2.0,
+                0.2 * x[0] + 0.6 * x[1] - 0.3 * x[2] + 0.5,
+            ]
+        };
+        let uc: Vec<f64> = coarse.nodes.iter().flat_map(field).collect();
+        let exact: Vec<f64> = fine.nodes.iter().flat_map(field).collect();
+        let range = exact.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let all: Vec<usize> = (0..3 * fine.nodes.len()).collect();
+        let error = |p: &Prolongations| {
+            let mut uf = vec![0.0; all.len()];
+            p.levels[0].0.matvec(&uc, &mut uf);
+            uf.iter()
+                .zip(&exact)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+                / range
+        };
+        let limited = error(&Prolongations::new(std::slice::from_ref(&t), &all));
+        assert!(
+            limited < 1e-12,
+            "limited weights: relative error {limited:.3e}"
+        );
+        let convex = Prolongations {
+            levels: vec![{
+                let p = prolongation(&t.convex(), &all);
+                let pt = p.transpose();
+                (p, pt)
+            }],
+            dofs: vec![all.clone()],
+        };
+        let convex = error(&convex);
+        assert!(convex > 1e-3, "convex weights: relative error {convex:.3e}");
     }
 }

@@ -37,6 +37,13 @@
 //!   norm `‖r(u + αδ)‖₂`, which must fall. The residual norm alone is a poor merit function on
 //!   large rotations: a linearised rotation shows up as spurious axial forces, and a soft
 //!   cantilever's sag stalled under it. An inverted element counts as no decrease.
+//! - Curvature condition: a step that passes Armijo's rule is also checked against the
+//!   upper half of the strong Wolfe condition, `Π'(α) ≤ c₂ |Π'(0)|` with `c₂ = 0.9` and
+//!   `Π'(α) = −r(u + αδ)·δ` (the residual is evaluated there anyway). A step that fails it has
+//!   gone past the minimum of Π along δ and up its far side (the linearised response of a
+//!   hanging body from rest swings it through its equilibrium, into states whose tangent is
+//!   indefinite); it is replaced by the secant estimate of that minimum,
+//!   `α ← α |Π'(0)| / (|Π'(0)| + Π'(α))` (at least α/10), at most twice per line search.
 //!
 //! Factorisation reuse ([`DirectNewtonParams::pcg_max`] = m > 0, inexact Newton): once a
 //! factorisation `L Lᵀ` of some earlier `K + σ d̄ D` is kept, each Newton system is solved by
@@ -91,6 +98,13 @@ use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::Side;
 use std::sync::Arc;
+
+/// The line search's curvature condition: a step accepted by Armijo's rule whose slope
+/// `Π'(α)` exceeds `CURVATURE × |Π'(0)|` is past the minimum along δ (module docs).
+const CURVATURE: f64 = 0.9;
+
+/// Secant steps back at most per line search (module docs).
+const SECANT_STEPS: usize = 2;
 
 /// Newton-multigrid's coarse level has at least 1/`COARSEN` of the finest level's nodes
 /// ([`coarse_level`]).
@@ -481,6 +495,17 @@ impl DirectNewton {
         }
     }
 
+    /// `Σ_i x[i] y[f(i)]` over the free dofs i, `x` in all dofs' layout, `y` over the free
+    /// ones (free-index order).
+    fn dot_free(&self, x: &[f64], y: &[f64]) -> f64 {
+        self.free
+            .iter()
+            .enumerate()
+            .filter(|(_, &f)| f != usize::MAX)
+            .map(|(i, &f)| x[i] * y[f])
+            .sum()
+    }
+
     /// `out[f] = x[i]` for every free dof i with free index f.
     fn gather_free(&self, x: &[f64], out: &mut [f64]) {
         for (i, &f) in self.free.iter().enumerate() {
@@ -839,17 +864,12 @@ impl DirectNewton {
                     continue;
                 }
                 // Backtracking line search on Π, on the residual norm where Π is flat.
-                let slope: f64 = self
-                    .free
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, &f)| f != usize::MAX)
-                    .map(|(i, &f)| r[i] * rhs[f])
-                    .sum();
+                let slope = self.dot_free(&r, &rhs);
                 let pi0 = potential(model, u, s, f_ext);
                 out.energy_evaluations += 1;
                 let mut alpha = 1.0;
                 let mut accepted = false;
+                let mut secants = SECANT_STEPS;
                 for _ in 0..=12 {
                     self.step_to(u, alpha, &rhs, &mut trial);
                     let pi = potential(model, &trial, s, f_ext);
@@ -862,6 +882,16 @@ impl DirectNewton {
                     }
                     out.force_evaluations += 1;
                     if let Ok((tn, tm)) = residual(model, &trial, s, &mut r, &mut fint) {
+                        if armijo && secants > 0 {
+                            // Π'(α) = −r(u + αδ)·δ: past the minimum along δ and still
+                            // climbing steeply, step back to the secant's estimate of it.
+                            let climb = -self.dot_free(&r, &rhs);
+                            if climb > CURVATURE * slope {
+                                secants -= 1;
+                                alpha = (alpha * slope / (slope + climb)).max(0.1 * alpha);
+                                continue;
+                            }
+                        }
                         if armijo || tn < norm {
                             u.copy_from_slice(&trial);
                             norm = tn;

@@ -721,6 +721,8 @@ fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>, only: Vec<String>
     for c in cases.iter().filter(|c| c.scenario.prescribed.is_empty()) {
         eprintln!("{}: FAS frames ...", c.name);
         frames.extend(equilibrium::frame_budgets(c, &[1, 4])?);
+        eprintln!("{}: Newton-multigrid frames ...", c.name);
+        frames.extend(equilibrium::newton_frame_budgets(c, &[1, 2])?);
     }
     println!("{}", equilibrium::frames_to_markdown(&frames));
     if equilibrium::all_ok(&rows) {

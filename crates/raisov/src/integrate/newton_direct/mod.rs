@@ -71,7 +71,9 @@
 //! [`MultigridPcg::max_iter`] iterations is taken as it is (truncated Newton: a descent
 //! direction while the curvature seen is positive), and a first direction of non-positive
 //! curvature, or a coarsest operator that does not factor, raises σ as a failed factorisation
-//! does. With coarser levels the fine level is never factored.
+//! does, and at least to twice the shift at which that direction p's curvature would vanish,
+//! `σ* = σ − pᵀ(K + σ d̄ D)p / (d̄ pᵀDp)` (each new σ costs a hierarchy). With coarser levels
+//! the fine level is never factored.
 //!
 //! Stopping rule (that of `raisov bench equilibrium`, at the full load):
 //! `max_a |r_a| ≤ rel_tol × max_a |V_a| + abs_tol`, `r_a` the residual force of free node a,
@@ -82,7 +84,10 @@
 //! discretisation, interpolated (module `nested` in the source).
 //!
 //! Entry points: [`solve_system`] on a [`System`] whose force model is a
-//! [`crate::fem::FemModel`], or [`DirectNewton`] for repeated solves.
+//! [`crate::fem::FemModel`], or [`DirectNewton`] for repeated solves: each solve starts from
+//! the last one's kept factorisation or hierarchy and its last σ, so a frame loop that runs a
+//! few Newton iterations per frame (`max_newton`) carries the regularisation a flat
+//! membrane's first tangent needs from one frame to the next.
 
 mod nested;
 
@@ -271,6 +276,8 @@ pub struct DirectNewton {
     /// Where the lower triangle's values land in the full rows of the hierarchy's finest
     /// operator, made at the first multigrid-preconditioned solve.
     scatter: Option<SymScatter>,
+    /// The regularisation σ the last solve ended with, the next one's start.
+    sigma: f64,
 }
 
 impl DirectNewton {
@@ -389,6 +396,7 @@ impl DirectNewton {
             coarse_symbolic: None,
             mg: None,
             scatter: None,
+            sigma: 0.0,
         })
     }
 
@@ -586,7 +594,8 @@ impl DirectNewton {
     }
 
     /// Solve `R(u) = V` for `u` in place: `u`'s constrained dofs are driven to the values
-    /// `constraints` impose at time `t` (over the load steps), the free ones start from `u`.
+    /// `constraints` impose at time `t` (over the load steps), the free ones start from `u`;
+    /// the regularisation σ starts where the last solve left it (module docs).
     pub fn solve(
         &mut self,
         model: &mut FemModel,
@@ -614,7 +623,7 @@ impl DirectNewton {
         let mut fint = vec![0.0; n];
         let mut trial = vec![0.0; n];
         let mut rhs = vec![0.0; self.nfree];
-        let mut sigma = 0.0f64;
+        let mut sigma = self.sigma;
         let mut prev_norm: Option<f64> = None;
         let mut eta_prev = 0.5f64;
         // Residual on the free dofs at load factor s; returns (2-norm, largest nodal norm).
@@ -752,7 +761,7 @@ impl DirectNewton {
                                 eta * bnorm,
                                 mgp.max_iter,
                             ),
-                            None => PcgEnd::Breakdown,
+                            None => PcgEnd::Breakdown(None),
                         };
                         match end {
                             PcgEnd::Converged(it) | PcgEnd::Truncated(it) => {
@@ -763,7 +772,7 @@ impl DirectNewton {
                                 out.cg_iterations += mgp.max_iter;
                                 solved = true;
                             }
-                            PcgEnd::MaxIter | PcgEnd::Breakdown if reused => {
+                            PcgEnd::MaxIter | PcgEnd::Breakdown(_) if reused => {
                                 // Rebuild the hierarchy at the current state, same σ.
                                 if end == PcgEnd::MaxIter {
                                     out.cg_iterations += mgp.max_iter;
@@ -777,7 +786,18 @@ impl DirectNewton {
                                         "the multigrid-preconditioned solve broke down at every shift".into(),
                                     ));
                                 }
-                                sigma = (10.0 * sigma).max(params.sigma_min);
+                                // The shift at which the first direction's curvature would
+                                // vanish, σ* = σ − pᵀ(K + σ d̄ D)p / (d̄ pᵀDp): each new σ
+                                // costs a hierarchy, so jump to twice it at once.
+                                let mut needed = 0.0;
+                                if let PcgEnd::Breakdown(Some(pq)) = end {
+                                    let pdp: f64 =
+                                        rhs.iter().zip(&self.weight).map(|(p, w)| p * p * w).sum();
+                                    if dbar > 0.0 && pdp > 0.0 {
+                                        needed = 2.0 * (sigma - pq / (dbar * pdp));
+                                    }
+                                }
+                                sigma = (10.0 * sigma).max(params.sigma_min).max(needed);
                             }
                         }
                     }
@@ -802,7 +822,9 @@ impl DirectNewton {
                             out.cg_iterations += it;
                             solved = true;
                         }
-                        PcgEnd::MaxIter | PcgEnd::Breakdown => out.cg_iterations += params.pcg_max,
+                        PcgEnd::MaxIter | PcgEnd::Breakdown(_) => {
+                            out.cg_iterations += params.pcg_max
+                        }
                     }
                 }
                 prev_norm = Some(norm);
@@ -926,6 +948,7 @@ impl DirectNewton {
                 break;
             }
         }
+        self.sigma = sigma;
         Ok(out)
     }
 }
@@ -941,8 +964,9 @@ enum PcgEnd {
     /// `max_iter` iterations without reaching `tol`; x is the last iterate.
     MaxIter,
     /// Non-positive curvature (or a preconditioner that is not positive) at the first
-    /// iteration: x is 0.
-    Breakdown,
+    /// iteration. With the curvature `pᵀAp ≤ 0` of the first direction p, x is p; without
+    /// (the preconditioner), x is 0.
+    Breakdown(Option<f64>),
 }
 
 /// Conjugate gradients on `A x = b` preconditioned by `B` (`precond(r, z)`: `z = B r`), from
@@ -964,7 +988,7 @@ fn pcg(
     let mut q = vec![0.0; n];
     let mut rz: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
     if rz <= 0.0 || !rz.is_finite() {
-        return PcgEnd::Breakdown;
+        return PcgEnd::Breakdown(None);
     }
     for it in 1..=max_iter {
         matvec(&p, &mut q);
@@ -972,8 +996,11 @@ fn pcg(
         if pq <= 0.0 || !pq.is_finite() {
             return if it > 1 && pq.is_finite() {
                 PcgEnd::Truncated(it - 1)
+            } else if it == 1 && pq.is_finite() {
+                x.copy_from_slice(&p);
+                PcgEnd::Breakdown(Some(pq))
             } else {
-                PcgEnd::Breakdown
+                PcgEnd::Breakdown(None)
             };
         }
         let alpha = rz / pq;

@@ -9,40 +9,12 @@
 //!
 //! Slow (liver meshes, release build): `cargo test --release -- --ignored`.
 
-use raisov::scenario::Scenario;
-use std::path::Path;
-
-const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data");
+mod common;
 
 #[test]
 #[ignore = "slow: liver meshes; run in release with --ignored"]
 fn fas_liver_sag_converges_with_cg() {
-    let dir = Path::new(MESHES);
-    if !dir.join("liver_L1.msh").is_file() {
-        panic!("liver meshes not found under {}", dir.display());
-    }
-    let text = format!(
-        r#"
-gravity = [0.0, 0.0, -9.81]
-[mesh]
-file = "{d}/liver_L1.msh"
-scale = 0.001
-[material]
-law = "neo-hookean"
-young = 5000.0
-poisson = 0.45
-density = 1060.0
-[[fix]]
-plane = {{ point = [0.0, 0.0, 0.195], normal = [0.0, 0.0, -1.0] }}
-[run]
-duration = 1.0
-[multigrid]
-scheme = "fas"
-files = ["{d}/liver_L2.msh", "{d}/liver_L3.msh"]
-"#,
-        d = dir.display()
-    );
-    let sc = Scenario::from_toml(&text, Path::new("liver-sag-fas.toml")).unwrap();
+    let sc = common::liver_l1_sag("scheme = \"fas\"", "liver-sag-fas.toml");
     let mut st = sc.stepper().unwrap();
     let mut res = f64::INFINITY;
     let mut max_u = 0.0f64;

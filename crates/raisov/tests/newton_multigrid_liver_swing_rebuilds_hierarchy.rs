@@ -12,35 +12,13 @@
 
 use raisov::hierarchy::Transfer;
 use raisov::integrate::newton_direct::{DirectNewton, DirectNewtonParams, MultigridPcg};
-use raisov::scenario::Scenario;
-use std::path::Path;
 
-const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data");
+mod common;
 
 #[test]
 #[ignore = "slow: liver meshes; run in release with --ignored"]
 fn newton_multigrid_liver_swing_keeps_one_hierarchy() {
-    let d = Path::new(MESHES).display();
-    let text = format!(
-        r#"
-gravity = [0.0, 0.0, -9.81]
-[mesh]
-file = "{d}/liver_L1.msh"
-scale = 0.001
-[material]
-law = "neo-hookean"
-young = 5000.0
-poisson = 0.45
-density = 1060.0
-[[fix]]
-plane = {{ point = [0.0, 0.0, 0.195], normal = [0.0, 0.0, -1.0] }}
-[run]
-duration = 1.0
-[multigrid]
-files = ["{d}/liver_L2.msh", "{d}/liver_L3.msh"]
-"#
-    );
-    let sc = Scenario::from_toml(&text, Path::new("liver-swing.toml")).unwrap();
+    let sc = common::liver_l1_sag("", "liver-swing.toml");
     let meshes = sc.level_meshes().unwrap();
     let down = vec![Transfer::build(&meshes[0].nodes, &meshes[1]).unwrap()];
     let n = 3 * sc.mesh.num_nodes();

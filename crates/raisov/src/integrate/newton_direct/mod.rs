@@ -904,7 +904,7 @@ impl DirectNewton {
                     }
                     out.force_evaluations += 1;
                     if let Ok((tn, tm)) = residual(model, &trial, s, &mut r, &mut fint) {
-                        if armijo && secants > 0 {
+                        if armijo && secants > 0 && slope > 0.0 {
                             // Π'(α) = −r(u + αδ)·δ: past the minimum along δ and still
                             // climbing steeply, step back to the secant's estimate of it.
                             let climb = -self.dot_free(&r, &rhs);

@@ -17,10 +17,11 @@
 //! modes of a body hanging from a small support, which are what the smoother cannot reduce.
 //! Convex weights reproduce only constants there, and conjugate gradients need more
 //! iterations (`bench/RESULTS.md`). Only a node whose weights leave `[0, 1]` by more than
-//! [`EXTRAPOLATION_LIMIT`] takes convex ones ([`crate::hierarchy::Transfer::limited`]). On level 0 only the free
-//! dofs are rows, so the coarse operators carry the fine level's Dirichlet conditions and need
-//! none of their own. A coarse dof every fine row of which is fixed has an empty row; it gets a
-//! unit diagonal. Unlike a rediscretised coarse level, `A_{l+1}` is exactly the fine energy
+//! [`EXTRAPOLATION_LIMIT`] takes convex ones ([`crate::hierarchy::Transfer::limited`]).
+//!
+//! On level 0 only the free dofs are rows, so the coarse operators carry the fine level's
+//! Dirichlet conditions and need none of their own. A coarse dof every fine row of which is
+//! fixed has an empty row; it gets a unit diagonal. Unlike a rediscretised coarse level, `A_{l+1}` is exactly the fine energy
 //! restricted to the interpolated displacements, whatever the two meshes' shapes.
 //!
 //! One V-cycle `z = B b` ([`GalerkinMultigrid::apply`]) on level l, from `z = 0`:
@@ -887,7 +888,7 @@ mod tests {
     }
 
     /// The interpolation reproduces a linear field at every fine node of the liver L1 in the
-    /// liver L3 (independent meshes; about a quarter of L1's nodes lie outside L3), to
+    /// liver L3 (independent meshes; about a third of L1's nodes lie outside L3), to
     /// round-off, so linearised rigid motions are in the coarse space. With convex weights it
     /// does not: outside nodes err by a sizeable fraction of the field's range.
     #[test]

@@ -539,6 +539,16 @@ fn newton_mg_levels(meshes: Vec<raisov::mesh::Mesh>) -> Vec<raisov::mesh::Mesh> 
         .collect()
 }
 
+/// The meshes of [`newton_mg_levels`] and the transfers from each to the next.
+fn newton_mg_hierarchy(sc: &Scenario) -> Result<(Vec<raisov::mesh::Mesh>, Vec<Transfer>)> {
+    let meshes = newton_mg_levels(sc.level_meshes()?);
+    let down = meshes
+        .windows(2)
+        .map(|w| Transfer::build(&w[0].nodes, &w[1]))
+        .collect::<Result<_>>()?;
+    Ok((meshes, down))
+}
+
 /// Newton with CG preconditioned by a Galerkin V-cycle over [`newton_mg_levels`] (the coarse
 /// level's operator `PᵀKP` factored, the factor reused across Newton iterations while CG
 /// converges, the operators rebuilt from each tangent unless `keep`; [`NEWTON_MG_SWEEPS`]
@@ -558,11 +568,7 @@ fn newton_mg_run(
         return Ok((row, Vec::new()));
     }
     let t0 = Instant::now();
-    let meshes = newton_mg_levels(sc.level_meshes()?);
-    let down: Vec<Transfer> = meshes
-        .windows(2)
-        .map(|w| Transfer::build(&w[0].nodes, &w[1]))
-        .collect::<Result<_>>()?;
+    let (meshes, down) = newton_mg_hierarchy(sc)?;
     let model = sys
         .force
         .as_fem_mut()
@@ -966,11 +972,7 @@ pub fn frame_budgets(case: &Case, cycles: &[u64]) -> Result<Vec<FrameRow>> {
 pub fn newton_frame_budgets(case: &Case, iterations: &[usize]) -> Result<Vec<FrameRow>> {
     let sc = &case.scenario;
     let n = sc.mesh.num_nodes();
-    let meshes = newton_mg_levels(sc.level_meshes()?);
-    let down: Vec<Transfer> = meshes
-        .windows(2)
-        .map(|w| Transfer::build(&w[0].nodes, &w[1]))
-        .collect::<Result<_>>()?;
+    let (_, down) = newton_mg_hierarchy(sc)?;
     let mut rows = Vec::new();
     for &k in iterations {
         let mut sys = sc.build_system()?;

@@ -34,6 +34,14 @@
 //! one (a Newton iteration's next tangent): it stays symmetric and positive definite, only
 //! less close to that matrix's inverse.
 //!
+//! The smoothed levels' sweeps and the cycle's residuals read their operator's values rounded to
+//! single precision (`A_l` as `f32`, [`Entry`]), on the same pattern; all arithmetic stays in
+//! `f64`. The matrix rows are what a cycle spends its time reading, and single precision halves
+//! the values' share of that traffic. The rounded operator is still symmetric (`a_ij` and `a_ji`
+//! round alike), so `B` stays symmetric; it differs from the `f64` cycle by about `10⁻⁷` of the
+//! operator, far below what a preconditioner needs. Conjugate gradients' own products and the
+//! Galerkin products use the `f64` values.
+//!
 //! Everything is computed in a fixed order: the Galerkin products and the matrix-vector
 //! products are split into row blocks that are independent (the same bits on any thread
 //! count), and so are the smoothers' ([`super::smoother`]).
@@ -53,6 +61,26 @@ pub const EXTRAPOLATION_LIMIT: f64 = 4.0;
 
 /// Rows per parallel block of the products.
 const ROW_BLOCK: usize = 512;
+
+/// A stored matrix value: `f64`, or `f32` for the smoothers' copy (module docs); read as `f64`.
+pub trait Entry: Copy + Send + Sync {
+    /// The value in double precision.
+    fn get(self) -> f64;
+}
+
+impl Entry for f64 {
+    #[inline(always)]
+    fn get(self) -> f64 {
+        self
+    }
+}
+
+impl Entry for f32 {
+    #[inline(always)]
+    fn get(self) -> f64 {
+        self as f64
+    }
+}
 
 /// A sparse matrix in compressed rows, column indices ascending within a row.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -86,14 +114,31 @@ impl Csr {
         (&self.col[r.clone()], &self.val[r])
     }
 
+    /// Row i's columns and its entries of `vals`, values on this pattern (`self.val` or a
+    /// rounded copy of it).
+    #[inline(always)]
+    pub(crate) fn row_of<'a, V>(&'a self, vals: &'a [V], i: usize) -> (&'a [u32], &'a [V]) {
+        let r = self.ptr[i]..self.ptr[i + 1];
+        (&self.col[r.clone()], &vals[r])
+    }
+
     /// `y = A x`.
     pub fn matvec(&self, x: &[f64], y: &mut [f64]) {
+        self.matvec_of(&self.val, x, y)
+    }
+
+    /// `y = A x` with `vals` for A's values on this pattern.
+    pub(crate) fn matvec_of<V: Entry>(&self, vals: &[V], x: &[f64], y: &mut [f64]) {
         y.par_chunks_mut(ROW_BLOCK)
             .enumerate()
             .for_each(|(b, out)| {
                 for (j, yi) in out.iter_mut().enumerate() {
-                    let (c, v) = self.row(b * ROW_BLOCK + j);
-                    *yi = c.iter().zip(v).map(|(&k, &a)| a * x[k as usize]).sum();
+                    let (c, v) = self.row_of(vals, b * ROW_BLOCK + j);
+                    *yi = c
+                        .iter()
+                        .zip(v)
+                        .map(|(&k, &a)| a.get() * x[k as usize])
+                        .sum();
                 }
             });
     }
@@ -375,6 +420,8 @@ pub enum GalerkinError {
 pub struct GalerkinMultigrid {
     /// `A_l`, finest first.
     a: Vec<Csr>,
+    /// The values of each smoothed level's `A_l` rounded to `f32` (module docs).
+    single: Vec<Vec<f32>>,
     /// The smoother's inverse diagonals of each level but the coarsest.
     relax: Vec<Relax>,
     p: Arc<Prolongations>,
@@ -430,6 +477,7 @@ impl GalerkinMultigrid {
         };
         let mut mg = GalerkinMultigrid {
             a,
+            single: Vec::new(),
             relax: Vec::new(),
             p,
             sweeps,
@@ -438,6 +486,7 @@ impl GalerkinMultigrid {
             coarse,
         };
         mg.relax = mg.relaxation();
+        mg.single = mg.rounded();
         Ok(mg)
     }
 
@@ -464,6 +513,15 @@ impl GalerkinMultigrid {
         }
         self.a = a;
         self.relax = self.relaxation();
+        self.single = self.rounded();
+    }
+
+    /// The smoothed levels' values rounded to `f32`.
+    fn rounded(&self) -> Vec<Vec<f32>> {
+        self.a[..self.a.len() - 1]
+            .iter()
+            .map(|m| m.val.par_iter().map(|&v| v as f32).collect())
+            .collect()
     }
 
     /// The smoother's inverse diagonals of each level but the coarsest.
@@ -514,13 +572,14 @@ impl GalerkinMultigrid {
         self.cycle(0, b, z);
     }
 
-    /// One smoothing sweep on level `l`.
-    fn smooth(&self, l: usize, b: &[f64], z: &mut [f64], forward: bool) {
+    /// One smoothing sweep on level `l`; `zero`: `z` is 0 (the first sweep of a cycle).
+    fn smooth(&self, l: usize, b: &[f64], z: &mut [f64], forward: bool, zero: bool) {
+        let (a, v) = (&self.a[l], &self.single[l][..]);
         match &self.relax[l] {
-            Relax::Point(inv) => gauss_seidel(&self.a[l], inv, b, z, forward),
-            Relax::Block(inv) => self.colourings[l].sweep(&self.a[l], inv, b, z, forward),
+            Relax::Point(inv) => gauss_seidel(a, v, inv, b, z, forward),
+            Relax::Block(inv) => self.colourings[l].sweep(a, v, inv, b, z, forward),
             Relax::Jacobi(inv, omega) => {
-                self.colourings[l].jacobi_sweep(&self.a[l], inv, *omega, b, z)
+                self.colourings[l].jacobi_sweep(a, v, inv, *omega, b, z, zero)
             }
         }
     }
@@ -536,11 +595,11 @@ impl GalerkinMultigrid {
             return;
         }
         z.iter_mut().for_each(|v| *v = 0.0);
-        for _ in 0..self.sweeps {
-            self.smooth(l, b, z, true);
+        for k in 0..self.sweeps {
+            self.smooth(l, b, z, true, k == 0);
         }
         let mut r = vec![0.0; b.len()];
-        a.matvec(z, &mut r);
+        a.matvec_of(&self.single[l], z, &mut r);
         for (ri, bi) in r.iter_mut().zip(b) {
             *ri = bi - *ri;
         }
@@ -551,7 +610,7 @@ impl GalerkinMultigrid {
         self.cycle(l + 1, &bc, &mut zc);
         pl.matvec_add(&zc, z);
         for _ in 0..self.sweeps {
-            self.smooth(l, b, z, false);
+            self.smooth(l, b, z, false, false);
         }
     }
 }
@@ -601,7 +660,10 @@ fn unit_empty_diagonal(c: &mut Csr) {
 }
 
 /// Sparse Cholesky of `a` (its lower triangle), shifting the diagonal by `σ d̄` (`d̄` the mean
-/// diagonal; σ = 0, 10⁻¹⁰, 10⁻⁹, …) until it factors; the factor and σ.
+/// diagonal; σ = 0, 10⁻⁶, 10⁻⁴, …, 10⁶) until it factors; the factor and σ. Each try is a
+/// whole numeric factorisation (an indefinite operator's failing pivot comes late), so the
+/// shift rises a hundredfold a try (the liver L0's coarsest operator at an indefinite state
+/// factors only at 1).
 fn factor(
     a: &Csr,
     symbolic: &mut Option<SymbolicLlt<usize>>,
@@ -667,7 +729,7 @@ fn factor(
                         "the coarsest Galerkin operator does not factor: {e:?}"
                     )));
                 }
-                sigma = if sigma == 0.0 { 1e-10 } else { 10.0 * sigma };
+                sigma = if sigma == 0.0 { 1e-6 } else { 100.0 * sigma };
             }
         }
     }

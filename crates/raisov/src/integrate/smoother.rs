@@ -34,7 +34,7 @@
 //!   represent. Rows in parallel, in memory order, the same bits on any thread count; the
 //!   sweep is its own adjoint, so forward and backward are the same.
 
-use super::galerkin::Csr;
+use super::galerkin::{Csr, Entry};
 use rayon::prelude::*;
 
 /// Blocks per parallel task within one colour.
@@ -138,7 +138,15 @@ impl Colouring {
 
     /// One sweep of node-block Gauss-Seidel on `a z = b`, colours ascending (`forward`) or
     /// descending; `inv` from [`Colouring::inverses`] of `a`.
-    pub fn sweep(&self, a: &Csr, inv: &[[f64; 9]], b: &[f64], z: &mut [f64], forward: bool) {
+    pub fn sweep<V: Entry>(
+        &self,
+        a: &Csr,
+        vals: &[V],
+        inv: &[[f64; 9]],
+        b: &[f64],
+        z: &mut [f64],
+        forward: bool,
+    ) {
         let mut order: Vec<&Vec<u32>> = self.colours.iter().collect();
         if !forward {
             order.reverse();
@@ -154,11 +162,11 @@ impl Colouring {
                     let (r0, r1) = (self.start[k], self.start[k + 1]);
                     let mut r = [0.0; 3];
                     for (i, ri) in r.iter_mut().enumerate().take(r1 - r0) {
-                        let (cols, vals) = a.row(r0 + i);
+                        let (cols, vals) = a.row_of(vals, r0 + i);
                         let s: f64 = cols
                             .iter()
                             .zip(vals)
-                            .map(|(&j, &x)| x * zr[j as usize])
+                            .map(|(&j, &x)| x.get() * zr[j as usize])
                             .sum();
                         *ri = b[r0 + i] - s;
                     }
@@ -234,13 +242,28 @@ impl Colouring {
         }
     }
 
-    /// One damped block-Jacobi sweep on `a z = b` (module docs).
-    pub fn jacobi_sweep(&self, a: &Csr, inv: &[[f64; 9]], omega: f64, b: &[f64], z: &mut [f64]) {
+    /// One damped block-Jacobi sweep on `a z = b` (module docs), `vals` a's values; `zero`:
+    /// `z` is 0, so the residual is `b` (no product).
+    #[allow(clippy::too_many_arguments)]
+    pub fn jacobi_sweep<V: Entry>(
+        &self,
+        a: &Csr,
+        vals: &[V],
+        inv: &[[f64; 9]],
+        omega: f64,
+        b: &[f64],
+        z: &mut [f64],
+        zero: bool,
+    ) {
         let n = a.rows;
         let mut r = vec![0.0; n];
-        a.matvec(z, &mut r);
-        for (ri, bi) in r.iter_mut().zip(b) {
-            *ri = bi - *ri;
+        if zero {
+            r.copy_from_slice(b);
+        } else {
+            a.matvec_of(vals, z, &mut r);
+            for (ri, bi) in r.iter_mut().zip(b) {
+                *ri = bi - *ri;
+            }
         }
         let mut d = vec![0.0; n];
         self.block_apply(inv, &r, &mut d);
@@ -303,10 +326,21 @@ fn block_inverse(d: &[f64; 9], m: usize) -> [f64; 9] {
 
 /// One point Gauss-Seidel sweep on `A z = b`, rows ascending (`forward`) or descending;
 /// `inv_diag[i] = 1 / A_ii`, 0 where `A_ii ≤ 0`.
-pub fn gauss_seidel(a: &Csr, inv_diag: &[f64], b: &[f64], z: &mut [f64], forward: bool) {
+pub fn gauss_seidel<V: Entry>(
+    a: &Csr,
+    vals: &[V],
+    inv_diag: &[f64],
+    b: &[f64],
+    z: &mut [f64],
+    forward: bool,
+) {
     let mut relax = |i: usize| {
-        let (c, v) = a.row(i);
-        let s: f64 = c.iter().zip(v).map(|(&k, &x)| x * z[k as usize]).sum();
+        let (c, v) = a.row_of(vals, i);
+        let s: f64 = c
+            .iter()
+            .zip(v)
+            .map(|(&k, &x)| x.get() * z[k as usize])
+            .sum();
         z[i] += (b[i] - s) * inv_diag[i];
     };
     if forward {
@@ -428,7 +462,7 @@ mod tests {
         let b: Vec<f64> = (0..sub.rows).map(|i| (i as f64 * 0.37).sin()).collect();
         let mut z: Vec<f64> = (0..sub.rows).map(|i| (i as f64 * 0.11).cos()).collect();
         let mut zr = z.clone();
-        col.sweep(&sub, &inv, &b, &mut z, true);
+        col.sweep(&sub, &sub.val, &inv, &b, &mut z, true);
         for blocks in &col.colours {
             for &k in blocks {
                 let k = k as usize;
@@ -454,8 +488,8 @@ mod tests {
         let mut z = vec![0.0; sub.rows];
         let mut res = vec![0.0; sub.rows];
         for _ in 0..40 {
-            col.sweep(&sub, &inv, &b, &mut z, true);
-            col.sweep(&sub, &inv, &b, &mut z, false);
+            col.sweep(&sub, &sub.val, &inv, &b, &mut z, true);
+            col.sweep(&sub, &sub.val, &inv, &b, &mut z, false);
         }
         sub.matvec(&z, &mut res);
         let worst = res
@@ -493,13 +527,18 @@ mod tests {
                         .sum::<f64>();
             }
         }
-        blocks.jacobi_sweep(&sub, &inv, omega, &b, &mut z);
+        blocks.jacobi_sweep(&sub, &sub.val, &inv, omega, &b, &mut z, false);
         for (x, y) in z.iter().zip(&want) {
             assert!((x - y).abs() < 1e-14, "{x} vs {y}");
         }
+        // From z = 0 the sweep that skips the product is the same sweep.
+        let (mut z0, mut z1) = (vec![0.0; sub.rows], vec![0.0; sub.rows]);
+        blocks.jacobi_sweep(&sub, &sub.val, &inv, omega, &b, &mut z0, false);
+        blocks.jacobi_sweep(&sub, &sub.val, &inv, omega, &b, &mut z1, true);
+        assert_eq!(z0, z1);
         let mut z = vec![0.0; sub.rows];
         for _ in 0..200 {
-            blocks.jacobi_sweep(&sub, &inv, omega, &b, &mut z);
+            blocks.jacobi_sweep(&sub, &sub.val, &inv, omega, &b, &mut z, false);
         }
         sub.matvec(&z, &mut r);
         let worst = r

@@ -82,6 +82,32 @@ pub trait SolidMaterial: Send + Sync {
         let dc = df.transpose() * f + f.transpose() * df;
         df * self.pk2(&c) + f * self.dpk2(&c, &dc)
     }
+    /// dP along each of `dfs`, into `out` (as long as `dfs`): what an element's tangent
+    /// needs, one direction per nodal dof, at one F. Equal to [`SolidMaterial::dpk1`] per
+    /// direction (the default, right for every law); a law in the C form overrides it with
+    /// [`dpk1_many_c`], which forms C and S once, or with its own that also forms what its dS
+    /// shares between directions (C⁻¹, ln J) once.
+    fn dpk1_many(&self, f: &Matrix3<f64>, dfs: &[Matrix3<f64>], out: &mut [Matrix3<f64>]) {
+        for (df, o) in dfs.iter().zip(out) {
+            *o = self.dpk1(f, df);
+        }
+    }
+}
+
+/// [`SolidMaterial::dpk1_many`] of a law in the C form (one that keeps the default
+/// [`SolidMaterial::dpk1`]): `dP = dF S + F dS(C; dFᵀF + FᵀdF)`, C and S formed once.
+pub(crate) fn dpk1_many_c<M: SolidMaterial + ?Sized>(
+    m: &M,
+    f: &Matrix3<f64>,
+    dfs: &[Matrix3<f64>],
+    out: &mut [Matrix3<f64>],
+) {
+    let c = f.transpose() * f;
+    let s = m.pk2(&c);
+    for (df, o) in dfs.iter().zip(out) {
+        let dc = df.transpose() * f + f.transpose() * df;
+        *o = df * s + f * m.dpk2(&c, &dc);
+    }
 }
 
 /// A plane-stress membrane law W(C), C the 2x2 in-plane Cauchy-Green tensor.
@@ -388,6 +414,48 @@ macro_rules! material_tests {
                         (dp - fd).norm() <= 1e-6 * scale.max(fd.norm()),
                         "F = {f}: dP = {dp} but the difference of P is {fd}"
                     );
+                }
+            }
+            #[test]
+            fn tangent_of_many_directions_is_dpk1_of_each() {
+                let owned = $mat;
+                let m: &dyn SolidMaterial = &owned;
+                let mut fs = sample_f();
+                if m.handles_inversion() {
+                    fs.push(Matrix3::new(
+                        -0.9, 0.1, 0.0, 0.05, 1.1, 0.2, 0.0, -0.1, 0.95,
+                    ));
+                }
+                // The twelve rank-one directions of a tetrahedron's dofs, and a full one.
+                let g = [
+                    [-1.0, -0.5, 0.2],
+                    [1.0, 0.0, 0.0],
+                    [0.0, 1.5, 0.3],
+                    [0.0, -1.0, -0.5],
+                ];
+                let mut dfs = Vec::new();
+                for gb in g {
+                    for k in 0..3 {
+                        let mut df = Matrix3::zeros();
+                        for j in 0..3 {
+                            df[(k, j)] = gb[j];
+                        }
+                        dfs.push(df);
+                    }
+                }
+                dfs.push(Matrix3::new(
+                    0.3, -0.2, 0.1, 0.25, -0.5, 0.4, -0.1, 0.6, 0.2,
+                ));
+                for f in fs {
+                    let mut out = vec![Matrix3::zeros(); dfs.len()];
+                    m.dpk1_many(&f, &dfs, &mut out);
+                    for (df, dp) in dfs.iter().zip(&out) {
+                        let one = m.dpk1(&f, df);
+                        assert!(
+                            (dp - one).norm() <= 1e-12 * one.norm().max(m.pk1(&f).norm()),
+                            "F = {f}, dF = {df}: dpk1_many gives {dp}, dpk1 {one}"
+                        );
+                    }
                 }
             }
             #[test]

@@ -58,6 +58,9 @@ impl SolidMaterial for MooneyRivlin {
         let iso = super::Iso3::new(c, dc);
         (iso.dg1 * self.c1 + iso.dg2 * self.c2) * 2.0 + iso.bulk(self.kappa).1
     }
+    fn dpk1_many(&self, f: &Matrix3<f64>, dfs: &[Matrix3<f64>], out: &mut [Matrix3<f64>]) {
+        super::dpk1_many_c(self, f, dfs, out)
+    }
 }
 
 impl MembraneMaterial for MooneyRivlin {

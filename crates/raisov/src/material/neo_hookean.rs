@@ -49,6 +49,20 @@ impl SolidMaterial for NeoHookean {
         let t = (cinv * dc).trace();
         cdc * (self.mu - self.lambda * lnj) + cinv * (0.5 * self.lambda * t)
     }
+    /// `dP = dF S + F dS`, with `C⁻¹`, `ln J` and S formed once for all directions.
+    fn dpk1_many(&self, f: &Matrix3<f64>, dfs: &[Matrix3<f64>], out: &mut [Matrix3<f64>]) {
+        let c = f.transpose() * f;
+        let lnj = 0.5 * c.determinant().ln();
+        let cinv = c.try_inverse().unwrap_or_else(Matrix3::zeros);
+        let s = (Matrix3::identity() - cinv) * self.mu + cinv * (self.lambda * lnj);
+        let (a, b) = (self.mu - self.lambda * lnj, 0.5 * self.lambda);
+        for (df, o) in dfs.iter().zip(out) {
+            let dc = df.transpose() * f + f.transpose() * df;
+            let cdc = cinv * dc;
+            let ds = cdc * cinv * a + cinv * (b * cdc.trace());
+            *o = df * s + f * ds;
+        }
+    }
 }
 
 impl MembraneMaterial for NeoHookean {

@@ -40,6 +40,9 @@ impl SolidMaterial for StVenantKirchhoff {
     fn dpk2(&self, _c: &Matrix3<f64>, dc: &Matrix3<f64>) -> Matrix3<f64> {
         Matrix3::identity() * (0.5 * self.lambda * dc.trace()) + dc * self.mu
     }
+    fn dpk1_many(&self, f: &Matrix3<f64>, dfs: &[Matrix3<f64>], out: &mut [Matrix3<f64>]) {
+        super::dpk1_many_c(self, f, dfs, out)
+    }
 }
 
 impl MembraneMaterial for StVenantKirchhoff {

@@ -61,6 +61,9 @@ impl SolidMaterial for VerondaWestmann {
         (iso.g1 * (self.gamma * w1 * iso.db1) + iso.dg1 * w1 + iso.dg2 * w2) * 2.0
             + iso.bulk(self.kappa).1
     }
+    fn dpk1_many(&self, f: &Matrix3<f64>, dfs: &[Matrix3<f64>], out: &mut [Matrix3<f64>]) {
+        super::dpk1_many_c(self, f, dfs, out)
+    }
 }
 
 impl MembraneMaterial for VerondaWestmann {

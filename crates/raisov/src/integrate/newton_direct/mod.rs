@@ -66,14 +66,18 @@
 //! preconditions the next ones, whole or ([`MultigridPcg::keep`] false) only its coarsest
 //! factorisation, the smoothed levels' Galerkin operators rebuilt from each new tangent (the
 //! coarsest is only used through its factorisation); it is rebuilt at the current state where
-//! [`MultigridPcg::max_iter`] iterations do not reach η or the first direction has
-//! non-positive curvature. With a fresh hierarchy, an iterate that misses η after
-//! [`MultigridPcg::max_iter`] iterations is taken as it is (truncated Newton: a descent
-//! direction while the curvature seen is positive), and a first direction of non-positive
-//! curvature, or a coarsest operator that does not factor, raises σ as a failed factorisation
-//! does, and at least to twice the shift at which that direction p's curvature would vanish,
-//! `σ* = σ − pᵀ(K + σ d̄ D)p / (d̄ pᵀDp)` (each new σ costs a hierarchy). With coarser levels
-//! the fine level is never factored.
+//! [`MultigridPcg::max_iter`] iterations do not reach η. With a fresh hierarchy, an iterate
+//! that misses η after [`MultigridPcg::max_iter`] iterations is taken as it is (truncated
+//! Newton: a descent direction while the curvature seen is positive). A first direction of
+//! non-positive curvature, or a coarsest operator that does not factor, raises σ as a failed
+//! factorisation does, and at least to twice the shift at which that direction p's curvature
+//! would vanish, `σ* = σ − pᵀ(K + σ d̄ D)p / (d̄ pᵀDp)`. A kept hierarchy stays through that
+//! (it is positive definite, built where the tangent was, and the shifted system is solved
+//! with it); a fresh one is rebuilt with the new σ. A hierarchy built at an indefinite
+//! tangent needs its coarsest operator shifted: the liver L0's, at the state where its kept
+//! hierarchy first meets negative curvature from rest, factors only when shifted by its whole
+//! mean diagonal, a coarse level too stiff to help. With coarser levels the fine level is
+//! never factored.
 //!
 //! Stopping rule (that of `raisov bench equilibrium`, at the full load):
 //! `max_a |r_a| ≤ rel_tol × max_a |V_a| + abs_tol`, `r_a` the residual force of free node a,
@@ -429,7 +433,8 @@ impl DirectNewton {
 
     /// Assemble K(u) into the pattern's values (diagonal shifts zero); returns the mean
     /// diagonal over free dofs. Element matrices are computed in parallel, a block at a time,
-    /// and summed into the pattern in element order (the same bits on any thread count).
+    /// and summed into the pattern in element order, tasks over disjoint ranges of it (the same
+    /// bits on any thread count).
     ///
     /// With `lift = (Δ, out)`, `Δ` an increment of the constrained dofs (all dofs' layout, zero
     /// on free ones), also `out[f] = −Σ K_fc Δ_c` over free rows f and constrained columns c,
@@ -464,16 +469,32 @@ impl DirectNewton {
                     model.element_stiffness(first + j, u, out)?;
                 }
             }
+            // Each task sums into its own range of the pattern's values, visiting the
+            // elements in order: every value gets its terms in element order, whatever the
+            // number of tasks.
+            let slots = &self.slots[first * d * d..(first + count) * d * d];
+            let kb = &k[..count * d * d];
+            let tasks = rayon::current_num_threads().max(1);
+            let len = self.vals.len().div_ceil(tasks).max(1);
+            self.vals
+                .par_chunks_mut(len)
+                .enumerate()
+                .for_each(|(t, part)| {
+                    let lo = (t * len) as u32;
+                    for (&slot, &v) in slots.iter().zip(kb) {
+                        let at = slot.wrapping_sub(lo) as usize;
+                        if at < part.len() {
+                            part[at] += v;
+                        }
+                    }
+                });
             for j in 0..count {
                 let e = first + j;
                 let s = &self.slots[e * d * d..(e + 1) * d * d];
                 let ke = &k[j * d * d..(j + 1) * d * d];
-                for (q, &slot) in s.iter().enumerate() {
-                    if slot != u32::MAX {
-                        self.vals[slot as usize] += ke[q];
-                        if q / d == q % d {
-                            diag += ke[q].abs();
-                        }
+                for q in (0..d).map(|i| i * d + i) {
+                    if s[q] != u32::MAX {
+                        diag += ke[q].abs();
                     }
                 }
                 if let Some((delta, out)) = lift.as_mut() {
@@ -772,15 +793,19 @@ impl DirectNewton {
                                 out.cg_iterations += mgp.max_iter;
                                 solved = true;
                             }
-                            PcgEnd::MaxIter | PcgEnd::Breakdown(_) if reused => {
+                            PcgEnd::MaxIter if reused => {
                                 // Rebuild the hierarchy at the current state, same σ.
-                                if end == PcgEnd::MaxIter {
-                                    out.cg_iterations += mgp.max_iter;
-                                }
+                                out.cg_iterations += mgp.max_iter;
                                 self.mg = None;
                             }
                             _ => {
-                                self.mg = None;
+                                // A fresh hierarchy's breakdown, or a first direction of
+                                // non-positive curvature: raise σ. A kept hierarchy stays (it
+                                // is positive definite, built where K was); one built at this
+                                // indefinite state would need its coarsest operator shifted.
+                                if !reused {
+                                    self.mg = None;
+                                }
                                 if sigma > 1e6 {
                                     return Err(DirectNewtonError::Factor(
                                         "the multigrid-preconditioned solve broke down at every shift".into(),

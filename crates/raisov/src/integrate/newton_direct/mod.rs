@@ -66,7 +66,11 @@
 //! preconditions the next ones, whole or ([`MultigridPcg::keep`] false) only its coarsest
 //! factorisation, the smoothed levels' Galerkin operators rebuilt from each new tangent (the
 //! coarsest is only used through its factorisation); it is rebuilt at the current state where
-//! [`MultigridPcg::max_iter`] iterations do not reach η. With a fresh hierarchy, an iterate
+//! [`MultigridPcg::max_iter`] iterations do not reach η, conjugate gradients going on from
+//! the iterate so far (its work is kept), and before the next Newton iteration where they
+//! needed more than two thirds of [`MultigridPcg::max_iter`] (`STALE_SHARE`; a hierarchy
+//! built where the body hung at rest preconditions the final tangent of the liver L0 in 21
+//! iterations, then misses η in 25). With a fresh hierarchy, an iterate
 //! that misses η after [`MultigridPcg::max_iter`] iterations is taken as it is (truncated
 //! Newton: a descent direction while the curvature seen is positive). A first direction of
 //! non-positive curvature, or a coarsest operator that does not factor, raises σ as a failed
@@ -114,6 +118,11 @@ const CURVATURE: f64 = 0.9;
 
 /// Secant steps back at most per line search (module docs).
 const SECANT_STEPS: usize = 2;
+
+/// A kept Galerkin hierarchy whose conjugate gradients converged only after more than
+/// `max_iter / STALE_SHARE` iterations is rebuilt before the next Newton iteration (module
+/// docs).
+const STALE_SHARE: f64 = 1.5;
 
 /// Newton-multigrid's coarse level has at least 1/`COARSEN` of the finest level's nodes
 /// ([`coarse_level`]).
@@ -732,6 +741,8 @@ impl DirectNewton {
                             self.symbolic.row_idx(),
                         )
                     });
+                    let mut warm = false;
+                    let mut stale = false;
                     while !solved {
                         let shift = sigma * dbar;
                         let full = |out: &mut Csr| {
@@ -774,16 +785,22 @@ impl DirectNewton {
                             }
                         }
                         let end = match &self.mg {
-                            Some(mg) => pcg(
+                            Some(mg) => pcg_from(
                                 |x, y| current.as_ref().unwrap_or(mg.matrix()).matvec(x, y),
                                 |r, z| mg.apply(r, z),
                                 &b,
                                 &mut rhs,
+                                std::mem::take(&mut warm),
                                 eta * bnorm,
                                 mgp.max_iter,
                             ),
                             None => PcgEnd::Breakdown(None),
                         };
+                        if let PcgEnd::Converged(it) = end {
+                            // A kept hierarchy close to missing η is rebuilt before the
+                            // next Newton iteration, not after it has failed one.
+                            stale = reused && STALE_SHARE * it as f64 > mgp.max_iter as f64;
+                        }
                         match end {
                             PcgEnd::Converged(it) | PcgEnd::Truncated(it) => {
                                 out.cg_iterations += it;
@@ -794,9 +811,11 @@ impl DirectNewton {
                                 solved = true;
                             }
                             PcgEnd::MaxIter if reused => {
-                                // Rebuild the hierarchy at the current state, same σ.
+                                // Rebuild the hierarchy at the current state, same σ, and
+                                // go on from the iterate so far.
                                 out.cg_iterations += mgp.max_iter;
                                 self.mg = None;
+                                warm = true;
                             }
                             _ => {
                                 // A fresh hierarchy's breakdown, or a first direction of
@@ -825,6 +844,9 @@ impl DirectNewton {
                                 sigma = (10.0 * sigma).max(params.sigma_min).max(needed);
                             }
                         }
+                    }
+                    if stale {
+                        self.mg = None;
                     }
                 } else if params.pcg_max > 0 && self.llt.is_some() {
                     let eta = forcing_term(prev_norm, norm, eta_prev, tol, max);
@@ -1004,22 +1026,52 @@ fn pcg(
     tol: f64,
     max_iter: usize,
 ) -> PcgEnd {
-    let n = b.len();
     x.iter_mut().for_each(|v| *v = 0.0);
+    pcg_from(matvec, precond, b, x, false, tol, max_iter)
+}
+
+/// [`pcg`] from the start `x` where `warm` (an earlier solve's iterate of the same system,
+/// whose curvatures were positive: a descent direction, `b·x > 0`), from 0 otherwise. From a
+/// warm start, a first direction of non-positive curvature ends it `Truncated(0)`, x the
+/// start.
+fn pcg_from(
+    matvec: impl Fn(&[f64], &mut [f64]),
+    precond: impl Fn(&[f64], &mut [f64]),
+    b: &[f64],
+    x: &mut [f64],
+    warm: bool,
+    tol: f64,
+    max_iter: usize,
+) -> PcgEnd {
+    let n = b.len();
     let mut r = b.to_vec();
+    if warm {
+        let mut ax = vec![0.0; n];
+        matvec(x, &mut ax);
+        r.iter_mut().zip(&ax).for_each(|(r, a)| *r -= a);
+        if r.iter().map(|v| v * v).sum::<f64>().sqrt() <= tol {
+            return PcgEnd::Converged(0);
+        }
+    } else {
+        x.iter_mut().for_each(|v| *v = 0.0);
+    }
     let mut z = vec![0.0; n];
     precond(&r, &mut z);
     let mut p = z.clone();
     let mut q = vec![0.0; n];
     let mut rz: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
     if rz <= 0.0 || !rz.is_finite() {
-        return PcgEnd::Breakdown(None);
+        return if warm {
+            PcgEnd::Truncated(0)
+        } else {
+            PcgEnd::Breakdown(None)
+        };
     }
     for it in 1..=max_iter {
         matvec(&p, &mut q);
         let pq: f64 = p.iter().zip(&q).map(|(a, b)| a * b).sum();
         if pq <= 0.0 || !pq.is_finite() {
-            return if it > 1 && pq.is_finite() {
+            return if (it > 1 || warm) && pq.is_finite() {
                 PcgEnd::Truncated(it - 1)
             } else if it == 1 && pq.is_finite() {
                 x.copy_from_slice(&p);

@@ -512,8 +512,24 @@ impl GalerkinMultigrid {
             a.push(self.a.pop().expect("the coarsest operator"));
         }
         self.a = a;
-        self.relax = self.relaxation();
-        self.single = self.rounded();
+        // Block Jacobi keeps the damping estimated when the hierarchy was built: D⁻¹A's
+        // largest eigenvalue moves little from one Newton tangent to the next, and a cycle
+        // that stops being positive ends conjugate gradients, which then rebuild it.
+        let omegas: Vec<Option<f64>> = self
+            .relax
+            .iter()
+            .map(|r| match r {
+                Relax::Jacobi(_, omega) => Some(*omega),
+                _ => None,
+            })
+            .collect();
+        self.relax = self.relaxation_with(&omegas);
+        for (m, single) in self.a.iter().zip(self.single.iter_mut()) {
+            single
+                .par_iter_mut()
+                .zip(&m.val)
+                .for_each(|(s, &v)| *s = v as f32);
+        }
     }
 
     /// The smoothed levels' values rounded to `f32`.
@@ -526,6 +542,12 @@ impl GalerkinMultigrid {
 
     /// The smoother's inverse diagonals of each level but the coarsest.
     fn relaxation(&self) -> Vec<Relax> {
+        self.relaxation_with(&[])
+    }
+
+    /// [`GalerkinMultigrid::relaxation`], block Jacobi's damping on level l `omegas[l]` where
+    /// given, estimated where not.
+    fn relaxation_with(&self, omegas: &[Option<f64>]) -> Vec<Relax> {
         let smoothed = &self.a[..self.a.len() - 1];
         match self.smoother {
             Smoother::GaussSeidel => smoothed
@@ -547,9 +569,14 @@ impl GalerkinMultigrid {
             Smoother::BlockJacobi => smoothed
                 .iter()
                 .zip(&self.colourings)
-                .map(|(m, c)| {
+                .enumerate()
+                .map(|(l, (m, c))| {
                     let inv = c.inverses(m);
-                    let omega = c.jacobi_damping(m, &inv);
+                    let omega = omegas
+                        .get(l)
+                        .copied()
+                        .flatten()
+                        .unwrap_or_else(|| c.jacobi_damping(m, &inv));
                     Relax::Jacobi(inv, omega)
                 })
                 .collect(),

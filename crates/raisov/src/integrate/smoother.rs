@@ -31,8 +31,10 @@
 //!   [`POWER_ITERATIONS`] power iterations from a fixed start (raised by 10 % since the
 //!   estimate falls short of it): `4 / (3 λ_max)` minimises the largest factor
 //!   `|1 − ω λ|` over the upper half of the spectrum, the error the coarse level cannot
-//!   represent. Rows in parallel, in memory order, the same bits on any thread count; the
-//!   sweep is its own adjoint, so forward and backward are the same.
+//!   represent. ω is estimated when a hierarchy is built and kept when its operators are
+//!   refreshed from a later Newton tangent. Rows in parallel, in memory order, the same bits
+//!   on any thread count; the sweep is its own adjoint, so forward and backward are the
+//!   same.
 
 use super::galerkin::{Csr, Entry};
 use rayon::prelude::*;

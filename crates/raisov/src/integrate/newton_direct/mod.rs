@@ -77,7 +77,8 @@
 //! factorisation does, and at least to twice the shift at which that direction p's curvature
 //! would vanish, `σ* = σ − pᵀ(K + σ d̄ D)p / (d̄ pᵀDp)`. A kept hierarchy stays through that
 //! (it is positive definite, built where the tangent was, and the shifted system is solved
-//! with it); a fresh one is rebuilt with the new σ. A hierarchy built at an indefinite
+//! with it); a fresh one is rebuilt with the new σ. A kept cycle that is not positive on a
+//! residual is rebuilt, same σ. A hierarchy built at an indefinite
 //! tangent needs its coarsest operator shifted: the liver L0's, at the state where its kept
 //! hierarchy first meets negative curvature from rest, factors only when shifted by its whole
 //! mean diagonal, a coarse level too stiff to help. With coarser levels the fine level is
@@ -711,6 +712,7 @@ impl DirectNewton {
                 residual(model, u, s, &mut r, &mut fint).map_err(DirectNewtonError::Inverted)?;
             out.force_evaluations += 1;
             out.history.clear();
+            let mut pi_at: Option<f64> = None;
             while (lifting || max > tol) && out.newton_steps < params.max_newton {
                 out.newton_steps += 1;
                 let clock = std::time::Instant::now();
@@ -809,6 +811,11 @@ impl DirectNewton {
                             PcgEnd::MaxIter if !reused => {
                                 out.cg_iterations += mgp.max_iter;
                                 solved = true;
+                            }
+                            PcgEnd::Breakdown(None) if reused => {
+                                // The kept cycle is not positive on this residual: rebuild
+                                // it at the current state, same σ.
+                                self.mg = None;
                             }
                             PcgEnd::MaxIter if reused => {
                                 // Rebuild the hierarchy at the current state, same σ, and
@@ -934,8 +941,15 @@ impl DirectNewton {
                 }
                 // Backtracking line search on Π, on the residual norm where Π is flat.
                 let slope = self.dot_free(&r, &rhs);
-                let pi0 = potential(model, u, s, f_ext);
-                out.energy_evaluations += 1;
+                // Π at u: the last accepted trial's, where the last step was a line search's
+                // at this load factor.
+                let pi0 = match pi_at.take() {
+                    Some(pi) => pi,
+                    None => {
+                        out.energy_evaluations += 1;
+                        potential(model, u, s, f_ext)
+                    }
+                };
                 let mut alpha = 1.0;
                 let mut accepted = false;
                 let mut secants = SECANT_STEPS;
@@ -962,6 +976,7 @@ impl DirectNewton {
                             }
                         }
                         if armijo || tn < norm {
+                            pi_at = Some(pi);
                             u.copy_from_slice(&trial);
                             norm = tn;
                             max = tm;

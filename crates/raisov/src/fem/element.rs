@@ -7,8 +7,8 @@
 //! Element tangent stiffness `K_e = ∂R_e/∂u_e` (12x12 or 9x9, symmetric): moving node b along
 //! axis k changes `F` by `dF = e_k ⊗ g_b` with `g_b` row `b−1` of `Dm⁻¹` (b ≥ 1) and
 //! `g_0 = −Σ_b g_b`; then `dH = V0 dP Dm⁻ᵀ` with `dP = ∂P/∂F : dF` from the law
-//! ([`SolidMaterial::dpk1`]; a tetrahedron asks for its twelve directions at once,
-//! [`SolidMaterial::dpk1_many`]), and the column `(b, k)` of `K_e` is `dR` assembled from `dH` as
+//! ([`SolidMaterial::dpk1`]; an element asks for all its directions at once,
+//! [`SolidMaterial::dpk1_many`], [`MembraneMaterial::dpk1_many`]), and the column `(b, k)` of `K_e` is `dR` assembled from `dH` as
 //! `R` from `H`. Checked against central differences of the element forces in tests.
 
 use crate::material::{MembraneMaterial, SolidMaterial};
@@ -226,17 +226,22 @@ pub fn membrane_stiffness<M: MembraneMaterial + ?Sized>(
             dminv.row(b - 1).into_owned()
         }
     };
-    let mut col = [0.0; 9];
+    let mut dfs = [Matrix3x2::zeros(); 9];
     for b in 0..3 {
         let gb = g(b);
         for k in 0..3 {
-            let mut df = Matrix3x2::zeros();
-            df.row_mut(k).copy_from(&gb);
-            let dh = m.dpk1(&f, &n0, &df) * dminv.transpose() * measure;
-            scatter_h::<2>(&dh, &mut col);
-            for (r, v) in col.iter().enumerate() {
-                out[r * 9 + 3 * b + k] = *v;
-            }
+            dfs[3 * b + k].row_mut(k).copy_from(&gb);
+        }
+    }
+    let mut dps = [Matrix3x2::zeros(); 9];
+    m.dpk1_many(&f, &n0, &dfs, &mut dps);
+    let mut col = [0.0; 9];
+    let dmt = dminv.transpose() * measure;
+    for (q, dp) in dps.iter().enumerate() {
+        let dh = dp * dmt;
+        scatter_h::<2>(&dh, &mut col);
+        for (r, v) in col.iter().enumerate() {
+            out[r * 9 + q] = *v;
         }
     }
     Ok(())

@@ -140,6 +140,37 @@ pub trait MembraneMaterial: Send + Sync {
         let dc = df.transpose() * f + f.transpose() * df;
         df * self.pk2(&c) + f * self.dpk2(&c, &dc)
     }
+    /// dP along each of `dfs`, into `out` (as long as `dfs`), at one F: a triangle's nine
+    /// directions. Equal to [`MembraneMaterial::dpk1`] per direction (the default, right for
+    /// every law); a law in the C form overrides it with [`membrane_dpk1_many_c`], which forms
+    /// C and S once.
+    fn dpk1_many(
+        &self,
+        f: &Matrix3x2<f64>,
+        n0: &Vector3<f64>,
+        dfs: &[Matrix3x2<f64>],
+        out: &mut [Matrix3x2<f64>],
+    ) {
+        for (df, o) in dfs.iter().zip(out) {
+            *o = self.dpk1(f, n0, df);
+        }
+    }
+}
+
+/// [`MembraneMaterial::dpk1_many`] of a law in the C form (one that keeps the default
+/// [`MembraneMaterial::dpk1`]): `dP = dF S + F dS(C; dFᵀF + FᵀdF)`, C and S formed once.
+pub(crate) fn membrane_dpk1_many_c<M: MembraneMaterial + ?Sized>(
+    m: &M,
+    f: &Matrix3x2<f64>,
+    dfs: &[Matrix3x2<f64>],
+    out: &mut [Matrix3x2<f64>],
+) {
+    let c = f.transpose() * f;
+    let s = m.pk2(&c);
+    for (df, o) in dfs.iter().zip(out) {
+        let dc = df.transpose() * f + f.transpose() * df;
+        *o = df * s + f * m.dpk2(&c, &dc);
+    }
 }
 
 /// The isochoric invariants `b1 = J^(−2/3) I1`, `b2 = J^(−4/3) I2` of a 3x3 C, their
@@ -576,6 +607,39 @@ macro_rules! material_tests {
                         (dp - fd).norm() <= 1e-6 * scale.max(fd.norm()),
                         "F = {f}: dP = {dp} but the difference of P is {fd}"
                     );
+                }
+            }
+            #[test]
+            fn tangent_of_many_directions_is_dpk1_of_each() {
+                let owned = $mat;
+                let m: &dyn MembraneMaterial = &owned;
+                let n0 = nalgebra::Vector3::new(0.0, 0.0, 1.0);
+                let mut fs = sample_f();
+                if m.handles_inversion() {
+                    fs.push(Matrix3x2::new(-0.9, 0.1, 0.05, 1.1, 0.1, -0.2));
+                }
+                // The nine rank-one directions of a triangle's dofs, and a full one.
+                let g = [[-1.0, -0.5], [1.0, 0.2], [0.0, 0.3]];
+                let mut dfs = Vec::new();
+                for gb in g {
+                    for k in 0..3 {
+                        let mut df = Matrix3x2::zeros();
+                        df[(k, 0)] = gb[0];
+                        df[(k, 1)] = gb[1];
+                        dfs.push(df);
+                    }
+                }
+                dfs.push(Matrix3x2::new(0.3, -0.2, 0.25, -0.5, -0.1, 0.6));
+                for f in fs {
+                    let mut out = vec![Matrix3x2::zeros(); dfs.len()];
+                    m.dpk1_many(&f, &n0, &dfs, &mut out);
+                    for (df, dp) in dfs.iter().zip(&out) {
+                        let one = m.dpk1(&f, &n0, df);
+                        assert!(
+                            (dp - one).norm() <= 1e-12 * one.norm().max(m.pk1(&f, &n0).norm()),
+                            "F = {f}, dF = {df}: dpk1_many gives {dp}, dpk1 {one}"
+                        );
+                    }
                 }
             }
             #[test]

@@ -83,30 +83,17 @@ pub trait SolidMaterial: Send + Sync {
         df * self.pk2(&c) + f * self.dpk2(&c, &dc)
     }
     /// dP along each of `dfs`, into `out` (as long as `dfs`): what an element's tangent
-    /// needs, one direction per nodal dof, at one F. Equal to [`SolidMaterial::dpk1`] per
-    /// direction (the default, right for every law); a law in the C form overrides it with
-    /// [`dpk1_many_c`], which forms C and S once, or with its own that also forms what its dS
-    /// shares between directions (C⁻¹, ln J) once.
+    /// needs, one direction per nodal dof, at one F. The default is the C form of
+    /// [`SolidMaterial::dpk1`] with C and S formed once; a law that overrides `dpk1` overrides
+    /// this too (the test macro checks every law's against its `dpk1`), and a law may form
+    /// more of its dS once (neo-Hookean: C⁻¹, ln J).
     fn dpk1_many(&self, f: &Matrix3<f64>, dfs: &[Matrix3<f64>], out: &mut [Matrix3<f64>]) {
+        let c = f.transpose() * f;
+        let s = self.pk2(&c);
         for (df, o) in dfs.iter().zip(out) {
-            *o = self.dpk1(f, df);
+            let dc = df.transpose() * f + f.transpose() * df;
+            *o = df * s + f * self.dpk2(&c, &dc);
         }
-    }
-}
-
-/// [`SolidMaterial::dpk1_many`] of a law in the C form (one that keeps the default
-/// [`SolidMaterial::dpk1`]): `dP = dF S + F dS(C; dFᵀF + FᵀdF)`, C and S formed once.
-pub(crate) fn dpk1_many_c<M: SolidMaterial + ?Sized>(
-    m: &M,
-    f: &Matrix3<f64>,
-    dfs: &[Matrix3<f64>],
-    out: &mut [Matrix3<f64>],
-) {
-    let c = f.transpose() * f;
-    let s = m.pk2(&c);
-    for (df, o) in dfs.iter().zip(out) {
-        let dc = df.transpose() * f + f.transpose() * df;
-        *o = df * s + f * m.dpk2(&c, &dc);
     }
 }
 
@@ -141,35 +128,22 @@ pub trait MembraneMaterial: Send + Sync {
         df * self.pk2(&c) + f * self.dpk2(&c, &dc)
     }
     /// dP along each of `dfs`, into `out` (as long as `dfs`), at one F: a triangle's nine
-    /// directions. Equal to [`MembraneMaterial::dpk1`] per direction (the default, right for
-    /// every law); a law in the C form overrides it with [`membrane_dpk1_many_c`], which forms
-    /// C and S once.
+    /// directions. The default is the C form of [`MembraneMaterial::dpk1`] with C and S
+    /// formed once; a law that overrides `dpk1` overrides this too (the test macro checks
+    /// every law's against its `dpk1`).
     fn dpk1_many(
         &self,
         f: &Matrix3x2<f64>,
-        n0: &Vector3<f64>,
+        _n0: &Vector3<f64>,
         dfs: &[Matrix3x2<f64>],
         out: &mut [Matrix3x2<f64>],
     ) {
+        let c = f.transpose() * f;
+        let s = self.pk2(&c);
         for (df, o) in dfs.iter().zip(out) {
-            *o = self.dpk1(f, n0, df);
+            let dc = df.transpose() * f + f.transpose() * df;
+            *o = df * s + f * self.dpk2(&c, &dc);
         }
-    }
-}
-
-/// [`MembraneMaterial::dpk1_many`] of a law in the C form (one that keeps the default
-/// [`MembraneMaterial::dpk1`]): `dP = dF S + F dS(C; dFᵀF + FᵀdF)`, C and S formed once.
-pub(crate) fn membrane_dpk1_many_c<M: MembraneMaterial + ?Sized>(
-    m: &M,
-    f: &Matrix3x2<f64>,
-    dfs: &[Matrix3x2<f64>],
-    out: &mut [Matrix3x2<f64>],
-) {
-    let c = f.transpose() * f;
-    let s = m.pk2(&c);
-    for (df, o) in dfs.iter().zip(out) {
-        let dc = df.transpose() * f + f.transpose() * df;
-        *o = df * s + f * m.dpk2(&c, &dc);
     }
 }
 

@@ -58,9 +58,6 @@ impl SolidMaterial for MooneyRivlin {
         let iso = super::Iso3::new(c, dc);
         (iso.dg1 * self.c1 + iso.dg2 * self.c2) * 2.0 + iso.bulk(self.kappa).1
     }
-    fn dpk1_many(&self, f: &Matrix3<f64>, dfs: &[Matrix3<f64>], out: &mut [Matrix3<f64>]) {
-        super::dpk1_many_c(self, f, dfs, out)
-    }
 }
 
 impl MembraneMaterial for MooneyRivlin {
@@ -84,15 +81,6 @@ impl MembraneMaterial for MooneyRivlin {
     }
     fn thickness_stretch(&self, c: &Matrix2<f64>) -> f64 {
         1.0 / c.determinant().sqrt()
-    }
-    fn dpk1_many(
-        &self,
-        f: &nalgebra::Matrix3x2<f64>,
-        _n0: &nalgebra::Vector3<f64>,
-        dfs: &[nalgebra::Matrix3x2<f64>],
-        out: &mut [nalgebra::Matrix3x2<f64>],
-    ) {
-        super::membrane_dpk1_many_c(self, f, dfs, out)
     }
 }
 

@@ -80,15 +80,6 @@ impl MembraneMaterial for NeoHookean {
     fn thickness_stretch(&self, c: &Matrix2<f64>) -> f64 {
         1.0 / c.determinant().sqrt()
     }
-    fn dpk1_many(
-        &self,
-        f: &nalgebra::Matrix3x2<f64>,
-        _n0: &nalgebra::Vector3<f64>,
-        dfs: &[nalgebra::Matrix3x2<f64>],
-        out: &mut [nalgebra::Matrix3x2<f64>],
-    ) {
-        super::membrane_dpk1_many_c(self, f, dfs, out)
-    }
 }
 
 #[cfg(test)]

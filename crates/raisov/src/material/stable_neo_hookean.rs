@@ -159,6 +159,12 @@ impl SolidMaterial for StableNeoHookean {
             + cof * (k.lambda * cof.dot(df))
             + dcof * (k.lambda * (f.determinant() - k.alpha))
     }
+    /// [`SolidMaterial::dpk1`] per direction: this law's dP is in the F form.
+    fn dpk1_many(&self, f: &Matrix3<f64>, dfs: &[Matrix3<f64>], out: &mut [Matrix3<f64>]) {
+        for (df, o) in dfs.iter().zip(out) {
+            *o = SolidMaterial::dpk1(self, f, df);
+        }
+    }
 }
 
 impl MembraneMaterial for StableNeoHookean {
@@ -178,15 +184,6 @@ impl MembraneMaterial for StableNeoHookean {
     }
     fn thickness_stretch(&self, _c: &Matrix2<f64>) -> f64 {
         1.0
-    }
-    fn dpk1_many(
-        &self,
-        f: &nalgebra::Matrix3x2<f64>,
-        _n0: &nalgebra::Vector3<f64>,
-        dfs: &[nalgebra::Matrix3x2<f64>],
-        out: &mut [nalgebra::Matrix3x2<f64>],
-    ) {
-        super::membrane_dpk1_many_c(self, f, dfs, out)
     }
 }
 

@@ -40,9 +40,6 @@ impl SolidMaterial for StVenantKirchhoff {
     fn dpk2(&self, _c: &Matrix3<f64>, dc: &Matrix3<f64>) -> Matrix3<f64> {
         Matrix3::identity() * (0.5 * self.lambda * dc.trace()) + dc * self.mu
     }
-    fn dpk1_many(&self, f: &Matrix3<f64>, dfs: &[Matrix3<f64>], out: &mut [Matrix3<f64>]) {
-        super::dpk1_many_c(self, f, dfs, out)
-    }
 }
 
 impl MembraneMaterial for StVenantKirchhoff {
@@ -60,15 +57,6 @@ impl MembraneMaterial for StVenantKirchhoff {
     }
     fn thickness_stretch(&self, _c: &Matrix2<f64>) -> f64 {
         1.0
-    }
-    fn dpk1_many(
-        &self,
-        f: &nalgebra::Matrix3x2<f64>,
-        _n0: &nalgebra::Vector3<f64>,
-        dfs: &[nalgebra::Matrix3x2<f64>],
-        out: &mut [nalgebra::Matrix3x2<f64>],
-    ) {
-        super::membrane_dpk1_many_c(self, f, dfs, out)
     }
 }
 

@@ -513,8 +513,9 @@ impl GalerkinMultigrid {
         }
         self.a = a;
         // Block Jacobi keeps the damping estimated when the hierarchy was built: D⁻¹A's
-        // largest eigenvalue moves little from one Newton tangent to the next, and a cycle
-        // that stops being positive ends conjugate gradients, which then rebuild it.
+        // largest eigenvalue moves little from one Newton tangent to the next. A cycle that is
+        // not positive on the first residual is rebuilt (`newton_direct`); later in a solve
+        // it truncates conjugate gradients.
         let omegas: Vec<Option<f64>> = self
             .relax
             .iter()

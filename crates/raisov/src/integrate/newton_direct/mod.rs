@@ -1041,7 +1041,6 @@ fn pcg(
     tol: f64,
     max_iter: usize,
 ) -> PcgEnd {
-    x.iter_mut().for_each(|v| *v = 0.0);
     pcg_from(matvec, precond, b, x, false, tol, max_iter)
 }
 

@@ -8,8 +8,9 @@
 //! axis k changes `F` by `dF = e_k ⊗ g_b` with `g_b` row `b−1` of `Dm⁻¹` (b ≥ 1) and
 //! `g_0 = −Σ_b g_b`; then `dH = V0 dP Dm⁻ᵀ` with `dP = ∂P/∂F : dF` from the law
 //! ([`SolidMaterial::dpk1`]; an element asks for all its directions at once,
-//! [`SolidMaterial::dpk1_many`], [`MembraneMaterial::dpk1_many`]), and the column `(b, k)` of `K_e` is `dR` assembled from `dH` as
-//! `R` from `H`. Checked against central differences of the element forces in tests.
+//! [`SolidMaterial::dpk1_many`], [`MembraneMaterial::dpk1_many`]), and the column `(b, k)` of
+//! `K_e` is `dR` assembled from `dH` as `R` from `H`. Checked against central differences of
+//! the element forces in tests.
 
 use crate::material::{MembraneMaterial, SolidMaterial};
 use crate::mesh::{cross, dot, norm, sub};

@@ -110,8 +110,7 @@ impl Csr {
     /// Row `i`: its columns and values.
     #[inline]
     pub(crate) fn row(&self, i: usize) -> (&[u32], &[f64]) {
-        let r = self.ptr[i]..self.ptr[i + 1];
-        (&self.col[r.clone()], &self.val[r])
+        self.row_of(&self.val, i)
     }
 
     /// Row i's columns and its entries of `vals`, values on this pattern (`self.val` or a

@@ -23,8 +23,9 @@
 //! - **Newton-multigrid** (direct Newton's iteration with
 //!   [`raisov::integrate::newton_direct::DirectNewtonParams::multigrid`]): each Newton system
 //!   solved by conjugate gradients preconditioned by a Galerkin V-cycle
-//!   ([`raisov::integrate::galerkin`]) over two of the case's levels, the finest and the
-//!   coarsest with at least 1/[`NEWTON_MG_COARSEN`] of its nodes, [`NEWTON_MG_SWEEPS`]
+//!   ([`raisov::integrate::galerkin`]) over two of the case's levels, the finest and
+//!   [`raisov::integrate::newton_direct::coarse_level`]'s (of the levels with at least 1/32
+//!   of its nodes, the finest with at most 1/[`NEWTON_MG_COARSEN`], else the coarsest), [`NEWTON_MG_SWEEPS`]
 //!   smoothing sweeps; variants ([`NEWTON_MG_VARIANTS`]): a Newton iteration reuses the
 //!   last hierarchy's coarse factorisation with operators rebuilt from its tangent, or the
 //!   whole last hierarchy, either until CG fails to converge; the smoother is node-block
@@ -113,8 +114,8 @@ pub const NEWTON_REUSE: [(usize, bool); 3] =
     [(0, false), (NEWTON_PCG_MAX, false), (NEWTON_PCG_MAX, true)];
 /// FAS's sweep: pre- and post-smoothing sweeps per level (the default is 4).
 pub const FAS_SWEEPS: [usize; 3] = [4, 8, 16];
-/// Newton-multigrid: its coarse level has at least 1/`NEWTON_MG_COARSEN` of the finest
-/// level's nodes (module docs).
+/// Newton-multigrid: its coarse level has at most 1/`NEWTON_MG_COARSEN` of the finest
+/// level's nodes where the levels allow (module docs).
 pub const NEWTON_MG_COARSEN: usize = raisov::integrate::newton_direct::COARSEN;
 /// Newton-multigrid: smoothing sweeps before and after the coarse correction.
 pub const NEWTON_MG_SWEEPS: usize = 2;
@@ -526,8 +527,8 @@ fn newton_run(
     Ok((row, u))
 }
 
-/// Newton-multigrid's levels ([`newton_mg_run`]): the finest, and the coarsest of the others
-/// with at least 1/[`NEWTON_MG_COARSEN`] of its nodes (none where no level qualifies).
+/// Newton-multigrid's levels ([`newton_mg_run`]): the finest, and
+/// [`raisov::integrate::newton_direct::coarse_level`]'s (none where no level qualifies).
 fn newton_mg_levels(meshes: Vec<raisov::mesh::Mesh>) -> Vec<raisov::mesh::Mesh> {
     let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
     let coarse = raisov::integrate::newton_direct::coarse_level(&nodes);

@@ -139,7 +139,7 @@
 //!                                 # errors); not with [interactive]. Exit status 3 if it does not converge
 //! solver = "auto"                 # newton: "auto" (default) | "multigrid" | "direct" |
 //!                                 # "krylov" (StaticSolver): "auto" is "multigrid" where
-//!                                 # [multigrid] gives a level with >= 1/16 of the nodes, else
+//!                                 # [multigrid] gives a level with >= 1/32 of the nodes, else
 //!                                 # "direct"; "krylov" where pressure, a tool or springs act
 //! max_newton = 50                 # newton: Newton steps at most per increment, default 50
 //! increments = 10                 # newton: loads and prescribed displacements applied in
@@ -421,7 +421,7 @@ named_enum! {
 named_enum! {
     /// `[integrator] solver` of `method = "newton"`: how each Newton system is solved.
     pub enum StaticSolver {
-        /// `"multigrid"` where the scenario has a coarser level with at least 1/16 of the
+        /// `"multigrid"` where the scenario has a coarser level with at least 1/32 of the
         /// finest level's nodes, else `"direct"`; `"krylov"` where the assembled tangent does
         /// not cover the forces (pressure, tool contact, springs).
         Auto = "auto",

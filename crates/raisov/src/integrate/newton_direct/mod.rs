@@ -127,17 +127,32 @@ const SECANT_STEPS: usize = 2;
 /// docs).
 const STALE_SHARE: f64 = 1.5;
 
-/// Newton-multigrid's coarse level has at least 1/`COARSEN` of the finest level's nodes
-/// ([`coarse_level`]).
+/// Newton-multigrid's coarse level has at most 1/`COARSEN` of the finest level's nodes where
+/// the levels allow ([`coarse_level`]).
 pub const COARSEN: usize = 16;
 
-/// Of levels with `nodes[l]` nodes (finest first), the coarsest but the finest with at least
-/// 1/[`COARSEN`] of the finest level's nodes: the coarse level of a two-level Newton-multigrid
-/// (deeper hierarchies' Galerkin operators grow denser than the fine one, and each level's
-/// smoothing costs). `None` where no level qualifies.
+/// A level with fewer than 1/`COARSEN_LIMIT` of the finest level's nodes is not a coarse level
+/// of Newton-multigrid ([`coarse_level`]).
+pub const COARSEN_LIMIT: usize = 32;
+
+/// Of levels with `nodes[l]` nodes (finest first), the coarse level of a two-level
+/// Newton-multigrid: of the levels with at least 1/[`COARSEN_LIMIT`] of the finest level's
+/// nodes, the finest with at most 1/[`COARSEN`] of them, else the coarsest. `None` where no
+/// level qualifies.
+///
+/// The coarse level is factored (a sparse Cholesky factorisation of its Galerkin operator,
+/// about 130 entries a row on a tetrahedral organ), whose cost grows faster than its size;
+/// coarser levels make a weaker coarse correction and conjugate gradients need more
+/// iterations. Deeper hierarchies' Galerkin operators grow denser than the fine one, and each
+/// level's smoothing costs, so two levels (`bench/RESULTS.md`: the mesher livers with each
+/// choice).
 pub fn coarse_level(nodes: &[usize]) -> Option<usize> {
     let n0 = *nodes.first()?;
-    (1..nodes.len()).rev().find(|&i| nodes[i] * COARSEN >= n0)
+    let eligible = |i: &usize| nodes[*i] * COARSEN_LIMIT >= n0;
+    (1..nodes.len())
+        .filter(eligible)
+        .find(|&i| nodes[i] * COARSEN <= n0)
+        .or_else(|| (1..nodes.len()).rev().find(eligible))
 }
 
 /// Settings of the direct Newton solver (module docs).

@@ -24,8 +24,9 @@
 //! differs from the fine equilibrium by the discretisation error of the coarse mesh: the
 //! large, smooth part of the displacement (a sag under gravity, a drape's shape, the field of
 //! a pull) is in place before the first fine tangent, and the fine iteration has only that
-//! difference left to remove, mostly in Newton's quadratic phase. The coarse problem, with
-//! `1/16` of the nodes or more ([`super::COARSEN`]), is solved by direct Newton with
+//! difference left to remove, mostly in Newton's quadratic phase. The coarse problem (the
+//! level of [`super::coarse_level`]: 1/16 of the nodes or fewer where the levels allow), is
+//! solved by direct Newton with
 //! factorisation reuse ([`COARSE_PCG_MAX`]) to [`COARSE_REL_TOL`], over the caller's load
 //! steps; the fine iteration then takes the full load in one step.
 //!

@@ -550,3 +550,24 @@ fn conjugate_gradients_from_their_own_iterate_keep_the_work_done() {
         PcgEnd::Converged(0)
     );
 }
+
+/// The two-level rule: the finest level with at most 1/16 of the nodes, else the coarsest, of
+/// the levels with at least 1/32 of them. Before, the 70k-node mesher liver took its 8 765-node
+/// level (the coarsest with at least 1/16), whose factor made each CG iteration twice as dear
+/// as with its 4 344-node level.
+#[test]
+fn coarse_level_is_the_finest_with_at_most_a_sixteenth_of_the_nodes() {
+    // The shipped liver L0: no level has as few as 1/16 of its nodes; the coarsest.
+    assert_eq!(coarse_level(&[16693, 7547, 3764, 2088]), Some(3));
+    // The mesher's 70k and 17k livers.
+    assert_eq!(
+        coarse_level(&[70633, 35204, 17359, 8765, 4344, 2186]),
+        Some(4)
+    );
+    assert_eq!(coarse_level(&[17160, 8582, 4283, 2143, 1056]), Some(4));
+    // A level below 1/32 does not qualify; one level halving qualifies.
+    assert_eq!(coarse_level(&[70633, 2000]), None);
+    assert_eq!(coarse_level(&[1000, 500]), Some(1));
+    assert_eq!(coarse_level(&[1000]), None);
+    assert_eq!(coarse_level(&[]), None);
+}

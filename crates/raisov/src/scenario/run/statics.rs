@@ -367,7 +367,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
     let Some(c) = coarse_level(&nodes) else {
         let msg = format!(
             "no [multigrid] level has at least 1/{} of the finest level's {} nodes (levels: {:?})",
-            crate::integrate::newton_direct::COARSEN,
+            crate::integrate::newton_direct::COARSEN_LIMIT,
             nodes[0],
             &nodes[1..]
         );

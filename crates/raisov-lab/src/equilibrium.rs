@@ -621,11 +621,7 @@ fn newton_mg_run(
                 load_steps,
                 if load_steps == 1 { "" } else { "s" },
                 lifted(&o),
-                match smoother {
-                    Smoother::ColouredBlock => "coloured block Gauss-Seidel",
-                    Smoother::BlockJacobi => "block Jacobi",
-                    Smoother::GaussSeidel => "point Gauss-Seidel",
-                },
+                smoother.describe(),
                 if keep { "all" } else { "the coarse factor" },
                 o.multigrid_setups,
                 o.cg_iterations,

@@ -45,7 +45,9 @@ const MIN_BLOCKS_PER_TASK: usize = 64;
 /// Which smoother a [`super::galerkin::GalerkinMultigrid`] runs (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Smoother {
-    /// Point Gauss-Seidel on one thread (the default, and the reference).
+    /// Point Gauss-Seidel on one thread (the default of
+    /// [`super::newton_direct::MultigridPcg`], and the reference; a scenario's `[integrator]
+    /// smoother` defaults by element kind, [`crate::scenario::StaticSolve::smoother`]).
     #[default]
     GaussSeidel,
     /// Node-block Gauss-Seidel over a colouring, colours' blocks in parallel. It visits the
@@ -53,6 +55,17 @@ pub enum Smoother {
     ColouredBlock,
     /// Damped node-block Jacobi, rows in parallel in memory order.
     BlockJacobi,
+}
+
+impl Smoother {
+    /// Its name in summaries and tables.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Smoother::GaussSeidel => "point Gauss-Seidel",
+            Smoother::ColouredBlock => "coloured block Gauss-Seidel",
+            Smoother::BlockJacobi => "block Jacobi",
+        }
+    }
 }
 
 /// Power iterations of [`Smoother::BlockJacobi`]'s estimate of `λ_max(D⁻¹A)`.

@@ -43,6 +43,7 @@ pub mod surface;
 use crate::error::{Error, Result};
 use crate::fem::loads::TimeFunction;
 use crate::fem::{FemModel, FemParams, Precision};
+use crate::integrate::smoother::Smoother;
 use crate::integrate::stability::critical_step_estimate;
 use crate::integrate::{Constraints, Method, Motion, System};
 use crate::io::VtuFormat;
@@ -55,7 +56,7 @@ use mesh_source::resolve_mesh_source;
 pub use mesh_source::{BoxCells, MeshSource, Shape};
 pub use run::{run, run_static, run_with, RunOptions, RunSummary, StaticSummary, StopReason};
 use spec::{defaults, Law, MotionMode, Named, Stop};
-pub use spec::{ScenarioSpec, StaticSolver};
+pub use spec::{NewtonSmoother, ScenarioSpec, StaticSolver};
 use std::path::{Path, PathBuf};
 
 /// How a run ends.
@@ -210,6 +211,11 @@ pub struct StaticSolve {
     /// true for membranes, false for tetrahedra (`raisov bench equilibrium`: about 3× faster
     /// on the 100k drape, no faster on the liver).
     pub coarse_start: bool,
+    /// `[integrator] smoother`: [`StaticSolver::Multigrid`]'s V-cycle smoother. Default
+    /// [`Smoother::BlockJacobi`] for tetrahedra, [`Smoother::ColouredBlock`] for membranes
+    /// (each within 26 % of the fastest of the three on `raisov bench equilibrium`'s cases
+    /// of its kind, and both run in parallel; point Gauss-Seidel runs on one thread).
+    pub smoother: Smoother,
 }
 
 impl StaticSolve {
@@ -496,6 +502,7 @@ impl Scenario {
             ("increments", spec.integrator.increments.is_some()),
             ("solver", spec.integrator.solver.is_some()),
             ("coarse_start", spec.integrator.coarse_start.is_some()),
+            ("smoother", spec.integrator.smoother.is_some()),
         ] {
             if set && !newton {
                 return Err(err(
@@ -565,6 +572,17 @@ impl Scenario {
             if spec.integrator.increments == Some(0) {
                 return Err(err(path, "`integrator.increments` = 0: must be at least 1"));
             }
+            if spec.integrator.smoother.is_some()
+                && matches!(solver, StaticSolver::Direct | StaticSolver::Krylov)
+            {
+                return Err(err(
+                    path,
+                    format!(
+                        "`integrator.smoother` applies to solver = \"multigrid\" (or \"auto\"), not \"{}\"",
+                        solver.name()
+                    ),
+                ));
+            }
             if spec.integrator.coarse_start == Some(true)
                 && matches!(solver, StaticSolver::Direct | StaticSolver::Krylov)
             {
@@ -585,6 +603,13 @@ impl Scenario {
                     .integrator
                     .coarse_start
                     .unwrap_or(mesh.kind == ElementKind::Tri3),
+                smoother: match spec.integrator.smoother {
+                    Some(NewtonSmoother::BlockJacobi) => Smoother::BlockJacobi,
+                    Some(NewtonSmoother::BlockGaussSeidel) => Smoother::ColouredBlock,
+                    Some(NewtonSmoother::GaussSeidel) => Smoother::GaussSeidel,
+                    None if mesh.kind == ElementKind::Tri3 => Smoother::ColouredBlock,
+                    None => Smoother::BlockJacobi,
+                },
             })
         } else {
             None

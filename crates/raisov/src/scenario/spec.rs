@@ -155,6 +155,10 @@
 //!                                 # faster), false for tetrahedra (the liver no faster; both
 //!                                 # by `raisov bench equilibrium`), see
 //!                                 # integrate::newton_direct::coarse_start
+//! smoother = "block-jacobi"       # newton, "multigrid" (also as "auto"'s choice): the
+//!                                 # V-cycle's smoother, "block-jacobi" (default for
+//!                                 # tetrahedra) | "block-gauss-seidel" (coloured; default for
+//!                                 # membranes) | "gauss-seidel" (point, one thread)
 //! dt = 1e-4                       # s; default: safety × estimated critical step
 //!                                 # (crate::integrate::stability)
 //! safety = 0.5                    # fraction of the estimated critical step, default 0.5
@@ -435,6 +439,20 @@ named_enum! {
         /// Matrix-free Newton-Krylov: finite-difference tangent products, conjugate gradients
         /// ([`crate::integrate::statics`]); covers every force.
         Krylov = "krylov",
+    }
+}
+
+named_enum! {
+    /// `[integrator] smoother` of `solver = "multigrid"`: the Galerkin V-cycle's smoother
+    /// ([`crate::integrate::smoother::Smoother`]).
+    pub enum NewtonSmoother {
+        /// Damped node-block Jacobi, rows in parallel; the default for tetrahedra.
+        BlockJacobi = "block-jacobi",
+        /// Node-block Gauss-Seidel over a colouring, each colour's blocks in parallel; the
+        /// default for membranes.
+        BlockGaussSeidel = "block-gauss-seidel",
+        /// Point Gauss-Seidel on one thread.
+        GaussSeidel = "gauss-seidel",
     }
 }
 
@@ -924,6 +942,7 @@ pub struct IntegratorSpec {
     pub max_newton: Option<usize>,
     pub increments: Option<usize>,
     pub coarse_start: Option<bool>,
+    pub smoother: Option<NewtonSmoother>,
     pub safety: Option<f64>,
     pub precision: Option<Precision>,
 }

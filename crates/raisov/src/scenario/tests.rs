@@ -1069,6 +1069,13 @@ fn newton_static_solve_matches_the_steady_dynamic_run() {
         e.contains("`integrator.solver` applies to method = \"newton\""),
         "{e}"
     );
+    let e = error_of(&format!(
+        "{BASE}[integrator]\nsmoother = \"block-jacobi\"\n"
+    ));
+    assert!(
+        e.contains("`integrator.smoother` applies to method = \"newton\""),
+        "{e}"
+    );
 }
 
 /// `[integrator] solver`: the three static solvers land on one equilibrium of the lifted
@@ -1133,6 +1140,23 @@ fn static_solvers_reach_one_equilibrium() {
     let (cold, t_c) = solve("+coarse_start = false\n", true);
     assert_eq!(cold.solver, StaticSolver::Multigrid, "{cold}");
     assert!(!cold.to_string().contains("coarse start"), "{cold}");
+    // `[integrator] smoother`: coloured block Gauss-Seidel by default on a membrane; the
+    // other two land on the same equilibrium.
+    assert!(
+        mg.to_string()
+            .contains("coloured block Gauss-Seidel smoothing"),
+        "{mg}"
+    );
+    let (jacobi, t_j) = solve("+smoother = \"block-jacobi\"\n", true);
+    assert!(
+        jacobi.to_string().contains("block Jacobi smoothing"),
+        "{jacobi}"
+    );
+    let (point, t_p) = solve("+smoother = \"gauss-seidel\"\n", true);
+    assert!(
+        point.to_string().contains("point Gauss-Seidel smoothing"),
+        "{point}"
+    );
     let scale = krylov.last.reaction_prescribed[2];
     assert!(scale > 0.0, "{krylov}");
     let smax = t_k.iter().fold(0.0f64, |a, x| a.max(x.abs()));
@@ -1140,6 +1164,8 @@ fn static_solvers_reach_one_equilibrium() {
         ("direct", &direct, &t_d),
         ("multigrid", &mg, &t_m),
         ("multigrid from rest", &cold, &t_c),
+        ("multigrid, block Jacobi", &jacobi, &t_j),
+        ("multigrid, point Gauss-Seidel", &point, &t_p),
     ] {
         for k in 0..3 {
             let (a, b) = (
@@ -1173,6 +1199,18 @@ fn static_solvers_reach_one_equilibrium() {
     let e = error_of(&text("direct+coarse_start = true\n", true));
     assert!(
         e.contains("`integrator.coarse_start` = true applies to solver = \"multigrid\""),
+        "{e}"
+    );
+    let e = error_of(&text("direct+smoother = \"block-jacobi\"\n", true));
+    assert!(
+        e.contains("`integrator.smoother` applies to solver = \"multigrid\""),
+        "{e}"
+    );
+    let e = error_of(&text("+smoother = \"jacobi\"\n", true));
+    assert!(
+        e.contains("integrator.smoother")
+            && e.contains("\"block-jacobi\"")
+            && e.contains("\"gauss-seidel\""),
         "{e}"
     );
 }
@@ -1329,4 +1367,47 @@ residual_tol = 1e-11
             "balance {k}: {gap:e} of {scale:e}, {one}"
         );
     }
+}
+
+/// `[integrator] smoother` defaults by element kind: block Jacobi on tetrahedra, coloured
+/// block Gauss-Seidel on membranes; a value given is taken as given.
+#[test]
+fn newton_smoother_defaults_by_element_kind() {
+    use crate::integrate::smoother::Smoother;
+    let cube = |extra: &str| {
+        format!(
+            r#"
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [4, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}
+[integrator]
+method = "newton"
+{extra}
+"#
+        )
+    };
+    let smoother = |text: &str| parse(text).unwrap().statics.unwrap().smoother;
+    assert_eq!(smoother(&cube("")), Smoother::BlockJacobi);
+    assert_eq!(
+        smoother(&cube("smoother = \"gauss-seidel\"")),
+        Smoother::GaussSeidel
+    );
+    let membrane = BASE.replace("duration = 0.01", "residual_tol = 1e-8");
+    assert_eq!(
+        smoother(&format!("{membrane}[integrator]\nmethod = \"newton\"\n")),
+        Smoother::ColouredBlock
+    );
+    assert_eq!(
+        smoother(&format!(
+            "{membrane}[integrator]\nmethod = \"newton\"\nsmoother = \"block-jacobi\"\n"
+        )),
+        Smoother::BlockJacobi
+    );
 }

@@ -558,7 +558,10 @@ fn assembled(
         max_newton: settings.max_newton.saturating_mul(increments),
         load_steps: CoarseStart::fine_load_steps(start.as_ref(), increments),
         pcg_max: if down.is_some() { 0 } else { DIRECT_PCG_MAX },
-        multigrid: down.map(|_| MultigridPcg::default()),
+        multigrid: down.map(|_| MultigridPcg {
+            smoother: settings.smoother,
+            ..Default::default()
+        }),
         ..Default::default()
     };
     let out: std::result::Result<DirectStatic, DirectNewtonError> = match sys.force.as_fem_mut() {
@@ -596,8 +599,10 @@ fn assembled(
             failure: None,
             detail: if down.is_some() {
                 format!(
-                    "{start_note}{} CG iterations, {} hierarchies",
-                    o.cg_iterations, o.multigrid_setups
+                    "{start_note}{} smoothing, {} CG iterations, {} hierarchies",
+                    settings.smoother.describe(),
+                    o.cg_iterations,
+                    o.multigrid_setups
                 )
             } else {
                 format!(

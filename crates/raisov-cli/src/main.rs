@@ -658,6 +658,14 @@ fn cmd_check(path: &Path) -> Result<()> {
             sc.mesh.nodes[*a as usize]
         );
     }
+    if sc.statics.is_some() {
+        // A static solve: no time stepping, no stop rule, no FAS stepper.
+        let how = raisov::scenario::describe_static(&sc).map_err(BadInput)?;
+        println!("integrator    {how}");
+        println!("output        {}", sc.out_dir.display());
+        println!("ok");
+        return Ok(());
+    }
     println!(
         "integrator    {}, dt = {:.4e} s (estimated critical {:.4e} s), precision {}",
         sc.method.name(),

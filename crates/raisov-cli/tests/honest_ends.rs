@@ -297,3 +297,29 @@ fn sigkill_leaves_rows_up_to_the_last_frame_and_no_lock() {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+/// `raisov check` of a static scenario says what `raisov run` would solve: the solver as
+/// `"auto"` resolves it, the smoother, the coarse start, the increments; no time step. It
+/// printed the dynamic integrator and FAS's stepper, which a static solve does not run.
+#[test]
+fn check_of_a_static_scenario_names_its_solver_and_smoother() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scenario(
+        dir.path(),
+        "static",
+        "residual_tol = 1e-8",
+        "[integrator]\nmethod = \"newton\"\nsmoother = \"block-jacobi\"\n[multigrid]\nlevels = 2\n",
+    );
+    let o = raisov().arg("check").arg(&p).output().unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}");
+    assert!(
+        out.contains("newton (static equilibrium), solver \"multigrid\"")
+            && out.contains("(solver \"auto\")")
+            && out.contains("block Jacobi smoothing")
+            && out.contains("coarse start yes")
+            && out.contains("1 load increment"),
+        "{out}"
+    );
+    assert!(!out.contains("dt =") && !out.contains("stepping"), "{out}");
+}

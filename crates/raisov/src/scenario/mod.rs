@@ -54,7 +54,9 @@ use crate::mesh::{dot, norm, sub, ElementKind, Mesh};
 pub use levels::{LevelConstraints, LevelMeshes, Multigrid, MultigridScheme};
 use mesh_source::resolve_mesh_source;
 pub use mesh_source::{BoxCells, MeshSource, Shape};
-pub use run::{run, run_static, run_with, RunOptions, RunSummary, StaticSummary, StopReason};
+pub use run::{
+    describe_static, run, run_static, run_with, RunOptions, RunSummary, StaticSummary, StopReason,
+};
 use spec::{defaults, Law, MotionMode, Named, Stop};
 pub use spec::{NewtonSmoother, ScenarioSpec, StaticSolver};
 use std::path::{Path, PathBuf};

@@ -53,7 +53,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 mod statics;
-pub use statics::{run_static, StaticSummary};
+pub use statics::{describe_static, run_static, StaticSummary};
 
 /// Why a run ended normally.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -293,6 +293,44 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
     Ok(summary)
 }
 
+/// What [`run_static`] would run, resolved as it resolves it (`raisov check`): the solver
+/// (and why, where `"auto"` chose), the levels, the smoother, the coarse start, the load
+/// increments and the stopping rule. An error where the scenario is not a static solve or an
+/// assembled solver was asked for and does not apply.
+pub fn describe_static(sc: &Scenario) -> Result<String> {
+    let Some(settings) = sc.statics else {
+        return Err(Error::Scenario {
+            path: sc.path.clone(),
+            line: None,
+            msg: "not a static solve: `[integrator] method` is not \"newton\"".into(),
+        });
+    };
+    let mut sys = sc.build_system()?;
+    let plan = plan(sc, &settings, &mut sys)?;
+    let increments = settings.increments(plan.solver);
+    let mut s = format!(
+        "newton (static equilibrium), solver \"{}\"",
+        plan.solver.name()
+    );
+    if !plan.why.is_empty() {
+        s += &format!(": {}", plan.why);
+    }
+    if plan.solver == StaticSolver::Multigrid {
+        s += &format!(
+            "; {} smoothing; coarse start {}",
+            settings.smoother.describe(),
+            if settings.coarse_start { "yes" } else { "no" }
+        );
+    }
+    s += &format!(
+        "; {increments} load increment{}, at most {} Newton steps each; residual_tol {:e}",
+        if increments == 1 { "" } else { "s" },
+        settings.max_newton,
+        settings.rel_tol
+    );
+    Ok(s)
+}
+
 /// The solver a static solve runs, and the level transfers of `"multigrid"`.
 struct Plan {
     solver: StaticSolver,

@@ -23,6 +23,25 @@ boundary = true
 duration = 0.01
 "#;
 
+/// A neo-Hookean cube of 4 × 4 × 4 boxes (0.04 m), held at z = 0; `extra` appended.
+fn cube(extra: &str) -> String {
+    format!(
+        r#"
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [4, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}
+{extra}
+"#
+    )
+}
+
 fn parse(text: &str) -> Result<Scenario> {
     Scenario::from_toml(text, Path::new("test.toml"))
 }
@@ -1219,25 +1238,7 @@ fn static_solvers_reach_one_equilibrium() {
 /// point and radius on the undeformed body, all with the same motion.
 #[test]
 fn displace_radius_prescribes_the_grab_patch() {
-    let cube = |displace: &str| {
-        format!(
-            r#"
-[mesh]
-generate = "box"
-size = [0.04, 0.04, 0.04]
-divisions = [4, 4, 4]
-[material]
-law = "neo-hookean"
-young = 5e3
-poisson = 0.45
-[[fix]]
-plane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}
-[run]
-duration = 0.01
-{displace}
-"#
-        )
-    };
+    let cube = |displace: &str| cube(&format!("[run]\nduration = 0.01\n{displace}"));
     for (r, want) in [(0.0, 1), (0.011, 5), (0.0145, 9)] {
         let d = format!(
             "[[displace]]\npoint = [0.02, 0.02, 0.05]\nradius = {r}\ntable = [[0.0, 0, 0, 0], [1.0, 0, 0, 0.01]]"
@@ -1374,25 +1375,7 @@ residual_tol = 1e-11
 #[test]
 fn newton_smoother_defaults_by_element_kind() {
     use crate::integrate::smoother::Smoother;
-    let cube = |extra: &str| {
-        format!(
-            r#"
-[mesh]
-generate = "box"
-size = [0.04, 0.04, 0.04]
-divisions = [4, 4, 4]
-[material]
-law = "neo-hookean"
-young = 5e3
-poisson = 0.45
-[[fix]]
-plane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}
-[integrator]
-method = "newton"
-{extra}
-"#
-        )
-    };
+    let cube = |extra: &str| cube(&format!("[integrator]\nmethod = \"newton\"\n{extra}"));
     let smoother = |text: &str| parse(text).unwrap().statics.unwrap().smoother;
     assert_eq!(smoother(&cube("")), Smoother::BlockJacobi);
     assert_eq!(

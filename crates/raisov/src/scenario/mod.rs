@@ -215,8 +215,8 @@ pub struct StaticSolve {
     pub coarse_start: bool,
     /// `[integrator] smoother`: [`StaticSolver::Multigrid`]'s V-cycle smoother. Default
     /// [`Smoother::BlockJacobi`] for tetrahedra, [`Smoother::ColouredBlock`] for membranes
-    /// (each within 26 % of the fastest of the three on `raisov bench equilibrium`'s cases
-    /// of its kind, and both run in parallel; point Gauss-Seidel runs on one thread).
+    /// (on `raisov bench equilibrium`'s cases of its kind, each is the fastest of the three or
+    /// within 12 % of it, and both run in parallel; point Gauss-Seidel runs on one thread).
     pub smoother: Smoother,
 }
 

@@ -179,13 +179,7 @@ impl std::fmt::Display for StaticSummary {
 /// `measures.csv` (the start and the solution), two frames, `nodal_stress.csv` and
 /// `summary.txt` with the solver's convergence report.
 pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
-    let Some(settings) = sc.statics else {
-        return Err(Error::Scenario {
-            path: sc.path.clone(),
-            line: None,
-            msg: "not a static solve: `[integrator] method` is not \"newton\"".into(),
-        });
-    };
+    let settings = static_settings(sc)?;
     let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
     let _lock = OutputLock::acquire(&out)?;
     let n = sc.mesh.num_nodes();
@@ -298,13 +292,7 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
 /// increments and the stopping rule. An error where the scenario is not a static solve or an
 /// assembled solver was asked for and does not apply.
 pub fn describe_static(sc: &Scenario) -> Result<String> {
-    let Some(settings) = sc.statics else {
-        return Err(Error::Scenario {
-            path: sc.path.clone(),
-            line: None,
-            msg: "not a static solve: `[integrator] method` is not \"newton\"".into(),
-        });
-    };
+    let settings = static_settings(sc)?;
     let mut sys = sc.build_system()?;
     let plan = plan(sc, &settings, &mut sys)?;
     let increments = settings.increments(plan.solver);
@@ -329,6 +317,15 @@ pub fn describe_static(sc: &Scenario) -> Result<String> {
         settings.rel_tol
     );
     Ok(s)
+}
+
+/// The scenario's static-solve settings; an error where it is not a static solve.
+fn static_settings(sc: &Scenario) -> Result<StaticSolve> {
+    sc.statics.ok_or_else(|| Error::Scenario {
+        path: sc.path.clone(),
+        line: None,
+        msg: "not a static solve: `[integrator] method` is not \"newton\"".into(),
+    })
 }
 
 /// The solver a static solve runs, and the level transfers of `"multigrid"`.

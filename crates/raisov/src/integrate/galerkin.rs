@@ -27,9 +27,11 @@
 //! One V-cycle `z = B b` ([`GalerkinMultigrid::apply`]) on level l, from `z = 0`:
 //! `ν` forward sweeps of the smoother ([`super::smoother`]) on `A_l z = b`; the residual restricted, `b_c = P_lᵀ (b − A_l z)`;
 //! the coarse correction `z_c = B_{l+1} b_c` (on the coarsest level a sparse Cholesky solve,
-//! faer's, with a diagonal shift where the coarsest operator is not positive definite) added,
+//! faer's, with a diagonal shift where the coarsest operator is not positive definite:
+//! [`super::coarse_factor`]) added,
 //! `z += P_l z_c`; `ν` backward sweeps. The backward sweep is the forward one's adjoint and the
-//! coarsest solve is exact, so `B` is symmetric, and positive definite where every `A_l` is: a
+//! coarsest solve is exact (up to its factor's rounding to `f32`, [`super::coarse_factor`]),
+//! so `B` is symmetric, and positive definite where every `A_l` is: a
 //! preconditioner for conjugate gradients. Built for one matrix, it may precondition a later
 //! one (a Newton iteration's next tangent): it stays symmetric and positive definite, only
 //! less close to that matrix's inverse.
@@ -46,12 +48,10 @@
 //! products are split into row blocks that are independent (the same bits on any thread
 //! count), and so are the smoothers' ([`super::smoother`]).
 
+use super::coarse_factor::{CoarseFactor, CoarseSymbolic, Precision};
 use super::smoother::{gauss_seidel, Colouring, Smoother};
 use crate::hierarchy::Transfer;
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use faer::Side;
+use faer::sparse::SparseColMat;
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -442,16 +442,10 @@ enum Relax {
     Jacobi(Vec<[f64; 9]>, f64),
 }
 
-/// A sparse Cholesky factorisation of a coarsest operator.
-struct CoarseFactor {
-    llt: Llt<usize, f64>,
-    /// The shift it needed to factor, relative to the operator's mean diagonal.
-    shift: f64,
-}
-
 impl GalerkinMultigrid {
-    /// The Galerkin operators of `a0` over `p`'s levels and the coarsest one's factorisation;
-    /// `sweeps` sweeps of `smoother` before and after each coarse correction. `symbolic`, the
+    /// The Galerkin operators of `a0` over `p`'s levels and the coarsest one's factorisation,
+    /// solved in `precision` ([`super::coarse_factor`]); `sweeps` sweeps of `smoother` before
+    /// and after each coarse correction. `symbolic`, the
     /// coarsest level's symbolic factorisation from an earlier call on the same hierarchy and
     /// pattern, is reused where given and filled in where not, after checking that the
     /// factor fits in the available memory ([`GalerkinError::Memory`]). Errors where the
@@ -462,10 +456,11 @@ impl GalerkinMultigrid {
         p: Arc<Prolongations>,
         sweeps: usize,
         smoother: Smoother,
-        symbolic: &mut Option<SymbolicLlt<usize>>,
+        precision: Precision,
+        symbolic: &mut Option<CoarseSymbolic>,
     ) -> Result<Self, GalerkinError> {
         let a = operators(a0, &p);
-        let coarse = factor(a.last().unwrap(), symbolic)?;
+        let coarse = CoarseFactor::new(a.last().unwrap(), symbolic, precision)?;
         let colourings = match smoother {
             Smoother::GaussSeidel => Vec::new(),
             Smoother::ColouredBlock | Smoother::BlockJacobi => a[..a.len() - 1]
@@ -614,11 +609,7 @@ impl GalerkinMultigrid {
     fn cycle(&self, l: usize, b: &[f64], z: &mut [f64]) {
         let a = &self.a[l];
         if l + 1 == self.a.len() {
-            let mut m = faer::Mat::<f64>::from_fn(b.len(), 1, |i, _| b[i]);
-            self.coarse.llt.solve_in_place(m.as_mut());
-            for (i, zi) in z.iter_mut().enumerate() {
-                *zi = m[(i, 0)];
-            }
+            self.coarse.solve(b, z);
             return;
         }
         z.iter_mut().for_each(|v| *v = 0.0);
@@ -684,82 +675,6 @@ fn unit_empty_diagonal(c: &mut Csr) {
     c.ptr = ptr;
     c.col = col;
     c.val = val;
-}
-
-/// Sparse Cholesky of `a` (its lower triangle), shifting the diagonal by `σ d̄` (`d̄` the mean
-/// diagonal; σ = 0, 10⁻⁶, 10⁻⁴, …, 10⁶) until it factors; the factor and σ. Each try is a
-/// whole numeric factorisation (an indefinite operator's failing pivot comes late), so the
-/// shift rises a hundredfold a try (the liver L0's coarsest operator at an indefinite state
-/// factors only at 1).
-fn factor(
-    a: &Csr,
-    symbolic: &mut Option<SymbolicLlt<usize>>,
-) -> Result<CoarseFactor, GalerkinError> {
-    let n = a.rows;
-    let diag = a.diagonal();
-    let dbar = diag.iter().map(|d| d.abs()).sum::<f64>() / n.max(1) as f64;
-    // The lower triangle in compressed columns: column j is row j's entries from the
-    // diagonal on (A is symmetric), row indices ascending, the diagonal first.
-    let mut col_ptr = Vec::with_capacity(n + 1);
-    col_ptr.push(0usize);
-    let mut row_idx = Vec::with_capacity(a.col.len() / 2 + n);
-    let mut vals = Vec::with_capacity(a.col.len() / 2 + n);
-    let mut diag_at = Vec::with_capacity(n);
-    for j in 0..n {
-        let (c, v) = a.row(j);
-        let start = c.partition_point(|&k| (k as usize) < j);
-        if c.get(start) != Some(&(j as u32)) {
-            return Err(GalerkinError::Factor(
-                "the coarsest Galerkin operator lacks a diagonal entry".into(),
-            ));
-        }
-        diag_at.push(vals.len());
-        row_idx.extend(c[start..].iter().map(|&k| k as usize));
-        vals.extend_from_slice(&v[start..]);
-        col_ptr.push(row_idx.len());
-    }
-    let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-    if symbolic.is_none() {
-        let fail = |e| GalerkinError::Factor(format!("{e:?}"));
-        // The factor's values, and as much again for the numeric factorisation's workspace.
-        let counted = faer::sparse::linalg::cholesky::factorize_symbolic_cholesky(
-            pattern.as_ref(),
-            Side::Lower,
-            Default::default(),
-            Default::default(),
-        )
-        .map_err(fail)?;
-        crate::memory::check(
-            &format!(
-                "the coarsest Galerkin level's Cholesky factor ({n} dofs, {} nonzeros)",
-                counted.len_val()
-            ),
-            16 * counted.len_val() as u64,
-        )
-        .map_err(GalerkinError::Memory)?;
-        drop(counted);
-        *symbolic = Some(SymbolicLlt::try_new(pattern.as_ref(), Side::Lower).map_err(fail)?);
-    }
-    let symbolic = symbolic.as_ref().unwrap();
-    let mut sigma = 0.0f64;
-    loop {
-        let mut v = vals.clone();
-        for &k in &diag_at {
-            v[k] += sigma * dbar;
-        }
-        let m = SparseColMat::new(pattern.clone(), v);
-        match Llt::try_new_with_symbolic(symbolic.clone(), m.as_ref(), Side::Lower) {
-            Ok(llt) => return Ok(CoarseFactor { llt, shift: sigma }),
-            Err(e) => {
-                if sigma >= 1e6 {
-                    return Err(GalerkinError::Factor(format!(
-                        "the coarsest Galerkin operator does not factor: {e:?}"
-                    )));
-                }
-                sigma = if sigma == 0.0 { 1e-6 } else { 100.0 * sigma };
-            }
-        }
-    }
 }
 
 #[cfg(test)]
@@ -888,8 +803,15 @@ mod tests {
             dofs: vec![(0..n).collect()],
         });
         let l = laplace(n);
-        let mut mg =
-            GalerkinMultigrid::new(l.clone(), levels, 1, Smoother::GaussSeidel, &mut None).unwrap();
+        let mut mg = GalerkinMultigrid::new(
+            l.clone(),
+            levels,
+            1,
+            Smoother::GaussSeidel,
+            Precision::Double,
+            &mut None,
+        )
+        .unwrap();
         let coarse = mg.a[1].clone();
         let mut doubled = l.clone();
         doubled.val.iter_mut().for_each(|v| *v *= 2.0);
@@ -934,15 +856,30 @@ mod tests {
             levels: vec![(p, pt)],
             dofs: vec![(0..n).collect()],
         };
-        for smoother in [
+        let smoothers = [
             Smoother::GaussSeidel,
             Smoother::ColouredBlock,
             Smoother::BlockJacobi,
-        ] {
-            let mg =
-                GalerkinMultigrid::new(a.clone(), Arc::new(levels.clone()), 1, smoother, &mut None)
-                    .unwrap();
-            // Symmetric: x·B y = y·B x.
+        ];
+        for (smoother, precision) in smoothers
+            .into_iter()
+            .flat_map(|s| [(s, Precision::Double), (s, Precision::Single)])
+        {
+            let mg = GalerkinMultigrid::new(
+                a.clone(),
+                Arc::new(levels.clone()),
+                1,
+                smoother,
+                precision,
+                &mut None,
+            )
+            .unwrap();
+            // Symmetric: x·B y = y·B x; to round-off with the coarse factor in f64, to the
+            // f32 solve's round-off (module docs) with it rounded.
+            let symmetry = match precision {
+                Precision::Double => 1e-12,
+                Precision::Single => 1e-6,
+            };
             let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
             let y: Vec<f64> = (0..n).map(|i| (i as f64 * 1.3).cos()).collect();
             let (mut bx, mut by) = (vec![0.0; n], vec![0.0; n]);
@@ -951,8 +888,8 @@ mod tests {
             let xby: f64 = x.iter().zip(&by).map(|(a, b)| a * b).sum();
             let ybx: f64 = y.iter().zip(&bx).map(|(a, b)| a * b).sum();
             assert!(
-                (xby - ybx).abs() < 1e-12 * xby.abs().max(1.0),
-                "{xby} vs {ybx}"
+                (xby - ybx).abs() < symmetry * xby.abs().max(1.0),
+                "{smoother:?}, {precision:?}: {xby} vs {ybx}"
             );
             // Stationary iteration e ← (I − B A) e contracts the error by a mesh-independent
             // factor (two-grid with one symmetric Gauss-Seidel sweep on the 1-D Laplacian: well
@@ -971,7 +908,7 @@ mod tests {
             let e5 = e.iter().map(|v| v * v).sum::<f64>().sqrt();
             assert!(
                 e5 < 0.5f64.powi(5) * e0,
-                "{smoother:?}: error {e0} -> {e5} in 5 cycles"
+                "{smoother:?}, {precision:?}: error {e0} -> {e5} in 5 cycles"
             );
         }
     }

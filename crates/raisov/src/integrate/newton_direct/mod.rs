@@ -70,7 +70,13 @@
 //! the iterate so far (its work is kept), and before the next Newton iteration where they
 //! needed more than two thirds of [`MultigridPcg::max_iter`] (`STALE_SHARE`; a hierarchy
 //! built where the body hung at rest preconditions the final tangent of the liver L0 in 21
-//! iterations, then misses η in 25). With a fresh hierarchy, an iterate
+//! iterations, then misses η in 25). A hierarchy built at an iteration whose step was damped
+//! (α < 1: the state is still far from the equilibrium, as a hanging body's first tangents
+//! at rest are) is provisional, and is rebuilt after the first full step (α = 1) that follows,
+//! once a solve ([`PROVISIONAL_REBUILDS`]): the rebuilt one is of a tangent near the final
+//! one, for the last iterations, whose tolerances η are the tightest (the liver L0: 65
+//! instead of 100 CG iterations, one Newton iteration fewer, the same two hierarchies; a
+//! body whose first step is full, as the heart's, builds one). With a fresh hierarchy, an iterate
 //! that misses η after [`MultigridPcg::max_iter`] iterations is taken as it is (truncated
 //! Newton: a descent direction while the curvature seen is positive). A first direction of
 //! non-positive curvature, or a coarsest operator that does not factor, raises σ as a failed
@@ -104,6 +110,8 @@ mod pcg;
 pub use nested::{coarse_start, CoarseStart, COARSE_PCG_MAX, COARSE_REL_TOL};
 use pcg::{forcing_term, pcg, pcg_from, PcgEnd};
 
+use super::coarse_factor::CoarseSymbolic;
+pub use super::coarse_factor::Precision;
 use super::galerkin::{Csr, GalerkinError, GalerkinMultigrid, Prolongations, SymScatter};
 pub use super::smoother::Smoother;
 use super::{Constraints, System};
@@ -126,6 +134,10 @@ const SECANT_STEPS: usize = 2;
 /// `max_iter / STALE_SHARE` iterations is rebuilt before the next Newton iteration (module
 /// docs).
 const STALE_SHARE: f64 = 1.5;
+
+/// A solve rebuilds a provisional hierarchy (one built where the Newton step was damped) at
+/// most this many times (module docs).
+pub const PROVISIONAL_REBUILDS: usize = 1;
 
 /// Newton-multigrid's coarse level has at most 1/`COARSEN` of the finest level's nodes where
 /// the levels allow ([`coarse_level`]).
@@ -192,6 +204,9 @@ pub struct MultigridPcg {
     /// coarsest factorisation, the smoothed levels' Galerkin operators being rebuilt from the
     /// current tangent (`false`, the default).
     pub keep: bool,
+    /// The precision of the coarse solve ([`super::coarse_factor`]). Default
+    /// [`Precision::Single`]: the factor computed in `f64`, rounded to `f32`.
+    pub coarse_precision: Precision,
 }
 
 impl Default for MultigridPcg {
@@ -201,6 +216,7 @@ impl Default for MultigridPcg {
             smoother: Smoother::default(),
             max_iter: 25,
             keep: false,
+            coarse_precision: Precision::Single,
         }
     }
 }
@@ -247,6 +263,9 @@ pub struct DirectStatic {
     /// Galerkin hierarchies built ([`DirectNewtonParams::multigrid`]), retries with a larger σ
     /// included; each factors the coarsest level.
     pub multigrid_setups: usize,
+    /// Of those, the ones built because the kept one was provisional (built where the step
+    /// was damped) and a full step followed (module docs); at most [`PROVISIONAL_REBUILDS`].
+    pub provisional_rebuilds: usize,
     /// Wall time in assembling tangents and in factorising and solving (s).
     pub assembly_s: f64,
     pub factor_s: f64,
@@ -301,9 +320,11 @@ pub struct DirectNewton {
     /// The interpolations of [`DirectNewton::with_levels`] (empty without).
     prolongations: Arc<Prolongations>,
     /// The coarsest Galerkin level's symbolic factorisation (its pattern is fixed).
-    coarse_symbolic: Option<SymbolicLlt<usize>>,
+    coarse_symbolic: Option<CoarseSymbolic>,
     /// The last Galerkin hierarchy, kept as the conjugate-gradient preconditioner.
     mg: Option<GalerkinMultigrid>,
+    /// Whether the kept hierarchy is provisional (module docs).
+    standing: Standing,
     /// Where the lower triangle's values land in the full rows of the hierarchy's finest
     /// operator, made at the first multigrid-preconditioned solve.
     scatter: Option<SymScatter>,
@@ -425,6 +446,7 @@ impl DirectNewton {
             llt: None,
             prolongations: Arc::new(Prolongations::default()),
             coarse_symbolic: None,
+            standing: Standing::Settled,
             mg: None,
             scatter: None,
             sigma: 0.0,
@@ -750,6 +772,7 @@ impl DirectNewton {
                 // Inexact Newton: conjugate gradients preconditioned by the kept factor, to
                 // η ‖b‖₂ (Eisenstat-Walker choice 2, not below what the stopping rule needs).
                 let mut solved = false;
+                let mut built_now = false;
                 if let Some(mgp) = params.multigrid {
                     let eta = forcing_term(prev_norm, norm, eta_prev, tol, max);
                     eta_prev = eta;
@@ -760,6 +783,11 @@ impl DirectNewton {
                             self.symbolic.row_idx(),
                         )
                     });
+                    if self.standing == Standing::Rebuild {
+                        self.standing = Standing::Settled;
+                        self.mg = None;
+                        out.provisional_rebuilds += 1;
+                    }
                     let mut warm = false;
                     let mut stale = false;
                     while !solved {
@@ -793,9 +821,13 @@ impl DirectNewton {
                                     self.prolongations.clone(),
                                     mgp.sweeps,
                                     mgp.smoother,
+                                    mgp.coarse_precision,
                                     &mut self.coarse_symbolic,
                                 ) {
-                                    Ok(mg) => Some(mg),
+                                    Ok(mg) => {
+                                        built_now = true;
+                                        Some(mg)
+                                    }
                                     Err(GalerkinError::Memory(m)) => {
                                         return Err(DirectNewtonError::Memory(m))
                                     }
@@ -947,6 +979,11 @@ impl DirectNewton {
                         }
                         alpha *= 0.5;
                     }
+                    self.mark_provisional(
+                        built_now,
+                        accepted && alpha == 1.0,
+                        out.provisional_rebuilds,
+                    );
                     if !accepted {
                         alone.map_err(DirectNewtonError::Inverted)?;
                         (norm, max) = residual(model, u, s, &mut r, &mut fint)
@@ -1003,6 +1040,11 @@ impl DirectNewton {
                     }
                     alpha *= 0.5;
                 }
+                self.mark_provisional(
+                    built_now,
+                    accepted && alpha == 1.0,
+                    out.provisional_rebuilds,
+                );
                 if accepted {
                     if alpha == 1.0 {
                         sigma = if sigma * 0.1 < params.sigma_min {
@@ -1029,6 +1071,35 @@ impl DirectNewton {
         }
         self.sigma = sigma;
         Ok(out)
+    }
+}
+
+/// Where the kept hierarchy stands with respect to the provisional rule (module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum Standing {
+    /// Built where the Newton step was full, or already rebuilt once this solve.
+    #[default]
+    Settled,
+    /// Built at an iteration whose step was damped.
+    Damped,
+    /// Damped, and a full step has followed: rebuilt at the next Newton iteration.
+    Rebuild,
+}
+
+impl DirectNewton {
+    /// After a Newton step: a hierarchy built at this iteration whose step was damped
+    /// (`full` false: α < 1, or no step) is provisional; a provisional one kept from an
+    /// earlier iteration is rebuilt after a full step (at most [`PROVISIONAL_REBUILDS`] times
+    /// a solve, `done` so far), so the next iteration builds one at a state inside Newton's
+    /// region of full steps (module docs).
+    fn mark_provisional(&mut self, built_now: bool, full: bool, done: usize) {
+        self.standing = match (built_now, full, self.standing) {
+            (true, true, _) => Standing::Settled,
+            (true, false, _) => Standing::Damped,
+            (false, true, Standing::Damped) if done < PROVISIONAL_REBUILDS => Standing::Rebuild,
+            (false, true, Standing::Damped) => Standing::Settled,
+            (false, _, standing) => standing,
+        };
     }
 }
 

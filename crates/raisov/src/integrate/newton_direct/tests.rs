@@ -282,7 +282,7 @@ fn multigrid_preconditioned_newton_reaches_the_direct_equilibrium() {
             .windows(2)
             .map(|w| Transfer::build(&w[0].nodes, &w[1]).unwrap())
             .collect();
-        let solve = |keep: bool, smoother: Smoother| {
+        let solve = |keep: bool, smoother: Smoother, coarse_precision: Precision| {
             let mut sys = sc.build_system().unwrap();
             let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
             let model = sys.force.as_fem_mut().unwrap();
@@ -300,6 +300,7 @@ fn multigrid_preconditioned_newton_reaches_the_direct_equilibrium() {
                             smoother,
                             max_iter: 1000,
                             keep,
+                            coarse_precision,
                         }),
                         ..plain
                     },
@@ -307,17 +308,19 @@ fn multigrid_preconditioned_newton_reaches_the_direct_equilibrium() {
                 .unwrap();
             (u, out)
         };
-        for (keep, smoother) in [
-            (false, Smoother::ColouredBlock),
-            (true, Smoother::ColouredBlock),
-            (false, Smoother::GaussSeidel),
-            (false, Smoother::BlockJacobi),
-            (true, Smoother::BlockJacobi),
+        // The coarse solve in f32 (the default) and its f64 reference.
+        for (keep, smoother, precision) in [
+            (false, Smoother::ColouredBlock, Precision::Single),
+            (true, Smoother::ColouredBlock, Precision::Single),
+            (false, Smoother::GaussSeidel, Precision::Single),
+            (false, Smoother::BlockJacobi, Precision::Single),
+            (true, Smoother::BlockJacobi, Precision::Single),
+            (false, Smoother::BlockJacobi, Precision::Double),
         ] {
-            let (u_mg, out_mg) = solve(keep, smoother);
+            let (u_mg, out_mg) = solve(keep, smoother, precision);
             assert!(
                 out_mg.converged,
-                "{name}, keep {keep}, {smoother:?}: {out_mg:?}"
+                "{name}, keep {keep}, {smoother:?}, {precision:?}: {out_mg:?}"
             );
             assert!(out_mg.residual <= out_mg.target);
             assert_eq!(
@@ -328,7 +331,7 @@ fn multigrid_preconditioned_newton_reaches_the_direct_equilibrium() {
             let (scale, err) = max_diff(&u_plain, &u_mg);
             assert!(
                 err <= 1e-8 * scale,
-                "{name}, keep {keep}, {smoother:?}: {err:e} of {scale:e}"
+                "{name}, keep {keep}, {smoother:?}, {precision:?}: {err:e} of {scale:e}"
             );
         }
     }

@@ -12,7 +12,7 @@
 //! Slow (liver meshes, release build): `cargo test --release -- --ignored`.
 
 use raisov::hierarchy::Transfer;
-use raisov::integrate::newton_direct::{DirectNewton, DirectNewtonParams, MultigridPcg};
+use raisov::integrate::newton_direct::MultigridPcg;
 
 mod common;
 
@@ -23,30 +23,7 @@ fn newton_multigrid_hierarchy_built_at_rest_is_rebuilt_after_the_first_full_step
     let meshes = sc.level_meshes().unwrap();
     // L1 -> L3: the coarse level of `coarse_level` for these levels.
     let down = vec![Transfer::build(&meshes[0].nodes, &meshes[2]).unwrap()];
-    let n = 3 * sc.mesh.num_nodes();
-    let solve = |multigrid: Option<MultigridPcg>| {
-        let mut sys = sc.build_system().unwrap();
-        let f = sys.f_ext.clone();
-        let model = sys.force.as_fem_mut().unwrap();
-        let mut newton = match multigrid {
-            Some(_) => DirectNewton::with_levels(model, &sys.constraints, &down),
-            None => DirectNewton::new(model, &sys.constraints),
-        }
-        .unwrap();
-        let params = DirectNewtonParams {
-            rel_tol: 1e-8,
-            pcg_max: if multigrid.is_some() { 0 } else { 20 },
-            multigrid,
-            ..Default::default()
-        };
-        let mut u = vec![0.0; n];
-        let out = newton
-            .solve(model, &sys.constraints, &f, 0.0, &mut u, params)
-            .unwrap();
-        assert!(out.converged, "{out:?}");
-        (u, out)
-    };
-    let (u, out) = solve(Some(MultigridPcg::default()));
+    let (u, out) = common::newton_from_rest(&sc, &down, Some(MultigridPcg::default()));
     assert_eq!(out.provisional_rebuilds, 1, "{out:?}");
     assert!(
         out.multigrid_setups <= 2 && out.cg_iterations <= 45 && out.newton_steps <= 8,
@@ -55,11 +32,7 @@ fn newton_multigrid_hierarchy_built_at_rest_is_rebuilt_after_the_first_full_step
         out.cg_iterations,
         out.newton_steps
     );
-    let (reference, ..) = solve(None);
-    let scale = reference.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    let err = reference
-        .iter()
-        .zip(&u)
-        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let (reference, _) = common::newton_from_rest(&sc, &down, None);
+    let (err, scale) = common::max_diff(&u, &reference);
     assert!(err <= 1e-8 * scale, "{err:.3e} of {scale:.3e}");
 }

@@ -193,29 +193,19 @@ impl CoarseFactor {
 mod tests {
     use super::*;
 
-    /// A 3-D-like test operator: a 1-D Laplacian of `n` points plus `c` on the diagonal, as
-    /// full rows.
+    /// The 1-D Laplacian of `n` points plus `c` on the diagonal.
     fn laplace(n: usize, c: f64) -> Csr {
-        let mut a = Csr {
-            rows: n,
-            cols: n,
-            ptr: vec![0],
-            ..Default::default()
-        };
+        let mut a = crate::integrate::galerkin::tests::laplace(n);
         for i in 0..n {
-            if i > 0 {
-                a.col.push(i as u32 - 1);
-                a.val.push(-1.0);
-            }
-            a.col.push(i as u32);
-            a.val.push(2.0 + c);
-            if i + 1 < n {
-                a.col.push(i as u32 + 1);
-                a.val.push(-1.0);
-            }
-            a.ptr.push(a.col.len());
+            let (cols, _) = a.row(i);
+            let k = a.ptr[i] + cols.iter().position(|&j| j as usize == i).unwrap();
+            a.val[k] += c;
         }
         a
+    }
+
+    fn norm(x: impl Iterator<Item = f64>) -> f64 {
+        x.map(|v| v * v).sum::<f64>().sqrt()
     }
 
     /// The double-precision factor solves `A z = b` to round-off; the rounded one to the
@@ -236,21 +226,11 @@ mod tests {
         single.solve(&b, &mut zs);
         let mut az = vec![0.0; n];
         a.matvec(&zd, &mut az);
-        let bnorm = b.iter().map(|x| x * x).sum::<f64>().sqrt();
-        let res: f64 = az
-            .iter()
-            .zip(&b)
-            .map(|(x, y)| (x - y).powi(2))
-            .sum::<f64>()
-            .sqrt();
+        let bnorm = norm(b.iter().copied());
+        let res = norm(az.iter().zip(&b).map(|(x, y)| x - y));
         assert!(res < 1e-12 * bnorm, "double residual {res}");
-        let znorm = zd.iter().map(|x| x * x).sum::<f64>().sqrt();
-        let diff: f64 = zd
-            .iter()
-            .zip(&zs)
-            .map(|(x, y)| (x - y).powi(2))
-            .sum::<f64>()
-            .sqrt();
+        let znorm = norm(zd.iter().copied());
+        let diff = norm(zd.iter().zip(&zs).map(|(x, y)| x - y));
         assert!(diff < 1e-4 * znorm, "single differs by {diff} of {znorm}");
         assert!(diff > 0.0, "the single-precision solve is not rounded");
     }

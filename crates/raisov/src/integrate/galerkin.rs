@@ -678,11 +678,11 @@ fn unit_empty_diagonal(c: &mut Csr) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    /// A 1-D Laplacian with Dirichlet ends on `n` interior points, as a lower triangle.
-    fn laplace(n: usize) -> Csr {
+    /// A 1-D Laplacian with Dirichlet ends on `n` interior points, as full rows.
+    pub(crate) fn laplace(n: usize) -> Csr {
         let mut ptr = vec![0];
         let mut col = Vec::new();
         let mut val = Vec::new();

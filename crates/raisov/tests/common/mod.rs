@@ -39,3 +39,46 @@ files = ["{d}/liver_L2.msh", "{d}/liver_L3.msh"]
     );
     Scenario::from_toml(&text, Path::new(name)).unwrap()
 }
+
+/// The static equilibrium of `sc` from rest at `rel_tol = 1e-8`: Newton-multigrid over the
+/// transfers `down` with `multigrid`, or direct Newton reusing its factorisation for 20 CG
+/// iterations (`None`), the reference. Panics where it does not converge.
+#[allow(dead_code)]
+pub fn newton_from_rest(
+    sc: &Scenario,
+    down: &[raisov::hierarchy::Transfer],
+    multigrid: Option<raisov::integrate::newton_direct::MultigridPcg>,
+) -> (Vec<f64>, raisov::integrate::newton_direct::DirectStatic) {
+    use raisov::integrate::newton_direct::{DirectNewton, DirectNewtonParams};
+    let mut sys = sc.build_system().unwrap();
+    let f = sys.f_ext.clone();
+    let model = sys.force.as_fem_mut().unwrap();
+    let mut newton = match multigrid {
+        Some(_) => DirectNewton::with_levels(model, &sys.constraints, down),
+        None => DirectNewton::new(model, &sys.constraints),
+    }
+    .unwrap();
+    let params = DirectNewtonParams {
+        rel_tol: 1e-8,
+        pcg_max: if multigrid.is_some() { 0 } else { 20 },
+        multigrid,
+        ..Default::default()
+    };
+    let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
+    let out = newton
+        .solve(model, &sys.constraints, &f, 0.0, &mut u, params)
+        .unwrap();
+    assert!(out.converged, "{out:?}");
+    (u, out)
+}
+
+/// The largest `|u − reference|` and the largest `|reference|`.
+#[allow(dead_code)]
+pub fn max_diff(u: &[f64], reference: &[f64]) -> (f64, f64) {
+    let scale = reference.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let err = reference
+        .iter()
+        .zip(u)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    (err, scale)
+}

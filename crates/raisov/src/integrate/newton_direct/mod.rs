@@ -61,7 +61,8 @@
 //! `K + σ d̄ D` preconditioned by one Galerkin V-cycle ([`super::galerkin`]: coarse operators
 //! `Pᵀ A P` over the hierarchy's host weights, Gauss-Seidel smoothing ([`super::smoother`]),
 //! a sparse Cholesky
-//! factorisation of the coarsest level only), to the same inexact-Newton tolerance η, with the
+//! factorisation of the coarsest level only, solved in `f32`: [`super::coarse_factor`]), to
+//! the same inexact-Newton tolerance η, with the
 //! same Steihaug truncation. As with factorisation reuse, the hierarchy built at one iteration
 //! preconditions the next ones, whole or ([`MultigridPcg::keep`] false) only its coarsest
 //! factorisation, the smoothed levels' Galerkin operators rebuilt from each new tangent (the
@@ -74,9 +75,10 @@
 //! (α < 1: the state is still far from the equilibrium, as a hanging body's first tangents
 //! at rest are) is provisional, and is rebuilt after the first full step (α = 1) that follows,
 //! once a solve ([`PROVISIONAL_REBUILDS`]): the rebuilt one is of a tangent near the final
-//! one, for the last iterations, whose tolerances η are the tightest (the liver L0: 65
-//! instead of 100 CG iterations, one Newton iteration fewer, the same two hierarchies; a
-//! body whose first step is full, as the heart's, builds one). With a fresh hierarchy, an iterate
+//! one, for the last iterations, whose tolerances η are the tightest (`bench/RESULTS.md`:
+//! the liver L0 takes 65 CG iterations with the rebuild, 100 without, and one Newton
+//! iteration fewer; a solve whose first step is full keeps its first hierarchy). With a
+//! fresh hierarchy, an iterate
 //! that misses η after [`MultigridPcg::max_iter`] iterations is taken as it is (truncated
 //! Newton: a descent direction while the curvature seen is positive). A first direction of
 //! non-positive curvature, or a coarsest operator that does not factor, raises σ as a failed

@@ -435,7 +435,7 @@ fn start_from_coarse(
     u: &mut [f64],
 ) -> Result<Option<CoarseStart>> {
     let sc = &case.scenario;
-    let meshes = newton_mg_levels(sc.level_meshes()?);
+    let meshes = newton_mg_levels(sc)?;
     if meshes.len() < 2 {
         return Ok(None);
     }
@@ -528,21 +528,18 @@ fn newton_run(
 }
 
 /// Newton-multigrid's levels ([`newton_mg_run`]): the finest, and
-/// [`raisov::integrate::newton_direct::coarse_level`]'s (none where no level qualifies).
-fn newton_mg_levels(meshes: Vec<raisov::mesh::Mesh>) -> Vec<raisov::mesh::Mesh> {
-    let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
-    let coarse = raisov::integrate::newton_direct::coarse_level(&nodes);
-    meshes
-        .into_iter()
-        .enumerate()
-        .filter(|(i, _)| *i == 0 || Some(*i) == coarse)
-        .map(|(_, m)| m)
-        .collect()
+/// [`raisov::integrate::newton_direct::coarse_level`]'s (none where no level qualifies; a
+/// generated drape meshes only that level, [`Scenario::pick_level`]).
+fn newton_mg_levels(sc: &Scenario) -> Result<Vec<raisov::mesh::Mesh>> {
+    let (_, coarse) = sc.pick_level(raisov::integrate::newton_direct::coarse_level)?;
+    Ok(std::iter::once(sc.mesh.clone())
+        .chain(coarse.map(|(_, m)| m))
+        .collect())
 }
 
 /// The meshes of [`newton_mg_levels`] and the transfers from each to the next.
 fn newton_mg_hierarchy(sc: &Scenario) -> Result<(Vec<raisov::mesh::Mesh>, Vec<Transfer>)> {
-    let meshes = newton_mg_levels(sc.level_meshes()?);
+    let meshes = newton_mg_levels(sc)?;
     let down = meshes
         .windows(2)
         .map(|w| Transfer::build(&w[0].nodes, &w[1]))

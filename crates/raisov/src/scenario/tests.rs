@@ -311,6 +311,37 @@ fn diverging_run_stops_and_says_where() {
     );
 }
 
+/// `pick_level` meshes only the chosen level of a generated membrane: the same mesh, bit for
+/// bit, as that level of `level_meshes`, chosen from the requested counts; with a function
+/// that picks none, no level and no mesh.
+#[test]
+fn pick_level_meshes_the_chosen_generated_level_alone() {
+    let text = BASE.replace("nodes = 60", "nodes = 2000")
+        + "\n[multigrid]\nscheme = \"fas\"\nlevels = 6\n";
+    let sc = parse(&text).unwrap();
+    let all = sc.level_meshes().unwrap();
+    let (counts, chosen) = sc
+        .pick_level(crate::integrate::newton_direct::coarse_level)
+        .unwrap();
+    assert_eq!(counts, vec![2000, 1000, 500, 250, 125, 63]);
+    let (i, mesh) = chosen.unwrap();
+    assert_eq!(i, 4, "1/16 of 2000 requested nodes is level 4's 125");
+    assert_eq!(mesh.nodes, all[i].nodes);
+    assert_eq!(mesh.num_elements(), all[i].num_elements());
+    // The meshed counts are the requested ones within the mesher's few nodes: level 4 here
+    // has 124 of 1983 nodes, one node over 1/16, where the requested 125 of 2000 is 1/16.
+    for (m, want) in all.iter().zip(&counts) {
+        let rel = (m.num_nodes() as f64 - *want as f64).abs() / *want as f64;
+        assert!(
+            rel < 0.02,
+            "{} nodes meshed for {want} requested",
+            m.num_nodes()
+        );
+    }
+    let (_, none) = sc.pick_level(|_| None).unwrap();
+    assert!(none.is_none());
+}
+
 #[test]
 fn level_nodes_gives_each_generated_level_its_node_count() {
     let text = format!(

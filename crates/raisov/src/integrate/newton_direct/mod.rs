@@ -786,9 +786,12 @@ impl DirectNewton {
                         )
                     });
                     if self.standing == Standing::Rebuild {
+                        // Counted only where the provisional hierarchy is still kept: one the
+                        // stale rule dropped at the same step is rebuilt anyway.
                         self.standing = Standing::Settled;
-                        self.mg = None;
-                        out.provisional_rebuilds += 1;
+                        if self.mg.take().is_some() {
+                            out.provisional_rebuilds += 1;
+                        }
                     }
                     let mut warm = false;
                     let mut stale = false;

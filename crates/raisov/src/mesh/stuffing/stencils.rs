@@ -149,20 +149,10 @@ pub(crate) fn fill(ctx: &FillCtx, t: [u32; 4], out: &mut Vec<[u32; 4]>) -> Fille
 /// (`a`, `b` inside, `o` outside): `a` for the diagonal `a – c_bo`, `b` for `b – c_ao`.
 /// See the module docs.
 pub(crate) fn quad_diagonal(l: &Lattice, a: u32, b: u32, o: u32) -> u32 {
-    static V: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    let alt = *V.get_or_init(|| std::env::var("RAISOV_STUFF_ALT").is_ok());
     if l.is_long(a, o) {
-        if alt {
-            a
-        } else {
-            b
-        }
+        b
     } else if l.is_long(b, o) {
-        if alt {
-            b
-        } else {
-            a
-        }
+        a
     } else {
         // a–b long: ids grow with the coordinates within a grid.
         let (first, second) = if a < b { (a, b) } else { (b, a) };

@@ -397,9 +397,8 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
             ..direct
         });
     }
-    let meshes = sc.level_meshes()?;
-    let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
-    let Some(c) = coarse_level(&nodes) else {
+    let (nodes, chosen) = sc.pick_level(coarse_level)?;
+    let Some((c, coarse)) = chosen else {
         let msg = format!(
             "no [multigrid] level has at least 1/{} of the finest level's {} nodes (levels: {:?})",
             crate::integrate::newton_direct::COARSEN_LIMIT,
@@ -418,21 +417,22 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
             msg: format!("`integrator.solver` = \"multigrid\": {msg}"),
         });
     };
-    let down = crate::hierarchy::Transfer::build(&meshes[0].nodes, &meshes[c])?;
+    let down = crate::hierarchy::Transfer::build(&sc.mesh.nodes, &coarse)?;
+    let why = format!(
+        "levels of {} and {} nodes{}",
+        sc.mesh.num_nodes(),
+        coarse.num_nodes(),
+        if asked == StaticSolver::Auto {
+            " (solver \"auto\")"
+        } else {
+            ""
+        }
+    );
     Ok(Plan {
         solver: StaticSolver::Multigrid,
         down: Some(vec![down]),
-        coarse: meshes.into_iter().nth(c).map(|m| (m, c)),
-        why: format!(
-            "levels of {} and {} nodes{}",
-            nodes[0],
-            nodes[c],
-            if asked == StaticSolver::Auto {
-                " (solver \"auto\")"
-            } else {
-                ""
-            }
-        ),
+        coarse: Some((coarse, c)),
+        why,
     })
 }
 

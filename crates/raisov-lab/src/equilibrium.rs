@@ -531,9 +531,9 @@ fn newton_run(
 /// [`raisov::integrate::newton_direct::coarse_level`]'s (none where no level qualifies; a
 /// generated drape meshes only that level, [`Scenario::pick_level`]).
 fn newton_mg_levels(sc: &Scenario) -> Result<Vec<raisov::mesh::Mesh>> {
-    let (_, coarse) = sc.pick_level(raisov::integrate::newton_direct::coarse_level)?;
+    let picked = sc.pick_level(raisov::integrate::newton_direct::coarse_level)?;
     Ok(std::iter::once(sc.mesh.clone())
-        .chain(coarse.map(|(_, m)| m))
+        .chain(picked.chosen.map(|(_, m)| m))
         .collect())
 }
 

@@ -343,6 +343,16 @@ fn with_nodes(shape: &Shape, nodes: usize) -> Shape {
     s
 }
 
+/// What [`Scenario::pick_level`] returns.
+#[derive(Clone, Debug)]
+pub struct PickedLevel {
+    /// The node counts the choice was made from, finest first: the meshes' own for mesh
+    /// files, the requested ones for generated membranes.
+    pub counts: Vec<usize>,
+    /// The chosen coarser level (1 or more) and its mesh; `None` where none was chosen.
+    pub chosen: Option<(usize, Mesh)>,
+}
+
 impl Scenario {
     /// Number of levels (1 without `[multigrid]`).
     pub fn num_levels(&self) -> usize {
@@ -377,10 +387,7 @@ impl Scenario {
     /// finest level again. The requested counts also make the choice independent of the
     /// mesher's few nodes more or less: with `ratio = 0.5`, level 4 is requested at exactly
     /// 1/16 of the nodes, and meshed at 124 of 1 983 for 125 of 2 000 requested.
-    pub fn pick_level(
-        &self,
-        pick: impl Fn(&[usize]) -> Option<usize>,
-    ) -> Result<(Vec<usize>, Option<(usize, Mesh)>)> {
+    pub fn pick_level(&self, pick: impl Fn(&[usize]) -> Option<usize>) -> Result<PickedLevel> {
         let shapes = self.coarser_shapes();
         let requested = |s: &Shape| match s {
             Shape::Rectangle { nodes, .. } | Shape::Polygon { nodes, .. } => Some(*nodes),
@@ -395,14 +402,14 @@ impl Scenario {
                 Some(i) if i > 0 => Some((i, self.build_level(&shapes[i - 1], i - 1)?.0)),
                 _ => None,
             };
-            return Ok((counts, chosen));
+            return Ok(PickedLevel { counts, chosen });
         }
         let meshes = self.level_meshes()?;
         let counts: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
         let chosen = pick(&counts)
             .filter(|&i| i > 0)
             .and_then(|i| meshes.into_iter().nth(i).map(|m| (i, m)));
-        Ok((counts, chosen))
+        Ok(PickedLevel { counts, chosen })
     }
 
     /// The shapes of the coarser levels (level 1 first); none without `[multigrid]`.

@@ -51,7 +51,7 @@ use crate::material::{
     lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, StableNeoHookean, VerondaWestmann,
 };
 use crate::mesh::{dot, norm, sub, ElementKind, Mesh};
-pub use levels::{LevelConstraints, LevelMeshes, Multigrid, MultigridScheme};
+pub use levels::{LevelConstraints, LevelMeshes, Multigrid, MultigridScheme, PickedLevel};
 use mesh_source::resolve_mesh_source;
 pub use mesh_source::{BoxCells, MeshSource, Shape};
 pub use run::{

@@ -397,8 +397,9 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
             ..direct
         });
     }
-    let (nodes, chosen) = sc.pick_level(coarse_level)?;
-    let Some((c, coarse)) = chosen else {
+    let picked = sc.pick_level(coarse_level)?;
+    let nodes = picked.counts;
+    let Some((c, coarse)) = picked.chosen else {
         let msg = format!(
             "no [multigrid] level has at least 1/{} of the finest level's {} nodes (levels: {:?})",
             crate::integrate::newton_direct::COARSEN_LIMIT,

@@ -107,6 +107,7 @@
 //! membrane's first tangent needs from one frame to the next.
 
 mod nested;
+mod pattern;
 mod pcg;
 
 pub use nested::{coarse_start, CoarseStart, COARSE_PCG_MAX, COARSE_REL_TOL};
@@ -351,81 +352,26 @@ impl DirectNewton {
                 nfree += 1;
             }
         }
-        // The pattern from the node graph: node a's neighbours (itself included), sorted;
-        // column j (free dof of node a) holds the free dofs of a's neighbours at or below j,
-        // in dof order, which is free-index order.
+        // The pattern and the element entries' places in it (`pattern.rs`).
         let ne = model.num_elements();
-        let npe = model.element_nodes(0).len();
+        let npe = if ne > 0 {
+            model.element_nodes(0).len()
+        } else {
+            0
+        };
         let d = 3 * npe;
-        // The node pairs and the element slots, then the pattern (at most one value and row
-        // index per element entry).
         let entries = (ne * d * d) as u64;
         crate::memory::check(
             &format!("the tangent's pattern over {ne} elements"),
-            entries * (4 + 8) + (ne * npe * npe) as u64 * 8,
+            entries * (4 + 8) + (ne * npe) as u64 * 4 * (npe as u64 + 1),
         )
         .map_err(DirectNewtonError::Memory)?;
-        let mut edges: Vec<(u32, u32)> = Vec::with_capacity(ne * npe * npe);
-        for e in 0..ne {
-            let el = model.element_nodes(e);
-            for &a in el {
-                for &b in el {
-                    edges.push((a, b));
-                }
-            }
-        }
-        edges.sort_unstable();
-        edges.dedup();
-        let mut first = vec![0usize; n + 1];
-        for &(a, _) in &edges {
-            first[a as usize + 1] += 1;
-        }
-        for a in 0..n {
-            first[a + 1] += first[a];
-        }
-        let mut col_ptr = Vec::with_capacity(nfree + 1);
-        let mut row_idx = Vec::new();
-        col_ptr.push(0usize);
-        for j in 0..3 * n {
-            let gc = free[j];
-            if gc == usize::MAX {
-                continue;
-            }
-            for &(_, b) in &edges[first[j / 3]..first[j / 3 + 1]] {
-                for i in 3 * b as usize..3 * b as usize + 3 {
-                    if free[i] != usize::MAX && free[i] >= gc {
-                        row_idx.push(free[i]);
-                    }
-                }
-            }
-            col_ptr.push(row_idx.len());
-        }
-        drop(edges);
-        let position = |gr: usize, gc: usize| -> u32 {
-            let rows = &row_idx[col_ptr[gc]..col_ptr[gc + 1]];
-            let k = rows
-                .binary_search(&gr)
-                .expect("every element entry is in the pattern built from the elements");
-            (col_ptr[gc] + k) as u32
-        };
-        let mut slots = vec![u32::MAX; ne * d * d];
-        for e in 0..ne {
-            let el = model.element_nodes(e);
-            for r in 0..d {
-                let gr = free[3 * el[r / 3] as usize + r % 3];
-                if gr == usize::MAX {
-                    continue;
-                }
-                for c in 0..d {
-                    let gc = free[3 * el[c / 3] as usize + c % 3];
-                    if gc == usize::MAX || gr < gc {
-                        continue;
-                    }
-                    slots[e * d * d + r * d + c] = position(gr, gc);
-                }
-            }
-        }
-        let diag: Vec<u32> = (0..nfree).map(|f| position(f, f)).collect();
+        let pattern::Pattern {
+            col_ptr,
+            row_idx,
+            slots,
+            diag,
+        } = pattern::build(model, &free, nfree);
         let nnz = row_idx.len();
         let symbolic = SymbolicSparseColMat::new_checked(nfree, nfree, col_ptr, None, row_idx);
         let mass = model.lumped_mass();

@@ -574,3 +574,43 @@ fn coarse_level_is_the_finest_with_at_most_a_sixteenth_of_the_nodes() {
     assert_eq!(coarse_level(&[1000]), None);
     assert_eq!(coarse_level(&[]), None);
 }
+
+/// The tangent's pattern built node by node and element by element in parallel
+/// (`pattern::build`) is the simple reference's, slot for slot, on a beam with a clamped end,
+/// a roller (one component held) and a plane of nodes held along x (two free dofs each),
+/// and on a drape fixed on its boundary.
+#[test]
+fn tangent_pattern_matches_the_reference() {
+    let roller = r#"
+[[fix]]
+plane = { point = [0.1, 0.0, 0.0], normal = [-1.0, 0.0, 0.0] }
+components = ["z"]
+[[fix]]
+plane = { point = [0.05, 0.0, 0.0], normal = [-1.0, 0.0, 0.0] }
+normal = [1.0, 0.0, 0.0]
+"#;
+    for (sc, rollers) in [(beam(roller), true), (drape(""), false)] {
+        let mut sys = sc.build_system().unwrap();
+        let constraints = sys.constraints.clone();
+        let model = sys.force.as_fem_mut().unwrap();
+        let s = DirectNewton::new(model, &constraints).unwrap();
+        let partial = (0..s.free.len() / 3)
+            .filter(|&a| {
+                let held = (0..3).filter(|&k| s.free[3 * a + k] == usize::MAX).count();
+                held == 1 || held == 2
+            })
+            .count();
+        assert_eq!(
+            partial > 0,
+            rollers,
+            "{partial} nodes with some components held"
+        );
+        let fast = pattern::build(model, &s.free, s.nfree);
+        let simple = pattern::reference(model, &s.free, s.nfree);
+        assert_eq!(fast.col_ptr, simple.col_ptr);
+        assert_eq!(fast.row_idx, simple.row_idx);
+        assert_eq!(fast.diag, simple.diag);
+        assert_eq!(fast.slots, simple.slots);
+        assert!(fast.slots.iter().any(|&x| x != u32::MAX));
+    }
+}

@@ -960,7 +960,9 @@ pub fn frame_budgets(case: &Case, cycles: &[u64]) -> Result<Vec<FrameRow>> {
 
 /// Newton-multigrid as a frame loop would run it: `k` Newton iterations per frame
 /// ([`DirectNewtonParams::max_newton`]), warm started from the last frame with the kept
-/// hierarchy (its default settings, those of a static scenario), on `case` from rest, for each
+/// hierarchy (the settings of a static scenario: [`MultigridPcg`]'s defaults with the
+/// smoother of the element kind, [`raisov::scenario::StaticSolve::default_smoother`]), on
+/// `case` from rest, for each
 /// budget in `iterations`. Each frame is one call of [`DirectNewton::solve`], so its first
 /// iteration's forcing term is the loosest (0.5) and it evaluates the residual once more.
 pub fn newton_frame_budgets(case: &Case, iterations: &[usize]) -> Result<Vec<FrameRow>> {
@@ -982,7 +984,10 @@ pub fn newton_frame_budgets(case: &Case, iterations: &[usize]) -> Result<Vec<Fra
             rel_tol: REL_TOL,
             abs_tol: ABS_TOL,
             max_newton: k,
-            multigrid: Some(MultigridPcg::default()),
+            multigrid: Some(MultigridPcg {
+                smoother: raisov::scenario::StaticSolve::default_smoother(sc.mesh.kind),
+                ..Default::default()
+            }),
             ..Default::default()
         };
         let mut u = vec![0.0; 3 * n];

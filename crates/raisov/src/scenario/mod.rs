@@ -221,6 +221,14 @@ pub struct StaticSolve {
 }
 
 impl StaticSolve {
+    /// [`StaticSolve::smoother`]'s default for elements of `kind`.
+    pub fn default_smoother(kind: ElementKind) -> Smoother {
+        match kind {
+            ElementKind::Tri3 => Smoother::ColouredBlock,
+            _ => Smoother::BlockJacobi,
+        }
+    }
+
     /// The load increments for a resolved `solver`.
     pub fn increments(&self, solver: StaticSolver) -> usize {
         self.increments.unwrap_or(match solver {
@@ -609,8 +617,7 @@ impl Scenario {
                     Some(NewtonSmoother::BlockJacobi) => Smoother::BlockJacobi,
                     Some(NewtonSmoother::BlockGaussSeidel) => Smoother::ColouredBlock,
                     Some(NewtonSmoother::GaussSeidel) => Smoother::GaussSeidel,
-                    None if mesh.kind == ElementKind::Tri3 => Smoother::ColouredBlock,
-                    None => Smoother::BlockJacobi,
+                    None => StaticSolve::default_smoother(mesh.kind),
                 },
             })
         } else {

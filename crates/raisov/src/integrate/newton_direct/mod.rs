@@ -353,25 +353,12 @@ impl DirectNewton {
             }
         }
         // The pattern and the element entries' places in it (`pattern.rs`).
-        let ne = model.num_elements();
-        let npe = if ne > 0 {
-            model.element_nodes(0).len()
-        } else {
-            0
-        };
-        let d = 3 * npe;
-        let entries = (ne * d * d) as u64;
-        crate::memory::check(
-            &format!("the tangent's pattern over {ne} elements"),
-            entries * (4 + 8) + (ne * npe) as u64 * 4 * (npe as u64 + 1),
-        )
-        .map_err(DirectNewtonError::Memory)?;
         let pattern::Pattern {
             col_ptr,
             row_idx,
             slots,
             diag,
-        } = pattern::build(model, &free, nfree);
+        } = pattern::build(model, &free, nfree).map_err(DirectNewtonError::Memory)?;
         let nnz = row_idx.len();
         let symbolic = SymbolicSparseColMat::new_checked(nfree, nfree, col_ptr, None, row_idx);
         let mass = model.lumped_mass();

@@ -40,10 +40,23 @@ pub(super) struct Pattern {
 }
 
 /// The pattern of `model`'s tangent over the free dofs (`free[i]`: dof `i`'s free index,
-/// `usize::MAX` where constrained; `nfree` of them).
-pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Pattern {
+/// `usize::MAX` where constrained; `nfree` of them); an error where its arrays and the
+/// values the caller keeps beside the slots would not fit in memory.
+pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Result<Pattern, String> {
     let n = model.num_nodes();
     let ne = model.num_elements();
+    let npe = if ne > 0 {
+        model.element_nodes(0).len()
+    } else {
+        0
+    };
+    let d = 3 * npe;
+    // At most one value (8 B) and row index (4 B) per element entry, its slot (4 B); each
+    // node's elements and neighbours.
+    crate::memory::check(
+        &format!("the tangent's pattern over {ne} elements"),
+        (ne * d * d) as u64 * (4 + 8 + 4) + (ne * npe) as u64 * 4 * (npe as u64 + 1),
+    )?;
     // Pass 1: each node's elements, then its neighbours.
     let mut start = vec![0usize; n + 1];
     for e in 0..ne {
@@ -97,12 +110,6 @@ pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Pattern {
     }
     drop(neighbours);
     // Pass 3: the slots.
-    let npe = if ne > 0 {
-        model.element_nodes(0).len()
-    } else {
-        0
-    };
-    let d = 3 * npe;
     let mut slots = vec![u32::MAX; ne * d * d];
     if d > 0 {
         slots
@@ -142,12 +149,12 @@ pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Pattern {
             });
     }
     let diag = col_ptr[..nfree].iter().map(|&p| p as u32).collect();
-    Pattern {
+    Ok(Pattern {
         col_ptr,
         row_idx,
         slots,
         diag,
-    }
+    })
 }
 
 /// The same pattern as [`build`], simply: the sorted, deduplicated node pairs of every

@@ -605,7 +605,7 @@ normal = [1.0, 0.0, 0.0]
             rollers,
             "{partial} nodes with some components held"
         );
-        let fast = pattern::build(model, &s.free, s.nfree);
+        let fast = pattern::build(model, &s.free, s.nfree).unwrap();
         let simple = pattern::reference(model, &s.free, s.nfree);
         assert_eq!(fast.col_ptr, simple.col_ptr);
         assert_eq!(fast.row_idx, simple.row_idx);

@@ -380,7 +380,8 @@ impl Scenario {
     }
 
     /// Of the coarser levels, the one `pick` chooses from the node counts of all levels
-    /// (finest first), with its mesh; and those node counts. Mesh files are all read, as their
+    /// (finest first), with its mesh; and those node counts. A choice of level 0 or of no
+    /// level there is chooses none. Mesh files are all read, as their
     /// node counts are known only then. Generated membranes (`rectangle`, `polygon`) are
     /// chosen by their requested node counts (`mesh.nodes` and the coarser levels' targets),
     /// and only the chosen level is meshed: meshing all of them costs about as much as the
@@ -398,9 +399,9 @@ impl Scenario {
             .map(requested)
             .collect();
         if let Some(counts) = targets {
-            let chosen = match pick(&counts) {
-                Some(i) if i > 0 => Some((i, self.build_level(&shapes[i - 1], i - 1)?.0)),
-                _ => None,
+            let chosen = match pick(&counts).filter(|&i| i > 0 && i <= shapes.len()) {
+                Some(i) => Some((i, self.build_level(&shapes[i - 1], i - 1)?.0)),
+                None => None,
             };
             return Ok(PickedLevel { counts, chosen });
         }

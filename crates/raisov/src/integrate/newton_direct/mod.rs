@@ -62,8 +62,12 @@
 //! `Pᵀ A P` over the hierarchy's host weights, Gauss-Seidel smoothing ([`super::smoother`]),
 //! a sparse Cholesky
 //! factorisation of the coarsest level only, solved in `f32`: [`super::coarse_factor`]), to
-//! the same inexact-Newton tolerance η, with the
-//! same Steihaug truncation. As with factorisation reuse, the hierarchy built at one iteration
+//! the same inexact-Newton tolerance η. A direction of non-positive curvature is not
+//! truncated here: the iterate before it can be a step along a nearly singular direction,
+//! thousands of times too long (the drape's first fine tangent after the coarse start: every
+//! line-search trial inverted elements, and the iteration was lost), so σ is raised past the
+//! shift at which that direction's curvature vanishes (σ* below) and the system solved again,
+//! the hierarchy kept. As with factorisation reuse, the hierarchy built at one iteration
 //! preconditions the next ones, whole or ([`MultigridPcg::keep`] false) only its coarsest
 //! factorisation, the smoothed levels' Galerkin operators rebuilt from each new tangent (the
 //! coarsest is only used through its factorisation); it is rebuilt at the current state where
@@ -260,6 +264,9 @@ pub struct DirectStatic {
     /// Lifted iterations: each load step's first, where it moves the constrained dofs
     /// (module docs).
     pub lifted_steps: usize,
+    /// Newton iterations (not lifted) whose line search took no step: every trial failed
+    /// (u kept, σ raised by 100).
+    pub rejected_steps: usize,
     /// Conjugate-gradient iterations ([`DirectNewtonParams::pcg_max`] > 0, or
     /// [`DirectNewtonParams::multigrid`]).
     pub cg_iterations: usize,
@@ -728,6 +735,8 @@ impl DirectNewton {
                     }
                     let mut warm = false;
                     let mut stale = false;
+                    // A direction of non-positive curvature met after the first.
+                    let mut negative: Vec<f64> = Vec::new();
                     while !solved {
                         let shift = sigma * dbar;
                         let full = |out: &mut Csr| {
@@ -782,6 +791,7 @@ impl DirectNewton {
                                 std::mem::take(&mut warm),
                                 eta * bnorm,
                                 mgp.max_iter,
+                                Some(&mut negative),
                             ),
                             None => PcgEnd::Breakdown(None),
                         };
@@ -798,6 +808,16 @@ impl DirectNewton {
                             PcgEnd::MaxIter if !reused => {
                                 out.cg_iterations += mgp.max_iter;
                                 solved = true;
+                            }
+                            PcgEnd::Negative(it, pq) => {
+                                // Not Steihaug's truncation (module docs): the iterate before
+                                // this direction can be a huge step along a nearly singular
+                                // one. Raise σ past the shift at which p's curvature vanishes
+                                // and solve again, the hierarchy kept (its operators take the
+                                // new shift).
+                                out.cg_iterations += it;
+                                let needed = shift_needed(&self.weight, sigma, dbar, pq, &negative);
+                                sigma = raise_sigma(sigma, params.sigma_min, needed)?;
                             }
                             PcgEnd::Breakdown(None) if reused => {
                                 // The kept cycle is not positive on this residual: rebuild
@@ -819,23 +839,15 @@ impl DirectNewton {
                                 if !reused {
                                     self.mg = None;
                                 }
-                                if sigma > 1e6 {
-                                    return Err(DirectNewtonError::Factor(
-                                        "the multigrid-preconditioned solve broke down at every shift".into(),
-                                    ));
-                                }
-                                // The shift at which the first direction's curvature would
-                                // vanish, σ* = σ − pᵀ(K + σ d̄ D)p / (d̄ pᵀDp): each new σ
-                                // costs a hierarchy, so jump to twice it at once.
-                                let mut needed = 0.0;
-                                if let PcgEnd::Breakdown(Some(pq)) = end {
-                                    let pdp: f64 =
-                                        rhs.iter().zip(&self.weight).map(|(p, w)| p * p * w).sum();
-                                    if dbar > 0.0 && pdp > 0.0 {
-                                        needed = 2.0 * (sigma - pq / (dbar * pdp));
+                                // Each new σ costs a hierarchy: jump past the first
+                                // direction's σ* at once.
+                                let needed = match end {
+                                    PcgEnd::Breakdown(Some(pq)) => {
+                                        shift_needed(&self.weight, sigma, dbar, pq, &rhs)
                                     }
-                                }
-                                sigma = (10.0 * sigma).max(params.sigma_min).max(needed);
+                                    _ => 0.0,
+                                };
+                                sigma = raise_sigma(sigma, params.sigma_min, needed)?;
                             }
                         }
                     }
@@ -859,7 +871,7 @@ impl DirectNewton {
                         eta * bnorm,
                         params.pcg_max,
                     ) {
-                        PcgEnd::Converged(it) | PcgEnd::Truncated(it) => {
+                        PcgEnd::Converged(it) | PcgEnd::Truncated(it) | PcgEnd::Negative(it, _) => {
                             out.cg_iterations += it;
                             solved = true;
                         }
@@ -993,6 +1005,7 @@ impl DirectNewton {
                     }
                 } else {
                     // Keep u; restore its residual and regularise harder.
+                    out.rejected_steps += 1;
                     residual(model, u, s, &mut r, &mut fint)
                         .map_err(DirectNewtonError::Inverted)?;
                     out.force_evaluations += 1;
@@ -1039,6 +1052,29 @@ impl DirectNewton {
             (false, _, standing) => standing,
         };
     }
+}
+
+/// Twice the shift at which the curvature of a direction `p` of `K + σ d̄ D` would vanish,
+/// `σ* = σ − pᵀ(K + σ d̄ D)p / (d̄ pᵀDp)`, `pq` that curvature, `weight` D's diagonal over the
+/// free dofs (0 where `p` has no mass or `d̄ ≤ 0`).
+fn shift_needed(weight: &[f64], sigma: f64, dbar: f64, pq: f64, p: &[f64]) -> f64 {
+    let pdp: f64 = p.iter().zip(weight).map(|(p, w)| p * p * w).sum();
+    if dbar > 0.0 && pdp > 0.0 {
+        2.0 * (sigma - pq / (dbar * pdp))
+    } else {
+        0.0
+    }
+}
+
+/// The multigrid path's next σ after non-positive curvature: `max(10 σ, σ_min, needed)`; an
+/// error past σ = 10⁶.
+fn raise_sigma(sigma: f64, sigma_min: f64, needed: f64) -> Result<f64, DirectNewtonError> {
+    if sigma > 1e6 {
+        return Err(DirectNewtonError::Factor(
+            "the multigrid-preconditioned solve broke down at every shift".into(),
+        ));
+    }
+    Ok((10.0 * sigma).max(sigma_min).max(needed))
 }
 
 /// `Π(u) = E(u) − s V·u` (J); +∞ where an element is inverted or the energy is not finite.

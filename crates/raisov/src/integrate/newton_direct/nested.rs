@@ -43,8 +43,11 @@ use crate::integrate::{Constraints, System};
 pub const COARSE_REL_TOL: f64 = 1e-6;
 
 /// Conjugate-gradient iterations on a kept factorisation before the coarse solve refactors
-/// ([`DirectNewtonParams::pcg_max`]).
-pub const COARSE_PCG_MAX: usize = 20;
+/// ([`DirectNewtonParams::pcg_max`]). A coarse drape's first iterations from flat, with a
+/// nearly singular regularised tangent, miss η with any kept factor, so each one spent all of
+/// them before refactoring; a coarse factorisation costs about as much as a few of these solves
+/// (`bench/RESULTS.md`: 20, 10, 5, 2 and 0 on the 100k drape's 6 188-node level).
+pub const COARSE_PCG_MAX: usize = 5;
 
 /// What [`coarse_start`] did.
 #[derive(Clone, Debug, Default)]

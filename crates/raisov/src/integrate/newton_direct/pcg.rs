@@ -11,6 +11,10 @@ pub(super) enum PcgEnd {
     /// start, x the start): the iterate so far is a descent direction of the potential
     /// (`b·x > 0`), Steihaug's truncation.
     Truncated(usize),
+    /// As [`PcgEnd::Truncated`], where the caller asked for the direction: that direction `p`
+    /// is in the caller's buffer, its curvature `pᵀAp ≤ 0` the second field, x the iterate
+    /// so far.
+    Negative(usize, f64),
     /// `max_iter` iterations without reaching `tol`; x is the last iterate.
     MaxIter,
     /// Non-positive curvature (or a preconditioner that is not positive) at the first
@@ -20,7 +24,8 @@ pub(super) enum PcgEnd {
 }
 
 /// Conjugate gradients on `A x = b` preconditioned by `B` (`precond(r, z)`: `z = B r`), from
-/// x = 0 to `‖b − A x‖₂ ≤ tol`, at most `max_iter` iterations (module docs).
+/// x = 0 to `‖b − A x‖₂ ≤ tol`, at most `max_iter` iterations (module docs); a direction of
+/// non-positive curvature after the first truncates it.
 pub(super) fn pcg(
     matvec: impl Fn(&[f64], &mut [f64]),
     precond: impl Fn(&[f64], &mut [f64]),
@@ -29,13 +34,15 @@ pub(super) fn pcg(
     tol: f64,
     max_iter: usize,
 ) -> PcgEnd {
-    pcg_from(matvec, precond, b, x, false, tol, max_iter)
+    pcg_from(matvec, precond, b, x, false, tol, max_iter, None)
 }
 
 /// [`pcg`] from the start `x` where `warm` (an earlier solve's iterate of the same system,
 /// whose curvatures were positive: a descent direction, `b·x > 0`), from 0 otherwise. From a
 /// warm start, a first direction of non-positive curvature ends it `Truncated(0)`, x the
-/// start.
+/// start. With `negative`, a direction of non-positive curvature that would truncate ends it
+/// [`PcgEnd::Negative`] instead, the direction copied into `negative`.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn pcg_from(
     matvec: impl Fn(&[f64], &mut [f64]),
     precond: impl Fn(&[f64], &mut [f64]),
@@ -44,6 +51,7 @@ pub(super) fn pcg_from(
     warm: bool,
     tol: f64,
     max_iter: usize,
+    negative: Option<&mut Vec<f64>>,
 ) -> PcgEnd {
     let n = b.len();
     let mut r = b.to_vec();
@@ -74,7 +82,14 @@ pub(super) fn pcg_from(
         let pq: f64 = p.iter().zip(&q).map(|(a, b)| a * b).sum();
         if pq <= 0.0 || !pq.is_finite() {
             return if (it > 1 || warm) && pq.is_finite() {
-                PcgEnd::Truncated(it - 1)
+                match negative {
+                    Some(dir) => {
+                        dir.clear();
+                        dir.extend_from_slice(&p);
+                        PcgEnd::Negative(it - 1, pq)
+                    }
+                    None => PcgEnd::Truncated(it - 1),
+                }
             } else if it == 1 && pq.is_finite() {
                 x.copy_from_slice(&p);
                 PcgEnd::Breakdown(Some(pq))

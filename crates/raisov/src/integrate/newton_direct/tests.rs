@@ -34,13 +34,18 @@ duration = 1.0
 /// A Mooney-Rivlin membrane (C1 = C2 = 1 kPa) fixed on its boundary, sagging under gravity
 /// from flat (a singular first tangent).
 fn drape(extra: &str) -> Scenario {
+    drape_sized(186, extra)
+}
+
+/// [`drape`] with about `nodes` nodes.
+fn drape_sized(nodes: usize, extra: &str) -> Scenario {
     let text = format!(
         r#"
 gravity = [0.0, 0.0, -9.81]
 [mesh]
 generate = "rectangle"
 size = [0.1, 0.1]
-nodes = 186
+nodes = {nodes}
 [material]
 law = "mooney-rivlin"
 c1 = 1000.0
@@ -531,7 +536,8 @@ fn conjugate_gradients_from_their_own_iterate_keep_the_work_done() {
     };
     let mut x = vec![0.0; n];
     assert_eq!(pcg(matvec, precond, &b, &mut x, tol, 8), PcgEnd::MaxIter);
-    let PcgEnd::Converged(k_warm) = pcg_from(matvec, precond, &b, &mut x, true, tol, 1000) else {
+    let PcgEnd::Converged(k_warm) = pcg_from(matvec, precond, &b, &mut x, true, tol, 1000, None)
+    else {
         panic!("no convergence from the iterate");
     };
     assert!(
@@ -549,7 +555,7 @@ fn conjugate_gradients_from_their_own_iterate_keep_the_work_done() {
         "the two solutions differ by {gap:e} of {xmax:e}"
     );
     assert_eq!(
-        pcg_from(matvec, precond, &b, &mut x, true, tol, 1000),
+        pcg_from(matvec, precond, &b, &mut x, true, tol, 1000, None),
         PcgEnd::Converged(0)
     );
 }
@@ -613,4 +619,97 @@ normal = [1.0, 0.0, 0.0]
         assert_eq!(fast.slots, simple.slots);
         assert!(fast.slots.iter().any(|&x| x != u32::MAX));
     }
+}
+
+/// The drape's fine Newton-multigrid solve from the coarse start. Its first tangent is
+/// indefinite (the interpolated coarse shape leaves the fine mesh slack in places), and
+/// conjugate gradients met negative curvature at their second direction. Steihaug's
+/// truncation took the first iterate, a step along a nearly singular direction thousands of
+/// times too long: every line-search trial inverted elements, the iteration was lost (14
+/// energy evaluations, a hierarchy built for nothing; 10k drape: 10 fine iterations, 100k: 9).
+/// Such a direction now raises σ past the shift at which its curvature vanishes and the
+/// system is solved again: no step is rejected, and the solve ends at the equilibrium of the
+/// solve from rest.
+#[test]
+fn negative_curvature_after_the_coarse_start_raises_the_shift_instead_of_a_truncated_jump() {
+    let sc = drape_sized(2000, "[multigrid]\nscheme = \"fas\"\nlevels = 5");
+    let meshes = sc.level_meshes().unwrap();
+    let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
+    let c = coarse_level(&nodes).expect("a coarse level");
+    let down = vec![Transfer::build(&meshes[0].nodes, &meshes[c]).unwrap()];
+    let mut sys = sc.build_system().unwrap();
+    let model = sys.force.as_fem_mut().unwrap();
+    let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
+    let mut coarse = sc.level_system(&meshes[c], c).unwrap();
+    let start = coarse_start(
+        &mut coarse,
+        0.0,
+        1,
+        &down[0],
+        model,
+        &sys.constraints,
+        &mut u,
+    );
+    assert!(start.applied, "{start:?}");
+    let params = DirectNewtonParams {
+        multigrid: Some(MultigridPcg {
+            smoother: Smoother::ColouredBlock,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let out = DirectNewton::with_levels(model, &sys.constraints, &down)
+        .unwrap()
+        .solve(model, &sys.constraints, &sys.f_ext, 0.0, &mut u, params)
+        .unwrap();
+    assert!(out.converged, "{out:?}");
+    assert_eq!(out.rejected_steps, 0, "{out:?}");
+    let mut rest = vec![0.0; u.len()];
+    let cold = DirectNewton::with_levels(model, &sys.constraints, &down)
+        .unwrap()
+        .solve(model, &sys.constraints, &sys.f_ext, 0.0, &mut rest, params)
+        .unwrap();
+    assert!(cold.converged, "{cold:?}");
+    let (scale, err) = max_diff(&rest, &u);
+    assert!(err <= 1e-8 * scale, "{err:e} of {scale:e}");
+}
+
+/// Asked for it, conjugate gradients hand back the direction of non-positive curvature that
+/// would truncate them, with its curvature `pᵀAp`, and keep the iterate before it; the same
+/// solve without the buffer is Steihaug's truncation at the same iterate.
+#[test]
+fn conjugate_gradients_return_the_direction_of_negative_curvature() {
+    // diag(4, 2, 1, −1): from b = (1, 1, 1, 1) and Jacobi on |A|, the first direction has
+    // positive curvature (4·(1/4)² + 2·(1/2)² + 1 − 1 = 0.75), a later one not.
+    let d = [4.0, 2.0, 1.0, -1.0];
+    let matvec = |x: &[f64], y: &mut [f64]| (0..4).for_each(|i| y[i] = d[i] * x[i]);
+    let precond = |r: &[f64], z: &mut [f64]| (0..4).for_each(|i| z[i] = r[i] / d[i].abs());
+    let b = [1.0; 4];
+    let mut dir = Vec::new();
+    let mut x = vec![0.0; 4];
+    let end = pcg_from(
+        matvec,
+        precond,
+        &b,
+        &mut x,
+        false,
+        1e-12,
+        50,
+        Some(&mut dir),
+    );
+    let PcgEnd::Negative(it, pq) = end else {
+        panic!("{end:?}");
+    };
+    assert!(it >= 1);
+    assert_eq!(dir.len(), 4);
+    let curvature: f64 = (0..4).map(|i| d[i] * dir[i] * dir[i]).sum();
+    assert!(pq <= 0.0 && (curvature - pq).abs() <= 1e-12 * curvature.abs().max(1.0));
+    let mut y = vec![0.0; 4];
+    assert_eq!(
+        pcg_from(matvec, precond, &b, &mut y, false, 1e-12, 50, None),
+        PcgEnd::Truncated(it)
+    );
+    assert_eq!(x, y);
+    // The iterate descends: b·x > 0.
+    assert!(b.iter().zip(&x).map(|(b, x)| b * x).sum::<f64>() > 0.0);
 }

@@ -626,7 +626,8 @@ normal = [1.0, 0.0, 0.0]
 /// conjugate gradients met negative curvature at their second direction. Steihaug's
 /// truncation took the first iterate, a step along a nearly singular direction thousands of
 /// times too long: every line-search trial inverted elements, the iteration was lost (14
-/// energy evaluations, a hierarchy built for nothing; 10k drape: 10 fine iterations, 100k: 9).
+/// energy evaluations, and its hierarchy, built at a rejected step, rebuilt after the next;
+/// 10k drape: 10 fine iterations, 100k: 9).
 /// Such a direction now raises σ past the shift at which its curvature vanishes and the
 /// system is solved again: no step is rejected, and the solve ends at the equilibrium of the
 /// solve from rest.

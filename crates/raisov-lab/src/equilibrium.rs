@@ -962,8 +962,9 @@ pub fn frame_budgets(case: &Case, cycles: &[u64]) -> Result<Vec<FrameRow>> {
 /// ([`DirectNewtonParams::max_newton`]), warm started from the last frame with the kept
 /// hierarchy (the settings of a static scenario: [`MultigridPcg`]'s defaults with the
 /// smoother of the element kind, [`raisov::scenario::StaticSolve::default_smoother`]), on
-/// `case` from rest, for each budget in `iterations`. Each frame is one call of [`DirectNewton::solve`], so its first
-/// iteration's forcing term is the loosest (0.5) and it evaluates the residual once more.
+/// `case` from rest, for each budget in `iterations`. Each frame is one call of
+/// [`DirectNewton::solve`], so its first iteration's forcing term is the loosest (0.5) and it
+/// evaluates the residual once more.
 pub fn newton_frame_budgets(case: &Case, iterations: &[usize]) -> Result<Vec<FrameRow>> {
     let sc = &case.scenario;
     let n = sc.mesh.num_nodes();

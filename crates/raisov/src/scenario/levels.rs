@@ -380,9 +380,9 @@ impl Scenario {
     }
 
     /// Of the coarser levels, the one `pick` chooses from the node counts of all levels
-    /// (finest first), with its mesh; and those node counts. A choice of level 0 or of no
-    /// level there is chooses none. Mesh files are all read, as their
-    /// node counts are known only then. Generated membranes (`rectangle`, `polygon`) are
+    /// (finest first), with its mesh; and those node counts. A choice of level 0, or past
+    /// the coarsest level, chooses none. Mesh files are all read, as their node counts are
+    /// known only then. Generated membranes (`rectangle`, `polygon`) are
     /// chosen by their requested node counts (`mesh.nodes` and the coarser levels' targets),
     /// and only the chosen level is meshed: meshing all of them costs about as much as the
     /// finest level again. The requested counts also make the choice independent of the

@@ -37,7 +37,8 @@
 //! less close to that matrix's inverse.
 //!
 //! The smoothed levels' sweeps and the cycle's residuals read their operator's values rounded to
-//! single precision (`A_l` as `f32`, [`Entry`]), on the same pattern; all arithmetic stays in
+//! single precision (`A_l` as `f32`, [`Entry`]), on the same pattern (rows in colour order for
+//! [`Smoother::ColouredBlock`], [`super::smoother::ColourOrder`]); all arithmetic stays in
 //! `f64`. The matrix rows are what a cycle spends its time reading, and single precision halves
 //! the values' share of that traffic. The rounded operator is still symmetric (`a_ij` and `a_ji`
 //! round alike), so `B` stays symmetric; it differs from the `f64` cycle by about `10⁻⁷` of the
@@ -49,7 +50,7 @@
 //! count), and so are the smoothers' ([`super::smoother`]).
 
 use super::coarse_factor::{CoarseFactor, CoarseSymbolic, Precision};
-use super::smoother::{gauss_seidel, Colouring, Smoother};
+use super::smoother::{gauss_seidel, ColourOrder, Colouring, Smoother};
 use crate::hierarchy::Transfer;
 use faer::sparse::SparseColMat;
 use rayon::prelude::*;
@@ -80,6 +81,26 @@ impl Entry for f32 {
     fn get(self) -> f64 {
         self as f64
     }
+}
+
+/// `Σ_k v_k x_{c_k}`, one sparse row times a dense vector: four partial sums over the entries
+/// `k ≡ 0, 1, 2, 3 (mod 4)`, added as `(s₀ + s₁) + (s₂ + s₃)`. The order is fixed by the row
+/// alone (the same bits on any thread count); four sums instead of one keep four additions in
+/// flight rather than waiting on each one's result.
+#[inline(always)]
+pub(crate) fn row_dot<V: Entry>(cols: &[u32], vals: &[V], x: &[f64]) -> f64 {
+    let mut s = [0.0f64; 4];
+    let (c4, v4) = (cols.chunks_exact(4), vals.chunks_exact(4));
+    let (ct, vt) = (c4.remainder(), v4.remainder());
+    for (c, v) in c4.zip(v4) {
+        for q in 0..4 {
+            s[q] += v[q].get() * x[c[q] as usize];
+        }
+    }
+    for (q, (&c, &v)) in ct.iter().zip(vt).enumerate() {
+        s[q] += v.get() * x[c as usize];
+    }
+    (s[0] + s[1]) + (s[2] + s[3])
 }
 
 /// A sparse matrix in compressed rows, column indices ascending within a row.
@@ -133,11 +154,7 @@ impl Csr {
             .for_each(|(b, out)| {
                 for (j, yi) in out.iter_mut().enumerate() {
                     let (c, v) = self.row_of(vals, b * ROW_BLOCK + j);
-                    *yi = c
-                        .iter()
-                        .zip(v)
-                        .map(|(&k, &a)| a.get() * x[k as usize])
-                        .sum();
+                    *yi = row_dot(c, v, x);
                 }
             });
     }
@@ -429,6 +446,9 @@ pub struct GalerkinMultigrid {
     /// Each smoothed level's node blocks and colours ([`Smoother::ColouredBlock`]); fixed by
     /// the pattern, so kept by [`GalerkinMultigrid::refresh`].
     colourings: Vec<Colouring>,
+    /// Each smoothed level's rows in colour order, which its `f32` values follow
+    /// ([`Smoother::ColouredBlock`] only; empty otherwise).
+    orders: Vec<ColourOrder>,
     coarse: CoarseFactor,
 }
 
@@ -469,6 +489,17 @@ impl GalerkinMultigrid {
                 .map(|(al, dofs)| Colouring::new(al, dofs))
                 .collect(),
         };
+        let orders = if smoother == Smoother::ColouredBlock {
+            let bytes = a[..a.len() - 1]
+                .iter()
+                .map(|m| ColourOrder::bytes(m.rows, m.col.len()))
+                .sum();
+            crate::memory::check("the smoothed levels' rows in colour order", bytes)
+                .map_err(GalerkinError::Memory)?;
+            a.iter().zip(&colourings).map(|(m, c)| c.order(m)).collect()
+        } else {
+            Vec::new()
+        };
         let mut mg = GalerkinMultigrid {
             a,
             single: Vec::new(),
@@ -477,6 +508,7 @@ impl GalerkinMultigrid {
             sweeps,
             smoother,
             colourings,
+            orders,
             coarse,
         };
         mg.relax = mg.relaxation();
@@ -519,11 +551,14 @@ impl GalerkinMultigrid {
             })
             .collect();
         self.relax = self.relaxation_with(&omegas);
-        for (m, single) in self.a.iter().zip(self.single.iter_mut()) {
-            single
-                .par_iter_mut()
-                .zip(&m.val)
-                .for_each(|(s, &v)| *s = v as f32);
+        for (l, (m, single)) in self.a.iter().zip(self.single.iter_mut()).enumerate() {
+            match self.orders.get(l) {
+                Some(order) => order.fill(m, |v| v as f32, single),
+                None => single
+                    .par_iter_mut()
+                    .zip(&m.val)
+                    .for_each(|(s, &v)| *s = v as f32),
+            }
         }
     }
 
@@ -531,7 +566,11 @@ impl GalerkinMultigrid {
     fn rounded(&self) -> Vec<Vec<f32>> {
         self.a[..self.a.len() - 1]
             .iter()
-            .map(|m| m.val.par_iter().map(|&v| v as f32).collect())
+            .enumerate()
+            .map(|(l, m)| match self.orders.get(l) {
+                Some(order) => order.values(m, |v| v as f32),
+                None => m.val.par_iter().map(|&v| v as f32).collect(),
+            })
             .collect()
     }
 
@@ -599,7 +638,7 @@ impl GalerkinMultigrid {
         let (a, v) = (&self.a[l], &self.single[l][..]);
         match &self.relax[l] {
             Relax::Point(inv) => gauss_seidel(a, v, inv, b, z, forward),
-            Relax::Block(inv) => self.colourings[l].sweep(a, v, inv, b, z, forward),
+            Relax::Block(inv) => self.colourings[l].sweep(&self.orders[l], v, inv, b, z, forward),
             Relax::Jacobi(inv, omega) => {
                 self.colourings[l].jacobi_sweep(a, v, inv, *omega, b, z, zero)
             }
@@ -617,9 +656,14 @@ impl GalerkinMultigrid {
             self.smooth(l, b, z, true, k == 0);
         }
         let mut r = vec![0.0; b.len()];
-        a.matvec_of(&self.single[l], z, &mut r);
-        for (ri, bi) in r.iter_mut().zip(b) {
-            *ri = bi - *ri;
+        match self.orders.get(l) {
+            Some(order) => order.residual(&self.single[l], b, z, &mut r),
+            None => {
+                a.matvec_of(&self.single[l], z, &mut r);
+                for (ri, bi) in r.iter_mut().zip(b) {
+                    *ri = bi - *ri;
+                }
+            }
         }
         let (pl, pt) = &self.p.levels[l];
         let mut bc = vec![0.0; pl.cols];

@@ -15,7 +15,9 @@
 //!
 //!   reading only other colours' values, so the blocks of a colour run in parallel and the
 //!   result is the same bits on any thread count; the backward sweep visits the colours in
-//!   reverse, the forward sweep's adjoint. The 3 × 3 solve relaxes a node's three coupled
+//!   reverse, the forward sweep's adjoint. The sweep reads the matrix from a copy whose rows
+//!   are in the order it visits them ([`ColourOrder`]), front to back, rather than a colour's
+//!   rows scattered over the whole matrix. The 3 × 3 solve relaxes a node's three coupled
 //!   displacement components together, which the elastic operator couples strongly (the
 //!   vertex-block Gauss-Seidel of Vertex Block Descent, on the Newton system). `D_b⁻¹` is the
 //!   inverse by Cholesky; a block that is not positive definite falls back to the reciprocal
@@ -36,7 +38,7 @@
 //!   on any thread count; the sweep is its own adjoint, so forward and backward are the
 //!   same.
 
-use super::galerkin::{Csr, Entry};
+use super::galerkin::{row_dot, Csr, Entry};
 use rayon::prelude::*;
 
 /// Blocks per parallel task within one colour.
@@ -50,8 +52,8 @@ pub enum Smoother {
     /// smoother` defaults by element kind, [`crate::scenario::StaticSolve::smoother`]).
     #[default]
     GaussSeidel,
-    /// Node-block Gauss-Seidel over a colouring, colours' blocks in parallel. It visits the
-    /// matrix rows colour by colour, which costs memory traffic on large meshes.
+    /// Node-block Gauss-Seidel over a colouring, colours' blocks in parallel, reading a copy
+    /// of the matrix with its rows in colour order ([`ColourOrder`]).
     ColouredBlock,
     /// Damped node-block Jacobi, rows in parallel in memory order.
     BlockJacobi,
@@ -151,39 +153,66 @@ impl Colouring {
             .collect()
     }
 
+    /// The level's rows in the order [`Colouring::sweep`] visits them: colour by colour, each
+    /// colour's blocks ascending, each block's rows ascending.
+    pub fn order(&self, a: &Csr) -> ColourOrder {
+        let mut row = Vec::with_capacity(a.rows);
+        let mut ptr = Vec::with_capacity(a.rows + 1);
+        ptr.push(0);
+        let mut col = Vec::with_capacity(a.col.len());
+        let mut first = Vec::with_capacity(self.colours.len());
+        for blocks in &self.colours {
+            let mut f = Vec::with_capacity(blocks.len());
+            for &k in blocks {
+                let k = k as usize;
+                f.push(row.len() as u32);
+                for r in self.start[k]..self.start[k + 1] {
+                    row.push(r as u32);
+                    col.extend_from_slice(a.row(r).0);
+                    ptr.push(col.len());
+                }
+            }
+            first.push(f);
+        }
+        ColourOrder {
+            row,
+            ptr,
+            col,
+            first,
+        }
+    }
+
     /// One sweep of node-block Gauss-Seidel on `a z = b`, colours ascending (`forward`) or
-    /// descending; `inv` from [`Colouring::inverses`] of `a`.
+    /// descending; `vals` the values of `a` in `order` ([`ColourOrder::values`]), `inv` from
+    /// [`Colouring::inverses`] of `a`.
     pub fn sweep<V: Entry>(
         &self,
-        a: &Csr,
+        order: &ColourOrder,
         vals: &[V],
         inv: &[[f64; 9]],
         b: &[f64],
         z: &mut [f64],
         forward: bool,
     ) {
-        let mut order: Vec<&Vec<u32>> = self.colours.iter().collect();
+        let mut colours: Vec<usize> = (0..self.colours.len()).collect();
         if !forward {
-            order.reverse();
+            colours.reverse();
         }
         let mut delta: Vec<[f64; 3]> = Vec::new();
-        for blocks in order {
+        for c in colours {
+            let blocks = &self.colours[c];
             let zr: &[f64] = z;
             blocks
                 .par_iter()
+                .zip(&order.first[c])
                 .with_min_len(MIN_BLOCKS_PER_TASK)
-                .map(|&k| {
-                    let k = k as usize;
+                .map(|(&k, &q0)| {
+                    let (k, q0) = (k as usize, q0 as usize);
                     let (r0, r1) = (self.start[k], self.start[k + 1]);
                     let mut r = [0.0; 3];
                     for (i, ri) in r.iter_mut().enumerate().take(r1 - r0) {
-                        let (cols, vals) = a.row_of(vals, r0 + i);
-                        let s: f64 = cols
-                            .iter()
-                            .zip(vals)
-                            .map(|(&j, &x)| x.get() * zr[j as usize])
-                            .sum();
-                        *ri = b[r0 + i] - s;
+                        let e = order.ptr[q0 + i]..order.ptr[q0 + i + 1];
+                        *ri = b[r0 + i] - row_dot(&order.col[e.clone()], &vals[e], zr);
                     }
                     let d = &inv[k];
                     [
@@ -200,6 +229,70 @@ impl Colouring {
                     *zi += dk[i];
                 }
             }
+        }
+    }
+}
+
+/// A copy of one level's matrix pattern with its rows in the order [`Colouring::sweep`]
+/// visits them ([`Colouring::order`]), so that a sweep reads the matrix front to back rather
+/// than a colour's scattered rows at a time; the columns keep the level's numbering. Fixed by
+/// the pattern; the values in this order are gathered by [`ColourOrder::values`] and
+/// [`ColourOrder::fill`].
+#[derive(Clone, Debug)]
+pub struct ColourOrder {
+    /// The level's row at each position of the order.
+    row: Vec<u32>,
+    /// Start of each ordered row's entries in `col` (and in the ordered values).
+    ptr: Vec<usize>,
+    /// The entries' columns.
+    col: Vec<u32>,
+    /// For each colour, the position of each of its blocks' first row.
+    first: Vec<Vec<u32>>,
+}
+
+impl ColourOrder {
+    /// The bytes a [`ColourOrder`] of a matrix with `rows` rows and `nnz` entries takes.
+    pub fn bytes(rows: usize, nnz: usize) -> u64 {
+        (4 * nnz + 12 * rows) as u64
+    }
+
+    /// The values of `a` (whose pattern this order was made from), in this order, each
+    /// converted by `round`.
+    pub fn values<V>(&self, a: &Csr, round: impl Fn(f64) -> V) -> Vec<V> {
+        let mut out = Vec::with_capacity(self.col.len());
+        for &r in &self.row {
+            out.extend(a.row(r as usize).1.iter().map(|&v| round(v)));
+        }
+        out
+    }
+
+    /// [`ColourOrder::values`] into `out`, which has their length.
+    pub fn fill<V>(&self, a: &Csr, round: impl Fn(f64) -> V, out: &mut [V]) {
+        for (q, &r) in self.row.iter().enumerate() {
+            let src = a.row(r as usize).1;
+            for (o, &v) in out[self.ptr[q]..self.ptr[q + 1]].iter_mut().zip(src) {
+                *o = round(v);
+            }
+        }
+    }
+
+    /// `r = b − A z`, `vals` A's values in this order; rows in parallel blocks, the same bits
+    /// on any thread count.
+    pub fn residual<V: Entry>(&self, vals: &[V], b: &[f64], z: &[f64], r: &mut [f64]) {
+        let mut ordered = vec![0.0; self.row.len()];
+        ordered
+            .par_chunks_mut(3 * MIN_BLOCKS_PER_TASK)
+            .enumerate()
+            .for_each(|(part, out)| {
+                let q0 = part * 3 * MIN_BLOCKS_PER_TASK;
+                for (i, o) in out.iter_mut().enumerate() {
+                    let q = q0 + i;
+                    let e = self.ptr[q]..self.ptr[q + 1];
+                    *o = b[self.row[q] as usize] - row_dot(&self.col[e.clone()], &vals[e], z);
+                }
+            });
+        for (&row, v) in self.row.iter().zip(ordered) {
+            r[row as usize] = v;
         }
     }
 }
@@ -351,11 +444,7 @@ pub fn gauss_seidel<V: Entry>(
 ) {
     let mut relax = |i: usize| {
         let (c, v) = a.row_of(vals, i);
-        let s: f64 = c
-            .iter()
-            .zip(v)
-            .map(|(&k, &x)| x.get() * z[k as usize])
-            .sum();
+        let s = row_dot(c, v, z);
         z[i] += (b[i] - s) * inv_diag[i];
     };
     if forward {
@@ -477,7 +566,9 @@ mod tests {
         let b: Vec<f64> = (0..sub.rows).map(|i| (i as f64 * 0.37).sin()).collect();
         let mut z: Vec<f64> = (0..sub.rows).map(|i| (i as f64 * 0.11).cos()).collect();
         let mut zr = z.clone();
-        col.sweep(&sub, &sub.val, &inv, &b, &mut z, true);
+        let order = col.order(&sub);
+        let vals = order.values(&sub, |v| v);
+        col.sweep(&order, &vals, &inv, &b, &mut z, true);
         for blocks in &col.colours {
             for &k in blocks {
                 let k = k as usize;
@@ -499,12 +590,27 @@ mod tests {
         for (x, y) in z.iter().zip(&zr) {
             assert!((x - y).abs() < 1e-14, "{x} vs {y}");
         }
+        // The colour order holds every row once, and its residual is b − A z; its values,
+        // refilled from a changed matrix, follow the change.
+        let mut rows = order.row.clone();
+        rows.sort_unstable();
+        assert_eq!(rows, (0..sub.rows as u32).collect::<Vec<_>>());
+        let mut scaled = sub.clone();
+        scaled.val.iter_mut().for_each(|v| *v *= 1.5);
+        let mut vals2 = vals.clone();
+        order.fill(&scaled, |v| v, &mut vals2);
+        let (mut az, mut res) = (vec![0.0; sub.rows], vec![f64::NAN; sub.rows]);
+        scaled.matvec(&z, &mut az);
+        order.residual(&vals2, &b, &z, &mut res);
+        for ((r, bi), azi) in res.iter().zip(&b).zip(&az) {
+            assert!((r - (bi - azi)).abs() < 1e-14, "{r} vs {}", bi - azi);
+        }
         // Relaxed block rows have zero residual right after their update; sweeping converges.
         let mut z = vec![0.0; sub.rows];
         let mut res = vec![0.0; sub.rows];
         for _ in 0..40 {
-            col.sweep(&sub, &sub.val, &inv, &b, &mut z, true);
-            col.sweep(&sub, &sub.val, &inv, &b, &mut z, false);
+            col.sweep(&order, &vals, &inv, &b, &mut z, true);
+            col.sweep(&order, &vals, &inv, &b, &mut z, false);
         }
         sub.matvec(&z, &mut res);
         let worst = res

@@ -15,7 +15,7 @@
 //! solve far less than the factor's rounding to `f32` does; 10⁻⁶ `d̄` already moves the soft,
 //! near-rigid modes the coarse level is there for (the liver L0's conjugate gradients took
 //! 69 iterations against 65).
-
+//!
 //! [`Precision::Single`] then rounds `L`'s values to `f32` and solves in `f32`: the two
 //! triangular solves read the whole factor per V-cycle (4.0 M values for the liver L0's
 //! 2 088-node level), and single precision halves that traffic. The rounded factor `L̃`
@@ -68,9 +68,8 @@ pub(crate) struct CoarseFactor {
 impl CoarseFactor {
     /// Sparse Cholesky of `a` (its lower triangle), shifting the diagonal by `σ d̄` (`d̄` the
     /// mean diagonal; σ = [`FIRST_SHIFT`] = 10⁻¹², then 10⁻⁶, 10⁻⁴, …, 10⁶) until it factors.
-    /// Each try is a whole
-    /// numeric factorisation (an indefinite operator's failing pivot comes late), so the shift
-    /// rises a hundredfold a try (the liver L0's coarsest operator at an indefinite state
+    /// Each try is a whole numeric factorisation (an indefinite operator's failing pivot comes
+    /// late), so the shift rises a hundredfold a try (the liver L0's coarsest operator at an indefinite state
     /// factors only at 1). `symbolic`, from an earlier call on the same pattern, is reused
     /// where given and filled in where not, after checking that the factor fits in the
     /// available memory ([`GalerkinError::Memory`]).
@@ -253,8 +252,7 @@ mod tests {
     }
 
     /// An indefinite operator factors once shifted enough: the shift is the first of 10⁻¹²,
-    /// 10⁻⁶, 10⁻⁴, …
-    /// (of the mean diagonal) that makes it positive definite.
+    /// 10⁻⁶, 10⁻⁴, … (of the mean diagonal) that makes it positive definite.
     #[test]
     fn indefinite_operator_factors_with_the_smallest_shift_that_works() {
         // Eigenvalues of the Laplacian part lie in (0, 4); adding −0.5 leaves the lowest
@@ -273,12 +271,8 @@ mod tests {
         let n = 40;
         let mut a = laplace(n, 0.0);
         for r in [0, n - 1] {
-            let (ptr, col) = (a.ptr.clone(), a.col.clone());
-            for k in ptr[r]..ptr[r + 1] {
-                if col[k] as usize == r {
-                    a.val[k] = 1.0;
-                }
-            }
+            let k = a.ptr[r] + a.row(r).0.iter().position(|&j| j as usize == r).unwrap();
+            a.val[k] = 1.0;
         }
         let ones = vec![1.0; n];
         let mut a1 = vec![0.0; n];

@@ -251,18 +251,17 @@ pub struct ColourOrder {
 }
 
 impl ColourOrder {
-    /// The bytes a [`ColourOrder`] of a matrix with `rows` rows and `nnz` entries takes.
+    /// The bytes a [`ColourOrder`] of a matrix with `rows` rows and `nnz` entries takes at
+    /// most (a column per entry; a row index, a start and at most one block start per row).
     pub fn bytes(rows: usize, nnz: usize) -> u64 {
-        (4 * nnz + 12 * rows) as u64
+        (4 * nnz + 16 * rows) as u64
     }
 
     /// The values of `a` (whose pattern this order was made from), in this order, each
     /// converted by `round`.
-    pub fn values<V>(&self, a: &Csr, round: impl Fn(f64) -> V) -> Vec<V> {
-        let mut out = Vec::with_capacity(self.col.len());
-        for &r in &self.row {
-            out.extend(a.row(r as usize).1.iter().map(|&v| round(v)));
-        }
+    pub fn values<V: Clone>(&self, a: &Csr, round: impl Fn(f64) -> V) -> Vec<V> {
+        let mut out = vec![round(0.0); self.col.len()];
+        self.fill(a, round, &mut out);
         out
     }
 

@@ -10,8 +10,8 @@
 //! every step was refused; the line search now takes a step that lowers the residual norm
 //! where the energy cannot tell (`integrate::statics`).
 //!
-//! Static equilibrium by matrix-free Newton-Krylov to 1e-7 of the load. Slow in debug builds:
-//! `#[ignore]`d in the fast loop, run in CI by `cargo test --release -- --ignored`.
+//! Static equilibrium by matrix-free Newton-Krylov to 1e-7 of the load. Slow:
+//! `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
 
 use raisov::fem::{FemModel, FemParams};
 use raisov::integrate::statics::{NewtonParams, NewtonSolver};

@@ -34,8 +34,7 @@
 //! within 1 %. Also the reactions: the clamped edge's reaction balances the traction's
 //! resultant τ · 16 mm · t to 1e-6 (measured 1e-10).
 //!
-//! Slow in debug builds: `#[ignore]`d in the fast loop, run in CI by
-//! `cargo test --release -- --ignored`.
+//! Slow: `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
 
 use raisov::integrate::statics::{NewtonParams, NewtonSolver};
 use raisov::io::gmsh::write_msh22;

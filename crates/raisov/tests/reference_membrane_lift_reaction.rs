@@ -44,8 +44,7 @@
 //! agreement and the balance within 1e-9. The centre reaction points up with a horizontal part
 //! below 5 % of it, and the applied load the run reports is the weight to 1e-12.
 //!
-//! Slow in debug builds: `#[ignore]`d in the fast loop, run in CI by
-//! `cargo test --release -- --ignored`.
+//! Slow: `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
 
 use raisov::integrate::newton_direct::{solve_system, DirectNewtonParams};
 use raisov::metrics::reactions;

@@ -178,6 +178,20 @@ pub fn tet_stiffness<M: SolidMaterial + ?Sized>(
             dminv.row(b - 1).into_owned()
         }
     };
+    let gv: [Vector3<f64>; 4] = std::array::from_fn(|b| g(b).transpose());
+    let mut blocks = [Matrix3::zeros(); 16];
+    if m.contract_dpk1(&f, &gv, &mut blocks) {
+        // K_(a,i),(b,k) = V Σ_JL g_aJ ∂P_iJ/∂F_kL g_bL.
+        for (ab, blk) in blocks.iter().enumerate() {
+            let (a, b) = (ab / 4, ab % 4);
+            for i in 0..3 {
+                for k in 0..3 {
+                    out[(3 * a + i) * 12 + 3 * b + k] = vol * blk[(i, k)];
+                }
+            }
+        }
+        return Ok(());
+    }
     let mut dfs = [Matrix3::zeros(); 12];
     for b in 0..4 {
         let gb = g(b);

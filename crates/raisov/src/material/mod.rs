@@ -95,6 +95,20 @@ pub trait SolidMaterial: Send + Sync {
             *o = df * s + f * self.dpk2(&c, &dc);
         }
     }
+    /// The tangent `∂P/∂F` contracted with each pair of the four vectors `g`,
+    /// `out[4 a + b]_ik = Σ_JL g_aJ (∂P_iJ/∂F_kL) g_bL`: a tetrahedron's stiffness block of
+    /// nodes a and b per unit volume, `g` its shape-function gradients. `false` where the law
+    /// has no closed form for it; the element then forms the blocks from
+    /// [`SolidMaterial::dpk1_many`] (`out` untouched). A law that overrides it is checked
+    /// against `dpk1` by the test macro.
+    fn contract_dpk1(
+        &self,
+        _f: &Matrix3<f64>,
+        _g: &[Vector3<f64>; 4],
+        _out: &mut [Matrix3<f64>; 16],
+    ) -> bool {
+        false
+    }
 }
 
 /// A plane-stress membrane law W(C), C the 2x2 in-plane Cauchy-Green tensor.
@@ -328,7 +342,7 @@ macro_rules! material_tests {
         mod $modname {
             #[allow(unused_imports)]
             use super::*;
-            use nalgebra::Matrix3;
+            use nalgebra::{Matrix3, Vector3};
             use $crate::material::SolidMaterial;
             fn sample_f() -> Vec<Matrix3<f64>> {
                 vec![
@@ -461,6 +475,46 @@ macro_rules! material_tests {
                             (dp - one).norm() <= 1e-12 * one.norm().max(m.pk1(&f).norm()),
                             "F = {f}, dF = {df}: dpk1_many gives {dp}, dpk1 {one}"
                         );
+                    }
+                }
+            }
+            /// Where the law contracts its tangent in closed form, each block equals the
+            /// contraction of `dpk1` along the rank-one direction `e_k ⊗ g_b` with `g_a`.
+            #[test]
+            fn contracted_tangent_is_dpk1_contracted() {
+                let owned = $mat;
+                let m: &dyn SolidMaterial = &owned;
+                let g = [
+                    Vector3::new(-1.0, -0.5, 0.2),
+                    Vector3::new(1.0, 0.0, 0.0),
+                    Vector3::new(0.0, 1.5, 0.3),
+                    Vector3::new(0.0, -1.0, -0.5),
+                ];
+                for f in sample_f_of(m) {
+                    let mut out = [Matrix3::zeros(); 16];
+                    if !m.contract_dpk1(&f, &g, &mut out) {
+                        continue;
+                    }
+                    let scale = m
+                        .pk1(&f)
+                        .norm()
+                        .max(m.dpk1(&f, &Matrix3::identity()).norm());
+                    for a in 0..4 {
+                        for b in 0..4 {
+                            for k in 0..3 {
+                                let mut df = Matrix3::zeros();
+                                df.row_mut(k).copy_from(&g[b].transpose());
+                                let col = m.dpk1(&f, &df) * g[a];
+                                for i in 0..3 {
+                                    let got = out[4 * a + b][(i, k)];
+                                    assert!(
+                                        (got - col[i]).abs() <= 1e-12 * scale,
+                                        "F = {f}, block ({a}, {b})[{i}{k}]: {got} vs {}",
+                                        col[i]
+                                    );
+                                }
+                            }
+                        }
                     }
                 }
             }

@@ -9,13 +9,20 @@
 //! ```text
 //! dS = μ C⁻¹dCC⁻¹ + λ t/2 C⁻¹ − λ ln J C⁻¹dCC⁻¹
 //! ```
+//! In F form (H = F⁻ᵀ, c = λ ln J − μ), `P = μ F + c H` and
+//! `dP = μ dF + λ (H : dF) H − c H dFᵀ H`, so the tangent contracted with two vectors a, b
+//! (a tetrahedron's stiffness block of two nodes per unit volume,
+//! [`SolidMaterial::contract_dpk1`]) is, with `Ha`, `Hb`,
+//! ```text
+//! Σ_JL a_J ∂P_iJ/∂F_kL b_L = μ (a·b) δ_ik + λ (Ha)_i (Hb)_k − c (Hb)_i (Ha)_k
+//! ```
 //! Membrane, incompressible plane stress (λ3² = 1/det C):
 //! ```text
 //! W = μ/2 (tr C + 1/det C − 3),    S = μ (I − C⁻¹ / det C),   dS = μ (C⁻¹dCC⁻¹ + t C⁻¹)/det C
 //! ```
 
 use super::{lame, MembraneMaterial, SolidMaterial};
-use nalgebra::{Matrix2, Matrix3};
+use nalgebra::{Matrix2, Matrix3, Vector3};
 
 /// Neo-Hookean with Lamé parameters λ (bulk-like, solid only) and shear modulus μ (Pa).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,6 +69,29 @@ impl SolidMaterial for NeoHookean {
             let ds = cdc * cinv * a + cinv * (b * cdc.trace());
             *o = df * s + f * ds;
         }
+    }
+    /// The closed form of the module docs.
+    fn contract_dpk1(
+        &self,
+        f: &Matrix3<f64>,
+        g: &[Vector3<f64>; 4],
+        out: &mut [Matrix3<f64>; 16],
+    ) -> bool {
+        let Some(finv) = f.try_inverse() else {
+            return false;
+        };
+        let h = finv.transpose();
+        let c = self.lambda * f.determinant().ln() - self.mu;
+        let hg = g.map(|ga| h * ga);
+        for a in 0..4 {
+            for b in 0..4 {
+                let (ha, hb) = (&hg[a], &hg[b]);
+                out[4 * a + b] = Matrix3::from_diagonal_element(self.mu * g[a].dot(&g[b]))
+                    + ha * hb.transpose() * self.lambda
+                    - hb * ha.transpose() * c;
+            }
+        }
+        true
     }
 }
 

@@ -9,8 +9,10 @@
 //! `g_0 = −Σ_b g_b`; then `dH = V0 dP Dm⁻ᵀ` with `dP = ∂P/∂F : dF` from the law
 //! ([`SolidMaterial::dpk1`]; an element asks for all its directions at once,
 //! [`SolidMaterial::dpk1_many`], [`MembraneMaterial::dpk1_many`]), and the column `(b, k)` of
-//! `K_e` is `dR` assembled from `dH` as `R` from `H`. Checked against central differences of
-//! the element forces in tests.
+//! `K_e` is `dR` assembled from `dH` as `R` from `H`. Equivalently the tetrahedron's block of
+//! nodes a and b is `K_ab,ik = V0 Σ_JL g_aJ (∂P_iJ/∂F_kL) g_bL`, which a law with a closed
+//! form of that contraction gives at once ([`SolidMaterial::contract_dpk1`], neo-Hookean).
+//! Checked against central differences of the element forces in tests.
 
 use crate::material::{MembraneMaterial, SolidMaterial};
 use crate::mesh::{cross, dot, norm, sub};

@@ -10,7 +10,8 @@
 //!   correction to zero where the error is largest (fixed: coarse levels hold only the fixed
 //!   regions).
 //!
-//! Slow (liver meshes): `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
+//! Slow (liver meshes): `#[ignore]`d in the fast loop, run in CI by
+//! `cargo test --workspace -- --ignored`.
 
 use raisov::scenario::Scenario;
 use std::path::Path;

@@ -7,7 +7,8 @@
 //! the default) whose line search may lengthen a correction. Measured figures:
 //! `bench/RESULTS.md`.
 //!
-//! Slow (liver meshes): `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
+//! Slow (liver meshes): `#[ignore]`d in the fast loop, run in CI by
+//! `cargo test --workspace -- --ignored`.
 
 mod common;
 

@@ -9,7 +9,8 @@
 //! rebuild, at most two hierarchies, at most 45 CG iterations and 8 Newton iterations, and the
 //! equilibrium of direct Newton within 1e-8 of the largest displacement.
 //!
-//! Slow (liver meshes): `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
+//! Slow (liver meshes): `#[ignore]`d in the fast loop, run in CI by
+//! `cargo test --workspace -- --ignored`.
 
 use raisov::hierarchy::Transfer;
 use raisov::integrate::newton_direct::MultigridPcg;

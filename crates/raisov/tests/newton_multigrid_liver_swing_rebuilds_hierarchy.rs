@@ -9,7 +9,8 @@
 //! damped, and its provisional rebuild after the first full step), to the equilibrium of direct Newton within 1e-8 of
 //! the largest displacement.
 //!
-//! Slow (liver meshes): `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
+//! Slow (liver meshes): `#[ignore]`d in the fast loop, run in CI by
+//! `cargo test --workspace -- --ignored`.
 
 use raisov::hierarchy::Transfer;
 use raisov::integrate::newton_direct::MultigridPcg;

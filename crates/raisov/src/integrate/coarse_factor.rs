@@ -7,29 +7,34 @@
 //!
 //! `A_c` the coarsest Galerkin operator, `d̄` its mean diagonal, σ the smallest of
 //! [`FIRST_SHIFT`] = 10⁻¹², 10⁻⁶, 10⁻⁴, …, 10⁶ at which it factors (faer's supernodal or
-//! simplicial `LLᵀ` after a fill-reducing ordering). The factorisation is computed in `f64`.
-//! The ladder starts just above 0: a Galerkin operator `PᵀAP` is singular to rounding
-//! wherever `P`'s columns are nearly dependent, as on the liver L1's and the heart's coarsest
-//! levels, whose last pivots rounded to or below zero unshifted, and each failed try is a whole
-//! numeric factorisation. A shift of 10⁻¹² `d̄` lifts such pivots and changes the coarse
-//! solve far less than the factor's rounding to `f32` does; 10⁻⁶ `d̄` already moves the soft,
-//! near-rigid modes the coarse level is there for (the liver L0's conjugate gradients took
-//! 69 iterations against 65).
+//! simplicial `LLᵀ` after a fill-reducing ordering). The ladder starts just above 0: a
+//! Galerkin operator `PᵀAP` is singular to rounding wherever `P`'s columns are nearly
+//! dependent, as on the liver L1's and the heart's coarsest levels, whose last pivots rounded
+//! to or below zero unshifted, and each failed try is a whole numeric factorisation. A shift of
+//! 10⁻¹² `d̄` lifts such pivots and changes the coarse solve far less than the factor's
+//! rounding to `f32` does; 10⁻⁶ `d̄` already moves the soft, near-rigid modes the coarse level
+//! is there for (the liver L0's conjugate gradients took 69 iterations against 65).
 //!
-//! [`Precision::Single`] then rounds `L`'s values to `f32` and solves in `f32`: the two
-//! triangular solves read the whole factor per V-cycle (4.0 M values for the liver L0's
-//! 2 088-node level), and single precision halves that traffic. The rounded factor `L̃`
-//! still has a positive diagonal, so `L̃ L̃ᵀ` is symmetric positive definite whatever `A_c`'s
-//! conditioning: it is the exact inverse of a matrix within about `10⁻⁷ |L||Lᵀ|` of
-//! `A_c + σ d̄ I`, and the V-cycle stays a symmetric positive definite preconditioner up to
-//! the solves' own `f32` round-off, far below what conjugate gradients' inexact-Newton
-//! tolerance asks of it. [`Precision::Double`] is the reference: the same factor, solved in
-//! `f64`.
+//! [`Precision::Single`] (the default) solves in `f32`: the two triangular solves read the
+//! whole factor per V-cycle (4.2 M values for the liver L1's 2 088-node coarsest level), and
+//! single precision halves that traffic. Its factor is computed in `f32` at the first shift,
+//! where that factors: the factorisation's dense supernode updates then move half the bytes and
+//! run twice the lanes per instruction. Cholesky is backward stable, so the computed `L̃` is
+//! the exact factor of a matrix within a small multiple of `10⁻⁷ |L̃||L̃ᵀ|` of
+//! `A_c + σ d̄ I`, as the `f64` factor rounded to `f32` is; `L̃` has a positive diagonal, so
+//! `L̃ L̃ᵀ` is symmetric positive definite whatever `A_c`'s conditioning, and the V-cycle stays
+//! a symmetric positive definite preconditioner, within far less than what conjugate
+//! gradients' inexact-Newton tolerance asks of it. Where a pivot is not positive in `f32`
+//! (an operator singular to rounding, whose last pivots `f32`'s round-off decides, or an
+//! indefinite one) the ladder runs in `f64` and its factor is rounded to `f32`.
+//! [`Precision::Double`] is the reference: factored and solved in `f64`.
+//!
+//! Every factorisation runs on one thread: the same bits on any thread count.
 
 use super::galerkin::{Csr, GalerkinError};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Conj, Par, Side};
 use std::sync::Arc;
 
@@ -44,10 +49,11 @@ pub type CoarseSymbolic = Arc<SymbolicCholesky<usize>>;
 /// The precision of the coarse solve (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Precision {
-    /// The factor rounded to `f32`, solved in `f32` (the default).
+    /// Factored in `f32` at the first shift where every pivot is positive there, else in
+    /// `f64` and rounded to `f32`; solved in `f32` (the default).
     #[default]
     Single,
-    /// The factor solved in `f64` (the reference).
+    /// Factored and solved in `f64` (the reference).
     Double,
 }
 
@@ -69,8 +75,9 @@ impl CoarseFactor {
     /// Sparse Cholesky of `a` (its lower triangle), shifting the diagonal by `σ d̄` (`d̄` the
     /// mean diagonal; σ = [`FIRST_SHIFT`] = 10⁻¹², then 10⁻⁶, 10⁻⁴, …, 10⁶) until it factors.
     /// Each try is a whole numeric factorisation (an indefinite operator's failing pivot comes
-    /// late), so the shift rises a hundredfold a try (the liver L0's coarsest operator at an indefinite state
-    /// factors only at 1). `symbolic`, from an earlier call on the same pattern, is reused
+    /// late), so the shift rises a hundredfold a try (the liver L0's coarsest operator at an
+    /// indefinite state factors only at 1); [`Precision::Single`] tries the first shift in
+    /// `f32` before the ladder in `f64` (module docs). `symbolic`, from an earlier call on the same pattern, is reused
     /// where given and filled in where not, after checking that the factor fits in the
     /// available memory ([`GalerkinError::Memory`]).
     pub fn new(
@@ -126,39 +133,35 @@ impl CoarseFactor {
                 symbolic.insert(Arc::new(s)).clone()
             }
         };
-        let par = Par::Seq;
-        let mut scratch = MemBuffer::try_new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
-        )
-        .map_err(|e| fail(&e))?;
-        let mut l = vec![0.0f64; symbolic.len_val()];
-        let mut sigma = FIRST_SHIFT;
-        loop {
-            let mut v = vals.clone();
-            for &k in &diag_at {
-                v[k] += sigma * dbar;
-            }
-            let m = SparseColMatRef::new(pattern.as_ref(), &v);
-            match symbolic.factorize_numeric_llt::<f64>(
-                &mut l,
-                m,
-                Side::Lower,
-                Default::default(),
-                par,
-                MemStack::new(&mut scratch),
-                Default::default(),
-            ) {
-                Ok(_) => break,
-                Err(e) => {
-                    if sigma >= 1e6 {
-                        return Err(GalerkinError::Factor(format!(
-                            "the coarsest Galerkin operator does not factor: {e:?}"
-                        )));
-                    }
-                    sigma = if sigma < 1e-6 { 1e-6 } else { 100.0 * sigma };
-                }
+        // Where the factor is to be solved in `f32`, it is first computed in `f32`, at the
+        // first shift (module docs).
+        if precision == Precision::Single {
+            let v: Vec<f32> = shifted(&vals, &diag_at, FIRST_SHIFT * dbar)
+                .map(|x| x as f32)
+                .collect();
+            if let Some(l) = numeric(&symbolic, pattern.as_ref(), &v).map_err(|e| fail(&e))? {
+                return Ok(CoarseFactor {
+                    symbolic,
+                    values: Values::Single(l),
+                    shift: FIRST_SHIFT,
+                });
             }
         }
+        let mut sigma = FIRST_SHIFT;
+        let l = loop {
+            let v: Vec<f64> = shifted(&vals, &diag_at, sigma * dbar).collect();
+            if let Some(l) = numeric(&symbolic, pattern.as_ref(), &v).map_err(|e| fail(&e))? {
+                break l;
+            }
+            if sigma >= 1e6 {
+                return Err(GalerkinError::Factor(
+                    "the coarsest Galerkin operator does not factor even shifted by 1e6 times \
+                     its mean diagonal"
+                        .into(),
+                ));
+            }
+            sigma = if sigma < 1e-6 { 1e-6 } else { 100.0 * sigma };
+        };
         let values = match precision {
             Precision::Double => Values::Double(l),
             Precision::Single => Values::Single(l.iter().map(|&x| x as f32).collect()),
@@ -198,6 +201,49 @@ impl CoarseFactor {
             MemStack::new(&mut scratch),
         );
     }
+}
+
+/// The lower triangle's values with `shift` added at the diagonal entries `diag_at`
+/// (ascending).
+fn shifted<'a>(
+    vals: &'a [f64],
+    diag_at: &'a [usize],
+    shift: f64,
+) -> impl Iterator<Item = f64> + 'a {
+    let mut next = diag_at.iter().peekable();
+    vals.iter().enumerate().map(move |(k, &v)| {
+        if next.peek() == Some(&&k) {
+            next.next();
+            v + shift
+        } else {
+            v
+        }
+    })
+}
+
+/// The numeric Cholesky factor of `vals` on `pattern`, in the precision `T`, on one thread (the
+/// same bits on any thread count); `None` where a pivot is not positive.
+fn numeric<T: faer::traits::ComplexField + Default + Copy>(
+    symbolic: &SymbolicCholesky<usize>,
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+    vals: &[T],
+) -> Result<Option<Vec<T>>, faer::dyn_stack::mem::AllocError> {
+    let par = Par::Seq;
+    let mut scratch =
+        MemBuffer::try_new(symbolic.factorize_numeric_llt_scratch::<T>(par, Default::default()))?;
+    let mut l = vec![T::default(); symbolic.len_val()];
+    let ok = symbolic
+        .factorize_numeric_llt::<T>(
+            &mut l,
+            SparseColMatRef::new(pattern, vals),
+            Side::Lower,
+            Default::default(),
+            par,
+            MemStack::new(&mut scratch),
+            Default::default(),
+        )
+        .is_ok();
+    Ok(ok.then_some(l))
 }
 
 #[cfg(test)]
@@ -249,6 +295,53 @@ mod tests {
         let diff = norm(zd.iter().zip(&zs).map(|(x, y)| x - y));
         assert!(diff < 1e-4 * znorm, "single differs by {diff} of {znorm}");
         assert!(diff > 0.0, "the single-precision solve is not rounded");
+    }
+
+    /// Single precision factors in `f32` where every pivot is positive there: its factor is
+    /// not the double one rounded, yet within `f32`'s round-off amplified by the pivots'
+    /// growth of it; an operator singular to rounding falls back to the double ladder, whose
+    /// first shift works, and its factor is the double one rounded.
+    #[test]
+    fn single_precision_factors_in_f32_and_falls_back_to_the_double_ladder() {
+        let n = 40;
+        let values = |f: &CoarseFactor| match &f.values {
+            Values::Single(l) => l.clone(),
+            Values::Double(_) => panic!("a single-precision factor holds f64 values"),
+        };
+        let double_l = |f: &CoarseFactor| match &f.values {
+            Values::Double(l) => l.clone(),
+            Values::Single(_) => panic!("a double-precision factor holds f32 values"),
+        };
+        let a = laplace(n, 0.0);
+        let mut symbolic = None;
+        let double = CoarseFactor::new(&a, &mut symbolic, Precision::Double).unwrap();
+        let single = CoarseFactor::new(&a, &mut symbolic, Precision::Single).unwrap();
+        let (ld, ls) = (double_l(&double), values(&single));
+        let lmax = ld.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let gap = ld
+            .iter()
+            .zip(&ls)
+            .fold(0.0f64, |m, (d, s)| m.max((d - *s as f64).abs()));
+        assert!(
+            ld.iter().zip(&ls).any(|(d, s)| *d as f32 != *s),
+            "the single factor is the double one rounded"
+        );
+        assert!(gap < 1e-5 * lmax, "f32 factor {gap:e} from the f64 one");
+        // A path's Neumann Laplacian: constants in its kernel.
+        let mut b = laplace(n, 0.0);
+        for r in [0, n - 1] {
+            let k = b.ptr[r] + b.row(r).0.iter().position(|&j| j as usize == r).unwrap();
+            b.val[k] = 1.0;
+        }
+        let single = CoarseFactor::new(&b, &mut None, Precision::Single).unwrap();
+        let double = CoarseFactor::new(&b, &mut None, Precision::Double).unwrap();
+        assert_eq!((single.shift, double.shift), (FIRST_SHIFT, FIRST_SHIFT));
+        let rounded: Vec<f32> = double_l(&double).iter().map(|&x| x as f32).collect();
+        assert_eq!(
+            values(&single),
+            rounded,
+            "not the f64 ladder's factor, rounded"
+        );
     }
 
     /// An indefinite operator factors once shifted enough: the shift is the first of 10⁻¹²,

@@ -77,9 +77,9 @@ impl CoarseFactor {
     /// Each try is a whole numeric factorisation (an indefinite operator's failing pivot comes
     /// late), so the shift rises a hundredfold a try (the liver L0's coarsest operator at an
     /// indefinite state factors only at 1); [`Precision::Single`] tries the first shift in
-    /// `f32` before the ladder in `f64` (module docs). `symbolic`, from an earlier call on the same pattern, is reused
-    /// where given and filled in where not, after checking that the factor fits in the
-    /// available memory ([`GalerkinError::Memory`]).
+    /// `f32` before the ladder in `f64` (module docs). `symbolic`, from an earlier call on the
+    /// same pattern, is reused where given and filled in where not, after checking that the
+    /// factor fits in the available memory ([`GalerkinError::Memory`]).
     pub fn new(
         a: &Csr,
         symbolic: &mut Option<CoarseSymbolic>,
@@ -261,6 +261,16 @@ mod tests {
         a
     }
 
+    /// The Neumann Laplacian of a path of `n` points: constants are its kernel.
+    fn neumann(n: usize) -> Csr {
+        let mut a = laplace(n, 0.0);
+        for r in [0, n - 1] {
+            let k = a.ptr[r] + a.row(r).0.iter().position(|&j| j as usize == r).unwrap();
+            a.val[k] = 1.0;
+        }
+        a
+    }
+
     fn norm(x: impl Iterator<Item = f64>) -> f64 {
         x.map(|v| v * v).sum::<f64>().sqrt()
     }
@@ -327,12 +337,7 @@ mod tests {
             "the single factor is the double one rounded"
         );
         assert!(gap < 1e-5 * lmax, "f32 factor {gap:e} from the f64 one");
-        // A path's Neumann Laplacian: constants in its kernel.
-        let mut b = laplace(n, 0.0);
-        for r in [0, n - 1] {
-            let k = b.ptr[r] + b.row(r).0.iter().position(|&j| j as usize == r).unwrap();
-            b.val[k] = 1.0;
-        }
+        let b = neumann(n);
         let single = CoarseFactor::new(&b, &mut None, Precision::Single).unwrap();
         let double = CoarseFactor::new(&b, &mut None, Precision::Double).unwrap();
         assert_eq!((single.shift, double.shift), (FIRST_SHIFT, FIRST_SHIFT));
@@ -362,11 +367,7 @@ mod tests {
     #[test]
     fn coarse_operator_singular_to_rounding_factors_at_the_first_shift() {
         let n = 40;
-        let mut a = laplace(n, 0.0);
-        for r in [0, n - 1] {
-            let k = a.ptr[r] + a.row(r).0.iter().position(|&j| j as usize == r).unwrap();
-            a.val[k] = 1.0;
-        }
+        let a = neumann(n);
         let ones = vec![1.0; n];
         let mut a1 = vec![0.0; n];
         a.matvec(&ones, &mut a1);

@@ -42,8 +42,8 @@ struct Cli {
 enum BenchSuite {
     /// The embedding API (`raisov_lab::bench::api`).
     Api,
-    /// Time to static equilibrium: direct Newton, FAS, adaptive dynamic relaxation and
-    /// Newton-multigrid on the liver, the liver pulled, the heart and the drapes
+    /// Time to static equilibrium: direct Newton, FAS, adaptive dynamic relaxation,
+    /// single-level Chebyshev and Newton-multigrid on the liver, the liver pulled, the heart and the drapes
     /// (`raisov_lab::equilibrium`).
     Equilibrium,
 }
@@ -69,11 +69,11 @@ enum Cmd {
     Check { scenario: PathBuf },
     /// Performance benchmark of the standard explicit-dynamics work (see `raisov_lab::bench`);
     /// `raisov bench api`: the embedding API's frame overhead and grasp-stiffness solves;
-    /// `raisov bench equilibrium`: time to static equilibrium of four solvers.
+    /// `raisov bench equilibrium`: time to static equilibrium of five solvers.
     Bench {
         /// `api`: the embedding API's figures instead (`raisov_lab::bench::api`; --quick: a
-        /// small cube); `equilibrium`: direct Newton, FAS, adaptive dynamic relaxation and
-        /// Newton-multigrid to one stopping rule (`raisov_lab::equilibrium`; --quick: liver L2 and a 1k drape;
+        /// small cube); `equilibrium`: direct Newton, FAS, adaptive dynamic relaxation,
+        /// single-level Chebyshev and Newton-multigrid to one stopping rule (`raisov_lab::equilibrium`; --quick: liver L2 and a 1k drape;
         /// exit status 3 if a solver misses the rule or an equilibrium disagrees).
         #[arg(value_enum)]
         suite: Option<BenchSuite>,

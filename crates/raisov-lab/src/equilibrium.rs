@@ -1,4 +1,4 @@
-//! `raisov bench equilibrium`: time to static equilibrium of four solvers, side by side, on
+//! `raisov bench equilibrium`: time to static equilibrium of five solvers, side by side, on
 //! the same problems and to the same stopping rule.
 //!
 //! Solvers, each at its best settings by one rule: every variant listed is run and the fastest
@@ -20,6 +20,11 @@
 //!   [`raisov::integrate::stability::lambda_max_bound`]; its damping and step are set by its
 //!   own rule (critical damping of the lowest mode estimated every step); variants: from rest,
 //!   or from the coarse start below (the pull then in one increment);
+//! - **Chebyshev** ([`raisov::integrate::chebyshev_relax::chebyshev_relax`]): the Chebyshev
+//!   semi-iteration on the finest mesh alone, preconditioned by FAS's smoother's per-node
+//!   fictitious masses, over an interval of the spectrum estimated by Lanczos and tracked by
+//!   the increments' Rayleigh quotients; its settings by its own rule (module docs there);
+//!   variants as ADR's;
 //! - **Newton-multigrid** (direct Newton's iteration with
 //!   [`raisov::integrate::newton_direct::DirectNewtonParams::multigrid`]): each Newton system
 //!   solved by conjugate gradients preconditioned by a Galerkin V-cycle
@@ -42,7 +47,7 @@
 //! liver), imposed at once with the rest of the body at rest, inverts the pulled node's
 //! elements. Direct Newton and Newton-multigrid take it in one load step: their first
 //! iteration moves the free nodes by the linear response to it (the lifted iteration of
-//! [`raisov::integrate::newton_direct`]). FAS and ADR take it in [`PULL_INCREMENTS`] equal
+//! [`raisov::integrate::newton_direct`]). FAS, ADR and Chebyshev take it in [`PULL_INCREMENTS`] equal
 //! increments, gravity in full from the start, each increment but the last relaxed to
 //! [`PULL_STAGE_TOL`] × the largest nodal load before the next. Every increment counts in the
 //! figures.
@@ -83,6 +88,7 @@
 
 use raisov::hierarchy::Transfer;
 use raisov::integrate::adaptive_relax::adaptive_relax;
+use raisov::integrate::chebyshev_relax::chebyshev_relax;
 use raisov::integrate::hold;
 use raisov::integrate::newton_direct::{
     coarse_start, solve_system, CoarseStart, DirectNewton, DirectNewtonError, DirectNewtonParams,
@@ -100,7 +106,7 @@ pub const REL_TOL: f64 = 1e-8;
 pub const ABS_TOL: f64 = 1e-14;
 /// Agreement: largest nodal distance to Newton's equilibrium over the largest displacement.
 pub const AGREE_TOL: f64 = 1e-6;
-/// Increments of a prescribed displacement for FAS and ADR.
+/// Increments of a prescribed displacement for FAS, ADR and Chebyshev.
 pub const PULL_INCREMENTS: usize = 4;
 /// Stopping rule of the intermediate increments (relative, as [`REL_TOL`]).
 pub const PULL_STAGE_TOL: f64 = 1e-4;
@@ -149,7 +155,7 @@ pub const REDUCED: &str =
     "direct Newton reuse only, FAS 16 sweeps only, Newton-multigrid keeps the coarse factor only";
 /// FAS: V-cycles at most.
 pub const MAX_CYCLES: u64 = 20_000;
-/// ADR: steps at most.
+/// ADR and Chebyshev: steps (iterations) at most, all increments together.
 pub const MAX_STEPS: u64 = 1_000_000;
 
 /// One problem of the benchmark.
@@ -169,7 +175,7 @@ pub struct Case {
 pub struct Row {
     pub case: String,
     pub nodes: usize,
-    /// `"direct Newton"`, `"FAS"`, `"ADR"` or `"Newton-multigrid"`.
+    /// `"direct Newton"`, `"FAS"`, `"ADR"`, `"Chebyshev"` or `"Newton-multigrid"`.
     pub solver: String,
     /// Wall time of the solve (s).
     pub wall_s: f64,
@@ -425,7 +431,7 @@ fn lifted(o: &DirectStatic) -> &'static str {
     }
 }
 
-/// The coarse start of direct Newton and ADR: the coarse level of Newton-multigrid
+/// The coarse start of direct Newton, ADR and Chebyshev: the coarse level of Newton-multigrid
 /// ([`newton_mg_levels`]) solved and interpolated into `u`
 /// ([`raisov::integrate::newton_direct::coarse_start`]); `None` where the case has no such
 /// level.
@@ -697,11 +703,36 @@ fn fas_run(case: &Case, target: f64, smooth: usize, ends: &[[f64; 3]]) -> Result
     }
 }
 
-/// Adaptive dynamic relaxation on the finest mesh.
-fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]], nested: bool) -> Result<(Row, Vec<f64>)> {
+/// A single-level relaxation on the finest mesh: the solver of the ADR and Chebyshev rows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Relaxer {
+    /// Adaptive dynamic relaxation ([`adaptive_relax`]).
+    Adr,
+    /// The Chebyshev semi-iteration ([`chebyshev_relax`]).
+    Chebyshev,
+}
+
+impl Relaxer {
+    fn label(self) -> &'static str {
+        match self {
+            Relaxer::Adr => "ADR",
+            Relaxer::Chebyshev => "Chebyshev",
+        }
+    }
+}
+
+/// One run of `relaxer` on the finest mesh, from rest or from the coarse start (`nested`);
+/// a prescribed motion in [`PULL_INCREMENTS`] increments from rest.
+fn relax_run(
+    case: &Case,
+    target: f64,
+    ends: &[[f64; 3]],
+    nested: bool,
+    relaxer: Relaxer,
+) -> Result<(Row, Vec<f64>)> {
     let sc = &case.scenario;
     let mut stages = if ends.is_empty() { 1 } else { PULL_INCREMENTS };
-    let mut adr = blank_row(case, "ADR", target);
+    let mut row = blank_row(case, relaxer.label(), target);
     let mut sys = sc.build_system()?;
     let lmax = lambda_max_bound(&sc.mesh, &sc.material, sc.density);
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
@@ -716,6 +747,7 @@ fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]], nested: bool) -> Result<
     };
     stages = CoarseStart::fine_load_steps(start.as_ref(), stages);
     let mut failure: Option<String> = None;
+    let (mut evaluations, mut restarts) = (0u64, 0u64);
     for stage in 1..=stages {
         let last = stage == stages;
         if !ends.is_empty() {
@@ -729,13 +761,32 @@ fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]], nested: bool) -> Result<
         } else {
             (PULL_STAGE_TOL, 0.0)
         };
-        let left = MAX_STEPS.saturating_sub(adr.iterations);
-        match adaptive_relax(&mut sys, &sc.mesh, lmax, 0.0, &mut u, rel, abs, left) {
-            Ok(o) => {
-                adr.iterations += o.steps;
-                adr.residual = o.residual;
-                adr.converged = last && o.converged;
-                if !o.converged {
+        let left = MAX_STEPS.saturating_sub(row.iterations);
+        let mesh = &sc.mesh;
+        // (iterations, evaluations, restarts, residual, converged)
+        let out = match relaxer {
+            Relaxer::Adr => adaptive_relax(&mut sys, mesh, lmax, 0.0, &mut u, rel, abs, left)
+                .map(|o| (o.steps, o.steps, 0, o.residual, o.converged)),
+            Relaxer::Chebyshev => {
+                chebyshev_relax(&mut sys, mesh, lmax, 0.0, &mut u, rel, abs, left).map(|o| {
+                    (
+                        o.iterations,
+                        o.evaluations,
+                        o.restarts,
+                        o.residual,
+                        o.converged,
+                    )
+                })
+            }
+        };
+        match out {
+            Ok((steps, evals, rs, residual, converged)) => {
+                row.iterations += steps;
+                evaluations += evals;
+                restarts += rs;
+                row.residual = residual;
+                row.converged = last && converged;
+                if !converged {
                     break;
                 }
             }
@@ -745,18 +796,21 @@ fn adr_run(case: &Case, target: f64, ends: &[[f64; 3]], nested: bool) -> Result<
             }
         }
     }
-    adr.wall_s = t0.elapsed().as_secs_f64();
-    adr.force_evaluations = adr.iterations as f64;
-    adr.max_u = max_nodal(&u);
-    adr.note = match failure {
+    row.wall_s = t0.elapsed().as_secs_f64();
+    row.force_evaluations = evaluations as f64;
+    row.max_u = max_nodal(&u);
+    row.note = match failure {
         Some(e) => format!("failed: {e}"),
         None if stages > 1 => format!("finest only, pull in {stages} increments"),
         None => "finest only".into(),
     };
-    if let Some(st) = &start {
-        adr.note = format!("{}, {}", adr.note, st.describe());
+    if relaxer == Relaxer::Chebyshev && !row.note.starts_with("failed") {
+        row.note += &format!(", {restarts} restarts");
     }
-    Ok((adr, u))
+    if let Some(st) = &start {
+        row.note = format!("{}, {}", row.note, st.describe());
+    }
+    Ok((row, u))
 }
 
 /// The fastest converged row of a sweep (else the first), its note extended with every
@@ -785,9 +839,9 @@ fn best_of(mut variants: Vec<(Row, Vec<f64>)>, label: &str) -> (Row, Vec<f64>) {
     (row, u)
 }
 
-/// Run the four solvers on `case`, each at its best settings by the module's rule (direct
+/// Run the five solvers on `case`, each at its best settings by the module's rule (direct
 /// Newton over [`NEWTON_REUSE`], FAS over [`FAS_SWEEPS`], Newton-multigrid over
-/// [`NEWTON_MG_VARIANTS`]); a row each: direct Newton, FAS, ADR, Newton-multigrid.
+/// [`NEWTON_MG_VARIANTS`]); a row each: direct Newton, FAS, ADR, Chebyshev, Newton-multigrid.
 pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
     let sc = &case.scenario;
     let ends = prescribed_ends(sc).ok_or_else(|| {
@@ -864,15 +918,19 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
         &format!("sweeps {}", list(&sweeps)),
     );
     compare(&mut fas, &u_fas);
-    emit(&format!("{}: ADR ...", case.name));
-    let (mut adr, u_adr) = best_of(
-        [false, true]
-            .into_iter()
-            .map(|nested| adr_run(case, target, &ends, nested))
-            .collect::<Result<_>>()?,
-        "from rest / from the coarse start",
-    );
-    compare(&mut adr, &u_adr);
+    let mut relaxed = Vec::new();
+    for relaxer in [Relaxer::Adr, Relaxer::Chebyshev] {
+        emit(&format!("{}: {} ...", case.name, relaxer.label()));
+        let (mut row, u) = best_of(
+            [false, true]
+                .into_iter()
+                .map(|nested| relax_run(case, target, &ends, nested, relaxer))
+                .collect::<Result<_>>()?,
+            "from rest / from the coarse start",
+        );
+        compare(&mut row, &u);
+        relaxed.push(row);
+    }
     emit(&format!("{}: Newton-multigrid ...", case.name));
     let (mut nmg, u_nmg) = best_of(
         NEWTON_MG_VARIANTS
@@ -887,7 +945,10 @@ pub fn run_case(case: &Case, emit: &mut dyn FnMut(&str)) -> Result<Vec<Row>> {
         },
     );
     compare(&mut nmg, &u_nmg);
-    Ok(vec![newton, fas, adr, nmg])
+    let mut rows = vec![newton, fas];
+    rows.extend(relaxed);
+    rows.push(nmg);
+    Ok(rows)
 }
 
 /// Run every case ([`run_case`]); `emit` gets a progress line before each solve.
@@ -1062,6 +1123,7 @@ pub fn to_markdown(rows: &[Row]) -> String {
         let iter_unit = match r.solver.as_str() {
             "direct Newton" | "Newton-multigrid" => "iterations",
             "FAS" => "cycles",
+            "Chebyshev" => "iterations",
             _ => "steps",
         };
         let diff = r
@@ -1168,18 +1230,18 @@ mod tests {
     #[test]
     fn small_drape_solvers_agree() {
         let rows = run(&[drape(300, 2).unwrap()], &mut |_| {}).unwrap();
-        assert_eq!(rows.len(), 4);
+        assert_eq!(rows.len(), 5);
         check(&rows);
     }
 
-    /// The 10k drape (FAS on 5 levels): the four solvers reach the common criterion and one
+    /// The 10k drape (FAS on 5 levels): the five solvers reach the common criterion and one
     /// equilibrium (1e-6 of max |u|). The liver's solvers are checked by
     /// `quick_cases_converge_and_agree` (L2, with and without the pull).
     #[test]
     #[ignore = "slow: 10k membrane; run in release with --ignored"]
     fn drape_10k_solvers_reach_one_equilibrium() {
         let rows = run(&[drape(10_000, 5).unwrap()], &mut |_| {}).unwrap();
-        assert_eq!(rows.len(), 4);
+        assert_eq!(rows.len(), 5);
         check(&rows);
     }
 

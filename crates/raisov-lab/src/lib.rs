@@ -9,7 +9,8 @@
 //! - [`mod@bench`]: `raisov bench`, the performance benchmark of the standard explicit-dynamics
 //!   work and its roofline;
 //! - [`equilibrium`]: `raisov bench equilibrium`, time to static equilibrium of direct Newton,
-//!   FAS multigrid and adaptive dynamic relaxation on the same problems and stopping rule;
+//!   FAS multigrid, adaptive dynamic relaxation, single-level Chebyshev and Newton-multigrid on
+//!   the same problems and stopping rule;
 //! - [`plot`]: the line charts (plotters, with an embedded font: no system font library).
 
 // `!(x > 0.0)` is written on purpose throughout: unlike `x <= 0.0` it also rejects NaN.

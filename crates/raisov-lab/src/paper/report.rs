@@ -1097,11 +1097,11 @@ fn section_steady(w: &mut String, res: &Results) {
     let _ = writeln!(w);
 }
 
-/// Section 7: the four static solvers side by side ([`crate::equilibrium`]).
+/// Section 7: the five static solvers side by side ([`crate::equilibrium`]).
 fn section_equilibrium(w: &mut String, res: &Results) {
     let _ = writeln!(
         w,
-        "## 7. Static equilibrium, four solvers side by side
+        "## 7. Static equilibrium, five solvers side by side
 "
     );
     if res.equilibrium.is_empty() {
@@ -1112,7 +1112,7 @@ fn section_equilibrium(w: &mut String, res: &Results) {
         );
         return;
     }
-    let _ = writeln!(w, "Direct Newton (sparse Cholesky), FAS, adaptive dynamic relaxation and Newton-multigrid (CG preconditioned by a Galerkin V-cycle) from rest to one stopping rule, each at the fastest of its variants; cases, settings and what is timed: module docs of `raisov_lab::equilibrium` (the same run as `raisov bench equilibrium`{}). Also in `equilibrium.md`.
+    let _ = writeln!(w, "Direct Newton (sparse Cholesky), FAS, adaptive dynamic relaxation, single-level Chebyshev and Newton-multigrid (CG preconditioned by a Galerkin V-cycle) from rest to one stopping rule, each at the fastest of its variants; cases, settings and what is timed: module docs of `raisov_lab::equilibrium` (the same run as `raisov bench equilibrium`{}). Also in `equilibrium.md`.
 ", if res.quick { " --quick" } else { "" });
     let _ = writeln!(w, "{}", crate::equilibrium::to_markdown(&res.equilibrium));
     let _ = writeln!(

@@ -23,6 +23,7 @@
 //!   `u_{n+1} = u_n + Δ u̇_{n+1/2}`; 1 evaluation.
 
 pub mod adaptive_relax;
+pub mod chebyshev_relax;
 pub mod coarse_factor;
 mod constraints;
 pub mod galerkin;

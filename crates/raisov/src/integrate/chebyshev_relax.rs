@@ -412,8 +412,8 @@ pub(crate) fn tridiagonal_extremes(alpha: &[f64], beta: &[f64]) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrate::newton_direct::{solve_system, DirectNewtonParams};
     use crate::integrate::stability::lambda_max_bound;
+    use crate::integrate::tests::{distance_to_newton, sagging_beam};
     use crate::scenario::Scenario;
     use std::path::Path;
 
@@ -435,46 +435,14 @@ mod tests {
         );
     }
 
-    fn beam() -> Scenario {
-        let text = r#"
-gravity = [0.0, 0.0, -9.81]
-[mesh]
-generate = "box"
-size = [0.1, 0.03, 0.03]
-nodes = 300
-[material]
-law = "neo-hookean"
-young = 5000.0
-poisson = 0.45
-density = 1060.0
-[[fix]]
-plane = { point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }
-[run]
-duration = 1.0
-"#;
-        Scenario::from_toml(text, Path::new("beam-chebyshev.toml")).unwrap()
-    }
-
     /// On a sagging soft beam (neo-Hookean, ν = 0.45, large deflection) the Chebyshev
     /// semi-iteration reaches 1e-10 of the load and the equilibrium of direct Newton, within
     /// 1e-7 of the largest displacement, and lowered its interval's lower end below the
     /// Lanczos estimate on the way.
     #[test]
     fn chebyshev_relaxation_reaches_newtons_equilibrium() {
-        let sc = beam();
+        let sc = sagging_beam();
         let n = sc.mesh.num_nodes();
-        let mut sys = sc.build_system().unwrap();
-        let mut u_newton = vec![0.0; 3 * n];
-        let params = DirectNewtonParams {
-            rel_tol: 1e-12,
-            load_steps: 2,
-            ..Default::default()
-        };
-        assert!(
-            solve_system(&mut sys, 0.0, &mut u_newton, params)
-                .unwrap()
-                .converged
-        );
         let mut sys = sc.build_system().unwrap();
         let lmax = lambda_max_bound(&sc.mesh, &sc.material, sc.density);
         let mut u = vec![0.0; 3 * n];
@@ -493,12 +461,8 @@ duration = 1.0
             .interval(&mut sys, &rest, &r, &dm, length, &mut 0)
             .unwrap();
         assert!(out.restarts >= 1 && out.interval[0] < a0, "{a0:e}; {out:?}");
-        let scale = u_newton.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        let diff = u
-            .iter()
-            .zip(&u_newton)
-            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
-        assert!(diff <= 1e-7 * scale, "{diff:e} of {scale:e}; {out:?}");
+        let d = distance_to_newton(&sc, &u);
+        assert!(d <= 1e-7, "{d:e} of the largest displacement; {out:?}");
     }
 
     /// A flat membrane at rest has no transverse stiffness: its first increments' quotients are
@@ -537,7 +501,7 @@ duration = 1.0
     /// within 5 % of the power iteration's 200-step estimate of `λ_max(D⁻¹K)`.
     #[test]
     fn lanczos_largest_ritz_value_matches_power_iteration() {
-        let sc = beam();
+        let sc = sagging_beam();
         let n = sc.mesh.num_nodes();
         let mut sys = sc.build_system().unwrap();
         let lmax = lambda_max_bound(&sc.mesh, &sc.material, sc.density);

@@ -237,3 +237,49 @@ fn fictitious_masses_bound_the_stiffness() {
         assert!(best > 0.05, "jitter {jitter}: bound vacuous ({best})");
     }
 }
+
+/// A soft neo-Hookean beam (10 x 3 x 3 cm, ν = 0.45, E = 5 kPa, 300 nodes) held at x = 0,
+/// sagging far under gravity: the single-level relaxations' test problem.
+pub(crate) fn sagging_beam() -> crate::scenario::Scenario {
+    let text = r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "box"
+size = [0.1, 0.03, 0.03]
+nodes = 300
+[material]
+law = "neo-hookean"
+young = 5000.0
+poisson = 0.45
+density = 1060.0
+[[fix]]
+plane = { point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }
+[run]
+duration = 1.0
+"#;
+    crate::scenario::Scenario::from_toml(text, std::path::Path::new("sagging-beam.toml")).unwrap()
+}
+
+/// Direct Newton's equilibrium of `sc` to 1e-12 of the load (two load steps), and the
+/// largest nodal distance of `u` from it over its largest displacement component.
+pub(crate) fn distance_to_newton(sc: &crate::scenario::Scenario, u: &[f64]) -> f64 {
+    use super::newton_direct::{solve_system, DirectNewtonParams};
+    let mut sys = sc.build_system().unwrap();
+    let mut u_newton = vec![0.0; u.len()];
+    let params = DirectNewtonParams {
+        rel_tol: 1e-12,
+        load_steps: 2,
+        ..Default::default()
+    };
+    assert!(
+        solve_system(&mut sys, 0.0, &mut u_newton, params)
+            .unwrap()
+            .converged
+    );
+    let scale = u_newton.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    let diff = u
+        .iter()
+        .zip(&u_newton)
+        .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+    diff / scale
+}

@@ -22,6 +22,7 @@ use super::statics::fictitious_mass;
 use super::System;
 use crate::fem::ElementFailure;
 use crate::mesh::Mesh;
+use crate::metrics::max_displacement;
 
 /// Outcome of [`adaptive_relax`].
 #[derive(Clone, Debug)]
@@ -56,18 +57,13 @@ pub fn adaptive_relax(
     let mut v = vec![0.0; n];
     sys.impose(t, u, &mut v);
     let d = fictitious_mass(mesh, &sys.mass, lambda_max);
-    let node_max = |x: &[f64]| {
-        x.chunks(3)
-            .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
-            .fold(0.0f64, f64::max)
-    };
-    let target = rel_tol * node_max(&sys.f_ext) + abs_tol;
+    let target = rel_tol * max_displacement(&sys.f_ext) + abs_tol;
     let mut r = vec![0.0; n];
     let mut r_prev = vec![0.0; n];
     let mut u_prev = u.to_vec();
     let mut next = vec![0.0; n];
     sys.residual(u, &mut r)?;
-    let mut res = node_max(&r);
+    let mut res = max_displacement(&r);
     let mut omega2 = 0.0f64;
     let mut steps = 0;
     while res > target && steps < max_steps {
@@ -83,7 +79,7 @@ pub fn adaptive_relax(
         std::mem::swap(&mut r, &mut r_prev);
         sys.residual(u, &mut r)?;
         steps += 1;
-        res = node_max(&r);
+        res = max_displacement(&r);
         // Rayleigh quotient of the secant stiffness along the last increment.
         let (mut num, mut den) = (0.0, 0.0);
         for i in 0..n {

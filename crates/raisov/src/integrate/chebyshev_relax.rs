@@ -46,10 +46,12 @@
 //! nodes at most `rel_tol × max_a |V_a| + abs_tol`. Everything is sequential over one state
 //! and the force evaluations are deterministic: the same bits on any thread count.
 
+use super::stability::start_entry;
 use super::statics::fictitious_mass;
 use super::System;
 use crate::fem::ElementFailure;
 use crate::mesh::Mesh;
+use crate::metrics::max_displacement;
 
 /// Lanczos steps of each interval estimate (one force evaluation each).
 pub const LANCZOS_STEPS: usize = 48;
@@ -94,13 +96,6 @@ pub struct ChebyshevRelaxed {
     pub converged: bool,
 }
 
-/// Largest nodal 3-vector norm.
-fn node_max(x: &[f64]) -> f64 {
-    x.chunks(3)
-        .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
-        .fold(0.0f64, f64::max)
-}
-
 /// Relax `u` in place (constraints imposed at time `t`) on `sys`, whose mesh is `mesh` and
 /// whose `M⁻¹K` is bounded by `lambda_max` (1/s², e.g.
 /// [`super::stability::lambda_max_bound`]; it scales the fictitious masses), spending at most
@@ -124,7 +119,7 @@ pub fn chebyshev_relax(
         .iter()
         .map(|&x| if x > 0.0 { 1.0 / x } else { 0.0 })
         .collect();
-    let target = rel_tol * node_max(&sys.f_ext) + abs_tol;
+    let target = rel_tol * max_displacement(&sys.f_ext) + abs_tol;
     let (lo, hi) = mesh.bounding_box();
     let length = 1e-3 * crate::mesh::norm(crate::mesh::sub(hi, lo));
     let mut r = vec![0.0; n];
@@ -132,7 +127,7 @@ pub fn chebyshev_relax(
     let mut d = vec![0.0; n];
     sys.residual(u, &mut r)?;
     let mut evaluations = 1u64;
-    let mut res = node_max(&r);
+    let mut res = max_displacement(&r);
     let mut out = ChebyshevRelaxed {
         residual: res,
         target,
@@ -188,7 +183,7 @@ pub fn chebyshev_relax(
             k += 1;
             let step = sys.residual(u, &mut r);
             let grew = step.is_ok() && {
-                res = node_max(&r);
+                res = max_displacement(&r);
                 !(res <= GROWTH * res_check)
             };
             if let Err(e) = step {
@@ -286,10 +281,7 @@ impl Lanczos {
     ) -> Result<[f64; 2], ElementFailure> {
         let n = u.len();
         for (i, qi) in self.q.iter_mut().enumerate() {
-            let h = (i as u64)
-                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-                .rotate_left(17);
-            *qi = (h >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            *qi = start_entry(i as u64);
         }
         sys.constraints.zero_constrained(&mut self.q);
         let norm = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>().sqrt();

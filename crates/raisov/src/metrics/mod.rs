@@ -77,7 +77,7 @@ pub fn stress_error(t: &[f64], t_inf: &[f64], mask: &[bool]) -> (f64, f64) {
     (max, if count > 0 { sum / count as f64 } else { 0.0 })
 }
 
-/// Largest nodal displacement magnitude.
+/// Largest nodal magnitude of a per-node 3-vector field (a displacement, a force).
 pub fn max_displacement(u: &[f64]) -> f64 {
     u.chunks_exact(3)
         .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())

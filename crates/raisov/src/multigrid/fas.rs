@@ -315,10 +315,7 @@ fn estimate_lambda_max(
                 .node_keys
                 .as_ref()
                 .map_or(i, |k| 3 * k[i / 3] as usize + i % 3);
-            let h = (key as u64)
-                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-                .rotate_left(17);
-            *xi = (h >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            *xi = crate::integrate::stability::start_entry(key as u64);
         }
     }
     lv.sys.constraints.zero_constrained(x);

@@ -313,11 +313,8 @@ impl<'a> Cycle<'a> {
         let n = self.ops[l].u.len();
         let mut x: Vec<f64> = (0..n)
             .map(|i| {
-                let h = (i as u64)
-                    .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-                    .rotate_left(17);
                 if self.ops[l].free[i] {
-                    (h >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                    crate::integrate::stability::start_entry(i as u64)
                 } else {
                     0.0
                 }

@@ -390,6 +390,52 @@ impl FemModel {
     /// Deformation gradient of element e (membranes: 3x2 in the first two columns, third
     /// column zero) and its determinant-like measure (tets `det F`; membranes the signed area
     /// ratio against the reference normal).
+    /// The strain energy `E(u) = Σ_e W(F_e) |Ω_e|` (J) of a state the internal forces accept:
+    /// +∞ where a tetrahedron is inverted (`det F ≤ 0`) and its law refuses that state, the
+    /// condition of [`ForceModel::internal_forces`]' [`ElementFailure`]. A law written in
+    /// `C = FᵀF` alone gives an inverted tetrahedron the energy of its mirror image, so
+    /// [`ForceModel::strain_energy`] is finite there; a line search whose merit is Π needs this
+    /// one, where inverting an element is no decrease. Membranes are never refused here: their
+    /// laws see only the in-plane `C`.
+    pub fn admissible_strain_energy(&self, u: &[f64]) -> f64 {
+        self.energy_sum(u, true)
+    }
+
+    /// `Σ_e W(F_e) |Ω_e|` over fixed blocks of [`ENERGY_BLOCK`] elements in parallel, then the
+    /// blocks' sums in order: the same bits on any thread count. `refuse`: +∞ where a
+    /// tetrahedron's law refuses its `det F ≤ 0`.
+    fn energy_sum(&self, u: &[f64], refuse: bool) -> f64 {
+        let refuse = refuse
+            && self.kind == ElementKind::Tet4
+            && !with_solid(&self.params.material, |m| m.handles_inversion());
+        let ne = self.num_elements();
+        let blocks: Vec<f64> = (0..ne.div_ceil(ENERGY_BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                (b * ENERGY_BLOCK..ne.min((b + 1) * ENERGY_BLOCK))
+                    .map(|e| {
+                        let (f3, det) = self.deformation(e, u);
+                        if refuse && !(det > 0.0) {
+                            return f64::INFINITY;
+                        }
+                        let w = match self.kind {
+                            ElementKind::Tet4 => {
+                                with_solid(&self.params.material, |m| m.energy_f(&f3))
+                            }
+                            ElementKind::Tri3 => {
+                                let f = f3.fixed_view::<3, 2>(0, 0).into_owned();
+                                let n0 = Vector3::from(self.normal0[e]);
+                                with_membrane(&self.params.material, |m| m.energy_f(&f, &n0))
+                            }
+                        };
+                        w * self.measure[e]
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        blocks.iter().sum()
+    }
+
     fn deformation(&self, e: usize, u: &[f64]) -> (Matrix3<f64>, f64) {
         let npe = self.npe();
         let el = &self.cells[e * npe..(e + 1) * npe];
@@ -710,22 +756,13 @@ impl ForceModel for FemModel {
     }
 
     fn strain_energy(&self, u: &[f64]) -> f64 {
-        (0..self.num_elements())
-            .map(|e| {
-                let (f3, _) = self.deformation(e, u);
-                let w = match self.kind {
-                    ElementKind::Tet4 => with_solid(&self.params.material, |m| m.energy_f(&f3)),
-                    ElementKind::Tri3 => {
-                        let f = f3.fixed_view::<3, 2>(0, 0).into_owned();
-                        let n0 = Vector3::from(self.normal0[e]);
-                        with_membrane(&self.params.material, |m| m.energy_f(&f, &n0))
-                    }
-                };
-                w * self.measure[e]
-            })
-            .sum()
+        self.energy_sum(u, false)
     }
 }
+
+/// Elements per parallel task of [`FemModel`]'s strain energy; fixed, so the sum's order does
+/// not depend on the thread count.
+pub const ENERGY_BLOCK: usize = 4096;
 
 /// Per element `G_e = npe Σ_a |∇N_a|²` (1/m²; 0 for a degenerate element): the element's
 /// small-strain stiffness is bounded by `c² G_e` times its lumped mass, `K_e ≤ c² G_e M_e`.

@@ -508,3 +508,78 @@ duration = 1.0
     assert!(scale > 1e-4, "no sag: {scale:e}");
     assert!(diff <= 0.02 * scale, "sags differ by {diff:e} of {scale:e}");
 }
+
+/// The line search's energy refuses what the internal forces refuse: with one tetrahedron
+/// inverted (a node pushed through its opposite face), neo-Hookean's `W(C)` is finite (the
+/// mirror image's) but [`FemModel::admissible_strain_energy`] is +∞, as the forces fail;
+/// stable neo-Hookean accepts the inverted element in both. At a valid state the two agree.
+/// And the blocked parallel sum is the same bits on one thread and on two.
+#[test]
+fn admissible_energy_refuses_inverted_tetrahedra_like_the_forces() {
+    let mesh = jittered_box(2, 0.3);
+    let n = mesh.num_nodes();
+    let el: Vec<usize> = mesh.cells[..4].iter().map(|&a| a as usize).collect();
+    let p = |a: usize| mesh.nodes[a];
+    // Reflect node el[0] through the plane of the other three: element 0 inverts.
+    let (a, b, c, d) = (p(el[0]), p(el[1]), p(el[2]), p(el[3]));
+    let e1 = crate::mesh::sub(c, b);
+    let e2 = crate::mesh::sub(d, b);
+    let nrm = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    let nn = nrm.iter().map(|x| x * x).sum::<f64>();
+    let ab = crate::mesh::sub(a, b);
+    let h = ab.iter().zip(&nrm).map(|(x, y)| x * y).sum::<f64>() / nn;
+    let mut inverted = vec![0.0; 3 * n];
+    for k in 0..3 {
+        inverted[3 * el[0] + k] = -2.0 * h * nrm[k];
+    }
+    let valid = random_u(n, 0.1 * mesh.edge_range().0, 3);
+    for (mat, refused) in [
+        (Material::NeoHookean(NeoHookean::from_young(1e4, 0.4)), true),
+        (
+            Material::StableNeoHookean(StableNeoHookean::from_young(1e4, 0.4)),
+            false,
+        ),
+    ] {
+        let mut model = FemModel::new(&mesh, FemParams::new(mat.clone())).unwrap();
+        let mut r = vec![0.0; 3 * n];
+        assert_eq!(
+            model.internal_forces(&inverted, &mut r).is_err(),
+            refused,
+            "{}",
+            mat.name()
+        );
+        let w = model.strain_energy(&inverted);
+        let wa = model.admissible_strain_energy(&inverted);
+        assert!(w.is_finite(), "{}: {w}", mat.name());
+        if refused {
+            assert_eq!(wa, f64::INFINITY, "{}", mat.name());
+        } else {
+            assert_eq!(wa, w, "{}", mat.name());
+        }
+        assert_eq!(
+            model.admissible_strain_energy(&valid),
+            model.strain_energy(&valid)
+        );
+    }
+    // A mesh of several energy blocks, summed on one thread and on two.
+    let big = jittered_box(14, 0.3);
+    assert!(big.num_elements() > 2 * ENERGY_BLOCK);
+    let model = FemModel::new(
+        &big,
+        FemParams::new(Material::NeoHookean(NeoHookean::from_young(1e4, 0.4))),
+    )
+    .unwrap();
+    let u = random_u(big.num_nodes(), 0.1 * big.edge_range().0, 5);
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| model.strain_energy(&u))
+    };
+    assert_eq!(on(1).to_bits(), on(2).to_bits());
+}

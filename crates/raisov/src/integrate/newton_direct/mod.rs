@@ -29,7 +29,8 @@
 //!   definite: a flat membrane's first tangent has no transverse stiffness, a buckling state
 //!   is indefinite) raises σ to `max(σ_min, 10 σ)` and refactors; a full step (α = 1) divides
 //!   σ by 10 (to 0 below σ_min), so near the solution the iteration is plain Newton and
-//!   converges quadratically; a line search that finds no decrease raises σ by 100.
+//!   converges quadratically; a line search that finds no decrease raises σ by 100. The
+//!   multigrid path below sets σ to 0 after a full step instead.
 //! - Backtracking line search, α = 1, ½, ¼ … (at most 12 halvings), on the potential energy
 //!   `Π(u) = E(u) − V_s·u` (Armijo: `Π(u + αδ) ≤ Π(u) − 10⁻⁴ α r·δ`, `r = V_s − R(u)`; δ is a
 //!   descent direction since `K + σ d̄ D` is positive definite once factored), and where Π
@@ -90,7 +91,12 @@
 //! would vanish, `σ* = σ − pᵀ(K + σ d̄ D)p / (d̄ pᵀDp)`. A kept hierarchy stays through that
 //! (it is positive definite, built where the tangent was, and the shifted system is solved
 //! with it); a fresh one is rebuilt with the new σ. A kept cycle that is not positive on a
-//! residual is rebuilt, same σ. A hierarchy built at an indefinite
+//! residual is rebuilt, same σ. A full step (α = 1) sets σ back to 0, not σ/10: the next
+//! tangent is tried unshifted, and where it is still indefinite the iterations up to the first
+//! direction of non-positive curvature are all that trying costs before σ is set from that
+//! direction's σ*. Divided by 10 a step, a σ raised once stayed for ten iterations on the 70k
+//! mesher liver, each a damped-Newton step that converged only linearly
+//! (`bench/RESULTS.md`). A hierarchy built at an indefinite
 //! tangent needs its coarsest operator shifted: the liver L0's, at the state where its kept
 //! hierarchy first meets negative curvature from rest, factors only when shifted by its whole
 //! mean diagonal, a coarse level too stiff to help. With coarser levels the fine level is
@@ -267,6 +273,8 @@ pub struct DirectStatic {
     /// Newton iterations (not lifted) whose line search took no step: every trial failed
     /// (u kept, σ raised by 100).
     pub rejected_steps: usize,
+    /// Newton iterations (not lifted) whose line search took the full step, α = 1.
+    pub full_steps: usize,
     /// Conjugate-gradient iterations ([`DirectNewtonParams::pcg_max`] > 0, or
     /// [`DirectNewtonParams::multigrid`]).
     pub cg_iterations: usize,
@@ -997,11 +1005,8 @@ impl DirectNewton {
                 );
                 if accepted {
                     if alpha == 1.0 {
-                        sigma = if sigma * 0.1 < params.sigma_min {
-                            0.0
-                        } else {
-                            sigma * 0.1
-                        };
+                        out.full_steps += 1;
+                        sigma = sigma_after_full_step(sigma, params);
                     }
                 } else {
                     // Keep u; restore its residual and regularise harder.
@@ -1066,6 +1071,18 @@ fn shift_needed(weight: &[f64], sigma: f64, dbar: f64, pq: f64, p: &[f64]) -> f6
     }
 }
 
+/// σ after a full step (α = 1, module docs): 0 on the multigrid path, where a direction of
+/// non-positive curvature costs only the conjugate-gradient iterations before it and sets σ
+/// from its own curvature; elsewhere σ/10 (0 below σ_min), since each σ that turns out too
+/// small there costs a failed numeric factorisation.
+fn sigma_after_full_step(sigma: f64, params: DirectNewtonParams) -> f64 {
+    if params.multigrid.is_some() || sigma * 0.1 < params.sigma_min {
+        0.0
+    } else {
+        sigma * 0.1
+    }
+}
+
 /// The multigrid path's next σ after non-positive curvature: `max(10 σ, σ_min, needed)`; an
 /// error past σ = 10⁶.
 fn raise_sigma(sigma: f64, sigma_min: f64, needed: f64) -> Result<f64, DirectNewtonError> {
@@ -1077,9 +1094,10 @@ fn raise_sigma(sigma: f64, sigma_min: f64, needed: f64) -> Result<f64, DirectNew
     Ok((10.0 * sigma).max(sigma_min).max(needed))
 }
 
-/// `Π(u) = E(u) − s V·u` (J); +∞ where an element is inverted or the energy is not finite.
+/// `Π(u) = E(u) − s V·u` (J); +∞ where an element is inverted or the energy is not finite
+/// ([`FemModel::admissible_strain_energy`]).
 fn potential(model: &FemModel, u: &[f64], s: f64, f_ext: &[f64]) -> f64 {
-    let e = model.strain_energy(u);
+    let e = model.admissible_strain_energy(u);
     let w: f64 = f_ext.iter().zip(u).map(|(f, x)| f * x).sum();
     if e.is_finite() {
         e - s * w

@@ -714,3 +714,58 @@ fn conjugate_gradients_return_the_direction_of_negative_curvature() {
     // The iterate descends: b·x > 0.
     assert!(b.iter().zip(&x).map(|(b, x)| b * x).sum::<f64>() > 0.0);
 }
+
+/// Regression: on the multigrid path a σ raised at an indefinite tangent was divided by 10 a
+/// full step, so it regularised up to ten more iterations (the 70k mesher liver: σ = 0.26 at its
+/// third iteration, 0 only at its fourteenth, each step in between converging linearly). A
+/// full step now sets it back to 0 there; the factorisation path, where each σ that turns out
+/// too small costs a failed factorisation, still divides it by 10. One Newton iteration a call
+/// on the flat drape, whose first tangent needs σ > 0, shows each call's σ.
+#[test]
+fn issue_multigrid_shift_lingers_after_full_steps() {
+    let sc = drape("[multigrid]\nscheme = \"fas\"\nlevels = 3");
+    let meshes = sc.level_meshes().unwrap();
+    let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
+    let c = coarse_level(&nodes).expect("a coarse level");
+    let down = vec![Transfer::build(&meshes[0].nodes, &meshes[c]).unwrap()];
+    let mut sys = sc.build_system().unwrap();
+    let f = sys.f_ext.clone();
+    let model = sys.force.as_fem_mut().unwrap();
+    // (σ after the call, whether its step was full) per call, until converged.
+    let mut frames = |multigrid: Option<MultigridPcg>| {
+        let mut s = DirectNewton::with_levels(model, &sys.constraints, &down).unwrap();
+        let mut u = vec![0.0; f.len()];
+        let mut calls = Vec::new();
+        for _ in 0..60 {
+            let params = DirectNewtonParams {
+                max_newton: 1,
+                multigrid,
+                pcg_max: if multigrid.is_some() { 0 } else { 20 },
+                ..Default::default()
+            };
+            let o = s
+                .solve(model, &sys.constraints, &f, 0.0, &mut u, params)
+                .unwrap();
+            calls.push((s.sigma, o.full_steps == 1));
+            if o.converged {
+                return calls;
+            }
+        }
+        panic!("not converged in 60 calls: {calls:?}");
+    };
+    let mg = frames(Some(MultigridPcg::default()));
+    assert!(
+        mg.iter().any(|&(sigma, _)| sigma > 0.0),
+        "the flat drape's first tangents need σ > 0: {mg:?}"
+    );
+    for (k, &(sigma, full)) in mg.iter().enumerate() {
+        if full {
+            assert_eq!(sigma, 0.0, "call {k}: σ left after a full step: {mg:?}");
+        }
+    }
+    let direct = frames(None);
+    assert!(
+        direct.iter().any(|&(sigma, full)| full && sigma > 0.0),
+        "the factorisation path divides σ by 10 a full step: {direct:?}"
+    );
+}

@@ -95,8 +95,8 @@
 //! tangent is tried unshifted, and where it is still indefinite the iterations up to the first
 //! direction of non-positive curvature are all that trying costs before σ is set from that
 //! direction's σ*. Divided by 10 a step, a σ raised once stayed for ten iterations on the 70k
-//! mesher liver, each a damped-Newton step that converged only linearly
-//! (`bench/RESULTS.md`). A hierarchy built at an indefinite
+//! mesher liver, each a regularised step converging linearly (`bench/RESULTS.md`). A
+//! hierarchy built at an indefinite
 //! tangent needs its coarsest operator shifted: the liver L0's, at the state where its kept
 //! hierarchy first meets negative curvature from rest, factors only when shifted by its whole
 //! mean diagonal, a coarse level too stiff to help. With coarser levels the fine level is

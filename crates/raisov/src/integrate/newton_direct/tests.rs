@@ -80,6 +80,16 @@ fn beam_and_drape(drape_levels: usize) -> [(&'static str, Scenario, usize); 2] {
     ]
 }
 
+/// `sc`'s levels, the index of Newton-multigrid's coarse level ([`coarse_level`]) and the
+/// transfer from the finest level to it.
+fn coarse_pair(sc: &Scenario) -> (Vec<crate::mesh::Mesh>, usize, Vec<Transfer>) {
+    let meshes = sc.level_meshes().unwrap();
+    let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
+    let c = coarse_level(&nodes).expect("a coarse level");
+    let down = vec![Transfer::build(&meshes[0].nodes, &meshes[c]).unwrap()];
+    (meshes, c, down)
+}
+
 /// The largest displacement of `reference` and the largest difference of `u` from it.
 fn max_diff(reference: &[f64], u: &[f64]) -> (f64, f64) {
     let scale = reference.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
@@ -384,10 +394,7 @@ fn direct_newton_and_fas_agree() {
 fn coarse_start_reaches_the_same_equilibrium_in_fewer_fine_iterations() {
     let cases = beam_and_drape(3);
     for (name, sc, steps) in cases {
-        let meshes = sc.level_meshes().unwrap();
-        let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
-        let c = coarse_level(&nodes).expect("a coarse level");
-        let down = vec![Transfer::build(&meshes[0].nodes, &meshes[c]).unwrap()];
+        let (meshes, c, down) = coarse_pair(&sc);
         let solve = |nested: bool| {
             let mut sys = sc.build_system().unwrap();
             let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
@@ -462,10 +469,7 @@ fn coarse_start_reaches_the_same_equilibrium_in_fewer_fine_iterations() {
 #[test]
 fn one_newton_iteration_per_frame_leaves_the_flat_membrane() {
     let sc = drape("[multigrid]\nscheme = \"fas\"\nlevels = 3");
-    let meshes = sc.level_meshes().unwrap();
-    let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
-    let c = coarse_level(&nodes).expect("a coarse level");
-    let down = vec![Transfer::build(&meshes[0].nodes, &meshes[c]).unwrap()];
+    let (_, _, down) = coarse_pair(&sc);
     let mut sys = sc.build_system().unwrap();
     let f = sys.f_ext.clone();
     let model = sys.force.as_fem_mut().unwrap();
@@ -634,10 +638,7 @@ normal = [1.0, 0.0, 0.0]
 #[test]
 fn negative_curvature_after_the_coarse_start_raises_the_shift_instead_of_a_truncated_jump() {
     let sc = drape_sized(2000, "[multigrid]\nscheme = \"fas\"\nlevels = 5");
-    let meshes = sc.level_meshes().unwrap();
-    let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
-    let c = coarse_level(&nodes).expect("a coarse level");
-    let down = vec![Transfer::build(&meshes[0].nodes, &meshes[c]).unwrap()];
+    let (meshes, c, down) = coarse_pair(&sc);
     let mut sys = sc.build_system().unwrap();
     let model = sys.force.as_fem_mut().unwrap();
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
@@ -724,10 +725,7 @@ fn conjugate_gradients_return_the_direction_of_negative_curvature() {
 #[test]
 fn issue_multigrid_shift_lingers_after_full_steps() {
     let sc = drape("[multigrid]\nscheme = \"fas\"\nlevels = 3");
-    let meshes = sc.level_meshes().unwrap();
-    let nodes: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
-    let c = coarse_level(&nodes).expect("a coarse level");
-    let down = vec![Transfer::build(&meshes[0].nodes, &meshes[c]).unwrap()];
+    let (_, _, down) = coarse_pair(&sc);
     let mut sys = sc.build_system().unwrap();
     let f = sys.f_ext.clone();
     let model = sys.force.as_fem_mut().unwrap();

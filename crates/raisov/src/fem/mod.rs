@@ -387,9 +387,6 @@ impl FemModel {
         &self.x0
     }
 
-    /// Deformation gradient of element e (membranes: 3x2 in the first two columns, third
-    /// column zero) and its determinant-like measure (tets `det F`; membranes the signed area
-    /// ratio against the reference normal).
     /// The strain energy `E(u) = Σ_e W(F_e) |Ω_e|` (J) of a state the internal forces accept:
     /// +∞ where a tetrahedron is inverted (`det F ≤ 0`) and its law refuses that state, the
     /// condition of [`ForceModel::internal_forces`]' [`ElementFailure`]. A law written in
@@ -436,6 +433,9 @@ impl FemModel {
         blocks.iter().sum()
     }
 
+    /// Deformation gradient of element e (membranes: 3x2 in the first two columns, third
+    /// column zero) and its determinant-like measure (tets `det F`; membranes the signed area
+    /// ratio against the reference normal).
     fn deformation(&self, e: usize, u: &[f64]) -> (Matrix3<f64>, f64) {
         let npe = self.npe();
         let el = &self.cells[e * npe..(e + 1) * npe];

@@ -519,23 +519,12 @@ fn admissible_energy_refuses_inverted_tetrahedra_like_the_forces() {
     let mesh = jittered_box(2, 0.3);
     let n = mesh.num_nodes();
     let el: Vec<usize> = mesh.cells[..4].iter().map(|&a| a as usize).collect();
-    let p = |a: usize| mesh.nodes[a];
+    let p = |k: usize| Vector3::from(mesh.nodes[el[k]]);
     // Reflect node el[0] through the plane of the other three: element 0 inverts.
-    let (a, b, c, d) = (p(el[0]), p(el[1]), p(el[2]), p(el[3]));
-    let e1 = crate::mesh::sub(c, b);
-    let e2 = crate::mesh::sub(d, b);
-    let nrm = [
-        e1[1] * e2[2] - e1[2] * e2[1],
-        e1[2] * e2[0] - e1[0] * e2[2],
-        e1[0] * e2[1] - e1[1] * e2[0],
-    ];
-    let nn = nrm.iter().map(|x| x * x).sum::<f64>();
-    let ab = crate::mesh::sub(a, b);
-    let h = ab.iter().zip(&nrm).map(|(x, y)| x * y).sum::<f64>() / nn;
+    let nrm = (p(2) - p(1)).cross(&(p(3) - p(1))).normalize();
+    let shift = -2.0 * (p(0) - p(1)).dot(&nrm) * nrm;
     let mut inverted = vec![0.0; 3 * n];
-    for k in 0..3 {
-        inverted[3 * el[0] + k] = -2.0 * h * nrm[k];
-    }
+    inverted[3 * el[0]..3 * el[0] + 3].copy_from_slice(shift.as_slice());
     let valid = random_u(n, 0.1 * mesh.edge_range().0, 3);
     for (mat, refused) in [
         (Material::NeoHookean(NeoHookean::from_young(1e4, 0.4)), true),

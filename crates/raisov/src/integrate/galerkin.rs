@@ -63,6 +63,9 @@ pub const EXTRAPOLATION_LIMIT: f64 = 4.0;
 /// Rows per parallel block of the products.
 const ROW_BLOCK: usize = 512;
 
+/// Full entries per task of [`SymScatter::fill`].
+const FILL_BLOCK: usize = 1 << 14;
+
 /// A stored matrix value: `f64`, or `f32` for the smoothers' copy (module docs); read as `f64`.
 pub trait Entry: Copy + Send + Sync {
     /// The value in double precision.
@@ -270,15 +273,16 @@ impl Csr {
 
 /// Where each entry of a symmetric matrix's lower triangle (compressed columns, row indices
 /// ascending within a column) lands in the full matrix's compressed rows: assembled values
-/// are copied into a [`Csr`] of the full pattern without building it again.
+/// are copied into a [`Csr`] of the full pattern without building it again, each full entry
+/// gathering its lower entry (in parallel, the same bits on any thread count).
 #[derive(Clone, Debug)]
 pub struct SymScatter {
     /// The full matrix's pattern (values zero).
     pub pattern: Csr,
     /// Per lower entry k at (row i, column j): its position in row i.
     lower: Vec<u32>,
-    /// Per lower entry: its position in row j, `u32::MAX` on the diagonal.
-    upper: Vec<u32>,
+    /// Per full entry: the lower entry whose value it takes.
+    source: Vec<u32>,
 }
 
 impl SymScatter {
@@ -300,7 +304,7 @@ impl SymScatter {
         let mut next = ptr[..n].to_vec();
         let mut col = vec![0u32; nnz];
         let mut lower = vec![0u32; ri.len()];
-        let mut upper = vec![u32::MAX; ri.len()];
+        let mut source = vec![0u32; nnz];
         // Columns in ascending order: row i receives its columns j < i first (from column j),
         // then, from column i, the diagonal and the columns above it, ascending.
         for j in 0..n {
@@ -308,10 +312,11 @@ impl SymScatter {
                 let i = ri[k];
                 col[next[i]] = j as u32;
                 lower[k] = next[i] as u32;
+                source[next[i]] = k as u32;
                 next[i] += 1;
                 if i != j {
                     col[next[j]] = i as u32;
-                    upper[k] = next[j] as u32;
+                    source[next[j]] = k as u32;
                     next[j] += 1;
                 }
             }
@@ -325,18 +330,20 @@ impl SymScatter {
                 val: vec![0.0; nnz],
             },
             lower,
-            upper,
+            source,
         }
     }
 
     /// `out`'s values (of [`SymScatter::pattern`]) from the lower triangle's values `v`.
     pub fn fill(&self, v: &[f64], out: &mut Csr) {
-        for (k, &x) in v.iter().enumerate() {
-            out.val[self.lower[k] as usize] = x;
-            if self.upper[k] != u32::MAX {
-                out.val[self.upper[k] as usize] = x;
-            }
-        }
+        out.val
+            .par_chunks_mut(FILL_BLOCK)
+            .zip(self.source.par_chunks(FILL_BLOCK))
+            .for_each(|(o, src)| {
+                for (o, &k) in o.iter_mut().zip(src) {
+                    *o = v[k as usize];
+                }
+            });
     }
 
     /// The position in the full rows of lower entry `k` (its own row's copy).

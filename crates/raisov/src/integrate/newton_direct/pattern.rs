@@ -12,9 +12,10 @@
 //! [`build`] runs in three passes:
 //! 1. each node's elements (a counting sort), then each node's neighbours, sorted, nodes in
 //!    parallel;
-//! 2. the columns, in order;
-//! 3. the slots, elements in parallel: one binary search in a column per (row node, column
-//!    dof), the row node's other free dofs at the places that follow.
+//! 2. the columns, blocks of nodes in parallel, joined in order;
+//! 3. the slots, elements in parallel: one binary search per (row node, column node) in the
+//!    column node's first free column, every other place of the pair found from it
+//!    ([`place`]).
 //!
 //! Each pass writes disjoint outputs, so the result is the same on any thread count.
 //! [`reference`] (tests) builds the same pattern from sorted node pairs with one binary search
@@ -90,63 +91,48 @@ pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Result<Pa
         })
         .collect();
     drop(elems);
-    // Pass 2: the columns.
-    let mut col_ptr = Vec::with_capacity(nfree + 1);
-    let mut row_idx = Vec::new();
-    col_ptr.push(0usize);
-    for j in 0..3 * n {
-        let gc = free[j];
-        if gc == usize::MAX {
-            continue;
-        }
-        for &b in &neighbours[j / 3] {
-            for &gr in &free[3 * b as usize..3 * b as usize + 3] {
-                if gr != usize::MAX && gr >= gc {
-                    row_idx.push(gr);
+    // Pass 2: the columns, a block of nodes per task, the blocks' columns joined in order.
+    let blocks: Vec<(Vec<usize>, Vec<usize>)> = (0..n.div_ceil(MIN_PER_TASK))
+        .into_par_iter()
+        .map(|blk| {
+            let (mut lens, mut rows) = (Vec::new(), Vec::new());
+            for j in 3 * blk * MIN_PER_TASK..3 * ((blk + 1) * MIN_PER_TASK).min(n) {
+                let gc = free[j];
+                if gc == usize::MAX {
+                    continue;
                 }
+                let before = rows.len();
+                for &b in &neighbours[j / 3] {
+                    for &gr in &free[3 * b as usize..3 * b as usize + 3] {
+                        if gr != usize::MAX && gr >= gc {
+                            rows.push(gr);
+                        }
+                    }
+                }
+                lens.push(rows.len() - before);
             }
+            (lens, rows)
+        })
+        .collect();
+    let mut col_ptr = Vec::with_capacity(nfree + 1);
+    col_ptr.push(0usize);
+    let mut row_idx = Vec::with_capacity(blocks.iter().map(|b| b.1.len()).sum());
+    for (lens, rows) in blocks {
+        for l in lens {
+            col_ptr.push(col_ptr[col_ptr.len() - 1] + l);
         }
-        col_ptr.push(row_idx.len());
+        row_idx.extend_from_slice(&rows);
     }
     drop(neighbours);
-    // Pass 3: the slots.
-    let mut slots = vec![u32::MAX; ne * d * d];
+    // Pass 3: the slots. Zeroed memory is mapped on first write, so the element chunks'
+    // pages are touched by the tasks that fill them rather than by one thread beforehand.
+    let mut slots = vec![0u32; ne * d * d];
     if d > 0 {
         slots
             .par_chunks_mut(d * d)
             .enumerate()
             .with_min_len(MIN_PER_TASK)
-            .for_each(|(e, s)| {
-                let el = model.element_nodes(e);
-                for (cj, &b) in el.iter().enumerate() {
-                    for kc in 0..3 {
-                        let gc = free[3 * b as usize + kc];
-                        if gc == usize::MAX {
-                            continue;
-                        }
-                        let rows = &row_idx[col_ptr[gc]..col_ptr[gc + 1]];
-                        for (ri, &a) in el.iter().enumerate() {
-                            let mut at: Option<usize> = None;
-                            for kr in 0..3 {
-                                let gr = free[3 * a as usize + kr];
-                                if gr == usize::MAX || gr < gc {
-                                    continue;
-                                }
-                                let k = match at {
-                                    Some(k) => k + 1,
-                                    None => rows.partition_point(|&x| x < gr),
-                                };
-                                debug_assert_eq!(
-                                    rows[k], gr,
-                                    "node {a}'s free dofs in column {gc}"
-                                );
-                                s[(3 * ri + kr) * d + 3 * cj + kc] = (col_ptr[gc] + k) as u32;
-                                at = Some(k);
-                            }
-                        }
-                    }
-                }
-            });
+            .for_each(|(e, s)| place(model.element_nodes(e), free, &col_ptr, &row_idx, s));
     }
     let diag = col_ptr[..nfree].iter().map(|&p| p as u32).collect();
     Ok(Pattern {
@@ -155,6 +141,53 @@ pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Result<Pa
         slots,
         diag,
     })
+}
+
+/// One element's slots (`s`, its `d²` entries, row-major). A node's free dofs are
+/// consecutive free indices, so column `gc₀ + k` (node b's k-th free dof) holds column
+/// `gc₀`'s rows without its first k, which are b's own dofs `gc₀ .. gc₀ + k`: row node a's
+/// first free dof is found in column `gc₀` by one binary search, at `p`, and a's j-th free
+/// dof is at `p + j − k` in column `gc₀ + k`. A node other than b has all its free dofs below
+/// `gc₀` (above the diagonal, no slots) or all above b's.
+fn place(el: &[u32], free: &[usize], col_ptr: &[usize], row_idx: &[usize], s: &mut [u32]) {
+    s.fill(u32::MAX);
+    let d = 3 * el.len();
+    // Each node's free dofs: (local component, free index), ascending.
+    let frees = |a: u32| {
+        (0..3).filter_map(move |k| {
+            let g = free[3 * a as usize + k];
+            (g != usize::MAX).then_some((k, g))
+        })
+    };
+    for (cj, &b) in el.iter().enumerate() {
+        let Some((_, gc0)) = frees(b).next() else {
+            continue;
+        };
+        let rows0 = &row_idx[col_ptr[gc0]..col_ptr[gc0 + 1]];
+        for (ri, &a) in el.iter().enumerate() {
+            let Some((_, ga0)) = frees(a).next() else {
+                continue;
+            };
+            if ga0 < gc0 {
+                continue;
+            }
+            let p = rows0.partition_point(|&x| x < ga0);
+            for (k, (kc, gc)) in frees(b).enumerate() {
+                for (j, (kr, gr)) in frees(a).enumerate() {
+                    if gr < gc {
+                        continue;
+                    }
+                    let at = p + j - k;
+                    debug_assert_eq!(
+                        row_idx[col_ptr[gc] + at],
+                        gr,
+                        "node {a}'s free dofs in column {gc}"
+                    );
+                    s[(3 * ri + kr) * d + 3 * cj + kc] = (col_ptr[gc] + at) as u32;
+                }
+            }
+        }
+    }
 }
 
 /// The same pattern as [`build`], simply: the sorted, deduplicated node pairs of every

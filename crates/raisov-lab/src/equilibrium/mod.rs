@@ -37,11 +37,15 @@
 //!   Gauss-Seidel over a colouring, damped node-block Jacobi, or point Gauss-Seidel (the
 //!   library's default); each from rest and from the coarse start.
 //!
-//! The coarse start ([`raisov::integrate::newton_direct::coarse_start`], nested iteration):
-//! the coarse level of Newton-multigrid, with the scenario's constraints and loads carried to
-//! it, solved by direct Newton over [`Case::load_steps`] load steps, its equilibrium
-//! interpolated to the fine nodes as the fine solve's start (one load step, or for ADR one
-//! increment); its time counts. FAS starts from rest: its coarse levels already correct it.
+//! The coarse start ([`raisov::integrate::newton_direct::nested_start`], nested iteration,
+//! as a static scenario's): the coarsest level of
+//! [`raisov::integrate::newton_direct::start_levels`] (Newton-multigrid's coarse level, or a
+//! coarser one with at least 1 000 nodes), with the scenario's constraints and loads carried
+//! to it, solved by direct Newton over [`Case::load_steps`] load steps, then each finer
+//! level of it (about four times the nodes) by Newton-multigrid from the last one's
+//! equilibrium, the finest one's equilibrium interpolated to the fine nodes as the fine
+//! solve's start (one load step, or for ADR one increment); its time counts, the meshing of
+//! its levels included. FAS starts from rest: its coarse levels already correct it.
 //!
 //! All other runs start from rest (`u = 0`). A prescribed displacement (`[[displace]]`, the pulled
 //! liver), imposed at once with the rest of the body at rest, inverts the pulled node's
@@ -94,8 +98,8 @@ use raisov::integrate::adaptive_relax::adaptive_relax;
 use raisov::integrate::chebyshev_relax::chebyshev_relax;
 use raisov::integrate::hold;
 use raisov::integrate::newton_direct::{
-    coarse_start, solve_system, CoarseStart, DirectNewton, DirectNewtonError, DirectNewtonParams,
-    DirectStatic, MultigridPcg, Smoother,
+    nested_start, solve_system, start_levels, CoarseStart, DirectNewton, DirectNewtonError,
+    DirectNewtonParams, DirectStatic, MultigridPcg, Smoother,
 };
 use raisov::integrate::stability::lambda_max_bound;
 use raisov::scenario::{MultigridScheme, Scenario};
@@ -434,34 +438,37 @@ fn lifted(o: &DirectStatic) -> &'static str {
     }
 }
 
-/// The coarse start of direct Newton, ADR and Chebyshev: the coarse level of Newton-multigrid
-/// ([`newton_mg_levels`]) solved and interpolated into `u`
-/// ([`raisov::integrate::newton_direct::coarse_start`]); `None` where the case has no such
+/// The coarse start of every solver that takes one: the levels of
+/// [`raisov::integrate::newton_direct::start_levels`] below Newton-multigrid's coarse level
+/// ([`newton_mg_levels`], whose mesh `coarse` is where given), solved and interpolated into
+/// `u` ([`raisov::integrate::newton_direct::nested_start`], the levels between smoothed as a
+/// static scenario's Newton-multigrid is by default); `None` where the case has no such
 /// level.
 fn start_from_coarse(
     case: &Case,
     sys: &mut raisov::integrate::System,
     u: &mut [f64],
+    coarse: Option<&raisov::mesh::Mesh>,
 ) -> Result<Option<CoarseStart>> {
     let sc = &case.scenario;
-    let meshes = newton_mg_levels(sc)?;
-    if meshes.len() < 2 {
+    let picked = sc.pick_level(raisov::integrate::newton_direct::coarse_level)?;
+    let Some((c, mesh)) = picked.chosen else {
         return Ok(None);
-    }
-    let down = Transfer::build(&meshes[0].nodes, &meshes[1])?;
-    let mut coarse = sc.level_system(&meshes[1], 1)?;
+    };
+    let chain = start_levels(&picked.counts, c);
+    let mut levels = sc.nested_levels(&chain, (coarse.unwrap_or(&mesh), c))?;
     let model = sys
         .force
         .as_fem_mut()
         .ok_or_else(|| Error::param("bench equilibrium", "not a finite-element model"))?;
-    Ok(Some(coarse_start(
-        &mut coarse,
+    Ok(Some(nested_start(
+        &mut levels,
         0.0,
         case.load_steps,
-        &down,
         model,
         &sys.constraints,
         u,
+        raisov::scenario::StaticSolve::default_smoother(sc.mesh.kind),
     )))
 }
 
@@ -497,7 +504,7 @@ fn newton_run(
     let mut sys = sc.build_system()?;
     let t0 = Instant::now();
     let start = if nested {
-        start_from_coarse(case, &mut sys, &mut u)?
+        start_from_coarse(case, &mut sys, &mut u, None)?
     } else {
         None
     };
@@ -576,24 +583,15 @@ fn newton_mg_run(
     }
     let t0 = Instant::now();
     let (meshes, down) = newton_mg_hierarchy(sc)?;
+    let start = if nested && meshes.len() > 1 {
+        start_from_coarse(case, &mut sys, &mut u, Some(&meshes[1]))?
+    } else {
+        None
+    };
     let model = sys
         .force
         .as_fem_mut()
         .ok_or_else(|| Error::param("bench equilibrium", "not a finite-element model"))?;
-    let start = if nested && meshes.len() > 1 {
-        let mut coarse = sc.level_system(&meshes[1], 1)?;
-        Some(coarse_start(
-            &mut coarse,
-            0.0,
-            case.load_steps,
-            &down[0],
-            model,
-            &sys.constraints,
-            &mut u,
-        ))
-    } else {
-        None
-    };
     let load_steps = CoarseStart::fine_load_steps(start.as_ref(), case.load_steps);
     let out = DirectNewton::with_levels(model, &sys.constraints, &down).and_then(|mut s| {
         s.solve(
@@ -744,7 +742,7 @@ fn relax_run(
         if !ends.is_empty() {
             hold(&mut sys.constraints, ends);
         }
-        start_from_coarse(case, &mut sys, &mut u)?
+        start_from_coarse(case, &mut sys, &mut u, None)?
     } else {
         None
     };

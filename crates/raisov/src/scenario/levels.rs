@@ -11,6 +11,7 @@ use super::spec::{
 use super::{build_system, err, positive, select, BoxCells, Scenario, Selector, Shape};
 use crate::error::Result;
 use crate::hierarchy::Correspondence;
+use crate::integrate::newton_direct::{NestedLevels, StartLevel};
 use crate::integrate::stability::{critical_step_estimate, lambda_max_bound};
 use crate::integrate::{
     energy_limit_for, Method, Motion, SingleLevel, Stepper, StepperParams, System,
@@ -411,6 +412,62 @@ impl Scenario {
             .filter(|&i| i > 0)
             .and_then(|i| meshes.into_iter().nth(i).map(|m| (i, m)));
         Ok(PickedLevel { counts, chosen })
+    }
+
+    /// The mesh of coarser level `level` (1 or more) alone: generated, or read from its file.
+    /// An error where there is no such level.
+    pub fn level_mesh(&self, level: usize) -> Result<Mesh> {
+        let shapes = self.coarser_shapes();
+        match level
+            .checked_sub(1)
+            .and_then(|i| shapes.get(i).map(|s| (i, s)))
+        {
+            Some((i, shape)) => Ok(self.build_level(shape, i)?.0),
+            None => Err(crate::error::Error::param(
+                "multigrid",
+                format!(
+                    "level {level} does not exist: this scenario has coarser levels 1 to {}",
+                    shapes.len()
+                ),
+            )),
+        }
+    }
+
+    /// The levels of a nested start through the coarser `levels` (indices, finest first, at
+    /// least one; [`crate::integrate::newton_direct::start_levels`]): each one's system (the
+    /// scenario's constraints and loads carried to it) and its nodes located in the next,
+    /// and the fine nodes located in the first. `known`, a level's mesh already built, is
+    /// used for that level; the others are built or read ([`Scenario::level_mesh`]).
+    pub fn nested_levels(&self, levels: &[usize], known: (&Mesh, usize)) -> Result<NestedLevels> {
+        let meshes = levels
+            .iter()
+            .map(|&l| match l == known.1 {
+                true => Ok(known.0.clone()),
+                false => self.level_mesh(l),
+            })
+            .collect::<Result<Vec<Mesh>>>()?;
+        let Some((coarsest, _)) = meshes.split_last() else {
+            return Err(crate::error::Error::param(
+                "multigrid",
+                "a nested start needs at least one coarser level",
+            ));
+        };
+        let fine_in_first = crate::hierarchy::Transfer::build(&self.mesh.nodes, &meshes[0])?;
+        let between = meshes
+            .windows(2)
+            .zip(levels)
+            .map(|(w, &l)| {
+                Ok(StartLevel {
+                    system: self.level_system(&w[0], l)?,
+                    down: crate::hierarchy::Transfer::build(&w[0].nodes, &w[1])?,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(NestedLevels {
+            coarsest: self.level_system(coarsest, *levels.last().expect("checked"))?,
+            between,
+            fine_in_first,
+        })
     }
 
     /// The shapes of the coarser levels (level 1 first); none without `[multigrid]`.

@@ -30,12 +30,33 @@
 //! factorisation reuse ([`COARSE_PCG_MAX`]) to [`COARSE_REL_TOL`], over the caller's load
 //! steps; the fine iteration then takes the full load in one step.
 //!
-//! The constrained fine dofs take their imposed values, and keep them through the harmonic
-//! extension below. The start is not taken (`u` is left as it was) where the coarse solve
-//! fails or does not converge, or where the start inverts a fine element (`det F ≤ 0`).
+//! Through several levels ([`nested_start`], the levels of [`super::start_levels`]: each
+//! about a quarter of the next finer one's nodes where the levels allow, the coarsest with
+//! at least 1 000 nodes or as many as the coarse level):
+//!
+//! ```text
+//! R_m(u_m) = V_m                        the coarsest level, direct Newton, from rest
+//! R_l(u_l) = V_l,  u_l⁰ = I_{l+1}^l u_{l+1}   l = m−1, …, 1: Newton-multigrid over l, l+1
+//! u_h⁰     = I_1^h u_1
+//! ```
+//!
+//! the interpolation at each level as at the fine one below. Each level starts within its
+//! coarser neighbour's discretisation error of its own equilibrium, which it reaches in a
+//! few Newton iterations on a quarter of the finer level's nodes; the fine iteration starts
+//! within the finest start level's error, not the coarse level's (the 100k drape: 5 fine
+//! Newton iterations through 25k, 6k and 1.5k levels, 8 from 6k alone; `bench/RESULTS.md`).
+//! The levels between are solved to [`BETWEEN_REL_TOL`].
+//!
+//! The constrained dofs of every level take their imposed values, and keep them through the
+//! harmonic extension below. The start is not taken (`u` is left as it was) where a level's
+//! solve fails or does not converge, or where an interpolation inverts an element
+//! (`det F ≤ 0`) of the level it reaches.
 
-use super::{solve_system, DirectNewtonParams, DirectStatic};
-use crate::fem::FemModel;
+use super::{
+    solve_system, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg,
+    Smoother,
+};
+use crate::fem::{FemModel, ForceModel};
 use crate::hierarchy::Transfer;
 use crate::integrate::{Constraints, System};
 
@@ -49,11 +70,19 @@ pub const COARSE_REL_TOL: f64 = 1e-6;
 /// (`bench/RESULTS.md`: 20, 10, 5, 2 and 0 on the 100k drape's 6 188-node level).
 pub const COARSE_PCG_MAX: usize = 5;
 
+/// Relative stopping rule of the solves of the levels between the coarsest and the fine one
+/// ([`nested_start`]; of each level's largest nodal external force).
+pub const BETWEEN_REL_TOL: f64 = 1e-6;
+
 /// What [`coarse_start`] did.
 #[derive(Clone, Debug, Default)]
 pub struct CoarseStart {
     /// The coarse solve's outcome (`None` where it failed before an outcome).
     pub coarse: Option<DirectStatic>,
+    /// The outcomes of the solves of the levels between ([`nested_start`]), coarsest first.
+    pub between: Vec<DirectStatic>,
+    /// The node counts of the start's levels, coarsest first.
+    pub nodes: Vec<usize>,
     /// Whether `u` now holds the interpolated coarse equilibrium.
     pub applied: bool,
     /// Why not, where not.
@@ -77,9 +106,16 @@ impl CoarseStart {
     /// start was not taken.
     pub fn describe(&self) -> String {
         if self.applied {
+            let between: String = self
+                .between
+                .iter()
+                .zip(self.nodes.iter().skip(1))
+                .map(|(o, n)| format!(", then {} on {n} nodes", o.newton_steps))
+                .collect();
             format!(
-                "coarse start: {} Newton iterations on the coarse level ({:.3} s)",
+                "coarse start: {} Newton iterations on {} nodes{between} ({:.3} s)",
                 self.coarse.as_ref().map_or(0, |o| o.newton_steps),
+                self.nodes.first().copied().unwrap_or(0),
                 self.wall_s
             )
         } else {
@@ -95,7 +131,7 @@ impl CoarseStart {
 /// succeeds write its equilibrium, interpolated at the fine nodes by `fine_in_coarse` (the
 /// fine nodes located in the coarse mesh), into the fine displacement `u`, the values
 /// `fine_constraints` impose at `t` on the constrained dofs (module docs). `fine` checks
-/// that the start inverts no element.
+/// that the start inverts no element. [`nested_start`] with no level between.
 pub fn coarse_start(
     coarse: &mut System,
     t: f64,
@@ -105,10 +141,97 @@ pub fn coarse_start(
     fine_constraints: &Constraints,
     u: &mut [f64],
 ) -> CoarseStart {
-    let clock = std::time::Instant::now();
-    let mut uc = vec![0.0; coarse.mass.len() * 3];
-    let solved = solve_system(
+    start_through(
         coarse,
+        &mut [],
+        t,
+        load_steps,
+        fine_in_coarse,
+        fine,
+        fine_constraints,
+        u,
+        Smoother::default(),
+    )
+}
+
+/// A level between the fine level and the coarsest one of a nested start ([`nested_start`]).
+pub struct StartLevel {
+    /// Its static problem: its own mesh, the scenario's constraints and loads carried to it.
+    pub system: System,
+    /// Its nodes located in the next coarser level of the start.
+    pub down: Transfer,
+}
+
+/// The levels of a nested start ([`nested_start`]).
+pub struct NestedLevels {
+    /// The coarsest level's static problem, solved first, by direct Newton.
+    pub coarsest: System,
+    /// The levels between the fine and the coarsest one, finest first.
+    pub between: Vec<StartLevel>,
+    /// The fine nodes located in the finest level of the start (the first of `between`, or
+    /// `coarsest` where `between` is empty).
+    pub fine_in_first: Transfer,
+}
+
+/// Nested iteration over several levels (module docs): `levels.coarsest` solved by direct
+/// Newton over `load_steps` load steps from rest; then each level of `levels.between`
+/// (finest first, each one's [`StartLevel::down`] locating its nodes in the next coarser
+/// level, the last one's in the coarsest), coarsest first, started from the coarser
+/// equilibrium interpolated and solved in one load step to [`BETWEEN_REL_TOL`] by
+/// Newton-multigrid over itself and the next coarser level (`smoother`, the other settings
+/// [`MultigridPcg`]'s defaults); the last equilibrium is interpolated at the fine nodes into
+/// `u` as in [`coarse_start`]. The start is not taken where any level's solve fails or does
+/// not converge, or where an interpolation inverts an element of the level it reaches.
+pub fn nested_start(
+    levels: &mut NestedLevels,
+    t: f64,
+    load_steps: usize,
+    fine: &FemModel,
+    fine_constraints: &Constraints,
+    u: &mut [f64],
+    smoother: Smoother,
+) -> CoarseStart {
+    let NestedLevels {
+        coarsest,
+        between,
+        fine_in_first,
+    } = levels;
+    start_through(
+        coarsest,
+        between,
+        t,
+        load_steps,
+        fine_in_first,
+        fine,
+        fine_constraints,
+        u,
+        smoother,
+    )
+}
+
+/// [`nested_start`] over its levels' parts.
+#[allow(clippy::too_many_arguments)]
+fn start_through(
+    coarsest: &mut System,
+    between: &mut [StartLevel],
+    t: f64,
+    load_steps: usize,
+    fine_in_first: &Transfer,
+    fine: &FemModel,
+    fine_constraints: &Constraints,
+    u: &mut [f64],
+    smoother: Smoother,
+) -> CoarseStart {
+    let clock = std::time::Instant::now();
+    let mut out = CoarseStart {
+        nodes: std::iter::once(coarsest.mass.len())
+            .chain(between.iter().rev().map(|l| l.system.mass.len()))
+            .collect(),
+        ..Default::default()
+    };
+    let mut uc = vec![0.0; coarsest.mass.len() * 3];
+    let solved = solve_system(
+        coarsest,
         t,
         &mut uc,
         DirectNewtonParams {
@@ -118,41 +241,127 @@ pub fn coarse_start(
             ..Default::default()
         },
     );
-    let mut out = CoarseStart::default();
-    match solved {
-        Err(e) => out.skipped = Some(format!("the coarse solve failed: {e}")),
+    let converged = match solved {
+        Err(e) => {
+            out.skipped = Some(format!("the coarse solve failed: {e}"));
+            false
+        }
         Ok(o) => {
             if !o.converged {
                 out.skipped = Some(format!(
                     "the coarse solve did not converge ({} Newton iterations, residual {:.3e} N)",
                     o.newton_steps, o.residual
                 ));
-            } else {
-                let mut start = vec![0.0; u.len()];
-                match fine_in_coarse.convex().interpolate(&uc, 3, &mut start) {
-                    Err(e) => out.skipped = Some(format!("interpolation: {e}")),
-                    Ok(()) => {
-                        let mut v = vec![0.0; u.len()];
-                        fine_constraints.impose(t, &mut start, &mut v);
-                        repair(fine, fine_constraints, &fine_in_coarse.outside, &mut start);
-                        fine_constraints.impose(t, &mut start, &mut v);
-                        let (e, det) = fine.min_det_f(&start);
-                        if det > 0.0 && start.iter().all(|x| x.is_finite()) {
-                            u.copy_from_slice(&start);
-                            out.applied = true;
-                        } else {
-                            out.skipped = Some(format!(
-                                "the interpolated coarse equilibrium inverts fine element {e} (det F = {det:.3e})"
-                            ));
-                        }
-                    }
-                }
             }
+            let c = o.converged;
             out.coarse = Some(o);
+            c
+        }
+    };
+    if converged {
+        match climb(between, t, uc, smoother, &mut out) {
+            Err(why) => out.skipped = Some(why),
+            Ok(ub) => match interpolate(&ub, fine_in_first, fine, fine_constraints, t) {
+                Err(why) => out.skipped = Some(why),
+                Ok(start) => {
+                    u.copy_from_slice(&start);
+                    out.applied = true;
+                }
+            },
         }
     }
     out.wall_s = clock.elapsed().as_secs_f64();
     out
+}
+
+/// The levels of `between`, coarsest first, each started from the coarser level's
+/// equilibrium `uc` interpolated and solved by Newton-multigrid ([`nested_start`]); the
+/// finest one's equilibrium (`uc` itself where `between` is empty), or why not.
+fn climb(
+    between: &mut [StartLevel],
+    t: f64,
+    mut uc: Vec<f64>,
+    smoother: Smoother,
+    out: &mut CoarseStart,
+) -> Result<Vec<f64>, String> {
+    for level in between.iter_mut().rev() {
+        let System {
+            force,
+            f_ext,
+            constraints,
+            ..
+        } = &mut level.system;
+        let model = force
+            .as_fem_mut()
+            .ok_or_else(|| DirectNewtonError::NotFem.to_string())?;
+        let mut ul = interpolate(&uc, &level.down, model, constraints, t)?;
+        let o = DirectNewton::with_levels(model, constraints, std::slice::from_ref(&level.down))
+            .and_then(|mut s| {
+                s.solve(
+                    model,
+                    constraints,
+                    f_ext,
+                    t,
+                    &mut ul,
+                    DirectNewtonParams {
+                        rel_tol: BETWEEN_REL_TOL,
+                        multigrid: Some(MultigridPcg {
+                            smoother,
+                            ..Default::default()
+                        }),
+                        ..Default::default()
+                    },
+                )
+            })
+            .map_err(|e| {
+                format!(
+                    "the solve of a {}-node level failed: {e}",
+                    model.num_nodes()
+                )
+            })?;
+        let converged = o.converged;
+        let (steps, residual) = (o.newton_steps, o.residual);
+        out.between.push(o);
+        if !converged {
+            return Err(format!(
+                "the solve of a {}-node level did not converge ({steps} Newton iterations, residual {residual:.3e} N)",
+                model.num_nodes()
+            ));
+        }
+        uc = ul;
+    }
+    Ok(uc)
+}
+
+/// The coarser equilibrium `uc` interpolated at the nodes `into` locates in it, onto the
+/// level of `model`, the values `constraints` impose at `t` on its constrained dofs, its
+/// nodes outside the coarser mesh extended harmonically and inverted elements repaired
+/// (module docs); an error where the result still inverts an element.
+fn interpolate(
+    uc: &[f64],
+    into: &Transfer,
+    model: &FemModel,
+    constraints: &Constraints,
+    t: f64,
+) -> Result<Vec<f64>, String> {
+    let n = 3 * into.len();
+    let mut start = vec![0.0; n];
+    into.convex()
+        .interpolate(uc, 3, &mut start)
+        .map_err(|e| format!("interpolation: {e}"))?;
+    let mut v = vec![0.0; n];
+    constraints.impose(t, &mut start, &mut v);
+    repair(model, constraints, &into.outside, &mut start);
+    constraints.impose(t, &mut start, &mut v);
+    let (e, det) = model.min_det_f(&start);
+    if det > 0.0 && start.iter().all(|x| x.is_finite()) {
+        Ok(start)
+    } else {
+        Err(format!(
+            "the interpolated coarse equilibrium inverts element {e} of the {}-node level (det F = {det:.3e})",
+            model.num_nodes()
+        ))
+    }
 }
 
 /// Jacobi sweeps of each harmonic extension.

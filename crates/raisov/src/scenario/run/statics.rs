@@ -26,18 +26,20 @@
 //! (a follower load), tool contact or spring grasps, or a node sliding along a direction
 //! that is not x, y or z.
 //!
-//! With `[integrator] coarse_start` (default: membranes yes, tetrahedra no) `"multigrid"` starts from the coarse
-//! level's equilibrium, interpolated (nested iteration,
-//! [`crate::integrate::newton_direct::coarse_start`]): the coarse level, with the
+//! With `[integrator] coarse_start` (default: membranes yes, tetrahedra no) `"multigrid"`
+//! starts from a coarser level's equilibrium, interpolated (nested iteration,
+//! [`crate::integrate::newton_direct::nested_start`] over the levels of
+//! [`crate::integrate::newton_direct::start_levels`]): the coarsest of them, with the
 //! scenario's constraints and loads carried to it, is solved by direct Newton over the
-//! increments, the fine level then in one. The stopping rule's starting out-of-balance force
+//! increments, each finer one by Newton-multigrid from the last one's equilibrium, the fine
+//! level then in one increment. The stopping rule's starting out-of-balance force
 //! is that of the rest state, as without it.
 
 use super::{write_balance, write_nodal_stress, Frames, RunOptions};
 use crate::error::{Error, Result};
 use crate::integrate::newton_direct::{
-    axis_of, coarse_level, coarse_start, CoarseStart, DirectNewton, DirectNewtonError,
-    DirectNewtonParams, DirectStatic, MultigridPcg,
+    axis_of, coarse_level, nested_start, start_levels, CoarseStart, DirectNewton,
+    DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg, NestedLevels,
 };
 use crate::integrate::statics::Static;
 use crate::integrate::{Stepper, System};
@@ -210,15 +212,17 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
         let solved = match plan.solver {
             StaticSolver::Krylov => krylov(sc, &settings, increments, sys, t, &mut u, &first),
             _ => {
-                let mut coarse = match (&plan.coarse, settings.coarse_start) {
-                    (Some((mesh, level)), true) => Some(sc.level_system(mesh, *level)?),
+                let mut start = match (&plan.coarse, plan.start.is_empty()) {
+                    (Some((mesh, level)), false) => {
+                        Some(sc.nested_levels(&plan.start, (mesh, *level))?)
+                    }
                     _ => None,
                 };
                 assembled(
                     &settings,
                     increments,
                     plan.down.as_deref(),
-                    coarse.as_mut(),
+                    start.as_mut(),
                     sys,
                     t,
                     &mut u,
@@ -309,6 +313,10 @@ pub fn describe_static(sc: &Scenario) -> Result<String> {
             settings.smoother.describe(),
             if settings.coarse_start { "yes" } else { "no" }
         );
+        if !plan.start.is_empty() {
+            let levels: Vec<String> = plan.start.iter().rev().map(|l| l.to_string()).collect();
+            s += &format!(" (through levels {})", levels.join(", "));
+        }
     }
     s += &format!(
         "; {increments} load increment{}, at most {} Newton steps each; residual_tol {:e}",
@@ -335,6 +343,9 @@ struct Plan {
     down: Option<Vec<crate::hierarchy::Transfer>>,
     /// `"multigrid"`: the coarse level's mesh and its index among the levels.
     coarse: Option<(crate::mesh::Mesh, usize)>,
+    /// `"multigrid"` with the coarse start: the levels it passes through ([`start_levels`]),
+    /// finest first.
+    start: Vec<usize>,
     /// Why `"auto"` chose as it did (empty where the solver was asked for).
     why: String,
 }
@@ -347,6 +358,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
         solver: StaticSolver::Krylov,
         down: None,
         coarse: None,
+        start: Vec::new(),
         why: String::new(),
     };
     if asked == StaticSolver::Krylov {
@@ -386,6 +398,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
         solver: StaticSolver::Direct,
         down: None,
         coarse: None,
+        start: Vec::new(),
         why: String::new(),
     };
     if asked == StaticSolver::Direct {
@@ -419,6 +432,10 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
         });
     };
     let down = crate::hierarchy::Transfer::build(&sc.mesh.nodes, &coarse)?;
+    let start = match settings.coarse_start {
+        true => start_levels(&nodes, c),
+        false => Vec::new(),
+    };
     let why = format!(
         "levels of {} and {} nodes{}",
         sc.mesh.num_nodes(),
@@ -433,6 +450,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
         solver: StaticSolver::Multigrid,
         down: Some(vec![down]),
         coarse: Some((coarse, c)),
+        start,
         why,
     })
 }
@@ -559,7 +577,7 @@ fn assembled(
     settings: &StaticSolve,
     increments: usize,
     down: Option<&[crate::hierarchy::Transfer]>,
-    coarse: Option<&mut System>,
+    start: Option<&mut NestedLevels>,
     sys: &mut System,
     t: f64,
     u: &mut [f64],
@@ -573,15 +591,15 @@ fn assembled(
         }
     }
     let scale = prescribed_force_scale(sys, t, u);
-    let start = match (coarse, down, sys.force.as_fem_mut()) {
-        (Some(c), Some(d), Some(model)) => Some(coarse_start(
-            c,
+    let start = match (start, down, sys.force.as_fem_mut()) {
+        (Some(levels), Some(_), Some(model)) => Some(nested_start(
+            levels,
             t,
             increments,
-            &d[0],
             model,
             &sys.constraints,
             u,
+            settings.smoother,
         )),
         _ => None,
     };

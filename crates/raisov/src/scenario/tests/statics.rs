@@ -130,9 +130,7 @@ fn static_solvers_reach_one_equilibrium() {
     // The coarse start (nested iteration): the default on this membrane; and without it.
     assert!(
         mg.to_string().contains("coarse start: ")
-            && mg
-                .to_string()
-                .contains("Newton iterations on the coarse level"),
+            && mg.to_string().contains("Newton iterations on "),
         "{mg}"
     );
     let (cold, t_c) = solve("+coarse_start = false\n", true);

@@ -42,8 +42,9 @@
 //! [`raisov::integrate::newton_direct::start_levels`] (Newton-multigrid's coarse level, or a
 //! coarser one with at least 1 000 nodes), with the scenario's constraints and loads carried
 //! to it, solved by direct Newton over [`Case::load_steps`] load steps, then each finer
-//! level of it (about four times the nodes) by Newton-multigrid from the last one's
-//! equilibrium, the finest one's equilibrium interpolated to the fine nodes as the fine
+//! level of it (about four times the nodes) from the last one's equilibrium, by
+//! Newton-multigrid for Newton-multigrid and by direct Newton for the others (each baseline's
+//! start made by a baseline), the finest one's equilibrium interpolated to the fine nodes as the fine
 //! solve's start (one load step, or for ADR one increment); its time counts, the meshing of
 //! its levels included. FAS starts from rest: its coarse levels already correct it.
 //!
@@ -98,8 +99,8 @@ use raisov::integrate::adaptive_relax::adaptive_relax;
 use raisov::integrate::chebyshev_relax::chebyshev_relax;
 use raisov::integrate::hold;
 use raisov::integrate::newton_direct::{
-    nested_start, solve_system, start_levels, CoarseStart, DirectNewton, DirectNewtonError,
-    DirectNewtonParams, DirectStatic, MultigridPcg, Smoother,
+    nested_start, solve_system, start_levels, BetweenSolve, CoarseStart, DirectNewton,
+    DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg, Smoother,
 };
 use raisov::integrate::stability::lambda_max_bound;
 use raisov::scenario::{MultigridScheme, Scenario};
@@ -441,14 +442,15 @@ fn lifted(o: &DirectStatic) -> &'static str {
 /// The coarse start of every solver that takes one: the levels of
 /// [`raisov::integrate::newton_direct::start_levels`] below Newton-multigrid's coarse level
 /// ([`newton_mg_levels`], whose mesh `coarse` is where given), solved and interpolated into
-/// `u` ([`raisov::integrate::newton_direct::nested_start`], the levels between smoothed as a
-/// static scenario's Newton-multigrid is by default); `None` where the case has no such
-/// level.
+/// `u` ([`raisov::integrate::newton_direct::nested_start`], the levels between solved by
+/// `multigrid`: Newton-multigrid smoothed as a static scenario's is by default, else by
+/// direct Newton); `None` where the case has no such level.
 fn start_from_coarse(
     case: &Case,
     sys: &mut raisov::integrate::System,
     u: &mut [f64],
     coarse: Option<&raisov::mesh::Mesh>,
+    multigrid: bool,
 ) -> Result<Option<CoarseStart>> {
     let sc = &case.scenario;
     let picked = sc.pick_level(raisov::integrate::newton_direct::coarse_level)?;
@@ -468,7 +470,12 @@ fn start_from_coarse(
         model,
         &sys.constraints,
         u,
-        raisov::scenario::StaticSolve::default_smoother(sc.mesh.kind),
+        match multigrid {
+            true => BetweenSolve::Multigrid(raisov::scenario::StaticSolve::default_smoother(
+                sc.mesh.kind,
+            )),
+            false => BetweenSolve::Direct,
+        },
     )))
 }
 
@@ -504,7 +511,7 @@ fn newton_run(
     let mut sys = sc.build_system()?;
     let t0 = Instant::now();
     let start = if nested {
-        start_from_coarse(case, &mut sys, &mut u, None)?
+        start_from_coarse(case, &mut sys, &mut u, None, false)?
     } else {
         None
     };
@@ -584,7 +591,7 @@ fn newton_mg_run(
     let t0 = Instant::now();
     let (meshes, down) = newton_mg_hierarchy(sc)?;
     let start = if nested && meshes.len() > 1 {
-        start_from_coarse(case, &mut sys, &mut u, Some(&meshes[1]))?
+        start_from_coarse(case, &mut sys, &mut u, Some(&meshes[1]), true)?
     } else {
         None
     };
@@ -742,7 +749,7 @@ fn relax_run(
         if !ends.is_empty() {
             hold(&mut sys.constraints, ends);
         }
-        start_from_coarse(case, &mut sys, &mut u, None)?
+        start_from_coarse(case, &mut sys, &mut u, None, false)?
     } else {
         None
     };

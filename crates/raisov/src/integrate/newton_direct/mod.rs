@@ -122,8 +122,8 @@ mod pattern;
 mod pcg;
 
 pub use nested::{
-    coarse_start, nested_start, CoarseStart, NestedLevels, StartLevel, BETWEEN_REL_TOL,
-    COARSE_PCG_MAX, COARSE_REL_TOL,
+    coarse_start, nested_start, BetweenSolve, CoarseStart, NestedLevels, StartLevel,
+    BETWEEN_REL_TOL, COARSE_PCG_MAX, COARSE_REL_TOL,
 };
 use pcg::{forcing_term, pcg, pcg_from, PcgEnd};
 

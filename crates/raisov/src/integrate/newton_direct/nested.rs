@@ -150,7 +150,7 @@ pub fn coarse_start(
         fine,
         fine_constraints,
         u,
-        Smoother::default(),
+        BetweenSolve::Direct,
     )
 }
 
@@ -160,6 +160,19 @@ pub struct StartLevel {
     pub system: System,
     /// Its nodes located in the next coarser level of the start.
     pub down: Transfer,
+}
+
+/// How a nested start solves the levels between its coarsest and the fine one
+/// ([`nested_start`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BetweenSolve {
+    /// Newton-multigrid over the level and the next coarser one of the start, with this
+    /// smoother (the other settings [`MultigridPcg`]'s defaults): the static scenarios'.
+    Multigrid(Smoother),
+    /// Direct Newton, its factorisation reused by conjugate gradients as the coarsest level's
+    /// is ([`COARSE_PCG_MAX`]): a start made by direct Newton alone, as the equilibrium
+    /// bench gives its direct Newton.
+    Direct,
 }
 
 /// The levels of a nested start ([`nested_start`]).
@@ -177,9 +190,8 @@ pub struct NestedLevels {
 /// Newton over `load_steps` load steps from rest; then each level of `levels.between`
 /// (finest first, each one's [`StartLevel::down`] locating its nodes in the next coarser
 /// level, the last one's in the coarsest), coarsest first, started from the coarser
-/// equilibrium interpolated and solved in one load step to [`BETWEEN_REL_TOL`] by
-/// Newton-multigrid over itself and the next coarser level (`smoother`, the other settings
-/// [`MultigridPcg`]'s defaults); the last equilibrium is interpolated at the fine nodes into
+/// equilibrium interpolated and solved in one load step to [`BETWEEN_REL_TOL`] as `solve`
+/// says; the last equilibrium is interpolated at the fine nodes into
 /// `u` as in [`coarse_start`]. The start is not taken where any level's solve fails or does
 /// not converge, or where an interpolation inverts an element of the level it reaches.
 pub fn nested_start(
@@ -189,7 +201,7 @@ pub fn nested_start(
     fine: &FemModel,
     fine_constraints: &Constraints,
     u: &mut [f64],
-    smoother: Smoother,
+    solve: BetweenSolve,
 ) -> CoarseStart {
     let NestedLevels {
         coarsest,
@@ -205,7 +217,7 @@ pub fn nested_start(
         fine,
         fine_constraints,
         u,
-        smoother,
+        solve,
     )
 }
 
@@ -220,7 +232,7 @@ fn start_through(
     fine: &FemModel,
     fine_constraints: &Constraints,
     u: &mut [f64],
-    smoother: Smoother,
+    solve: BetweenSolve,
 ) -> CoarseStart {
     let clock = std::time::Instant::now();
     let mut out = CoarseStart {
@@ -259,7 +271,7 @@ fn start_through(
         }
     };
     if converged {
-        match climb(between, t, uc, smoother, &mut out) {
+        match climb(between, t, uc, solve, &mut out) {
             Err(why) => out.skipped = Some(why),
             Ok(ub) => match interpolate(&ub, fine_in_first, fine, fine_constraints, t) {
                 Err(why) => out.skipped = Some(why),
@@ -275,13 +287,13 @@ fn start_through(
 }
 
 /// The levels of `between`, coarsest first, each started from the coarser level's
-/// equilibrium `uc` interpolated and solved by Newton-multigrid ([`nested_start`]); the
+/// equilibrium `uc` interpolated and solved as `solve` says ([`nested_start`]); the
 /// finest one's equilibrium (`uc` itself where `between` is empty), or why not.
 fn climb(
     between: &mut [StartLevel],
     t: f64,
     mut uc: Vec<f64>,
-    smoother: Smoother,
+    solve: BetweenSolve,
     out: &mut CoarseStart,
 ) -> Result<Vec<f64>, String> {
     for level in between.iter_mut().rev() {
@@ -295,30 +307,39 @@ fn climb(
             .as_fem_mut()
             .ok_or_else(|| DirectNewtonError::NotFem.to_string())?;
         let mut ul = interpolate(&uc, &level.down, model, constraints, t)?;
-        let o = DirectNewton::with_levels(model, constraints, std::slice::from_ref(&level.down))
-            .and_then(|mut s| {
-                s.solve(
-                    model,
-                    constraints,
-                    f_ext,
-                    t,
-                    &mut ul,
-                    DirectNewtonParams {
-                        rel_tol: BETWEEN_REL_TOL,
-                        multigrid: Some(MultigridPcg {
+        let params = DirectNewtonParams {
+            rel_tol: BETWEEN_REL_TOL,
+            ..Default::default()
+        };
+        let o = match solve {
+            BetweenSolve::Multigrid(smoother) => {
+                DirectNewton::with_levels(model, constraints, std::slice::from_ref(&level.down))
+                    .and_then(|mut s| {
+                        let multigrid = Some(MultigridPcg {
                             smoother,
                             ..Default::default()
-                        }),
-                        ..Default::default()
-                    },
-                )
-            })
-            .map_err(|e| {
-                format!(
-                    "the solve of a {}-node level failed: {e}",
-                    model.num_nodes()
-                )
-            })?;
+                        });
+                        let p = DirectNewtonParams {
+                            multigrid,
+                            ..params
+                        };
+                        s.solve(model, constraints, f_ext, t, &mut ul, p)
+                    })
+            }
+            BetweenSolve::Direct => DirectNewton::new(model, constraints).and_then(|mut s| {
+                let p = DirectNewtonParams {
+                    pcg_max: COARSE_PCG_MAX,
+                    ..params
+                };
+                s.solve(model, constraints, f_ext, t, &mut ul, p)
+            }),
+        }
+        .map_err(|e| {
+            format!(
+                "the solve of a {}-node level failed: {e}",
+                model.num_nodes()
+            )
+        })?;
         let converged = o.converged;
         let (steps, residual) = (o.newton_steps, o.residual);
         out.between.push(o);

@@ -500,7 +500,7 @@ fn start_through_a_level_between_lands_on_the_equilibrium_in_fewer_fine_iteratio
                 model,
                 &sys.constraints,
                 &mut u,
-                Smoother::ColouredBlock,
+                BetweenSolve::Multigrid(Smoother::ColouredBlock),
             );
             assert!(start.applied, "{start:?}");
             assert!(start.coarse.as_ref().unwrap().converged);

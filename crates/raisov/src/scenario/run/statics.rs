@@ -38,7 +38,7 @@
 use super::{write_balance, write_nodal_stress, Frames, RunOptions};
 use crate::error::{Error, Result};
 use crate::integrate::newton_direct::{
-    axis_of, coarse_level, nested_start, start_levels, CoarseStart, DirectNewton,
+    axis_of, coarse_level, nested_start, start_levels, BetweenSolve, CoarseStart, DirectNewton,
     DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg, NestedLevels,
 };
 use crate::integrate::statics::Static;
@@ -599,7 +599,7 @@ fn assembled(
             model,
             &sys.constraints,
             u,
-            settings.smoother,
+            BetweenSolve::Multigrid(settings.smoother),
         )),
         _ => None,
     };

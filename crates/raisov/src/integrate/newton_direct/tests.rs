@@ -684,7 +684,7 @@ fn start_levels_step_down_by_about_four() {
     assert_eq!(start_levels(&drape, 4), vec![2, 4]);
     // The shipped liver L0: the coarse level alone (L2 is not 3 times L3's nodes).
     assert_eq!(start_levels(&[16693, 7547, 3764, 2088], 3), vec![3]);
-    // The mesher's 17k liver: its 4 283-node level above its 1 056-node coarse level.
+    // Levels halving down to 1 056 nodes, the coarse level: the 4 283-node level above it.
     assert_eq!(
         start_levels(&[17160, 8582, 4283, 2143, 1056], 4),
         vec![2, 4]

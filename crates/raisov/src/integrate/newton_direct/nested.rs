@@ -30,7 +30,7 @@
 //! factorisation reuse ([`COARSE_PCG_MAX`]) to [`COARSE_REL_TOL`], over the caller's load
 //! steps; the fine iteration then takes the full load in one step.
 //!
-//! Through several levels ([`nested_start`], the levels of [`super::start_levels`]: each
+//! Through several levels ([`nested_start`], the levels of [`start_levels`]: each
 //! about a quarter of the next finer one's nodes where the levels allow, the coarsest with
 //! at least 1 000 nodes or as many as the coarse level):
 //!
@@ -73,6 +73,49 @@ pub const COARSE_PCG_MAX: usize = 5;
 /// Relative stopping rule of the solves of the levels between the coarsest and the fine one
 /// ([`nested_start`]; of each level's largest nodal external force).
 pub const BETWEEN_REL_TOL: f64 = 1e-6;
+
+/// Consecutive levels of a nested start, and the fine level and the finest of them, are at
+/// least `NESTED_GAP` times apart in node count ([`start_levels`]).
+pub const NESTED_GAP: usize = 3;
+
+/// A nested start's coarsest level has at least `START_MIN_NODES` nodes, or as many as
+/// Newton-multigrid's coarse level where that has fewer ([`start_levels`]).
+pub const START_MIN_NODES: usize = 1000;
+
+/// Of levels with `nodes[l]` nodes (finest first) and Newton-multigrid's coarse level
+/// `coarse` ([`super::coarse_level`]), the levels a nested start passes through ([`nested_start`]),
+/// finest first. The last, solved first by direct Newton, is the coarsest level with at
+/// least [`START_MIN_NODES`] nodes or as many as `coarse`; above it, each is the coarsest
+/// level with at least [`NESTED_GAP`] times the nodes of the one below and at most
+/// 1/[`NESTED_GAP`] of the fine level's. Empty where `coarse` is not a coarser level.
+///
+/// The fine iteration started from a finer level's equilibrium has less discretisation
+/// error left to remove, and each level but the coarsest is solved by Newton-multigrid over
+/// itself and the next one, from that one's equilibrium (`bench/RESULTS.md`: the 100k drape
+/// through 25k, 6k and 1.5k levels against from its 6k level alone).
+pub fn start_levels(nodes: &[usize], coarse: usize) -> Vec<usize> {
+    let (Some(&n0), Some(&nc)) = (nodes.first(), nodes.get(coarse)) else {
+        return Vec::new();
+    };
+    if coarse == 0 {
+        return Vec::new();
+    }
+    let floor = nc.min(START_MIN_NODES);
+    let Some(bottom) = (1..nodes.len()).rev().find(|&l| nodes[l] >= floor) else {
+        return Vec::new();
+    };
+    let mut out = vec![bottom];
+    let mut last = nodes[bottom];
+    while let Some(l) = (1..*out.last().expect("one"))
+        .rev()
+        .find(|&l| nodes[l] >= NESTED_GAP * last && nodes[l] * NESTED_GAP <= n0)
+    {
+        out.push(l);
+        last = nodes[l];
+    }
+    out.reverse();
+    out
+}
 
 /// What [`coarse_start`] did.
 #[derive(Clone, Debug, Default)]

@@ -300,7 +300,8 @@ fn sigkill_leaves_rows_up_to_the_last_frame_and_no_lock() {
 
 /// `raisov check` of a static scenario says what `raisov run` would solve: the solver as
 /// `"auto"` resolves it, the smoother, the coarse start, the increments; no time step. It
-/// printed the dynamic integrator and FAS's stepper, which a static solve does not run.
+/// printed the dynamic integrator and FAS's stepper, which a static solve does not run. The
+/// coarse start's levels are named with their node counts (requested, for generated levels).
 #[test]
 fn check_of_a_static_scenario_names_its_solver_and_smoother() {
     let dir = tempfile::tempdir().unwrap();
@@ -317,7 +318,7 @@ fn check_of_a_static_scenario_names_its_solver_and_smoother() {
         out.contains("newton (static equilibrium), solver \"multigrid\"")
             && out.contains("(solver \"auto\")")
             && out.contains("block Jacobi smoothing")
-            && out.contains("coarse start yes")
+            && out.contains("coarse start yes (through levels 1 (about 60 nodes))")
             && out.contains("1 load increment"),
         "{out}"
     );

@@ -350,6 +350,8 @@ pub struct PickedLevel {
     /// The node counts the choice was made from, finest first: the meshes' own for mesh
     /// files, the requested ones for generated membranes.
     pub counts: Vec<usize>,
+    /// Whether `counts` are requested counts (generated membranes), not meshed ones.
+    pub requested: bool,
     /// The chosen coarser level (1 or more) and its mesh; `None` where none was chosen.
     pub chosen: Option<(usize, Mesh)>,
 }
@@ -404,14 +406,22 @@ impl Scenario {
                 Some(i) => Some((i, self.build_level(&shapes[i - 1], i - 1)?.0)),
                 None => None,
             };
-            return Ok(PickedLevel { counts, chosen });
+            return Ok(PickedLevel {
+                counts,
+                requested: true,
+                chosen,
+            });
         }
         let meshes = self.level_meshes()?;
         let counts: Vec<usize> = meshes.iter().map(|m| m.num_nodes()).collect();
         let chosen = pick(&counts)
             .filter(|&i| i > 0)
             .and_then(|i| meshes.into_iter().nth(i).map(|m| (i, m)));
-        Ok(PickedLevel { counts, chosen })
+        Ok(PickedLevel {
+            counts,
+            requested: false,
+            chosen,
+        })
     }
 
     /// The mesh of coarser level `level` (1 or more) alone: generated, or read from its file.

@@ -320,10 +320,18 @@ fn pick_level_meshes_the_chosen_generated_level_alone() {
         + "\n[multigrid]\nscheme = \"fas\"\nlevels = 6\n";
     let sc = parse(&text).unwrap();
     let all = sc.level_meshes().unwrap();
-    let super::levels::PickedLevel { counts, chosen } = sc
+    let super::levels::PickedLevel {
+        counts,
+        requested,
+        chosen,
+    } = sc
         .pick_level(crate::integrate::newton_direct::coarse_level)
         .unwrap();
     assert_eq!(counts, vec![2000, 1000, 500, 250, 125, 63]);
+    assert!(
+        requested,
+        "generated levels are chosen by their requested counts"
+    );
     let (i, mesh) = chosen.unwrap();
     assert_eq!(i, 4, "1/16 of 2000 requested nodes is level 4's 125");
     assert_eq!(mesh.nodes, all[i].nodes);

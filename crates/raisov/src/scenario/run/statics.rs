@@ -314,7 +314,18 @@ pub fn describe_static(sc: &Scenario) -> Result<String> {
             if settings.coarse_start { "yes" } else { "no" }
         );
         if !plan.start.is_empty() {
-            let levels: Vec<String> = plan.start.iter().rev().map(|l| l.to_string()).collect();
+            let levels: Vec<String> = plan
+                .start
+                .iter()
+                .rev()
+                .map(|&l| {
+                    format!(
+                        "{l} ({}{} nodes)",
+                        if plan.start_requested { "about " } else { "" },
+                        plan.start_nodes.get(l).copied().unwrap_or(0)
+                    )
+                })
+                .collect();
             s += &format!(" (through levels {})", levels.join(", "));
         }
     }
@@ -346,6 +357,11 @@ struct Plan {
     /// `"multigrid"` with the coarse start: the levels it passes through ([`start_levels`]),
     /// finest first.
     start: Vec<usize>,
+    /// Every level's node count, finest first (as [`crate::scenario::PickedLevel::counts`]), for the start's
+    /// description.
+    start_nodes: Vec<usize>,
+    /// Whether those counts are the requested ones of generated levels, not meshed counts.
+    start_requested: bool,
     /// Why `"auto"` chose as it did (empty where the solver was asked for).
     why: String,
 }
@@ -359,6 +375,8 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
         down: None,
         coarse: None,
         start: Vec::new(),
+        start_nodes: Vec::new(),
+        start_requested: false,
         why: String::new(),
     };
     if asked == StaticSolver::Krylov {
@@ -399,6 +417,8 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
         down: None,
         coarse: None,
         start: Vec::new(),
+        start_nodes: Vec::new(),
+        start_requested: false,
         why: String::new(),
     };
     if asked == StaticSolver::Direct {
@@ -451,6 +471,8 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
         down: Some(vec![down]),
         coarse: Some((coarse, c)),
         start,
+        start_requested: picked.requested,
+        start_nodes: nodes,
         why,
     })
 }

@@ -357,8 +357,8 @@ struct Plan {
     /// `"multigrid"` with the coarse start: the levels it passes through ([`start_levels`]),
     /// finest first.
     start: Vec<usize>,
-    /// Every level's node count, finest first (as [`crate::scenario::PickedLevel::counts`]), for the start's
-    /// description.
+    /// Every level's node count, finest first ([`crate::scenario::PickedLevel::counts`]),
+    /// for the start's description.
     start_nodes: Vec<usize>,
     /// Whether those counts are the requested ones of generated levels, not meshed counts.
     start_requested: bool,

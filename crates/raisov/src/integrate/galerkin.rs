@@ -48,6 +48,12 @@
 //! Everything is computed in a fixed order: the Galerkin products and the matrix-vector
 //! products are split into row blocks that are independent (the same bits on any thread
 //! count), and so are the smoothers' ([`super::smoother`]).
+//!
+//! A later hierarchy over the same finest pattern and prolongations (a later Newton tangent)
+//! keeps what depends on the patterns alone ([`GalerkinSymbolic`]): each product's pattern,
+//! the smoothed levels' colourings and colour orders, the coarsest level's symbolic
+//! factorisation. Only the values are formed again, each sum in the order of the first build:
+//! the bits of a build from scratch.
 
 use super::coarse_factor::{CoarseFactor, CoarseSymbolic, Precision};
 use super::smoother::{gauss_seidel, ColourOrder, Colouring, Smoother};
@@ -260,6 +266,52 @@ impl Csr {
         }
     }
 
+    /// The values of `self · b` on `out`'s pattern, that of [`Csr::product`] of the same
+    /// two patterns (`b`'s values `b_vals`): the same sums in the same order, so the same
+    /// bits, without finding the pattern again.
+    fn product_values(&self, b: &Csr, b_vals: &[f64], out: &Csr) -> Vec<f64> {
+        debug_assert_eq!(out.rows, self.rows);
+        let mut val = vec![0.0; out.col.len()];
+        let mut parts = Vec::with_capacity(self.rows.div_ceil(ROW_BLOCK));
+        let mut rest = &mut val[..];
+        for r0 in (0..self.rows).step_by(ROW_BLOCK) {
+            let r1 = (r0 + ROW_BLOCK).min(self.rows);
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(out.ptr[r1] - out.ptr[r0]);
+            parts.push((r0, r1, head));
+            rest = tail;
+        }
+        parts.into_par_iter().for_each(|(r0, r1, part)| {
+            let mut acc = vec![0.0; b.cols];
+            let base = out.ptr[r0];
+            for i in r0..r1 {
+                let (c, v) = self.row(i);
+                for (&j, &a) in c.iter().zip(v) {
+                    let (bc, bv) = b.row_of(b_vals, j as usize);
+                    for (&k, &w) in bc.iter().zip(bv) {
+                        acc[k as usize] += a * w;
+                    }
+                }
+                for q in out.ptr[i]..out.ptr[i + 1] {
+                    let k = out.col[q] as usize;
+                    part[q - base] = acc[k];
+                    acc[k] = 0.0;
+                }
+            }
+        });
+        val
+    }
+
+    /// The pattern alone: no values.
+    fn pattern(&self) -> Csr {
+        Csr {
+            rows: self.rows,
+            cols: self.cols,
+            ptr: self.ptr.clone(),
+            col: self.col.clone(),
+            val: Vec::new(),
+        }
+    }
+
     /// The diagonal (0 where absent).
     pub(crate) fn diagonal(&self) -> Vec<f64> {
         (0..self.rows)
@@ -439,6 +491,63 @@ pub enum GalerkinError {
     Factor(String),
 }
 
+/// One coarser level's Galerkin product patterns: `A_l P_l`'s and `A_{l+1} = P_lᵀ A_l P_l`'s
+/// (an empty row's unit diagonal included), values empty. Fixed by the finer operator's
+/// pattern and the prolongation.
+#[derive(Clone, Debug)]
+struct ProductPattern {
+    ap: Csr,
+    c: Csr,
+    /// The rows of `A_{l+1}` given a unit diagonal ([`unit_empty_diagonal`]).
+    empty: Vec<usize>,
+}
+
+impl ProductPattern {
+    /// `Pᵀ A P` on this pattern: the bits of [`galerkin_product`], the patterns not searched
+    /// again.
+    fn product(&self, a: &Csr, pl: &Csr, pt: &Csr) -> Csr {
+        let ap = a.product_values(pl, &pl.val, &self.ap);
+        let mut val = pt.product_values(&self.ap, &ap, &self.c);
+        for &i in &self.empty {
+            val[self.c.ptr[i]] = 1.0;
+        }
+        Csr {
+            val,
+            ..self.c.clone()
+        }
+    }
+}
+
+/// What a Galerkin hierarchy keeps from one build to the next on the same finest pattern and
+/// prolongations (a Newton solve's later tangents): the Galerkin products' patterns, the
+/// smoothed levels' colourings and colour orders ([`Smoother::ColouredBlock`],
+/// [`Smoother::BlockJacobi`]), the coarsest level's symbolic factorisation. Empty at first;
+/// each [`GalerkinMultigrid::new`] fills in what it lacks. A call with other prolongations
+/// or a finest operator of another shape starts it afresh; one with another pattern of the
+/// same rows and entries per row is a caller's error.
+#[derive(Default)]
+pub struct GalerkinSymbolic {
+    /// The prolongations and the finest pattern's row starts these are for.
+    key: Option<(Arc<Prolongations>, Vec<usize>)>,
+    products: Option<Arc<Vec<ProductPattern>>>,
+    colourings: Option<Arc<Vec<Colouring>>>,
+    orders: Option<Arc<Vec<ColourOrder>>>,
+    coarse: Option<CoarseSymbolic>,
+}
+
+impl GalerkinSymbolic {
+    /// Start afresh unless this was filled for `p` and a finest pattern with `a0`'s rows.
+    fn check(&mut self, a0: &Csr, p: &Arc<Prolongations>) {
+        let same = matches!(&self.key, Some((kp, ptr)) if Arc::ptr_eq(kp, p) && *ptr == a0.ptr);
+        if !same {
+            *self = GalerkinSymbolic {
+                key: Some((p.clone(), a0.ptr.clone())),
+                ..Default::default()
+            };
+        }
+    }
+}
+
 /// A Galerkin V-cycle for one matrix (module docs), its coarsest level factored.
 pub struct GalerkinMultigrid {
     /// `A_l`, finest first.
@@ -448,14 +557,16 @@ pub struct GalerkinMultigrid {
     /// The smoother's inverse diagonals of each level but the coarsest.
     relax: Vec<Relax>,
     p: Arc<Prolongations>,
+    /// Each coarser level's product patterns ([`GalerkinSymbolic`]).
+    products: Arc<Vec<ProductPattern>>,
     sweeps: usize,
     smoother: Smoother,
     /// Each smoothed level's node blocks and colours ([`Smoother::ColouredBlock`]); fixed by
     /// the pattern, so kept by [`GalerkinMultigrid::refresh`].
-    colourings: Vec<Colouring>,
+    colourings: Arc<Vec<Colouring>>,
     /// Each smoothed level's rows in colour order, which its `f32` values follow
     /// ([`Smoother::ColouredBlock`] only; empty otherwise).
-    orders: Vec<ColourOrder>,
+    orders: Arc<Vec<ColourOrder>>,
     coarse: CoarseFactor,
 }
 
@@ -472,10 +583,10 @@ enum Relax {
 impl GalerkinMultigrid {
     /// The Galerkin operators of `a0` over `p`'s levels and the coarsest one's factorisation,
     /// solved in `precision` ([`super::coarse_factor`]); `sweeps` sweeps of `smoother` before
-    /// and after each coarse correction. `symbolic`, the
-    /// coarsest level's symbolic factorisation from an earlier call on the same hierarchy and
-    /// pattern, is reused where given and filled in where not, after checking that the
-    /// factor fits in the available memory ([`GalerkinError::Memory`]). Errors where the
+    /// and after each coarse correction. `symbolic`, what an earlier call on the same
+    /// prolongations and finest pattern found ([`GalerkinSymbolic`]), is reused where it
+    /// holds it and filled in where not, the coarsest factor's size checked against the
+    /// available memory before it is first analysed ([`GalerkinError::Memory`]). Errors where the
     /// coarsest operator does not factor even shifted by 10⁶ times its mean diagonal
     /// ([`GalerkinError::Factor`]).
     pub fn new(
@@ -484,34 +595,54 @@ impl GalerkinMultigrid {
         sweeps: usize,
         smoother: Smoother,
         precision: Precision,
-        symbolic: &mut Option<CoarseSymbolic>,
+        symbolic: &mut GalerkinSymbolic,
     ) -> Result<Self, GalerkinError> {
-        let a = operators(a0, &p);
-        let coarse = CoarseFactor::new(a.last().unwrap(), symbolic, precision)?;
+        symbolic.check(&a0, &p);
+        let a = operators(a0, &p, &mut symbolic.products);
+        let products = symbolic.products.clone().expect("made by `operators`");
+        let coarse = CoarseFactor::new(a.last().unwrap(), &mut symbolic.coarse, precision)?;
+        let smoothed = &a[..a.len() - 1];
         let colourings = match smoother {
-            Smoother::GaussSeidel => Vec::new(),
-            Smoother::ColouredBlock | Smoother::BlockJacobi => a[..a.len() - 1]
-                .iter()
-                .zip(&p.dofs)
-                .map(|(al, dofs)| Colouring::new(al, dofs))
-                .collect(),
+            Smoother::GaussSeidel => Arc::new(Vec::new()),
+            Smoother::ColouredBlock | Smoother::BlockJacobi => symbolic
+                .colourings
+                .get_or_insert_with(|| {
+                    Arc::new(
+                        smoothed
+                            .iter()
+                            .zip(&p.dofs)
+                            .map(|(al, dofs)| Colouring::new(al, dofs))
+                            .collect(),
+                    )
+                })
+                .clone(),
         };
         let orders = if smoother == Smoother::ColouredBlock {
-            let bytes = a[..a.len() - 1]
-                .iter()
-                .map(|m| ColourOrder::bytes(m.rows, m.col.len()))
-                .sum();
-            crate::memory::check("the smoothed levels' rows in colour order", bytes)
-                .map_err(GalerkinError::Memory)?;
-            a.iter().zip(&colourings).map(|(m, c)| c.order(m)).collect()
+            if symbolic.orders.is_none() {
+                let bytes = smoothed
+                    .iter()
+                    .map(|m| ColourOrder::bytes(m.rows, m.col.len()))
+                    .sum();
+                crate::memory::check("the smoothed levels' rows in colour order", bytes)
+                    .map_err(GalerkinError::Memory)?;
+                symbolic.orders = Some(Arc::new(
+                    smoothed
+                        .iter()
+                        .zip(colourings.iter())
+                        .map(|(m, c)| c.order(m))
+                        .collect(),
+                ));
+            }
+            symbolic.orders.clone().expect("made above")
         } else {
-            Vec::new()
+            Arc::new(Vec::new())
         };
         let mut mg = GalerkinMultigrid {
             a,
             single: Vec::new(),
             relax: Vec::new(),
             p,
+            products,
             sweeps,
             smoother,
             colourings,
@@ -539,8 +670,8 @@ impl GalerkinMultigrid {
         let levels = self.a.len();
         let mut a = vec![std::mem::take(&mut self.a[0])];
         if levels > 1 {
-            for (pl, pt) in &self.p.levels[..levels - 2] {
-                a.push(galerkin_product(a.last().unwrap(), pl, pt));
+            for ((pl, pt), pat) in self.p.levels[..levels - 2].iter().zip(self.products.iter()) {
+                a.push(pat.product(a.last().unwrap(), pl, pt));
             }
             a.push(self.a.pop().expect("the coarsest operator"));
         }
@@ -604,12 +735,12 @@ impl GalerkinMultigrid {
                 .collect(),
             Smoother::ColouredBlock => smoothed
                 .iter()
-                .zip(&self.colourings)
+                .zip(self.colourings.iter())
                 .map(|(m, c)| Relax::Block(c.inverses(m)))
                 .collect(),
             Smoother::BlockJacobi => smoothed
                 .iter()
-                .zip(&self.colourings)
+                .zip(self.colourings.iter())
                 .enumerate()
                 .map(|(l, (m, c))| {
                     let inv = c.inverses(m);
@@ -685,28 +816,52 @@ impl GalerkinMultigrid {
 }
 
 /// The Galerkin operators of `a0` over `p`'s levels, finest first.
-fn operators(a0: Csr, p: &Prolongations) -> Vec<Csr> {
+/// `products`, the patterns of an earlier call on the same finest pattern, are used where
+/// given and found (and kept) where not.
+fn operators(
+    a0: Csr,
+    p: &Prolongations,
+    products: &mut Option<Arc<Vec<ProductPattern>>>,
+) -> Vec<Csr> {
     let mut a = vec![a0];
-    for (pl, pt) in &p.levels {
-        a.push(galerkin_product(a.last().unwrap(), pl, pt));
+    match products {
+        Some(pats) => {
+            for ((pl, pt), pat) in p.levels.iter().zip(pats.iter()) {
+                a.push(pat.product(a.last().unwrap(), pl, pt));
+            }
+        }
+        None => {
+            let mut pats = Vec::with_capacity(p.levels.len());
+            for (pl, pt) in &p.levels {
+                let (c, pat) = galerkin_product(a.last().unwrap(), pl, pt);
+                a.push(c);
+                pats.push(pat);
+            }
+            *products = Some(Arc::new(pats));
+        }
     }
     a
 }
 
-/// `Pᵀ A P`, rows without a positive diagonal given a unit one.
-fn galerkin_product(a: &Csr, pl: &Csr, pt: &Csr) -> Csr {
+/// `Pᵀ A P`, rows without a positive diagonal given a unit one, and its patterns.
+fn galerkin_product(a: &Csr, pl: &Csr, pt: &Csr) -> (Csr, ProductPattern) {
     let ap = a.product(pl);
     let mut c = pt.product(&ap);
-    unit_empty_diagonal(&mut c);
-    c
+    let empty = unit_empty_diagonal(&mut c);
+    let pat = ProductPattern {
+        ap: ap.pattern(),
+        c: c.pattern(),
+        empty,
+    };
+    (c, pat)
 }
 
 /// Give every row without a positive diagonal (a coarse dof that only fixed fine dofs see)
-/// a unit diagonal; such rows are empty.
-fn unit_empty_diagonal(c: &mut Csr) {
+/// a unit diagonal; such rows are empty. Returns those rows.
+fn unit_empty_diagonal(c: &mut Csr) -> Vec<usize> {
     let empty: Vec<usize> = (0..c.rows).filter(|&i| c.ptr[i] == c.ptr[i + 1]).collect();
     if empty.is_empty() {
-        return;
+        return empty;
     }
     let mut ptr = Vec::with_capacity(c.rows + 1);
     ptr.push(0);
@@ -726,6 +881,7 @@ fn unit_empty_diagonal(c: &mut Csr) {
     c.ptr = ptr;
     c.col = col;
     c.val = val;
+    empty
 }
 
 #[cfg(test)]
@@ -860,7 +1016,7 @@ pub(crate) mod tests {
             1,
             Smoother::GaussSeidel,
             Precision::Double,
-            &mut None,
+            &mut GalerkinSymbolic::default(),
         )
         .unwrap();
         let coarse = mg.a[1].clone();
@@ -922,7 +1078,7 @@ pub(crate) mod tests {
                 1,
                 smoother,
                 precision,
-                &mut None,
+                &mut GalerkinSymbolic::default(),
             )
             .unwrap();
             // Symmetric: x·B y = y·B x; to round-off with the coarse factor in f64, to the
@@ -961,6 +1117,107 @@ pub(crate) mod tests {
                 e5 < 0.5f64.powi(5) * e0,
                 "{smoother:?}, {precision:?}: error {e0} -> {e5} in 5 cycles"
             );
+        }
+    }
+
+    /// Linear interpolation from `nc` points at every other one of `nf` (at most `2 nc + 1`; 1-D, ends
+    /// held), and `extra` coarse columns that no fine row sees.
+    fn interpolation(nf: usize, nc: usize, extra: usize) -> Csr {
+        let mut p = Csr {
+            rows: nf,
+            cols: nc + extra,
+            ptr: vec![0],
+            ..Default::default()
+        };
+        for f in 1..=nf {
+            if f % 2 == 0 {
+                p.col.push((f / 2 - 1) as u32);
+                p.val.push(1.0);
+            } else {
+                if f / 2 >= 1 {
+                    p.col.push((f / 2 - 1) as u32);
+                    p.val.push(0.5);
+                }
+                if f / 2 < nc {
+                    p.col.push((f / 2) as u32);
+                    p.val.push(0.5);
+                }
+            }
+            p.ptr.push(p.col.len());
+        }
+        p
+    }
+
+    /// A hierarchy built on the patterns, colourings and coarse symbolic factorisation kept
+    /// from an earlier build ([`GalerkinSymbolic`]) has the bits of one built afresh: every
+    /// level's operator (an empty coarse row's unit diagonal included) and the cycle; so does
+    /// a refresh through a middle level. Other prolongations start the kept structure afresh.
+    #[test]
+    fn kept_galerkin_patterns_give_the_bits_of_a_fresh_build() {
+        let n = 31;
+        let (p1, p2) = (interpolation(31, 15, 1), interpolation(16, 8, 0));
+        let levels = |p1: &Csr| {
+            let (p1t, p2t) = (p1.transpose(), p2.transpose());
+            Arc::new(Prolongations {
+                levels: vec![(p1.clone(), p1t), (p2.clone(), p2t)],
+                dofs: vec![(0..n).collect(), (0..16).collect()],
+            })
+        };
+        let p = levels(&p1);
+        // The same pattern, other values: a varying diagonal.
+        let varied = |c: f64| {
+            let mut a = laplace(n);
+            for i in 0..n {
+                let k = a.ptr[i] + a.row(i).0.iter().position(|&j| j as usize == i).unwrap();
+                a.val[k] += c * (1.0 + (i as f64 * 0.37).sin());
+            }
+            a
+        };
+        for smoother in [
+            Smoother::GaussSeidel,
+            Smoother::ColouredBlock,
+            Smoother::BlockJacobi,
+        ] {
+            let build = |a: Csr, sym: &mut GalerkinSymbolic| {
+                GalerkinMultigrid::new(a, p.clone(), 1, smoother, Precision::Double, sym).unwrap()
+            };
+            let mut kept = GalerkinSymbolic::default();
+            let first = build(varied(0.1), &mut kept);
+            assert_eq!(
+                first.a[1].row(15),
+                (&[15u32][..], &[1.0][..]),
+                "unit diagonal"
+            );
+            let again = build(varied(0.7), &mut kept);
+            let fresh = build(varied(0.7), &mut GalerkinSymbolic::default());
+            assert!(
+                Arc::ptr_eq(&first.products, &again.products),
+                "{smoother:?}"
+            );
+            assert_eq!(again.a, fresh.a, "{smoother:?}");
+            let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.9).cos()).collect();
+            let (mut za, mut zf) = (vec![0.0; n], vec![0.0; n]);
+            again.apply(&b, &mut za);
+            fresh.apply(&b, &mut zf);
+            assert_eq!(za, zf, "{smoother:?}");
+            // A refresh forms the middle level on the kept pattern.
+            let mut refreshed = again;
+            refreshed.finest_mut().val.copy_from_slice(&varied(2.0).val);
+            refreshed.refresh();
+            let other = build(varied(2.0), &mut GalerkinSymbolic::default());
+            assert_eq!(refreshed.a[..2], other.a[..2], "{smoother:?}");
+            // Other prolongations (equal, but not the same): found afresh.
+            let moved = GalerkinMultigrid::new(
+                varied(0.7),
+                levels(&p1),
+                1,
+                smoother,
+                Precision::Double,
+                &mut kept,
+            )
+            .unwrap();
+            assert!(!Arc::ptr_eq(&first.products, &moved.products));
+            assert_eq!(moved.a, fresh.a);
         }
     }
 

@@ -127,9 +127,10 @@ pub use nested::{
 };
 use pcg::{forcing_term, pcg, pcg_from, PcgEnd};
 
-use super::coarse_factor::CoarseSymbolic;
 pub use super::coarse_factor::Precision;
-use super::galerkin::{Csr, GalerkinError, GalerkinMultigrid, Prolongations, SymScatter};
+use super::galerkin::{
+    Csr, GalerkinError, GalerkinMultigrid, GalerkinSymbolic, Prolongations, SymScatter,
+};
 pub use super::smoother::Smoother;
 use super::{Constraints, System};
 use crate::fem::{ElementFailure, FemModel, ForceModel};
@@ -341,8 +342,9 @@ pub struct DirectNewton {
     llt: Option<Llt<usize, f64>>,
     /// The interpolations of [`DirectNewton::with_levels`] (empty without).
     prolongations: Arc<Prolongations>,
-    /// The coarsest Galerkin level's symbolic factorisation (its pattern is fixed).
-    coarse_symbolic: Option<CoarseSymbolic>,
+    /// What the Galerkin hierarchies keep from one build to the next (the pattern and the
+    /// prolongations are fixed).
+    hierarchy_symbolic: GalerkinSymbolic,
     /// The last Galerkin hierarchy, kept as the conjugate-gradient preconditioner.
     mg: Option<GalerkinMultigrid>,
     /// Whether the kept hierarchy is provisional (module docs).
@@ -399,7 +401,7 @@ impl DirectNewton {
             weight,
             llt: None,
             prolongations: Arc::new(Prolongations::default()),
-            coarse_symbolic: None,
+            hierarchy_symbolic: GalerkinSymbolic::default(),
             standing: Standing::Settled,
             mg: None,
             scatter: None,
@@ -781,7 +783,7 @@ impl DirectNewton {
                                     mgp.sweeps,
                                     mgp.smoother,
                                     mgp.coarse_precision,
-                                    &mut self.coarse_symbolic,
+                                    &mut self.hierarchy_symbolic,
                                 ) {
                                     Ok(mg) => {
                                         built_now = true;

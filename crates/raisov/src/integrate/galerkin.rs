@@ -1033,31 +1033,7 @@ pub(crate) mod tests {
         // Laplacian on 31 points, a coarse level of 15 (linear interpolation).
         let n = 31;
         let a = laplace(n);
-        let nc = 15;
-        let mut p = Csr {
-            rows: n,
-            cols: nc,
-            ptr: vec![0],
-            ..Default::default()
-        };
-        for i in 0..n {
-            // Fine point i + 1 on the grid 0..=32; coarse point k + 1 at fine 2 (k + 1).
-            let f = i + 1;
-            if f % 2 == 0 {
-                p.col.push((f / 2 - 1) as u32);
-                p.val.push(1.0);
-            } else {
-                if f / 2 >= 1 {
-                    p.col.push((f / 2 - 1) as u32);
-                    p.val.push(0.5);
-                }
-                if f / 2 < nc {
-                    p.col.push((f / 2) as u32);
-                    p.val.push(0.5);
-                }
-            }
-            p.ptr.push(p.col.len());
-        }
+        let p = interpolation(n, 15, 0);
         let pt = p.transpose();
         let levels = Prolongations {
             levels: vec![(p, pt)],

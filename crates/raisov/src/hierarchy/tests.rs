@@ -582,41 +582,6 @@ fn liver_levels_0_and_1() {
     assert_linear_reproduced(&c.up, &l0, &l1.nodes);
 }
 
-/// Timing: `cargo test --release -p raisov --lib hierarchy -- --ignored --nocapture`.
-/// Measured: 1,000,000 nodes (5.82 M tets) against 512,000 nodes (2.96 M tets), both
-/// directions, 6.7 s on 2 shared cores (load about 3.5); one 3-vector interpolation about 16 ms.
-#[test]
-#[ignore]
-fn timing_one_million_nodes() {
-    let t0 = std::time::Instant::now();
-    let fine = box_tets([99, 99, 99], [0.0; 3], [1.0; 3], 0.2, 51);
-    let coarse = box_tets([79, 79, 79], [0.003; 3], [0.997; 3], 0.2, 52);
-    println!(
-        "fine: {} nodes, {} tets; coarse: {} nodes, {} tets; generated in {:.2} s; {} threads",
-        fine.num_nodes(),
-        fine.num_elements(),
-        coarse.num_nodes(),
-        coarse.num_elements(),
-        t0.elapsed().as_secs_f64(),
-        rayon::current_num_threads()
-    );
-    let t1 = std::time::Instant::now();
-    let c = Correspondence::build(&fine, &coarse).unwrap();
-    println!(
-        "correspondence built in {:.2} s: {}",
-        t1.elapsed().as_secs_f64(),
-        c.report
-    );
-    let src = linear_field(&coarse.nodes);
-    let mut out = vec![0.0; 3 * fine.nodes.len()];
-    let t2 = std::time::Instant::now();
-    c.down.interpolate(&src, 3, &mut out).unwrap();
-    println!(
-        "one interpolation of a 3-vector field: {:.2} ms",
-        1e3 * t2.elapsed().as_secs_f64()
-    );
-}
-
 /// Convex weights: outside points get a point of their eq. 7 host (weights in [0, 1], summing
 /// to 1, so constants are reproduced and nothing is amplified); inside points are unchanged.
 #[test]

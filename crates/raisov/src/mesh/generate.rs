@@ -1068,35 +1068,4 @@ mod tests {
         assert!(box_tets_target([1.0; 3], 7, BoxPattern::Six).is_err());
         assert!(box_tets_target([1.0, 0.0, 1.0], 100, BoxPattern::Six).is_err());
     }
-
-    #[test]
-    #[ignore]
-    fn report() {
-        for t in [31, 55, 103, 186, 1000, 3000, 10000, 100_000, 200_000] {
-            let t0 = std::time::Instant::now();
-            let m = rectangle_membrane(0.1, 0.1, t).unwrap();
-            println!(
-                "membrane target {t}: nodes {} tris {} qmin {:.3} qmean {:.3} {:?}",
-                m.num_nodes(),
-                m.num_elements(),
-                min_quality(&m),
-                m.stats().quality_mean,
-                t0.elapsed()
-            );
-        }
-        for pattern in [BoxPattern::Six, BoxPattern::Five] {
-            for t in [1000, 10_000, 100_000, 1_000_000] {
-                let t0 = std::time::Instant::now();
-                let m = box_tets_target([0.1, 0.04, 0.04], t, pattern).unwrap();
-                let el = t0.elapsed();
-                println!(
-                    "box {pattern:?} target {t}: nodes {} tets {} qmin {:.3} {:?}",
-                    m.num_nodes(),
-                    m.num_elements(),
-                    min_quality(&m),
-                    el
-                );
-            }
-        }
-    }
 }

@@ -521,7 +521,10 @@ fn cmd_run(
         }
         return Ok(0);
     }
-    let mut stepper = sc.stepper().map_err(BadInput)?;
+    let mut stepper = sc
+        .stepper()
+        .map_err(BadInput)
+        .with_context(|| format!("{}: building the simulation", sc.path.display()))?;
     eprint!("{}", stepper.report());
     let opts = RunOptions {
         out_dir: out,
@@ -677,7 +680,10 @@ fn cmd_check(path: &Path) -> Result<()> {
     if let Some(i) = &sc.interactive {
         println!("interactive   {i:?}");
     }
-    let stepper = sc.stepper().map_err(BadInput)?;
+    let stepper = sc
+        .stepper()
+        .map_err(BadInput)
+        .with_context(|| format!("{}: building the simulation", sc.path.display()))?;
     println!("stepping      {}", stepper.describe());
     print!("{}", stepper.report());
     println!("output        {}", sc.out_dir.display());

@@ -12,18 +12,29 @@ pub fn available() -> Option<u64> {
     Some(kib.saturating_mul(1024))
 }
 
+/// What a solver's refusal suggests.
+const SOLVER_REMEDY: &str = "use a coarser mesh, or a solver that does not form it";
+
 /// `Ok` where `bytes` fit in the available memory (or it is unknown); otherwise a message
 /// naming `what`, the bytes it needs and the bytes available, both in GiB.
 pub fn check(what: &str, bytes: u64) -> Result<(), String> {
     check_against(what, bytes, available())
 }
 
+/// [`check`] with the message's remedy given (for a solver: a coarser mesh or another solver).
+pub fn check_for(what: &str, bytes: u64, remedy: &str) -> Result<(), String> {
+    refuse(what, bytes, available(), remedy)
+}
+
 /// [`check`] against a given amount of available memory.
 pub fn check_against(what: &str, bytes: u64, available: Option<u64>) -> Result<(), String> {
+    refuse(what, bytes, available, SOLVER_REMEDY)
+}
+
+fn refuse(what: &str, bytes: u64, available: Option<u64>, remedy: &str) -> Result<(), String> {
     match available {
         Some(free) if bytes > free => Err(format!(
-            "{what} needs {:.2} GiB of memory but {:.2} GiB are available; use a coarser mesh, \
-             or a solver that does not form it",
+            "{what} needs {:.2} GiB of memory but {:.2} GiB are available; {remedy}",
             gib(bytes),
             gib(free)
         )),

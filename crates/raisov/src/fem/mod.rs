@@ -186,8 +186,18 @@ pub struct FemModel {
     acc3: Vec<f64>,
 }
 
+/// Bytes an element of a [`FemModel`] may take: its `Dm⁻¹` and measure, its node slots, its
+/// packed kernel data, with room to spare.
+pub const MODEL_ELEMENT_BYTES: u64 = 192;
+
+/// Bytes a node of a [`FemModel`] may take: its reference position, its slot offsets, its
+/// force and state rows, with room to spare.
+pub const MODEL_NODE_BYTES: u64 = 160;
+
 impl FemModel {
-    /// Precompute reference data. Errors on an element with zero or negative reference measure.
+    /// Precompute reference data. Errors on an element with zero or negative reference
+    /// measure, or where the model would need more memory than is available
+    /// ([`MODEL_ELEMENT_BYTES`] an element, [`MODEL_NODE_BYTES`] a node).
     pub fn new(mesh: &Mesh, params: FemParams) -> Result<Self> {
         let npe = mesh.npe();
         let ne = mesh.num_elements();
@@ -200,6 +210,15 @@ impl FemModel {
         if mesh.kind == ElementKind::Tri3 && !(params.thickness > 0.0) {
             return Err(Error::param("thickness", "must be a positive number (m)"));
         }
+        let n = mesh.num_nodes();
+        crate::memory::check_for(
+            &format!("the force model of {n} nodes and {ne} elements"),
+            (ne as u64)
+                .saturating_mul(MODEL_ELEMENT_BYTES)
+                .saturating_add((n as u64).saturating_mul(MODEL_NODE_BYTES)),
+            "use a coarser mesh",
+        )
+        .map_err(|e| Error::param("mesh", e))?;
         let mut dminv = Vec::with_capacity(ne * if npe == 4 { 9 } else { 4 });
         let mut measure = Vec::with_capacity(ne);
         let mut normal0 = Vec::new();
@@ -227,7 +246,6 @@ impl FemModel {
             }
         }
         // CSR node -> slots, slots in increasing order (element-major) for determinism.
-        let n = mesh.num_nodes();
         let mut count = vec![0u32; n + 1];
         for &c in &mesh.cells {
             count[c as usize + 1] += 1;

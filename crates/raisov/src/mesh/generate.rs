@@ -31,6 +31,26 @@ pub const MIN_ANGLE_DEG: f64 = 28.0;
 /// Largest node count the generators accept (ids are `u32`, and memory is finite).
 pub const MAX_NODES: usize = 100_000_000;
 
+/// Bytes a membrane node may take while it is generated (the triangulation's vertex, about
+/// six half-edges and two faces, the mesh's node and triangles), with room to spare.
+pub const MEMBRANE_NODE_BYTES: u64 = 512;
+
+/// Bytes a box node may take while it is generated (its coordinates, five or six
+/// tetrahedra, the groups), with room to spare.
+pub const BOX_NODE_BYTES: u64 = 256;
+
+/// A generator's memory, checked against the available memory before it allocates: an error
+/// on `param` naming the mesh, its node count and both sizes.
+fn generator_memory(param: &str, what: &str, nodes: u128, bytes_per_node: u64) -> Result<()> {
+    let bytes = u64::try_from(nodes.saturating_mul(bytes_per_node as u128)).unwrap_or(u64::MAX);
+    crate::memory::check_for(
+        &format!("generating {what} of {nodes} nodes"),
+        bytes,
+        "ask for fewer nodes",
+    )
+    .map_err(|e| Error::param(param, e))
+}
+
 /// Ratio of the refinement's maximum triangle area to the area `sqrt(3)/4 h^2` of the
 /// equilateral triangle with the boundary spacing `h`. Refinement leaves triangles between a
 /// quarter and all of the bound, so a bound above the equilateral area gives interior edges
@@ -68,6 +88,12 @@ pub fn polygon_membrane(polygon: &[[f64; 2]], target_nodes: usize) -> Result<Mes
             format!("{target_nodes} exceeds the maximum of {MAX_NODES}"),
         ));
     }
+    generator_memory(
+        "target_nodes",
+        "a membrane",
+        target_nodes as u128,
+        MEMBRANE_NODE_BYTES,
+    )?;
     let area = polygon_area(polygon).abs();
     let perimeter: f64 = (0..n)
         .map(|i| dist2(polygon[i], polygon[(i + 1) % n]))
@@ -605,6 +631,7 @@ pub fn box_tets(size: [f64; 3], divisions: [usize; 3], pattern: BoxPattern) -> R
             format!("{divisions:?} gives {count} nodes, more than {MAX_NODES}"),
         ));
     }
+    generator_memory("divisions", "a box", count, BOX_NODE_BYTES)?;
     let coords = |n: usize, s: f64| -> Vec<f64> {
         (0..=n)
             .map(|i| if i == n { s } else { i as f64 * s / n as f64 })
@@ -1067,5 +1094,29 @@ mod tests {
         assert!(box_tets([1.0; 3], [1 << 20, 1 << 20, 1], BoxPattern::Five).is_err());
         assert!(box_tets_target([1.0; 3], 7, BoxPattern::Six).is_err());
         assert!(box_tets_target([1.0, 0.0, 1.0], 100, BoxPattern::Six).is_err());
+    }
+
+    /// A node count under [`MAX_NODES`] that the available memory cannot hold is refused
+    /// before anything is allocated, naming the mesh and both sizes (checked where the
+    /// machine has less memory than two thirds of what [`MAX_NODES`] such nodes take).
+    #[test]
+    fn generators_refuse_more_than_the_available_memory() {
+        let Some(free) = crate::memory::available() else {
+            return;
+        };
+        // Half as much again as fits, so that memory freed meanwhile does not change the answer.
+        let nodes = free / MEMBRANE_NODE_BYTES * 3 / 2;
+        if nodes <= MAX_NODES as u64 {
+            let e = rectangle_membrane(0.1, 0.1, nodes as usize).unwrap_err();
+            let msg = e.to_string();
+            assert!(msg.contains("generating a membrane of"), "{msg}");
+            assert!(msg.contains("GiB are available"), "{msg}");
+        }
+        let side = ((free / BOX_NODE_BYTES * 3 / 2) as f64).cbrt().ceil() as usize;
+        if ((side + 1) as u128).pow(3) <= MAX_NODES as u128 {
+            let e = box_tets([1.0; 3], [side; 3], BoxPattern::Six).unwrap_err();
+            let msg = e.to_string();
+            assert!(msg.contains("generating a box of"), "{msg}");
+        }
     }
 }

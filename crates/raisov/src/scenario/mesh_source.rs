@@ -205,6 +205,9 @@ impl MeshSource {
     ) -> Result<(Mesh, Vec<String>, Option<Vec<u32>>, Option<Vec<u64>>)> {
         let mut notes = Vec::new();
         let mut labels = None;
+        let generated = |name: &str, made: Result<Mesh>| {
+            made.map_err(|e| err(path, format!("`mesh.generate` = \"{name}\": {e}")))
+        };
         let mut mesh = match shape {
             Shape::File(p) => {
                 let loaded = load_mesh(p)
@@ -231,18 +234,20 @@ impl MeshSource {
                 width,
                 height,
                 nodes,
-            } => rectangle_membrane(*width, *height, *nodes)?,
-            Shape::Polygon { outline, nodes } => polygon_membrane(outline, *nodes)?,
+            } => generated("rectangle", rectangle_membrane(*width, *height, *nodes))?,
+            Shape::Polygon { outline, nodes } => {
+                generated("polygon", polygon_membrane(outline, *nodes))?
+            }
             Shape::Box {
                 size,
                 cells: BoxCells::Divisions(d),
                 pattern,
-            } => box_tets(*size, *d, *pattern)?,
+            } => generated("box", box_tets(*size, *d, *pattern))?,
             Shape::Box {
                 size,
                 cells: BoxCells::Nodes(n),
                 pattern,
-            } => box_tets_target(*size, *n, *pattern)?,
+            } => generated("box", box_tets_target(*size, *n, *pattern))?,
         };
         mesh.scale(self.scale);
         let renumber = match shape {

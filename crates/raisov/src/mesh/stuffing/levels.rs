@@ -161,7 +161,10 @@ pub fn mesh_levels_report(
         progress(&format!("level {i}"));
         let (mesh, stats, target_nodes) = match (i, target) {
             (0, LevelTarget::Size(h)) => {
-                let (m, s) = stuffer.mesh(h)?;
+                let (m, s) = stuffer.mesh(h).map_err(|e| match e {
+                    Error::Param { msg, .. } => Error::param("size", format!("level 0: {msg}")),
+                    e => e,
+                })?;
                 let n = m.num_nodes();
                 (m, s, n)
             }
@@ -216,14 +219,26 @@ fn search_spacing(
     let mut tried = 0;
     for _ in 0..MAX_SEARCH {
         tried += 1;
-        let st = match stuffer.stuff(h) {
-            Ok(x) => x,
-            Err(_) if best.is_none() => {
+        // The spacing is the search's, not the caller's: a refusal names the node target.
+        let st = match stuffer.stuff(h).map_err(|e| match e {
+            Error::Param { msg, .. } => Error::param("nodes", format!("level {level}: {msg}")),
+            e => e,
+        })? {
+            Some(x) => x,
+            None if best.is_none() => {
                 // Nothing inside at this spacing: refine.
                 h *= 0.5;
                 continue;
             }
-            Err(e) => return Err(e),
+            None => {
+                return Err(Error::param(
+                    "nodes",
+                    format!(
+                        "level {level}: lattice spacing {h:.3e} leaves no tetrahedron inside \
+                         the surface; ask for more nodes"
+                    ),
+                ))
+            }
         };
         let n = st.nodes.len() as f64;
         let err = (n / target - 1.0).abs();

@@ -60,6 +60,15 @@ use stencils::{fill, FillCtx, Filled};
 /// changes, so that cached levels are meshed again.
 pub const MESHER_VERSION: u32 = 1;
 
+/// Bytes a lattice vertex may take while meshing: its sign, its node number, its slot in
+/// the used-node map.
+pub const LATTICE_VERTEX_BYTES: usize = 9;
+
+/// Bytes an inside lattice vertex may take while meshing: its position twice (lattice and
+/// mesh), about eight output tetrahedra of 16 bytes three times (per row, flattened, the
+/// mesh's cells), with room to spare.
+pub const INSIDE_VERTEX_BYTES: usize = 512;
+
 /// Warping threshold on long edges, as a fraction of the edge length.
 pub const ALPHA_LONG: f64 = 0.24046;
 /// Warping threshold on short edges, as a fraction of the edge length.
@@ -157,13 +166,27 @@ impl Stuffer {
     /// Errors: `h` not positive and finite, a lattice of more than `u32` vertices, or a
     /// surface that encloses no lattice vertex at this spacing.
     pub fn mesh(&self, h: f64) -> Result<(Mesh, StuffStats)> {
-        let raw = self.stuff(h)?;
+        let raw = self.stuff(h)?.ok_or_else(|| {
+            Error::param(
+                "h",
+                format!(
+                    "lattice spacing {h:.3e} leaves no tetrahedron inside the surface; use a \
+                     smaller spacing (more nodes)"
+                ),
+            )
+        })?;
         let stats = raw.stats.clone();
         Ok((raw.into_mesh(), stats))
     }
 
-    /// The nodes and tetrahedra of [`Stuffer::mesh`] without the mesh's groups.
-    pub(crate) fn stuff(&self, h: f64) -> Result<Stuffed> {
+    /// The nodes and tetrahedra of [`Stuffer::mesh`] without the mesh's groups; `None` where
+    /// no tetrahedron lies inside the surface at this spacing.
+    ///
+    /// Errors: `h` not positive and finite, a lattice of more than 2·10⁹ vertices, or more
+    /// memory than is available, checked before the signs are formed:
+    /// [`LATTICE_VERTEX_BYTES`] a lattice vertex and [`INSIDE_VERTEX_BYTES`] an inside one,
+    /// their number estimated from the enclosed volume.
+    pub(crate) fn stuff(&self, h: f64) -> Result<Option<Stuffed>> {
         if !(h > 0.0) || !h.is_finite() {
             return Err(Error::param(
                 "h",
@@ -181,6 +204,18 @@ impl Stuffer {
                 ),
             ));
         }
+        // Before the signs: the inside's lattice vertices estimated from the enclosed volume
+        // (a BCC lattice has 2 vertices per h³), with a tenth to spare.
+        let inside = 1.1 * 2.0 * self.enclosed_volume.abs() / (h * h * h);
+        crate::memory::check_for(
+            &format!(
+                "meshing at lattice spacing {h:.3e} ({nv:.3e} lattice vertices, about \
+                 {inside:.3e} inside)"
+            ),
+            (nv * LATTICE_VERTEX_BYTES as f64 + inside * INSIDE_VERTEX_BYTES as f64) as u64,
+            "ask for fewer nodes (`nodes`) or a larger spacing (`size`)",
+        )
+        .map_err(|e| Error::param("h", e))?;
         let mut sign = self.signs(&l);
         let cuts = self.cut_points(&l, &sign);
         let mut stats = StuffStats {
@@ -266,13 +301,7 @@ impl Stuffer {
             .collect();
         let tets: Vec<[u32; 4]> = rows.into_iter().flatten().collect();
         if tets.is_empty() {
-            return Err(Error::param(
-                "h",
-                format!(
-                    "lattice spacing {h:.3e} leaves no tetrahedron inside the surface; use a \
-                     smaller spacing (more nodes)"
-                ),
-            ));
+            return Ok(None);
         }
         // Drop unused nodes, keeping the order.
         let mut used = vec![u32::MAX; pos.len()];
@@ -292,11 +321,11 @@ impl Stuffer {
             .iter()
             .flat_map(|t| t.map(|v| used[v as usize]))
             .collect();
-        Ok(Stuffed {
+        Ok(Some(Stuffed {
             nodes,
             cells,
             stats,
-        })
+        }))
     }
 
     /// Sign of `f` at every lattice vertex: −1 inside, +1 outside.

@@ -376,6 +376,36 @@ fn size_target_fixes_level_zero_spacing() {
     assert!(Stuffer::new(&Surface::default()).is_err());
 }
 
+/// A node target far beyond what a lattice can hold is refused by the lattice's limit, named
+/// as such: the spacing search used to take that refusal for an empty inside, halve the
+/// spacing to the end of its budget and report "no spacing down to ... leaves a tetrahedron
+/// inside the surface".
+#[test]
+fn mesher_node_target_beyond_the_lattice_names_the_lattice_limit() {
+    let s = icosphere(1.0, [0.0; 3], 2);
+    let e = mesh_levels(&s, 1, 0.5, LevelTarget::Nodes(100_000_000_000)).unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.contains("lattice vertices"), "{msg}");
+    assert!(msg.contains("fewer nodes"), "{msg}");
+    assert!(!msg.contains("no spacing"), "{msg}");
+    // A spacing too coarse for any tetrahedron still says so.
+    let e = Stuffer::new(&s).unwrap().mesh(10.0).unwrap_err();
+    assert!(e.to_string().contains("no tetrahedron inside"), "{e}");
+}
+
+/// The memory check's message names the work, both sizes and the remedy it is given.
+#[test]
+fn mesher_memory_refusal_names_sizes_and_remedy() {
+    let free = crate::memory::available();
+    if let Some(free) = free {
+        let e = crate::memory::check_for("meshing", free.saturating_mul(4), "ask for fewer nodes")
+            .unwrap_err();
+        assert!(e.starts_with("meshing needs "), "{e}");
+        assert!(e.ends_with("; ask for fewer nodes"), "{e}");
+    }
+    assert!(crate::memory::check_for("meshing", 1, "x").is_ok());
+}
+
 /// The liver surface of `data/` (millimetres), read by `io::load_surface` and scaled to
 /// metres: two small levels, angles in the guarantee, node ratio 0.5 ± 0.05, volume within
 /// 2 % of the enclosed volume, every boundary node on the surface.

@@ -1,5 +1,7 @@
-//! Memory for large allocations, checked before they are made: a solver that would need more
-//! than the machine has free says so and stops, instead of being killed part-way.
+//! Memory for large allocations, checked before they are made: a mesher, a generator, a force
+//! model or a solver that would need more than the machine has free says so and stops,
+//! instead of being killed part-way. The estimates are upper bounds of bytes per node,
+//! element or lattice vertex, stated where each check is made.
 //!
 //! The free memory is `MemAvailable` of `/proc/meminfo` (Linux); elsewhere it is unknown and
 //! nothing is refused.

@@ -251,10 +251,26 @@ fn main() {
     match real_main(cli) {
         Ok(code) => std::process::exit(code),
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message_of(&e));
             std::process::exit(exit_code_of(&e));
         }
     }
+}
+
+/// The error and its causes, joined by ": " as `{:#}` joins them, a cause left out where the
+/// message before it already ends with it (an I/O error names its OS error in its own text).
+fn message_of(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for c in e.chain() {
+        let text = c.to_string();
+        if out.is_empty() {
+            out = text;
+        } else if !out.ends_with(&text) {
+            out.push_str(": ");
+            out.push_str(&text);
+        }
+    }
+    out
 }
 
 /// A failure to read the input (the scenario or its files): exit status 2.
@@ -864,7 +880,7 @@ fn cmd_mesh_info(file: &Path) -> Result<()> {
     if raisov::io::is_surface_path(file) {
         return cmd_surface_info(file);
     }
-    let loaded = load_mesh(file)?;
+    let loaded = load_mesh(file).map_err(BadInput)?;
     let s = loaded.mesh.stats();
     let unit = if s.kind == raisov::mesh::ElementKind::Tri3 {
         "area"
@@ -896,7 +912,7 @@ fn cmd_mesh_info(file: &Path) -> Result<()> {
 
 /// `mesh info` for a triangle surface (.obj, .stl, .ply): counts, the checks, the repair.
 fn cmd_surface_info(file: &Path) -> Result<()> {
-    let mut s = raisov::io::load_surface(file)?;
+    let mut s = raisov::io::load_surface(file).map_err(BadInput)?;
     println!("file            {} (triangle surface)", file.display());
     println!("vertices        {}", s.points.len());
     println!("triangles       {}", s.triangles.len());
@@ -1015,7 +1031,7 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
     if !(a.scale > 0.0 && a.scale.is_finite()) {
         bail!("--scale {}: must be positive", a.scale);
     }
-    let mut surface = raisov::io::load_surface(&a.surface)?;
+    let mut surface = raisov::io::load_surface(&a.surface).map_err(BadInput)?;
     surface.scale(a.scale);
     let check = raisov::mesh::check_surface(&mut surface)
         .with_context(|| format!("{}: not a closed surface to mesh", a.surface.display()))?;

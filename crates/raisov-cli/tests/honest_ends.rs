@@ -226,7 +226,6 @@ fn nan_in_reference_csv_is_bad_input() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("finite"));
 }
 
-/// `raisov --help` documents the exit codes.
 /// `raisov bench equilibrium` without its meshes is bad input (status 2), naming the file.
 #[test]
 fn bench_equilibrium_without_meshes_is_bad_input() {
@@ -241,6 +240,34 @@ fn bench_equilibrium_without_meshes_is_bad_input() {
     assert!(err.contains("liver_L2.msh"), "{err}");
 }
 
+/// The mesh tools on a missing file are bad input (status 2), naming the file and saying the
+/// operating system's error once: they exited with status 1 and repeated it.
+#[test]
+fn mesh_tools_on_a_missing_file_are_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let msh = dir.path().join("none.msh");
+    let obj = dir.path().join("none.obj");
+    let runs: [Vec<&std::ffi::OsStr>; 3] = [
+        vec!["mesh".as_ref(), "info".as_ref(), msh.as_os_str()],
+        vec!["mesh".as_ref(), "info".as_ref(), obj.as_os_str()],
+        vec![
+            "mesh".as_ref(),
+            "levels".as_ref(),
+            obj.as_os_str(),
+            "--out".as_ref(),
+            dir.path().as_os_str(),
+        ],
+    ];
+    for args in runs {
+        let out = raisov().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("none."), "{args:?}: {err}");
+        assert_eq!(err.matches("os error").count(), 1, "{args:?}: {err}");
+    }
+}
+
+/// `raisov --help` documents the exit codes.
 #[test]
 fn help_lists_exit_codes() {
     let o = raisov().arg("--help").output().unwrap();

@@ -144,8 +144,8 @@ pub const REFERENCE_MAX_NODES: usize = 50_000;
 /// Residual of the FAS reference, relative to the load.
 pub const FAS_REFERENCE_TOL: f64 = 1e-8;
 /// A FAS reference stopped by its time budget is still used when its residual is below this
-/// fraction of the load (a full run once stopped at 3.2e-8 after 45 cycles in 40 s on a busy
-/// machine; another took 49 cycles and 22 s to 6.8e-9).
+/// fraction of the load: on a busy machine the budget can end the cycles a little above
+/// [`FAS_REFERENCE_TOL`].
 pub const FAS_REFERENCE_ACCEPT: f64 = 1e-6;
 /// In the time-to-steady runs the strongest single-level integrator (symplectic Euler) runs
 /// until steady or at least this many times FAS's wall time and force evaluations to

@@ -479,12 +479,10 @@ impl Mesh {
     /// along the longest (ties by id), cells half a mean longest element edge wide (about
     /// one node layer of a regular mesh; on the structured boxes this is their generator's
     /// own numbering). Ids then grow at three rates along the three axes, the numbering the
-    /// force pass's slabs and strips are built for (`fem::packed`). Force pass with the fused
-    /// update, 1 thread, meshes with their ids shuffled then renumbered: the standard 1M box
-    /// 20.1 M node-updates/s in this order against 11.1 M in Morton order (the order used
-    /// before), 100k 24.8 M against 21.5 M, liver and heart L0 within 3 %. `order[k]` is the
-    /// node that becomes node `k` under [`Mesh::renumber`]. Deterministic: it depends on
-    /// the coordinates and ids only.
+    /// force pass's slabs and strips are built for (`fem::packed`; its effect on the force
+    /// pass is measured in `bench/RESULTS.md`, run H). `order[k]` is the node that becomes
+    /// node `k` under [`Mesh::renumber`]. Deterministic: it depends on the coordinates and
+    /// ids only.
     pub fn spatial_order(&self) -> Vec<u32> {
         let ne = self.num_elements();
         let h = if ne > 0 {

@@ -14,22 +14,13 @@
 //! a banded order: layers across the shortest axis, rows along the longest one; `[mesh]
 //! renumber = false` keeps the file's order; level files follow the same key) so that the
 //! force pass's gathers and scatters find nearby nodes near in memory; files from mesh
-//! generators often number nodes in an order that jumps across the mesh. Measured when
-//! renumbering came in (Morton order then; force pass, node-evaluations/s, 1 thread,
-//! alternated): liver L0 20.7-20.9 M as numbered in the file, 22.8-22.9 M renumbered; heart
-//! L0 22.8-23.0 M and 24.2-24.3 M; the standard 100k box with its nodes shuffled at random,
-//! 2 threads, 29.7-30.0 M and 37.5-38.0 M (40.6 M as generated). The liver grasp example on
-//! liver L0 (0.2 s): 4.19-4.24 s against 4.56-4.62 s on 1 thread, the same printed results.
-//! The banded order replaced Morton's when the 1M box, shuffled, ran at 11.1 M
-//! node-updates/s in Morton order and 20.1 M banded (1 thread; 100k: 21.5 M and 24.8 M;
-//! liver and heart L0 within 3 % of each other). What the user sees
-//! keeps the file's ids: `nodes = [..]` selectors, `nodal_stress.csv` (rows in file order),
-//! the `file_node_id` point field of the frames, the node named by `raisov inspect`
+//! generators often number nodes in an order that jumps across the mesh (the effect on the
+//! force pass is measured in `bench/RESULTS.md`, runs F and H). What the user sees keeps the
+//! file's ids: `nodes = [..]` selectors, `nodal_stress.csv` (rows in file order), the
+//! `file_node_id` point field of the frames, the node named by `raisov inspect`
 //! ([`Scenario::file_ids`]). Nor do results follow the numbering beyond round-off: the FAS
-//! multigrid's power-iteration start vector, the one place where an index chose a value,
-//! is keyed by the file's ids ([`crate::multigrid::Level::node_keys`]); keyed by the memory
-//! order, renumbering the liver levels moved the interactive example's mean lag from 2.0 to
-//! 2.4 mm.
+//! multigrid's power-iteration start vector, the one place where an index chose a value, is
+//! keyed by the file's ids ([`crate::multigrid::Level::node_keys`]), not by the memory order.
 
 pub mod interactive;
 mod levels;
@@ -210,8 +201,8 @@ pub struct StaticSolve {
     pub solver: StaticSolver,
     /// `[integrator] coarse_start`: [`StaticSolver::Multigrid`] starts from the coarse level's
     /// equilibrium, interpolated ([`crate::integrate::newton_direct::coarse_start`]). Default
-    /// true for membranes, false for tetrahedra (`raisov bench equilibrium`: about 3× faster
-    /// on the 100k drape, no faster on the liver).
+    /// true for membranes, false for tetrahedra (`raisov bench equilibrium` times both starts
+    /// on every case: the coarse start is the faster on the drapes, not on the livers).
     pub coarse_start: bool,
     /// `[integrator] smoother`: [`StaticSolver::Multigrid`]'s V-cycle smoother. Default
     /// [`Smoother::BlockJacobi`] for tetrahedra, [`Smoother::ColouredBlock`] for membranes

@@ -3,6 +3,7 @@
 use super::spec::{defaults, Named};
 use super::*;
 use crate::error::Error;
+use crate::material::StableNeoHookean;
 use crate::multigrid::fas::{CoarseSolve, FasParams, Scaling, Smoother, TransferWeights};
 
 const BASE: &str = r#"

@@ -1,0 +1,474 @@
+//! Resolving a scenario's regions, materials and motions: `[[fix]]` and `[[load]]` selectors
+//! into node lists (file ids to memory order), `[material]` into a [`Material`] with its
+//! parameters checked, `[[displace]]` into a [`Motion`]. Each error names the scenario file
+//! and the key.
+
+use super::{err, loading, positive, spec, Fixing, Selector, Shape};
+use crate::error::Result;
+use crate::integrate::Motion;
+use crate::material::{
+    lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, StableNeoHookean, VerondaWestmann,
+};
+use crate::mesh::{dot, norm, sub, ElementKind, Mesh};
+use spec::{defaults, Law, MotionMode, Named};
+use std::path::Path;
+
+/// The file's node ids and where each sits in file order.
+pub(super) struct NodeIds<'a> {
+    labels: Option<&'a [u64]>,
+    index: Option<std::collections::HashMap<u64, u32>>,
+    n: usize,
+    file: Option<&'a Path>,
+}
+
+impl<'a> NodeIds<'a> {
+    pub(super) fn new(labels: Option<&'a [u64]>, n: usize, shape: &'a Shape) -> Self {
+        NodeIds {
+            labels,
+            index: labels.map(|l| {
+                l.iter()
+                    .enumerate()
+                    .map(|(k, &id)| (id, k as u32))
+                    .collect()
+            }),
+            n,
+            file: match shape {
+                Shape::File(p) => Some(p.as_path()),
+                _ => None,
+            },
+        }
+    }
+    /// The file-order position of each id; an id the mesh does not have is an error naming
+    /// the valid range.
+    pub(super) fn index_of(&self, ids: &[u64], path: &Path, key: &str) -> Result<Vec<u32>> {
+        ids.iter()
+            .map(|&id| {
+                let k = match &self.index {
+                    Some(m) => m.get(&id).copied(),
+                    None => (id < self.n as u64).then_some(id as u32),
+                };
+                k.ok_or_else(|| {
+                    let (lo, hi) = match self.labels {
+                        Some(l) => (
+                            l.iter().copied().min().unwrap_or(0),
+                            l.iter().copied().max().unwrap_or(0),
+                        ),
+                        None => (0, self.n.saturating_sub(1) as u64),
+                    };
+                    let whose = match self.file {
+                        Some(f) => format!("the ids of {}", f.display()),
+                        None => "the generated mesh's ids".to_string(),
+                    };
+                    let gaps = if (hi - lo + 1) as usize != self.n {
+                        format!(", {} of them used by elements", self.n)
+                    } else {
+                        String::new()
+                    };
+                    err(
+                        path,
+                        format!(
+                            "{key}.nodes: node {id} does not exist ({whose} run {lo}..={hi}{gaps}; \
+                             ids are as the file numbers them)"
+                        ),
+                    )
+                })
+            })
+            .collect()
+    }
+}
+
+/// The fixed nodes and the sliding directions `fix` selects on `mesh` (`level` names it in
+/// messages: empty for level 0).
+#[allow(clippy::type_complexity)]
+pub(crate) fn select_fixed(
+    mesh: &Mesh,
+    fix: &[(Selector, Fixing)],
+    path: &Path,
+    level: &str,
+) -> Result<(Vec<u32>, Vec<(u32, [f64; 3])>)> {
+    let (mut fixed, mut sliding) = (Vec::new(), Vec::new());
+    for (i, (s, how)) in fix.iter().enumerate() {
+        let nodes = select(mesh, s, path, &format!("{level}fix[{i}]"))?;
+        match how {
+            Fixing::All => fixed.extend(nodes),
+            Fixing::Directions(dirs) => {
+                for a in nodes {
+                    sliding.extend(dirs.iter().map(|&n| (a, n)));
+                }
+            }
+        }
+    }
+    Ok((fixed, sliding))
+}
+
+/// What a `[[fix]]` holds: `components` or `normal`, else everything.
+pub(super) fn resolve_fixing(r: &spec::RegionSpec, path: &Path, key: &str) -> Result<Fixing> {
+    match (&r.components, r.normal) {
+        (None, None) => Ok(Fixing::All),
+        (Some(_), Some(_)) => Err(err(
+            path,
+            format!("{key}: give `components` or `normal`, not both"),
+        )),
+        (Some(c), None) => {
+            let mut dirs = Vec::new();
+            for name in c {
+                let k = match name.as_str() {
+                    "x" => 0,
+                    "y" => 1,
+                    "z" => 2,
+                    other => {
+                        return Err(err(
+                            path,
+                            format!("`{key}.components`: \"{other}\" is not a component (valid: \"x\", \"y\", \"z\")"),
+                        ))
+                    }
+                };
+                let mut e = [0.0; 3];
+                e[k] = 1.0;
+                if dirs.contains(&e) {
+                    return Err(err(
+                        path,
+                        format!("`{key}.components`: \"{name}\" given twice"),
+                    ));
+                }
+                dirs.push(e);
+            }
+            if dirs.is_empty() {
+                return Err(err(path, format!("`{key}.components` is empty: list \"x\", \"y\" and/or \"z\", or leave it out to fix all three")));
+            }
+            Ok(if dirs.len() == 3 {
+                Fixing::All
+            } else {
+                Fixing::Directions(dirs)
+            })
+        }
+        (None, Some(n)) => {
+            let l = norm(n);
+            if !(l > 0.0) {
+                return Err(err(path, format!("`{key}.normal` must be non-zero")));
+            }
+            Ok(Fixing::Directions(vec![[n[0] / l, n[1] / l, n[2] / l]]))
+        }
+    }
+}
+
+/// Every id of a `nodes = [..]` selector names a node of a mesh of `n` nodes.
+pub(super) fn check_node_ids(ns: &[u32], n: usize, path: &Path, key: &str) -> Result<()> {
+    match ns.iter().find(|&&a| a as usize >= n) {
+        Some(&bad) => Err(err(
+            path,
+            format!(
+                "{key}.nodes: node {bad} does not exist (valid: 0..{})",
+                n.saturating_sub(1)
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// The one selector a `[[fix]]` or `at` table sets.
+pub(super) fn resolve_selector(r: &spec::RegionSpec, path: &Path, key: &str) -> Result<Selector> {
+    let mut found = Vec::new();
+    if let Some(b) = r.boundary {
+        if !b {
+            return Err(err(
+                path,
+                format!("{key}: `boundary = false` selects nothing; remove the entry"),
+            ));
+        }
+        found.push(Selector::Boundary);
+    }
+    if let Some(b) = &r.aabb {
+        found.push(Selector::Box {
+            min: b.min,
+            max: b.max,
+        });
+    }
+    if let Some(p) = &r.plane {
+        if !(norm(p.normal) > 0.0) {
+            return Err(err(path, format!("{key}.plane.normal must be non-zero")));
+        }
+        found.push(Selector::Plane {
+            point: p.point,
+            normal: p.normal,
+        });
+    }
+    if let Some(g) = &r.group {
+        found.push(Selector::Group(g.clone()));
+    }
+    if let Some(ns) = &r.nodes {
+        // The ids become mesh indices in `resolve`.
+        found.push(Selector::Nodes(vec![0; ns.len()]));
+    }
+    if let Some(p) = r.point {
+        found.push(Selector::Point(p));
+    }
+    match found.len() {
+        1 => Ok(found.pop().expect("one selector")),
+        n => Err(err(path, format!("{key}: give exactly one selector of `boundary`, `box`, `plane`, `group`, `nodes`, `point` (found {n})"))),
+    }
+}
+
+pub(super) fn resolve_material(
+    m: &spec::MaterialSpec,
+    kind: ElementKind,
+    interactive: bool,
+    path: &Path,
+) -> Result<Material> {
+    let chosen = match (m.law, interactive) {
+        (Some(law), _) => law,
+        (None, true) => defaults::INTERACTIVE_LAW,
+        (None, false) => {
+            return Err(err(
+                path,
+                "[material]: `law` is required (one of \"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\", \"stable-neo-hookean\"; scenarios with an [interactive] section default to \"stable-neo-hookean\")",
+            ))
+        }
+    };
+    let law = chosen.name();
+    let need = |key: &str, v: Option<f64>| -> Result<f64> {
+        v.ok_or_else(|| err(path, format!("[material]: law = \"{law}\" needs `{key}`")))
+    };
+    let forbid = |keys: &[(&str, bool)]| -> Result<()> {
+        for (k, set) in keys {
+            if *set {
+                return Err(err(
+                    path,
+                    format!("[material]: `{k}` is not a parameter of law = \"{law}\""),
+                ));
+            }
+        }
+        Ok(())
+    };
+    let kappa = |v: Option<f64>| -> Result<f64> {
+        match (kind, v) {
+            (ElementKind::Tri3, None) => Ok(0.0),
+            (ElementKind::Tri3, Some(_)) => Err(err(path, "[material]: `kappa` is not used by membranes (they are incompressible in plane stress)")),
+            (ElementKind::Tet4, v) => positive(path, "material.kappa", need("kappa", v)?),
+        }
+    };
+    let young_poisson = || -> Result<(f64, f64)> {
+        let e = positive(path, "material.young", need("young", m.young)?)?;
+        let nu = need("poisson", m.poisson)?;
+        if !(-1.0 < nu && nu < 0.5) {
+            return Err(err(
+                path,
+                format!("`material.poisson` = {nu}: must be in (-1, 0.5)"),
+            ));
+        }
+        Ok((e, nu))
+    };
+    Ok(match chosen {
+        Law::StVenantKirchhoff => {
+            forbid(&[
+                ("c1", m.c1.is_some()),
+                ("c2", m.c2.is_some()),
+                ("gamma", m.gamma.is_some()),
+                ("kappa", m.kappa.is_some()),
+            ])?;
+            let (e, nu) = young_poisson()?;
+            Material::StVenantKirchhoff(StVenantKirchhoff::from_young(e, nu))
+        }
+        Law::NeoHookean => {
+            forbid(&[
+                ("c1", m.c1.is_some()),
+                ("c2", m.c2.is_some()),
+                ("gamma", m.gamma.is_some()),
+                ("kappa", m.kappa.is_some()),
+            ])?;
+            let (e, nu) = young_poisson()?;
+            let (lambda, mu) = lame(e, nu);
+            Material::NeoHookean(NeoHookean { lambda, mu })
+        }
+        Law::MooneyRivlin => {
+            forbid(&[
+                ("young", m.young.is_some()),
+                ("poisson", m.poisson.is_some()),
+                ("gamma", m.gamma.is_some()),
+            ])?;
+            let c1 = need("c1", m.c1)?;
+            let c2 = need("c2", m.c2)?;
+            if !(c1 + c2 > 0.0 && c1 >= 0.0 && c2 >= 0.0) {
+                return Err(err(
+                    path,
+                    format!(
+                        "[material]: c1 = {c1}, c2 = {c2}: need c1, c2 >= 0 with c1 + c2 > 0 (Pa)"
+                    ),
+                ));
+            }
+            Material::MooneyRivlin(MooneyRivlin::new(c1, c2, kappa(m.kappa)?))
+        }
+        Law::VerondaWestmann => {
+            forbid(&[
+                ("young", m.young.is_some()),
+                ("poisson", m.poisson.is_some()),
+                ("c2", m.c2.is_some()),
+            ])?;
+            let c1 = positive(path, "material.c1", need("c1", m.c1)?)?;
+            let gamma = positive(path, "material.gamma", need("gamma", m.gamma)?)?;
+            Material::VerondaWestmann(VerondaWestmann::new(c1, gamma, kappa(m.kappa)?))
+        }
+        Law::StableNeoHookean => {
+            forbid(&[
+                ("c1", m.c1.is_some()),
+                ("c2", m.c2.is_some()),
+                ("gamma", m.gamma.is_some()),
+                ("kappa", m.kappa.is_some()),
+            ])?;
+            let (e, nu) = young_poisson()?;
+            Material::StableNeoHookean(StableNeoHookean::from_young(e, nu))
+        }
+    })
+}
+
+pub(super) fn resolve_motion(d: &spec::DisplaceSpec, path: &Path, key: &str) -> Result<Motion> {
+    if let Some(t) = &d.time {
+        for (k, set) in [
+            ("mode", d.mode.is_some()),
+            ("duration", d.duration.is_some()),
+            ("table", d.table.is_some()),
+        ] {
+            if set {
+                return Err(err(
+                    path,
+                    format!("{key}: `{k}` does not apply with `time` (the displacement times a time function)"),
+                ));
+            }
+        }
+        let disp = d.displacement.ok_or_else(|| {
+            err(
+                path,
+                format!("{key}: `time` needs `displacement` = [dx, dy, dz] (m)"),
+            )
+        })?;
+        return Ok(Motion::Function {
+            d: disp,
+            f: loading::resolve_time(t, path, &format!("{key}.time"))?,
+        });
+    }
+    let mode = d.mode.unwrap_or(if d.table.is_some() {
+        MotionMode::Table
+    } else {
+        MotionMode::Held
+    });
+    let disp = || {
+        d.displacement.ok_or_else(|| {
+            err(
+                path,
+                format!(
+                    "{key}: mode = \"{}\" needs `displacement` = [dx, dy, dz] (m)",
+                    mode.name()
+                ),
+            )
+        })
+    };
+    let forbid = |k: &str, set: bool| -> Result<()> {
+        if set {
+            return Err(err(
+                path,
+                format!("{key}: `{k}` does not apply to mode = \"{}\"", mode.name()),
+            ));
+        }
+        Ok(())
+    };
+    Ok(match mode {
+        MotionMode::Held => {
+            forbid("duration", d.duration.is_some())?;
+            forbid("table", d.table.is_some())?;
+            Motion::Held { d: disp()? }
+        }
+        MotionMode::Ramp => {
+            forbid("table", d.table.is_some())?;
+            Motion::Ramp {
+                d: disp()?,
+                duration: positive(
+                    path,
+                    &format!("{key}.duration"),
+                    d.duration.ok_or_else(|| {
+                        err(path, format!("{key}: mode = \"ramp\" needs `duration` (s)"))
+                    })?,
+                )?,
+            }
+        }
+        MotionMode::Table => {
+            let t = d.table.as_ref().ok_or_else(|| {
+                err(
+                    path,
+                    format!("{key}: mode = \"table\" needs `table` = [[t, dx, dy, dz], ...]"),
+                )
+            })?;
+            if t.is_empty() {
+                return Err(err(path, format!("{key}.table is empty")));
+            }
+            if d.displacement.is_some() {
+                return Err(err(
+                    path,
+                    format!("{key}: give `table` or `displacement`, not both"),
+                ));
+            }
+            forbid("duration", d.duration.is_some())?;
+            for w in t.windows(2) {
+                if !(w[1][0] > w[0][0]) {
+                    return Err(err(
+                        path,
+                        format!(
+                            "{key}.table: times must increase strictly ({} then {})",
+                            w[0][0], w[1][0]
+                        ),
+                    ));
+                }
+            }
+            Motion::Table {
+                times: t.iter().map(|r| r[0]).collect(),
+                values: t.iter().map(|r| [r[1], r[2], r[3]]).collect(),
+            }
+        }
+    })
+}
+
+/// The nodes `s` selects on `mesh`; errors if none or a missing group.
+pub fn select(mesh: &Mesh, s: &Selector, path: &Path, key: &str) -> Result<Vec<u32>> {
+    let (lo, hi) = mesh.bounding_box();
+    let tol = 1e-9 * norm(sub(hi, lo)).max(f64::MIN_POSITIVE);
+    let all = 0..mesh.num_nodes() as u32;
+    let sel: Vec<u32> = match s {
+        Selector::Boundary => mesh.boundary_nodes(),
+        Selector::Box { min, max } => all
+            .filter(|&a| {
+                let p = mesh.nodes[a as usize];
+                (0..3).all(|k| p[k] >= min[k] - tol && p[k] <= max[k] + tol)
+            })
+            .collect(),
+        Selector::Plane { point, normal } => {
+            let nn = norm(*normal);
+            all.filter(|&a| dot(sub(mesh.nodes[a as usize], *point), *normal) / nn <= tol)
+                .collect()
+        }
+        Selector::Group(g) => mesh.groups.get(g).cloned().ok_or_else(|| {
+            let names: Vec<&str> = mesh.groups.keys().map(|s| s.as_str()).collect();
+            err(
+                path,
+                format!(
+                    "{key}: no group \"{g}\" in the mesh (groups: {})",
+                    if names.is_empty() {
+                        "none".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                ),
+            )
+        })?,
+        Selector::Nodes(ns) => {
+            check_node_ids(ns, mesh.num_nodes(), path, key)?;
+            ns.clone()
+        }
+        Selector::Point(p) => vec![mesh
+            .nearest_node(*p)
+            .ok_or_else(|| err(path, "the mesh has no nodes"))?
+            as u32],
+    };
+    if sel.is_empty() {
+        return Err(err(path, format!("{key}: the selection contains no node")));
+    }
+    Ok(sel)
+}

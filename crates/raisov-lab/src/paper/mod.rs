@@ -16,6 +16,7 @@
 //! and method is saved under `scenarios/` so each can be run alone with `raisov run`.
 //! All files are written atomically; nothing non-finite is written.
 
+mod claims;
 pub mod experiments;
 pub mod report;
 

@@ -272,21 +272,7 @@ pub fn resolve_tool(t: &spec::ToolSpec, path: &Path, i: usize) -> Result<ToolDef
             if rows.is_empty() {
                 return Err(err(path, format!("{key}.path is empty")));
             }
-            for w in rows.windows(2) {
-                if !(w[1][0] > w[0][0]) {
-                    return Err(err(
-                        path,
-                        format!(
-                            "{key}.path: times must increase strictly ({} then {})",
-                            w[0][0], w[1][0]
-                        ),
-                    ));
-                }
-            }
-            Motion::Table {
-                times: rows.iter().map(|r| r[0]).collect(),
-                values: rows.iter().map(|r| [r[1], r[2], r[3]]).collect(),
-            }
+            super::resolve::table_motion(rows, path, &format!("{key}.path"))?
         }
         (None, Some(d)) => Motion::Function {
             d,

@@ -407,21 +407,7 @@ pub(super) fn resolve_motion(d: &spec::DisplaceSpec, path: &Path, key: &str) -> 
                 ));
             }
             forbid("duration", d.duration.is_some())?;
-            for w in t.windows(2) {
-                if !(w[1][0] > w[0][0]) {
-                    return Err(err(
-                        path,
-                        format!(
-                            "{key}.table: times must increase strictly ({} then {})",
-                            w[0][0], w[1][0]
-                        ),
-                    ));
-                }
-            }
-            Motion::Table {
-                times: t.iter().map(|r| r[0]).collect(),
-                values: t.iter().map(|r| [r[1], r[2], r[3]]).collect(),
-            }
+            table_motion(t, path, &format!("{key}.table"))?
         }
     })
 }
@@ -471,4 +457,24 @@ pub fn select(mesh: &Mesh, s: &Selector, path: &Path, key: &str) -> Result<Vec<u
         return Err(err(path, format!("{key}: the selection contains no node")));
     }
     Ok(sel)
+}
+
+/// A piecewise-linear motion from `[t, dx, dy, dz]` rows (s, m) whose times increase
+/// strictly; `key` names the rows in the error.
+pub(super) fn table_motion(rows: &[[f64; 4]], path: &Path, key: &str) -> Result<Motion> {
+    for w in rows.windows(2) {
+        if !(w[1][0] > w[0][0]) {
+            return Err(err(
+                path,
+                format!(
+                    "{key}: times must increase strictly ({} then {})",
+                    w[0][0], w[1][0]
+                ),
+            ));
+        }
+    }
+    Ok(Motion::Table {
+        times: rows.iter().map(|r| r[0]).collect(),
+        values: rows.iter().map(|r| [r[1], r[2], r[3]]).collect(),
+    })
 }

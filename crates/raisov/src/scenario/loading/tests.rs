@@ -91,6 +91,13 @@ fn time_functions_and_surface_loads_are_checked() {
         "{e}"
     );
     let e = error_of(&format!(
+        "{BLOCK}[[tool]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.1]\nradius = 0.01\npath = [[0.0, 0, 0, 0], [0.0, 0, 0, 0.01]]\n[run]\nduration = 0.01\n"
+    ));
+    assert!(
+        e.contains("tool[0].path: times must increase strictly (0 then 0)"),
+        "{e}"
+    );
+    let e = error_of(&format!(
         "{BLOCK}[[tool]]\nshape = \"plane\"\npoint = [0.0, 0.0, 0.1]\nnormal = [0.0, 0.0, 1.0]\nradius = 1.0\n[run]\nduration = 0.01\n"
     ));
     assert!(

@@ -1,6 +1,6 @@
 //! `raisov`: run soft-tissue scenarios, inspect and generate meshes.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use raisov::io::{load_mesh, write_msh22, write_vtu};
@@ -273,6 +273,26 @@ fn message_of(e: &anyhow::Error) -> String {
     out
 }
 
+/// A command-line argument, or an input a command checks itself, that is not valid: exit
+/// status 2, like [`BadInput`].
+#[derive(Debug)]
+struct BadArgs(String);
+
+impl std::fmt::Display for BadArgs {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for BadArgs {}
+
+/// Return a [`BadArgs`] error with a formatted message (exit status 2).
+macro_rules! bad_input {
+    ($($arg:tt)*) => {
+        return Err(BadArgs(format!($($arg)*)).into())
+    };
+}
+
 /// A failure to read the input (the scenario or its files): exit status 2.
 #[derive(Debug)]
 struct BadInput(raisov::Error);
@@ -289,7 +309,7 @@ impl std::error::Error for BadInput {}
 fn exit_code_of(e: &anyhow::Error) -> i32 {
     use raisov::Error as E;
     for c in e.chain() {
-        if c.is::<BadInput>() {
+        if c.is::<BadInput>() || c.is::<BadArgs>() {
             return EXIT_BAD_INPUT;
         }
         if let Some(r) = c.downcast_ref::<E>() {
@@ -588,7 +608,7 @@ fn cmd_paper(
     use raisov_lab::paper::{run_paper, PaperOptions, Progress};
     if let Some(c) = slim_cap {
         if !(c.is_finite() && c > 0.0) {
-            anyhow::bail!("--slim-cap {c}: give a positive number of seconds");
+            bad_input!("--slim-cap {c}: give a positive number of seconds");
         }
     }
     let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
@@ -782,7 +802,7 @@ fn cmd_bench(
         bench::parse_sizes(sizes)?
     };
     if threads.is_empty() || threads.contains(&0) {
-        bail!("--threads: give positive thread counts, e.g. 1,2");
+        bad_input!("--threads: give positive thread counts, e.g. 1,2");
     }
     if let Some(dir) = write_mesh {
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -811,7 +831,7 @@ fn cmd_bench(
     if let Some(o) = &out {
         match o.extension().and_then(|e| e.to_str()) {
             Some("csv" | "md") => {}
-            _ => bail!("{}: --out must end in .csv or .md", o.display()),
+            _ => bad_input!("{}: --out must end in .csv or .md", o.display()),
         }
     }
     eprintln!(
@@ -920,7 +940,7 @@ fn cmd_surface_info(file: &Path) -> Result<()> {
         Ok(r) => r,
         Err(e) => {
             println!("closed/manifold no");
-            bail!("{}: {e}", file.display())
+            bad_input!("{}: {e}", file.display())
         }
     };
     println!(
@@ -965,36 +985,45 @@ fn cmd_generate(
     let mesh: Mesh = match kind {
         "rectangle" => {
             let [w, h] = size[..] else {
-                bail!("rectangle needs --size W,H (m)")
+                bad_input!("rectangle needs --size W,H (m)")
             };
-            rectangle_membrane(w, h, nodes.context("rectangle needs --nodes N")?)?
+            rectangle_membrane(
+                w,
+                h,
+                nodes.ok_or_else(|| BadArgs("rectangle needs --nodes N".into()))?,
+            )?
         }
         "polygon" => {
             if polygon.len() < 6 || !polygon.len().is_multiple_of(2) {
-                bail!("polygon needs --polygon x1,y1,x2,y2,x3,y3[,...] (at least 3 vertices, m)");
+                bad_input!(
+                    "polygon needs --polygon x1,y1,x2,y2,x3,y3[,...] (at least 3 vertices, m)"
+                );
             }
             let pts: Vec<[f64; 2]> = polygon.chunks(2).map(|c| [c[0], c[1]]).collect();
-            polygon_membrane(&pts, nodes.context("polygon needs --nodes N")?)?
+            polygon_membrane(
+                &pts,
+                nodes.ok_or_else(|| BadArgs("polygon needs --nodes N".into()))?,
+            )?
         }
         "box" => {
             let [x, y, z] = size[..] else {
-                bail!("box needs --size X,Y,Z (m)")
+                bad_input!("box needs --size X,Y,Z (m)")
             };
             let Some(pat) = box_pattern(pattern) else {
-                bail!("--pattern {pattern}: valid are 5 or 6")
+                bad_input!("--pattern {pattern}: valid are 5 or 6")
             };
             match (nodes, divisions) {
                 (Some(n), []) => box_tets_target([x, y, z], n, pat)?,
                 (None, &[a, b, c]) => box_tets([x, y, z], [a, b, c], pat)?,
-                _ => bail!("box needs exactly one of --nodes N or --divisions NX,NY,NZ"),
+                _ => bad_input!("box needs exactly one of --nodes N or --divisions NX,NY,NZ"),
             }
         }
-        other => bail!("unknown mesh kind `{other}`: valid are rectangle, polygon, box"),
+        other => bad_input!("unknown mesh kind `{other}`: valid are rectangle, polygon, box"),
     };
     match out.extension().and_then(|e| e.to_str()) {
         Some("msh") => write_msh22(out, &mesh)?,
         Some("vtu") => write_vtu(out, &mesh, &mesh.nodes, &[], &[])?,
-        _ => bail!(
+        _ => bad_input!(
             "{}: output must end in .msh (Gmsh 2.2) or .vtu (ParaView)",
             out.display()
         ),
@@ -1029,7 +1058,7 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
     use raisov::mesh::stuffing::{mesh_levels_report, LevelTarget};
     let t0 = std::time::Instant::now();
     if !(a.scale > 0.0 && a.scale.is_finite()) {
-        bail!("--scale {}: must be positive", a.scale);
+        bad_input!("--scale {}: must be positive", a.scale);
     }
     let mut surface = raisov::io::load_surface(&a.surface).map_err(BadInput)?;
     surface.scale(a.scale);
@@ -1064,7 +1093,7 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
         (Some(n), None) => LevelTarget::Nodes(n),
         (None, Some(h)) => LevelTarget::Size(h),
         (None, None) => LevelTarget::Nodes(30_000),
-        (Some(_), Some(_)) => bail!("give --nodes or --size, not both"),
+        (Some(_), Some(_)) => bad_input!("give --nodes or --size, not both"),
     };
     let name = match &a.name {
         Some(n) => n.clone(),

@@ -267,6 +267,46 @@ fn mesh_tools_on_a_missing_file_are_bad_input() {
     }
 }
 
+/// Arguments a command checks itself are bad input (status 2), as clap's own are: `raisov
+/// mesh generate` without `--size`, of an unknown kind or to an unknown format exited with 1.
+#[test]
+fn mesh_generate_with_bad_arguments_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let msh = dir.path().join("m.msh");
+    let txt = dir.path().join("m.txt");
+    let msh = msh.to_str().unwrap();
+    let runs: [(&[&str], &str); 4] = [
+        (&["rectangle", "--nodes", "50", "-o", msh], "--size W,H"),
+        (&["rectangle", "--size", "1,1", "-o", msh], "--nodes N"),
+        (
+            &["sphere", "--nodes", "50", "-o", msh],
+            "valid are rectangle",
+        ),
+        (
+            &[
+                "box",
+                "--nodes",
+                "50",
+                "--size",
+                "1,1,1",
+                "-o",
+                txt.to_str().unwrap(),
+            ],
+            "must end in .msh",
+        ),
+    ];
+    for (args, want) in runs {
+        let out = raisov()
+            .args(["mesh", "generate"])
+            .args(args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
+}
+
 /// `raisov --help` documents the exit codes.
 #[test]
 fn help_lists_exit_codes() {

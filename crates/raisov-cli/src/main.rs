@@ -287,7 +287,7 @@ impl std::fmt::Display for BadArgs {
 impl std::error::Error for BadArgs {}
 
 /// Return a [`BadArgs`] error with a formatted message (exit status 2).
-macro_rules! bad_input {
+macro_rules! bad_args {
     ($($arg:tt)*) => {
         return Err(BadArgs(format!($($arg)*)).into())
     };
@@ -608,7 +608,7 @@ fn cmd_paper(
     use raisov_lab::paper::{run_paper, PaperOptions, Progress};
     if let Some(c) = slim_cap {
         if !(c.is_finite() && c > 0.0) {
-            bad_input!("--slim-cap {c}: give a positive number of seconds");
+            bad_args!("--slim-cap {c}: give a positive number of seconds");
         }
     }
     let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
@@ -802,7 +802,7 @@ fn cmd_bench(
         bench::parse_sizes(sizes)?
     };
     if threads.is_empty() || threads.contains(&0) {
-        bad_input!("--threads: give positive thread counts, e.g. 1,2");
+        bad_args!("--threads: give positive thread counts, e.g. 1,2");
     }
     if let Some(dir) = write_mesh {
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -831,7 +831,7 @@ fn cmd_bench(
     if let Some(o) = &out {
         match o.extension().and_then(|e| e.to_str()) {
             Some("csv" | "md") => {}
-            _ => bad_input!("{}: --out must end in .csv or .md", o.display()),
+            _ => bad_args!("{}: --out must end in .csv or .md", o.display()),
         }
     }
     eprintln!(
@@ -940,7 +940,7 @@ fn cmd_surface_info(file: &Path) -> Result<()> {
         Ok(r) => r,
         Err(e) => {
             println!("closed/manifold no");
-            bad_input!("{}: {e}", file.display())
+            bad_args!("{}: {e}", file.display())
         }
     };
     println!(
@@ -985,7 +985,7 @@ fn cmd_generate(
     let mesh: Mesh = match kind {
         "rectangle" => {
             let [w, h] = size[..] else {
-                bad_input!("rectangle needs --size W,H (m)")
+                bad_args!("rectangle needs --size W,H (m)")
             };
             rectangle_membrane(
                 w,
@@ -995,7 +995,7 @@ fn cmd_generate(
         }
         "polygon" => {
             if polygon.len() < 6 || !polygon.len().is_multiple_of(2) {
-                bad_input!(
+                bad_args!(
                     "polygon needs --polygon x1,y1,x2,y2,x3,y3[,...] (at least 3 vertices, m)"
                 );
             }
@@ -1007,23 +1007,23 @@ fn cmd_generate(
         }
         "box" => {
             let [x, y, z] = size[..] else {
-                bad_input!("box needs --size X,Y,Z (m)")
+                bad_args!("box needs --size X,Y,Z (m)")
             };
             let Some(pat) = box_pattern(pattern) else {
-                bad_input!("--pattern {pattern}: valid are 5 or 6")
+                bad_args!("--pattern {pattern}: valid are 5 or 6")
             };
             match (nodes, divisions) {
                 (Some(n), []) => box_tets_target([x, y, z], n, pat)?,
                 (None, &[a, b, c]) => box_tets([x, y, z], [a, b, c], pat)?,
-                _ => bad_input!("box needs exactly one of --nodes N or --divisions NX,NY,NZ"),
+                _ => bad_args!("box needs exactly one of --nodes N or --divisions NX,NY,NZ"),
             }
         }
-        other => bad_input!("unknown mesh kind `{other}`: valid are rectangle, polygon, box"),
+        other => bad_args!("unknown mesh kind `{other}`: valid are rectangle, polygon, box"),
     };
     match out.extension().and_then(|e| e.to_str()) {
         Some("msh") => write_msh22(out, &mesh)?,
         Some("vtu") => write_vtu(out, &mesh, &mesh.nodes, &[], &[])?,
-        _ => bad_input!(
+        _ => bad_args!(
             "{}: output must end in .msh (Gmsh 2.2) or .vtu (ParaView)",
             out.display()
         ),
@@ -1058,7 +1058,7 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
     use raisov::mesh::stuffing::{mesh_levels_report, LevelTarget};
     let t0 = std::time::Instant::now();
     if !(a.scale > 0.0 && a.scale.is_finite()) {
-        bad_input!("--scale {}: must be positive", a.scale);
+        bad_args!("--scale {}: must be positive", a.scale);
     }
     let mut surface = raisov::io::load_surface(&a.surface).map_err(BadInput)?;
     surface.scale(a.scale);
@@ -1093,7 +1093,7 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
         (Some(n), None) => LevelTarget::Nodes(n),
         (None, Some(h)) => LevelTarget::Size(h),
         (None, None) => LevelTarget::Nodes(30_000),
-        (Some(_), Some(_)) => bad_input!("give --nodes or --size, not both"),
+        (Some(_), Some(_)) => bad_args!("give --nodes or --size, not both"),
     };
     let name = match &a.name {
         Some(n) => n.clone(),

@@ -65,4 +65,13 @@ mod tests {
             assert!(check("more than the machine", free.saturating_mul(4)).is_err());
         }
     }
+
+    /// A refusal with a given remedy names the work, both sizes and that remedy.
+    #[test]
+    fn a_refusal_ends_with_the_remedy_it_is_given() {
+        let e = refuse("meshing", 3 << 30, Some(1 << 30), "ask for fewer nodes").unwrap_err();
+        assert!(e.starts_with("meshing needs 3.00 GiB"), "{e}");
+        assert!(e.ends_with("; ask for fewer nodes"), "{e}");
+        assert!(check_for("meshing", 1, "x").is_ok());
+    }
 }

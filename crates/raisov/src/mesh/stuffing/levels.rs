@@ -161,10 +161,7 @@ pub fn mesh_levels_report(
         progress(&format!("level {i}"));
         let (mesh, stats, target_nodes) = match (i, target) {
             (0, LevelTarget::Size(h)) => {
-                let (m, s) = stuffer.mesh(h).map_err(|e| match e {
-                    Error::Param { msg, .. } => Error::param("size", format!("level 0: {msg}")),
-                    e => e,
-                })?;
+                let (m, s) = stuffer.mesh(h).map_err(|e| as_key(e, "size", 0))?;
                 let n = m.num_nodes();
                 (m, s, n)
             }
@@ -205,6 +202,15 @@ pub fn mesh_levels_report(
     ))
 }
 
+/// The stuffer's refusal of a spacing (its parameter `h`) under the caller's key, `nodes` or
+/// `size`, and the level: the spacing is the levels' choice, not the caller's.
+fn as_key(e: Error, key: &str, level: usize) -> Error {
+    match e {
+        Error::Param { msg, .. } => Error::param(key, format!("level {level}: {msg}")),
+        e => e,
+    }
+}
+
 /// Stuff at spacings from `guess` until the node count is within [`COUNT_TOLERANCE`] of
 /// `target` (module docs).
 fn search_spacing(
@@ -219,11 +225,7 @@ fn search_spacing(
     let mut tried = 0;
     for _ in 0..MAX_SEARCH {
         tried += 1;
-        // The spacing is the search's, not the caller's: a refusal names the node target.
-        let st = match stuffer.stuff(h).map_err(|e| match e {
-            Error::Param { msg, .. } => Error::param("nodes", format!("level {level}: {msg}")),
-            e => e,
-        })? {
+        let st = match stuffer.stuff(h).map_err(|e| as_key(e, "nodes", level))? {
             Some(x) => x,
             None if best.is_none() => {
                 // Nothing inside at this spacing: refine.

@@ -62,12 +62,12 @@ pub const MESHER_VERSION: u32 = 1;
 
 /// Bytes a lattice vertex may take while meshing: its sign, its node number, its slot in
 /// the used-node map.
-pub const LATTICE_VERTEX_BYTES: usize = 9;
+pub const LATTICE_VERTEX_BYTES: u64 = 9;
 
 /// Bytes an inside lattice vertex may take while meshing: its position twice (lattice and
 /// mesh), about eight output tetrahedra of 16 bytes three times (per row, flattened, the
 /// mesh's cells), with room to spare.
-pub const INSIDE_VERTEX_BYTES: usize = 512;
+pub const INSIDE_VERTEX_BYTES: u64 = 512;
 
 /// Warping threshold on long edges, as a fraction of the edge length.
 pub const ALPHA_LONG: f64 = 0.24046;
@@ -163,8 +163,9 @@ impl Stuffer {
 
     /// Mesh the inside of the surface with lattice spacing `h` (see the module docs).
     ///
-    /// Errors: `h` not positive and finite, a lattice of more than `u32` vertices, or a
-    /// surface that encloses no lattice vertex at this spacing.
+    /// Errors: `h` not positive and finite, a lattice of more than 2·10⁹ vertices, more
+    /// memory than is available (see `stuff`), or a surface that encloses no tetrahedron at
+    /// this spacing.
     pub fn mesh(&self, h: f64) -> Result<(Mesh, StuffStats)> {
         let raw = self.stuff(h)?.ok_or_else(|| {
             Error::param(

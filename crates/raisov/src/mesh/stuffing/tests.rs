@@ -393,19 +393,6 @@ fn mesher_node_target_beyond_the_lattice_names_the_lattice_limit() {
     assert!(e.to_string().contains("no tetrahedron inside"), "{e}");
 }
 
-/// The memory check's message names the work, both sizes and the remedy it is given.
-#[test]
-fn mesher_memory_refusal_names_sizes_and_remedy() {
-    let free = crate::memory::available();
-    if let Some(free) = free {
-        let e = crate::memory::check_for("meshing", free.saturating_mul(4), "ask for fewer nodes")
-            .unwrap_err();
-        assert!(e.starts_with("meshing needs "), "{e}");
-        assert!(e.ends_with("; ask for fewer nodes"), "{e}");
-    }
-    assert!(crate::memory::check_for("meshing", 1, "x").is_ok());
-}
-
 /// The liver surface of `data/` (millimetres), read by `io::load_surface` and scaled to
 /// metres: two small levels, angles in the guarantee, node ratio 0.5 ± 0.05, volume within
 /// 2 % of the enclosed volume, every boundary node on the surface.

@@ -767,6 +767,7 @@ fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>, only: Vec<String>
     let rows = equilibrium::run(&cases, &mut |line| eprintln!("{line}"))?;
     println!("{}", equilibrium::to_markdown(&rows));
     println!("{}", equilibrium::summary_markdown(&rows));
+    println!("{}", equilibrium::goal_markdown(&rows));
     let mut frames = Vec::new();
     for c in cases.iter().filter(|c| c.scenario.prescribed.is_empty()) {
         eprintln!("{}: FAS frames ...", c.name);

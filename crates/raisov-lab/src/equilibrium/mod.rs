@@ -87,11 +87,17 @@
 //!
 //! [`summary_markdown`] states, per case, the fastest solver, and how much faster than every
 //! other solver FAS and Newton-multigrid are (the defaults of a `[multigrid]` run to steady
-//! state and of a static scenario); [`frame_budgets`] runs FAS as the frame loop does, a fixed number of
+//! state and of a static scenario); [`goal_markdown`] sets Newton-multigrid against
+//! [`GOAL`], the time that allows (the best other solver's over [`GOAL`]) and where its
+//! time went ([`Parts`]: the coarse start, the setup before its first iteration, the
+//! Galerkin hierarchies, the assemblies, the CG iterations, the rest), and for each case
+//! that misses it, what share of the allowed time the parts that fewer CG iterations would
+//! not shorten take alone; [`frame_budgets`] runs FAS as the frame loop does, a fixed number of
 //! V-cycles per frame, and reads the residual after given frames; [`newton_frame_budgets`]
 //! does the same with a fixed number of Newton-multigrid iterations per frame.
 
 mod frames;
+mod summary;
 
 pub use frames::{frame_budgets, frames_to_markdown, newton_frame_budgets, FrameRow, FRAME_MARKS};
 use raisov::hierarchy::Transfer;
@@ -107,6 +113,7 @@ use raisov::scenario::{MultigridScheme, Scenario};
 use raisov::{Error, Result};
 use std::path::Path;
 use std::time::Instant;
+pub use summary::{goal_markdown, summary_markdown, to_markdown, GOAL};
 
 /// Relative part of the stopping rule (of the largest nodal external load).
 pub const REL_TOL: f64 = 1e-8;
@@ -202,6 +209,35 @@ pub struct Row {
     pub diff_newton: Option<f64>,
     /// Details (Newton's factorisations, a failure).
     pub note: String,
+    /// Where the wall time went: Newton-multigrid's rows ([`summary::goal_markdown`]).
+    pub parts: Option<Parts>,
+}
+
+/// Where a Newton-multigrid solve's wall time went (s); the parts sum to its wall time.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Parts {
+    /// The coarse start (nested iteration), where one was taken.
+    pub start_s: f64,
+    /// Before the first Newton iteration, the start aside: the level meshes, their
+    /// transfers, the tangent's pattern and the prolongations.
+    pub setup_s: f64,
+    /// Galerkin hierarchies: the products `PᵀAP`, the smoothers, the coarse factors
+    /// ([`raisov::integrate::newton_direct::DirectStatic::setup_s`]).
+    pub hierarchies_s: f64,
+    /// Tangent assemblies.
+    pub assembly_s: f64,
+    /// Conjugate-gradient iterations: V-cycles and products.
+    pub cg_s: f64,
+    /// The rest: residuals and energies of the line searches, the lifts, the output.
+    pub rest_s: f64,
+}
+
+impl Parts {
+    /// What fewer CG iterations would not shorten: the start, the setup, the hierarchies
+    /// and the assemblies (s).
+    pub fn fixed_s(&self) -> f64 {
+        self.start_s + self.setup_s + self.hierarchies_s + self.assembly_s
+    }
 }
 
 impl Row {
@@ -427,6 +463,7 @@ pub fn blank_row(case: &Case, solver: &str, target: f64) -> Row {
         max_u: f64::NAN,
         diff_newton: None,
         note: String::new(),
+        parts: None,
     }
 }
 
@@ -590,17 +627,26 @@ fn newton_mg_run(
     }
     let t0 = Instant::now();
     let (meshes, down) = newton_mg_hierarchy(sc)?;
+    let mut parts = Parts {
+        setup_s: t0.elapsed().as_secs_f64(),
+        ..Default::default()
+    };
+    let clock = Instant::now();
     let start = if nested && meshes.len() > 1 {
         start_from_coarse(case, &mut sys, &mut u, Some(&meshes[1]), true)?
     } else {
         None
     };
+    parts.start_s = clock.elapsed().as_secs_f64();
     let model = sys
         .force
         .as_fem_mut()
         .ok_or_else(|| Error::param("bench equilibrium", "not a finite-element model"))?;
     let load_steps = CoarseStart::fine_load_steps(start.as_ref(), case.load_steps);
-    let out = DirectNewton::with_levels(model, &sys.constraints, &down).and_then(|mut s| {
+    let clock = Instant::now();
+    let prepared = DirectNewton::with_levels(model, &sys.constraints, &down);
+    parts.setup_s += clock.elapsed().as_secs_f64();
+    let out = prepared.and_then(|mut s| {
         s.solve(
             model,
             &sys.constraints,
@@ -640,6 +686,11 @@ fn newton_mg_run(
                 o.assembly_s,
                 o.energy_evaluations
             );
+            parts.hierarchies_s = o.setup_s;
+            parts.assembly_s = o.assembly_s;
+            parts.cg_s = o.factor_s - o.setup_s;
+            parts.rest_s = (row.wall_s - parts.fixed_s() - parts.cg_s).max(0.0);
+            row.parts = Some(parts);
         }
         Err(e) => row.note = format!("failed: {e}"),
     }
@@ -974,98 +1025,6 @@ pub fn all_ok(rows: &[Row]) -> bool {
         .all(|r| r.converged && r.agrees().unwrap_or(false))
 }
 
-/// The rows as a Markdown table, with the stopping rule above it.
-pub fn to_markdown(rows: &[Row]) -> String {
-    let mut s = format!(
-        "Stop: max nodal residual over free nodes <= {REL_TOL:e} x max nodal load + {ABS_TOL:e} N; \
-         agreement: max |u - u_Newton| <= {AGREE_TOL:e} x max |u|.\n\n\
-         | case | nodes | solver | wall (s) | iterations | force evals (finest units) | final residual (N) | target (N) | converged | max \\|u\\| (m) | max \\|u - u_Newton\\| (m) | agrees | notes |\n\
-         |---|---:|---|---:|---:|---:|---:|---:|---|---:|---:|---|---|\n"
-    );
-    for r in rows {
-        let iter_unit = match r.solver.as_str() {
-            "direct Newton" | "Newton-multigrid" => "iterations",
-            "FAS" => "cycles",
-            "Chebyshev" => "iterations",
-            _ => "steps",
-        };
-        let diff = r
-            .diff_newton
-            .map_or("-".to_string(), |d| format!("{d:.2e}"));
-        let agrees = match r.agrees() {
-            Some(true) => "yes",
-            Some(false) => "**NO**",
-            None => "-",
-        };
-        s += &format!(
-            "| {} | {} | {} | {:.2} | {} {iter_unit} | {:.0} | {:.2e} | {:.2e} | {} | {:.4e} | {diff} | {agrees} | {} |\n",
-            r.case,
-            r.nodes,
-            r.solver,
-            r.wall_s,
-            r.iterations,
-            r.force_evaluations,
-            r.residual,
-            r.target,
-            if r.converged { "yes" } else { "**NO**" },
-            r.max_u,
-            r.note
-        );
-    }
-    s
-}
-
-/// Per case: the fastest solver that converged; the wall times of FAS (the default of a
-/// `[multigrid]` run to steady state) and of Newton-multigrid (the default of a static
-/// scenario, `method = "newton"` with `[multigrid]` levels); and for each of the two, the
-/// fastest other solver's wall time over its own (> 1: it is that many times faster than
-/// every other solver; the issue's goal for the default is 5).
-pub fn summary_markdown(rows: &[Row]) -> String {
-    let mut s = String::from(
-        "| case | fastest | its wall (s) | FAS wall (s) | Newton-multigrid wall (s) | best other / FAS | best other / Newton-multigrid |\n|---|---|---:|---:|---:|---:|---:|\n",
-    );
-    let mut names: Vec<&str> = Vec::new();
-    for r in rows {
-        if !names.contains(&r.case.as_str()) {
-            names.push(&r.case);
-        }
-    }
-    for name in names {
-        let done: Vec<&Row> = rows
-            .iter()
-            .filter(|r| r.case == name && r.converged)
-            .collect();
-        let of = |solver: &str| done.iter().find(|r| r.solver == solver).copied();
-        let best_other = |solver: &str| {
-            done.iter()
-                .filter(|r| r.solver != solver)
-                .map(|r| r.wall_s)
-                .min_by(f64::total_cmp)
-        };
-        let ratio = |solver: &str| match (of(solver), best_other(solver)) {
-            (Some(r), Some(b)) => format!("{:.2}", b / r.wall_s),
-            _ => "-".to_string(),
-        };
-        let wall =
-            |solver: &str| of(solver).map_or("-".to_string(), |r| format!("{:.2}", r.wall_s));
-        match done.iter().min_by(|a, b| a.wall_s.total_cmp(&b.wall_s)) {
-            Some(f) => {
-                s += &format!(
-                    "| {name} | {} | {:.2} | {} | {} | {} | {} |\n",
-                    f.solver,
-                    f.wall_s,
-                    wall("FAS"),
-                    wall("Newton-multigrid"),
-                    ratio("FAS"),
-                    ratio("Newton-multigrid"),
-                )
-            }
-            None => s += &format!("| {name} | - | - | - | - | - | - (no solver converged) |\n"),
-        }
-    }
-    s
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1085,7 +1044,32 @@ mod tests {
             );
             assert!(r.residual <= r.target);
             assert_eq!(r.agrees(), Some(true), "{} / {}\n{table}", r.case, r.solver);
+            // Newton-multigrid's parts are its wall time, each measured, none negative.
+            if let Some(p) = r.parts {
+                let all = [
+                    p.start_s,
+                    p.setup_s,
+                    p.hierarchies_s,
+                    p.assembly_s,
+                    p.cg_s,
+                    p.rest_s,
+                ];
+                assert!(all.iter().all(|&x| x >= 0.0), "{p:?}");
+                assert!(
+                    p.hierarchies_s > 0.0 && p.assembly_s > 0.0 && p.cg_s > 0.0,
+                    "{p:?}"
+                );
+                let sum: f64 = all.iter().sum();
+                assert!(
+                    (sum - r.wall_s).abs() <= 1e-9 * r.wall_s.max(1.0),
+                    "{sum} vs {}",
+                    r.wall_s
+                );
+            }
         }
+        assert!(rows
+            .iter()
+            .any(|r| r.solver == "Newton-multigrid" && r.parts.is_some()));
         assert!(all_ok(rows));
     }
 

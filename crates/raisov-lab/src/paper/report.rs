@@ -272,7 +272,9 @@ pub fn write_all(out: &Path, res: &mut Results) -> Result<()> {
             &out.join("equilibrium.md"),
             &(crate::equilibrium::to_markdown(&res.equilibrium)
                 + "\n"
-                + &crate::equilibrium::summary_markdown(&res.equilibrium)),
+                + &crate::equilibrium::summary_markdown(&res.equilibrium)
+                + "\n"
+                + &crate::equilibrium::goal_markdown(&res.equilibrium)),
             &mut files,
         )?;
     }
@@ -725,6 +727,7 @@ fn section_equilibrium(w: &mut String, res: &Results) {
         "{}",
         crate::equilibrium::summary_markdown(&res.equilibrium)
     );
+    let _ = writeln!(w, "{}", crate::equilibrium::goal_markdown(&res.equilibrium));
 }
 
 /// Stage times, notes, abbreviations, the scenario text and the list of files.

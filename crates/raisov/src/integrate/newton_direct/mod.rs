@@ -289,9 +289,15 @@ pub struct DirectStatic {
     /// Of those, the ones built because the kept one was provisional (built where the step
     /// was damped) and a full step followed (module docs); at most [`PROVISIONAL_REBUILDS`].
     pub provisional_rebuilds: usize,
-    /// Wall time in assembling tangents and in factorising and solving (s).
+    /// Wall time in assembling tangents (s).
     pub assembly_s: f64,
+    /// Wall time in solving the Newton systems, building their preconditioners included
+    /// (s).
     pub factor_s: f64,
+    /// Of [`DirectStatic::factor_s`], the time in building preconditioners: numeric
+    /// factorisations, or Galerkin hierarchies (their products, smoothers and coarse
+    /// factors) and their refreshes with a new tangent (s).
+    pub setup_s: f64,
     /// Largest nodal residual after each iteration of the last load step (N).
     pub history: Vec<f64>,
     pub converged: bool,
@@ -765,8 +771,10 @@ impl DirectNewton {
                         let mut current = None;
                         match (self.mg.as_mut(), mgp.keep) {
                             (Some(mg), false) => {
+                                let clock = std::time::Instant::now();
                                 full(mg.finest_mut());
                                 mg.refresh();
+                                out.setup_s += clock.elapsed().as_secs_f64();
                             }
                             (Some(_), true) => {
                                 let mut a = scatter.pattern.clone();
@@ -774,17 +782,20 @@ impl DirectNewton {
                                 current = Some(a);
                             }
                             (None, _) => {
+                                let clock = std::time::Instant::now();
                                 let mut a = scatter.pattern.clone();
                                 full(&mut a);
                                 out.multigrid_setups += 1;
-                                self.mg = match GalerkinMultigrid::new(
+                                let built = GalerkinMultigrid::new(
                                     a,
                                     self.prolongations.clone(),
                                     mgp.sweeps,
                                     mgp.smoother,
                                     mgp.coarse_precision,
                                     &mut self.hierarchy_symbolic,
-                                ) {
+                                );
+                                out.setup_s += clock.elapsed().as_secs_f64();
+                                self.mg = match built {
                                     Ok(mg) => {
                                         built_now = true;
                                         Some(mg)
@@ -902,7 +913,10 @@ impl DirectNewton {
                 while !solved {
                     rhs.copy_from_slice(&b);
                     out.factorizations += 1;
-                    match self.factor_solve(sigma * dbar, &mut rhs) {
+                    let clock = std::time::Instant::now();
+                    let factored = self.factor_solve(sigma * dbar, &mut rhs);
+                    out.setup_s += clock.elapsed().as_secs_f64();
+                    match factored {
                         Ok(()) => {
                             solved = true;
                         }

@@ -233,6 +233,18 @@ pub struct Parts {
 }
 
 impl Parts {
+    /// The parts in the goal table's order: start, setup, hierarchies, assemblies, CG, rest.
+    pub fn all(&self) -> [f64; 6] {
+        [
+            self.start_s,
+            self.setup_s,
+            self.hierarchies_s,
+            self.assembly_s,
+            self.cg_s,
+            self.rest_s,
+        ]
+    }
+
     /// What fewer CG iterations would not shorten: the start, the setup, the hierarchies
     /// and the assemblies (s).
     pub fn fixed_s(&self) -> f64 {
@@ -1046,14 +1058,7 @@ mod tests {
             assert_eq!(r.agrees(), Some(true), "{} / {}\n{table}", r.case, r.solver);
             // Newton-multigrid's parts are its wall time, each measured, none negative.
             if let Some(p) = r.parts {
-                let all = [
-                    p.start_s,
-                    p.setup_s,
-                    p.hierarchies_s,
-                    p.assembly_s,
-                    p.cg_s,
-                    p.rest_s,
-                ];
+                let all = p.all();
                 assert!(all.iter().all(|&x| x >= 0.0), "{p:?}");
                 assert!(
                     p.hierarchies_s > 0.0 && p.assembly_s > 0.0 && p.cg_s > 0.0,

@@ -58,13 +58,7 @@ pub fn summary_markdown(rows: &[Row]) -> String {
     let mut s = String::from(
         "| case | fastest | its wall (s) | FAS wall (s) | Newton-multigrid wall (s) | best other / FAS | best other / Newton-multigrid |\n|---|---|---:|---:|---:|---:|---:|\n",
     );
-    let mut names: Vec<&str> = Vec::new();
-    for r in rows {
-        if !names.contains(&r.case.as_str()) {
-            names.push(&r.case);
-        }
-    }
-    for name in names {
+    for name in case_names(rows) {
         let done: Vec<&Row> = rows
             .iter()
             .filter(|r| r.case == name && r.converged)
@@ -100,6 +94,17 @@ pub fn summary_markdown(rows: &[Row]) -> String {
     s
 }
 
+/// The rows' case names, each once, in their first row's order.
+fn case_names(rows: &[Row]) -> Vec<&str> {
+    let mut names: Vec<&str> = Vec::new();
+    for r in rows {
+        if !names.contains(&r.case.as_str()) {
+            names.push(&r.case);
+        }
+    }
+    names
+}
+
 /// Per case, Newton-multigrid against [`GOAL`]: its wall time, the best other solver's, the
 /// ratio, the time the goal allows (the best other's over [`GOAL`]) and where Newton-
 /// multigrid's time went ([`super::Parts`]); below the table, for each case that misses the
@@ -116,13 +121,7 @@ pub fn goal_markdown(rows: &[Row]) -> String {
          |---|---:|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|\n"
     );
     let mut misses = String::new();
-    let mut names: Vec<&str> = Vec::new();
-    for r in rows {
-        if !names.contains(&r.case.as_str()) {
-            names.push(&r.case);
-        }
-    }
-    for name in names {
+    for name in case_names(rows) {
         let done = || rows.iter().filter(|r| r.case == name && r.converged);
         let Some((nmg, p)) = done()
             .find(|r| r.solver == "Newton-multigrid")
@@ -140,17 +139,12 @@ pub fn goal_markdown(rows: &[Row]) -> String {
         let allowed = other.wall_s / GOAL;
         let met = ratio >= GOAL;
         s += &format!(
-            "| {name} | {:.2} | {} | {:.2} | {ratio:.2} | {allowed:.2} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+            "| {name} | {:.2} | {} | {:.2} | {ratio:.2} | {allowed:.2} | {} |{}\n",
             nmg.wall_s,
             other.solver,
             other.wall_s,
             if met { "yes" } else { "**no**" },
-            p.start_s,
-            p.setup_s,
-            p.hierarchies_s,
-            p.assembly_s,
-            p.cg_s,
-            p.rest_s,
+            p.all().map(|x| format!(" {x:.2} |")).concat(),
         );
         if !met {
             let fixed = p.fixed_s();

@@ -76,7 +76,7 @@ pub fn polygon_membrane(polygon: &[[f64; 2]], target_nodes: usize) -> Result<Mes
     let n = polygon.len();
     if target_nodes < 3 || target_nodes < n {
         return Err(Error::param(
-            "target_nodes",
+            "nodes",
             format!(
                 "{target_nodes} is too few: need at least 3 and at least the {n} polygon vertices"
             ),
@@ -84,12 +84,12 @@ pub fn polygon_membrane(polygon: &[[f64; 2]], target_nodes: usize) -> Result<Mes
     }
     if target_nodes > MAX_NODES {
         return Err(Error::param(
-            "target_nodes",
+            "nodes",
             format!("{target_nodes} exceeds the maximum of {MAX_NODES}"),
         ));
     }
     generator_memory(
-        "target_nodes",
+        "nodes",
         "a membrane",
         target_nodes as u128,
         MEMBRANE_NODE_BYTES,
@@ -724,7 +724,7 @@ pub fn box_divisions_for_target(size: [f64; 3], target_nodes: usize) -> Result<[
     }
     if !(8..=MAX_NODES).contains(&target_nodes) {
         return Err(Error::param(
-            "target_nodes",
+            "nodes",
             format!("must be between 8 and {MAX_NODES}, got {target_nodes}"),
         ));
     }

@@ -152,7 +152,7 @@ fn every_error_path_names_the_problem() {
         (BASE.replace("size = [0.1, 0.1]", "size = [0.1, -0.1]"), "need 2 positive lengths"),
         (BASE.replace("generate = \"rectangle\"", "generate = \"sphere\""), "valid are \"rectangle\""),
         (BASE.replace("generate = \"rectangle\"\nsize = [0.1, 0.1]\nnodes = 60", "file = \"missing.msh\""), "missing.msh"),
-        (BASE.replace("nodes = 60", "nodes = 4000000000"), "`mesh.generate` = \"rectangle\": invalid parameter `target_nodes`: 4000000000 exceeds the maximum"),
+        (BASE.replace("nodes = 60", "nodes = 4000000000"), "`mesh.generate` = \"rectangle\": invalid parameter `nodes`: 4000000000 exceeds the maximum"),
         (BASE.replace("duration = 0.01", "duration = -1.0"), "must be a positive number"),
         (BASE.replace("duration = 0.01", ""), "`duration` (s) is required"),
         (BASE.replace("duration = 0.01", "duration = 1.0\nstop = \"never\""), "valid are \"duration\", \"steady\""),

@@ -59,19 +59,10 @@ pub fn summary_markdown(rows: &[Row]) -> String {
         "| case | fastest | its wall (s) | FAS wall (s) | Newton-multigrid wall (s) | best other / FAS | best other / Newton-multigrid |\n|---|---|---:|---:|---:|---:|---:|\n",
     );
     for name in case_names(rows) {
-        let done: Vec<&Row> = rows
-            .iter()
-            .filter(|r| r.case == name && r.converged)
-            .collect();
+        let done = converged(rows, name);
         let of = |solver: &str| done.iter().find(|r| r.solver == solver).copied();
-        let best_other = |solver: &str| {
-            done.iter()
-                .filter(|r| r.solver != solver)
-                .map(|r| r.wall_s)
-                .min_by(f64::total_cmp)
-        };
-        let ratio = |solver: &str| match (of(solver), best_other(solver)) {
-            (Some(r), Some(b)) => format!("{:.2}", b / r.wall_s),
+        let ratio = |solver: &str| match (of(solver), fastest_other(&done, solver)) {
+            (Some(r), Some(b)) => format!("{:.2}", b.wall_s / r.wall_s),
             _ => "-".to_string(),
         };
         let wall =
@@ -92,6 +83,21 @@ pub fn summary_markdown(rows: &[Row]) -> String {
         }
     }
     s
+}
+
+/// The rows of case `name` that met the stopping rule.
+fn converged<'a>(rows: &'a [Row], name: &str) -> Vec<&'a Row> {
+    rows.iter()
+        .filter(|r| r.case == name && r.converged)
+        .collect()
+}
+
+/// The fastest of `done` other than `solver`.
+fn fastest_other<'a>(done: &[&'a Row], solver: &str) -> Option<&'a Row> {
+    done.iter()
+        .filter(|r| r.solver != solver)
+        .min_by(|a, b| a.wall_s.total_cmp(&b.wall_s))
+        .copied()
 }
 
 /// The rows' case names, each once, in their first row's order.
@@ -122,17 +128,15 @@ pub fn goal_markdown(rows: &[Row]) -> String {
     );
     let mut misses = String::new();
     for name in case_names(rows) {
-        let done = || rows.iter().filter(|r| r.case == name && r.converged);
-        let Some((nmg, p)) = done()
+        let done = converged(rows, name);
+        let Some((nmg, p)) = done
+            .iter()
             .find(|r| r.solver == "Newton-multigrid")
             .and_then(|r| r.parts.map(|p| (r, p)))
         else {
             continue;
         };
-        let Some(other) = done()
-            .filter(|r| r.solver != "Newton-multigrid")
-            .min_by(|a, b| a.wall_s.total_cmp(&b.wall_s))
-        else {
+        let Some(other) = fastest_other(&done, "Newton-multigrid") else {
             continue;
         };
         let ratio = other.wall_s / nmg.wall_s;

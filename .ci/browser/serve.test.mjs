@@ -1,11 +1,13 @@
 // Browser test of `raisov serve`: start the server on a free port, load the page in Debian's
 // Chromium (headless, software WebGL), Shift-drag on the organ, check that the surface moved
-// and the grasp force readout is non-zero, save a screenshot.
+// and the grasp force readout is non-zero, save a screenshot; then check that a page of
+// another site, open in the same browser, cannot open the viewer's WebSocket.
 // Env: RAISOV_BIN (default target/release/raisov), CHROMIUM (default /usr/bin/chromium),
 // SCREENSHOT (default target/browser/serve.png).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn } from 'node:child_process';
+import { createServer } from 'node:http';
 import { mkdirSync } from 'node:fs';
 import { dirname, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -85,6 +87,26 @@ test('raisov serve: Shift-drag grasps the organ in the browser', { timeout: 1100
     assert.ok(r.moved > 1e-3, `surface vertices moved ${r.moved} m (want > 1 mm)`);
     assert.ok(r.forceN > 0 && parseFloat(r.text) > 0, `force readout ${r.text}`);
     assert.deepEqual(errors, [], 'page errors');
+
+    // A page of another origin (another port of this machine) tries the viewer's WebSocket:
+    // the browser sends that page's Origin and the server refuses the upgrade.
+    const other = createServer((_, res) => { res.writeHead(200, { 'content-type': 'text/html' }); res.end('<p>another site</p>'); });
+    await new Promise((ok) => other.listen(0, '127.0.0.1', ok));
+    try {
+      const evil = await browser.newPage();
+      await evil.goto(`http://127.0.0.1:${other.address().port}/`);
+      const wsUrl = url.replace(/^http/, 'ws').replace(/\/(\?.*)?$/, '/ws');
+      const outcome = await evil.evaluate((u) => new Promise((ok) => {
+        const ws = new WebSocket(u);
+        ws.onopen = () => ok('open');
+        ws.onerror = () => ok('refused');
+        setTimeout(() => ok('timeout'), 10000);
+      }), wsUrl);
+      console.log(`a WebSocket from another origin to ${wsUrl}: ${outcome}`);
+      assert.equal(outcome, 'refused', 'a cross-origin page opened the WebSocket');
+    } finally {
+      other.close();
+    }
   } finally {
     await browser.close();
     proc.kill();

@@ -147,9 +147,14 @@ enum Cmd {
         /// Port (0: any free port).
         #[arg(long, default_value_t = 8080)]
         port: u16,
-        /// Address to bind (127.0.0.1: this machine only).
+        /// Address to bind (127.0.0.1: this machine only). Any other address exposes the
+        /// viewer to the network: clients must then present a token (printed in the URL).
         #[arg(long, default_value = "127.0.0.1")]
         host: String,
+        /// The token clients must present (16-128 letters, digits, '-', '_'); default: a
+        /// random one where --host is not a loopback address, none on loopback.
+        #[arg(long)]
+        token: Option<String>,
         /// Open the page in the system's browser (else only print the URL).
         #[arg(long)]
         open: bool,
@@ -354,6 +359,7 @@ fn real_main(cli: Cli) -> Result<i32> {
             target,
             port,
             host,
+            token,
             open,
             cycles,
             budget_ms,
@@ -364,9 +370,11 @@ fn real_main(cli: Cli) -> Result<i32> {
             nodes,
             grab_stiffness,
         } => {
+            // Whatever stops the viewer before it serves is its input: exit status 2.
             raisov_serve::run(&raisov_serve::ServeArgs {
                 target,
                 host,
+                token,
                 port,
                 open,
                 cycles,
@@ -377,7 +385,8 @@ fn real_main(cli: Cli) -> Result<i32> {
                 scale,
                 nodes,
                 grab_stiffness,
-            })?;
+            })
+            .map_err(|e| BadArgs(e.to_string()))?;
             Ok(0)
         }
         Cmd::Run {

@@ -141,7 +141,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         100.0 * lag_max
     );
     if organ_nodes.is_some() {
-        // The wire figures are those of the shipped levels' run: bytes grow as 80 + 16 n for
+        // The wire figures are those of the shipped levels' run: bytes grow as 88 + 16 n for
         // n surface vertices and the latency is bounded by the frame time measured above.
         return Ok(());
     }
@@ -278,9 +278,10 @@ async fn wire(
     )?;
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let addr = listener.local_addr()?;
-    let app = raisov_serve::server::router(session);
+    let access = raisov_serve::access::Access::for_bound(addr, None)?;
     tokio::spawn(async move {
-        let _ = axum::serve(listener, app).await;
+        let limits = raisov_serve::conn::Limits::default();
+        let _ = raisov_serve::server::serve(listener, session, access, limits).await;
     });
     let (mut ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws")).await?;
     let send =

@@ -9,11 +9,13 @@
 //! use raisov::sim::Budget;
 //! let source = Source::from_scenario_file("examples/liver_interactive.toml".as_ref())?;
 //! let config = SessionConfig { budget: Budget::Cycles(2), max_fps: 60.0, method: None, record_path: None, grab_stiffness: None };
-//! serve_blocking(source, config, "127.0.0.1", 8080, |url| println!("open {url}"))?;
+//! serve_blocking(source, config, "127.0.0.1", 8080, None, |url, _| println!("open {url}"))?;
 //! # Ok::<(), raisov_serve::ServeError>(())
 //! ```
 
+pub mod access;
 pub mod assets;
+pub mod conn;
 pub mod protocol;
 pub mod record;
 pub mod server;
@@ -50,13 +52,16 @@ pub enum ServeError {
 }
 
 /// Start the simulation thread, bind `host:port` (port 0: any free port), call `ready` with
-/// the page's URL, and serve until the process ends.
+/// the page's URL (with the token where one is required) and the access rules, and serve
+/// until the process ends. `token`: require this token even on loopback
+/// ([`access::Access::for_bound`]; one is made for a non-loopback address).
 pub fn serve_blocking(
     source: session::Source,
     config: session::SessionConfig,
     host: &str,
     port: u16,
-    ready: impl FnOnce(&str),
+    token: Option<String>,
+    ready: impl FnOnce(&str, &access::Access),
 ) -> Result<(), ServeError> {
     let session = session::Session::spawn(source, config)?;
     let rt = tokio::runtime::Builder::new_multi_thread()
@@ -77,6 +82,7 @@ pub fn serve_blocking(
             addr: addr.clone(),
             source: e,
         })?;
+        let access = access::Access::for_bound(local, token).map_err(ServeError::Scenario)?;
         let shown = if local.ip().is_unspecified() {
             format!("http://127.0.0.1:{}/", local.port())
         } else if local.is_ipv6() {
@@ -84,8 +90,12 @@ pub fn serve_blocking(
         } else {
             format!("http://{local}/")
         };
-        ready(&shown);
-        axum::serve(listener, server::router(session))
+        let shown = match access.token() {
+            Some(t) => format!("{shown}?token={t}"),
+            None => shown,
+        };
+        ready(&shown, &access);
+        server::serve(listener, session, access, conn::Limits::default())
             .await
             .map_err(|e| ServeError::Bind { addr, source: e })
     })
@@ -97,8 +107,10 @@ pub struct ServeArgs {
     /// A scenario (`.toml`) or a closed surface (`.obj`, `.stl`, `.ply`); `None`: the shipped
     /// liver ([`DEFAULT_SCENARIO`]).
     pub target: Option<PathBuf>,
-    /// Address to bind.
+    /// Address to bind (a loopback address unless the user chooses to expose the viewer).
     pub host: String,
+    /// The token clients must present; `None`: none on loopback, a new one otherwise.
+    pub token: Option<String>,
     /// Port (0: any free port).
     pub port: u16,
     /// Open the page in the system's browser.
@@ -166,6 +178,12 @@ pub fn run(args: &ServeArgs) -> Result<(), ServeError> {
             )))
         }
     };
+    if !(args.max_fps >= 0.0 && args.max_fps.is_finite()) {
+        return Err(ServeError::Scenario(format!(
+            "--max-fps {}: must be a frame rate of 0 (no cap) or more, in frames per second",
+            args.max_fps
+        )));
+    }
     if !(args.budget_ms > 0.0 && args.budget_ms.is_finite()) {
         return Err(ServeError::Scenario(format!(
             "--budget-ms {}: must be a positive number of milliseconds",
@@ -198,10 +216,25 @@ pub fn run(args: &ServeArgs) -> Result<(), ServeError> {
     };
     println!("raisov serve: {} ({})", source.name, target.display());
     let open = args.open;
-    serve_blocking(source, config, &args.host, args.port, |url| {
-        println!("open {url}  (Shift+drag grasps, Ctrl+click pins, Ctrl+C stops)");
-        if open {
-            let _ = std::process::Command::new("xdg-open").arg(url).spawn();
-        }
-    })
+    serve_blocking(
+        source,
+        config,
+        &args.host,
+        args.port,
+        args.token.clone(),
+        |url, access| {
+            if !access.loopback() {
+                println!(
+                    "warning: listening on {}, beyond this machine: whoever can reach it and \
+                     has the token can drive the simulation and see the organ's surface",
+                    args.host
+                );
+                println!("         from another machine, put this machine's address in the URL");
+            }
+            println!("open {url}  (Shift+drag grasps, Ctrl+click pins, Ctrl+C stops)");
+            if open {
+                let _ = std::process::Command::new("xdg-open").arg(url).spawn();
+            }
+        },
+    )
 }

@@ -7,8 +7,9 @@
 //! ```text
 //! offset 0   u8   kind
 //! offset 1   u8×3 zero
-//! offset 4   u32  seq: strictly increasing per connection (a message whose seq is not
-//!                 greater than the last accepted one is out of order and dropped)
+//! offset 4   u32  seq: increasing per connection, modulo 2^32 (a message whose seq is not
+//!                 one of the 2^31 - 1 values after the last accepted one is out of order
+//!                 and dropped; the counter wraps from 2^32 - 1 to 0)
 //! offset 8   payload, by kind (f32 unless said):
 //!   1 grab     point x y z (m), radius (m)           24 bytes in all
 //!   2 move     target x y z (m)                      20
@@ -33,8 +34,10 @@
 //! topology  "RSVT"  u32 vertex count n, u32 triangle count m, then u32 × 3m vertex indices
 //!                   (sent once per connection, and after a method switch or reset)
 //! frame     "RSVF"  u32 frame number, u32 n, u32 flags (bit 0: a grasp is held, bit 1: the
-//!                   scalar is stress), f32 × 16 stats (STAT_* indices), f32 × 3n surface
-//!                   positions (m), f32 × n scalar (m or Pa): 80 + 16 n bytes
+//!                   scalar is stress, bit 2: at rest, the simulation sleeps until a command
+//!                   arrives, bit 3: the grasp cannot reach its target), f32 × 18 stats
+//!                   (STAT_* indices), f32 × 3n surface positions (m), f32 × n scalar
+//!                   (m or Pa): 88 + 16 n bytes
 //! ```
 //!
 //! Text messages are small JSON objects: `hello` (client id, methods, units), `error`,
@@ -57,7 +60,16 @@ pub const FRAME_MAGIC: &[u8; 4] = b"RSVF";
 /// Bytes before the positions of a frame message.
 pub const FRAME_HEADER: usize = 16 + 4 * STATS;
 /// Number of f32 stats in a frame.
-pub const STATS: usize = 16;
+pub const STATS: usize = 18;
+
+/// Frame flag: a grasp is held.
+pub const FLAG_HELD: u32 = 1;
+/// Frame flag: the scalar is the von Mises stress (else the displacement magnitude).
+pub const FLAG_STRESS: u32 = 2;
+/// Frame flag: at rest; the simulation sleeps until a command arrives (no frames follow).
+pub const FLAG_REST: u32 = 4;
+/// Frame flag: the held grasp cannot reach its target (it holds where it was).
+pub const FLAG_STUCK: u32 = 8;
 
 /// Stat index: simulation frames per second (frames of the simulation thread, 1 s window).
 pub const STAT_SIM_FPS: usize = 0;
@@ -85,6 +97,11 @@ pub const STAT_APPLIED_SEQ: usize = 13;
 pub const STAT_HOLDER: usize = 14;
 /// Stat index: the grasped node count.
 pub const STAT_GRASPED: usize = 15;
+/// Stat index: the frame's rejected tries ([`raisov::sim::FrameReport::retries`]).
+pub const STAT_REJECTED_TRIES: usize = 16;
+/// Stat index: steps of the frame's rejected tries, thrown away
+/// ([`raisov::sim::FrameReport::rejected_cycles`]).
+pub const STAT_REJECTED_STEPS: usize = 17;
 
 /// The simulation scheme the viewer runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -14,6 +14,20 @@
 //! Method switch, reset: the simulation is rebuilt from the scenario text of the method
 //! ([`Source::text_for`]), from rest; a method switch then pins the recorded pins again at
 //! their points and grasps again at the held grasp's first point, moved to its target.
+//!
+//! Sleep: the thread steps only while somebody needs frames. With no client connected and no
+//! grasp held it waits for a command; so it does once the state is at rest, when for
+//! [`REST_FRAMES`] frames in a row no surface vertex moved more than [`REST_MOTION`] times
+//! the surface's bounding-box diagonal and no grasp was moving (unless the scenario has
+//! loads or tools that change with time, [`Source::timed`]). The last frame before it sleeps
+//! carries the "at rest" flag; any command or a new client wakes it.
+//!
+//! A grasp that cannot reach its target: a frame whose every try is rejected (an element
+//! inverts on the way, [`raisov::sim::frame`]) leaves the grasp where it was. The holder is
+//! told once (an error naming why) and the grasp's target is set back to where it holds, so
+//! the next frames are ordinary frames; until a grasp move succeeds again each new target is
+//! tried once, without the retries of smaller sub-moves, so the frames of every viewer keep
+//! their rate. Frames carry the "stuck" flag meanwhile.
 
 use crate::protocol::{
     self, Colour, Command, Method, STATS, STAT_APPLIED_SEQ, STAT_CYCLES, STAT_FORCE, STAT_FRAME_MS,
@@ -28,6 +42,12 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, watch};
+
+/// Frames in a row without motion after which the simulation sleeps (module docs).
+pub const REST_FRAMES: u32 = 30;
+/// The motion per frame, as a fraction of the surface's bounding-box diagonal, below which
+/// a frame counts as at rest.
+pub const REST_MOTION: f64 = 1e-6;
 
 /// The scenario the server runs, as a TOML table, and the method it names.
 #[derive(Clone, Debug)]
@@ -181,6 +201,21 @@ impl Source {
             }
         }
         t
+    }
+
+    /// Whether the scenario has loads or tools that change with time (a `time` key in a
+    /// `[[load]]`, `[[pressure]]` or `[[traction]]`, or any `[[tool]]`): then the state is
+    /// never taken to be at rest.
+    pub fn timed(&self) -> bool {
+        if self.table.contains_key("tool") {
+            return true;
+        }
+        ["load", "pressure", "traction"].iter().any(|k| {
+            self.table
+                .get(*k)
+                .and_then(|v| v.as_array())
+                .is_some_and(|a| a.iter().any(|t| t.get("time").is_some()))
+        })
     }
 
     /// The scenario text for `method` ([`Source::table_for`]).
@@ -383,7 +418,23 @@ struct Worker {
     /// Arrival of the newest holder message not yet shown in a frame.
     pending: Option<(u32, Instant)>,
     positions32: Vec<[f32; 3]>,
+    /// The last frame's positions, to measure the motion of the next one.
+    previous32: Vec<[f32; 3]>,
     scalar: Vec<f32>,
+    /// The largest surface motion of the last frame (m).
+    moved: f64,
+    /// The rest tolerance on `moved` (m): [`REST_MOTION`] times the bounding-box diagonal.
+    rest_motion: f64,
+    /// Frames in a row at rest.
+    still: u32,
+    /// The last frame published says the thread sleeps.
+    resting: bool,
+    /// The held grasp could not reach its target (module docs).
+    stuck: bool,
+    /// The simulation's retries of a rejected frame, restored when the grasp moves again.
+    retries: u32,
+    /// The scenario has loads or tools that change with time.
+    timed: bool,
 }
 
 impl Worker {
@@ -393,6 +444,8 @@ impl Worker {
         method: Method,
     ) -> Result<(Worker, watch::Receiver<Arc<Published>>), ServeError> {
         let sim = source.build(method)?;
+        let retries = sim.max_retries();
+        let timed = source.timed();
         let (tx, rx) = watch::channel(Arc::new(Published {
             topology: Arc::new(Vec::new()),
             topology_version: 0,
@@ -423,7 +476,15 @@ impl Worker {
             input_lag_ms: 0.0,
             pending: None,
             positions32: Vec::new(),
+            previous32: Vec::new(),
             scalar: Vec::new(),
+            moved: f64::INFINITY,
+            rest_motion: 0.0,
+            still: 0,
+            resting: false,
+            stuck: false,
+            retries,
+            timed,
         };
         w.new_topology();
         w.publish(None);
@@ -455,6 +516,25 @@ impl Worker {
         self.topology = Arc::new(protocol::encode_topology(used.len(), &local));
         self.topology_version += 1;
         self.used = used;
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in &self.rest {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let diag = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
+        self.rest_motion = REST_MOTION * if diag.is_finite() { diag } else { 0.0 };
+        self.previous32.clear();
+        self.still = 0;
+    }
+
+    /// Whether somebody needs the next frame (module docs: sleep).
+    fn needed(&self) -> bool {
+        if self.clients.is_empty() && self.held.is_none() {
+            return false;
+        }
+        self.timed || self.still < REST_FRAMES
     }
 
     fn run(&mut self, rx: Receiver<SessionCmd>) {
@@ -468,11 +548,39 @@ impl Worker {
                     Err(std::sync::mpsc::TryRecvError::Disconnected) => return,
                 }
             }
+            if !self.needed() {
+                if !self.resting && !self.clients.is_empty() {
+                    // Tell the viewers why no frames follow.
+                    self.resting = true;
+                    self.publish(None);
+                }
+                self.resting = true;
+                match rx.recv() {
+                    Ok(SessionCmd::Shutdown) | Err(_) => return,
+                    Ok(c) => self.handle(c),
+                }
+                self.resting = false;
+                self.still = 0;
+                self.last_end = None;
+                continue;
+            }
+            let moving = self
+                .held
+                .as_ref()
+                .is_some_and(|h| self.sim.grab_position(h.id).is_ok_and(|p| p != h.target));
             let report = self.sim.step_frame(self.config.budget);
+            if moving {
+                self.grasp_outcome(&report);
+            }
             if let Some(h) = &self.held {
                 self.recorder.sample(h.target);
             }
             self.publish(Some(&report));
+            self.still = if self.moved <= self.rest_motion && !moving && report.accepted {
+                self.still.saturating_add(1)
+            } else {
+                0
+            };
             if self.config.max_fps > 0.0 {
                 let period = Duration::from_secs_f64(1.0 / self.config.max_fps);
                 let elapsed = start.elapsed();
@@ -485,6 +593,50 @@ impl Worker {
                     }
                 }
             }
+        }
+    }
+
+    /// After a frame that moved the held grasp: when it was rejected, tell the holder (once),
+    /// hold the grasp where it is and try later targets without retries; when it was
+    /// accepted, restore the retries (module docs).
+    fn grasp_outcome(&mut self, report: &raisov::sim::FrameReport) {
+        let Some(h) = self.held.as_mut() else { return };
+        if report.accepted {
+            if self.stuck {
+                self.stuck = false;
+                self.sim.set_max_retries(self.retries);
+            }
+            return;
+        }
+        let at = self.sim.grab_position(h.id).unwrap_or(h.target);
+        let wanted = h.target;
+        h.target = at;
+        let (g, client) = (h.id, h.client);
+        let _ = self.sim.move_grab(g, at);
+        if !self.stuck {
+            self.stuck = true;
+            self.sim.set_max_retries(0);
+            let why = report
+                .rejection
+                .as_deref()
+                .unwrap_or("the frame was rejected");
+            let mm = |p: [f64; 3]| {
+                format!(
+                    "({:.1}, {:.1}, {:.1}) mm",
+                    p[0] * 1e3,
+                    p[1] * 1e3,
+                    p[2] * 1e3
+                )
+            };
+            self.error(
+                client,
+                format!(
+                    "the grasp cannot reach {} ({why}): it holds at {}; move it back towards \
+                     the organ, or release",
+                    mm(wanted),
+                    mm(at)
+                ),
+            );
         }
     }
 
@@ -540,12 +692,19 @@ impl Worker {
                     self.release();
                 }
             }
-            SessionCmd::Client { id, msg, arrived } => self.command(id, msg, arrived),
+            SessionCmd::Client { id, msg, arrived } => {
+                self.still = 0;
+                self.command(id, msg, arrived);
+            }
             SessionCmd::Shutdown => {}
         }
     }
 
     fn release(&mut self) {
+        if self.stuck {
+            self.stuck = false;
+            self.sim.set_max_retries(self.retries);
+        }
         if let Some(h) = self.held.take() {
             let _ = self.sim.release(h.id);
             self.recorder.push(Event::Target(h.target));
@@ -686,6 +845,8 @@ impl Worker {
         match self.source.build(method) {
             Ok(sim) => {
                 self.sim = sim;
+                self.retries = self.sim.max_retries();
+                self.stuck = false;
                 self.method = method;
                 self.new_topology();
                 if keep {
@@ -726,7 +887,7 @@ impl Worker {
 
     fn publish(&mut self, report: Option<&raisov::sim::FrameReport>) {
         let now = Instant::now();
-        if let Some(last) = self.last_end {
+        if let (Some(last), Some(_)) = (self.last_end, report) {
             let dt = now.duration_since(last).as_secs_f64();
             if dt > 0.0 {
                 let f = 1.0 / dt;
@@ -743,6 +904,7 @@ impl Worker {
             self.input_lag_ms = now.duration_since(at).as_secs_f32() * 1e3;
         }
         let pos = self.sim.surface_positions();
+        std::mem::swap(&mut self.previous32, &mut self.positions32);
         self.positions32.clear();
         self.scalar.clear();
         for (k, &v) in self.used.iter().enumerate() {
@@ -754,6 +916,16 @@ impl Worker {
             self.scalar
                 .push((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() as f32);
         }
+        self.moved = if self.previous32.len() == self.positions32.len() {
+            let mut m = 0.0f64;
+            for (a, b) in self.positions32.iter().zip(&self.previous32) {
+                let d2: f64 = (0..3).map(|k| ((a[k] - b[k]) as f64).powi(2)).sum();
+                m = m.max(d2);
+            }
+            m.sqrt()
+        } else {
+            f64::INFINITY
+        };
         let stress = self.colour == Colour::Stress && self.nodal;
         if stress {
             let s = self.sim.nodal_stress();
@@ -766,6 +938,8 @@ impl Worker {
         stats[STAT_RESIDUAL] = self.sim.residual() as f32;
         if let Some(r) = report {
             stats[STAT_CYCLES] = r.cycles as f32;
+            stats[protocol::STAT_REJECTED_TRIES] = r.retries as f32;
+            stats[protocol::STAT_REJECTED_STEPS] = r.rejected_cycles as f32;
             stats[STAT_FRAME_MS] = r.wall.as_secs_f32() * 1e3;
         }
         stats[STAT_INPUT_LAG_MS] = self.input_lag_ms;
@@ -783,7 +957,11 @@ impl Worker {
         stats[STAT_SCALAR_MAX] = self.scalar.iter().copied().fold(0.0, f32::max);
         stats[STAT_METHOD] = self.method.code() as f32;
         stats[STAT_APPLIED_SEQ] = self.applied_seq as f32;
-        let flags = u32::from(self.held.is_some()) | (u32::from(stress) << 1);
+        let flag = |on: bool, f: u32| if on { f } else { 0 };
+        let flags = flag(self.held.is_some(), protocol::FLAG_HELD)
+            | flag(stress, protocol::FLAG_STRESS)
+            | flag(self.resting, protocol::FLAG_REST)
+            | flag(self.stuck, protocol::FLAG_STUCK);
         self.frame = self.frame.wrapping_add(1);
         let frame =
             protocol::encode_frame(self.frame, flags, &stats, &self.positions32, &self.scalar);

@@ -1,113 +1,19 @@
 //! The server end to end over loopback: a WebSocket client grasps and drags a soft cube, and
 //! hostile messages (garbage, wrong lengths, NaN, unknown kinds, out of order, 10 MB) are
-//! answered with errors while the server keeps serving.
+//! answered with errors while the server keeps serving. The access checks (Host, Origin,
+//! token), the connection limits and timeouts, the sleep at rest and the grasp that cannot
+//! reach its target are in `hostile_clients.rs`.
 
 use futures_util::{SinkExt, StreamExt};
-use raisov::sim::Budget;
 use raisov_serve::protocol::{
     self, Command, Message, Method, STAT_FORCE, STAT_GRASP, STAT_GRASPED, STAT_HOLDER,
 };
-use raisov_serve::session::{Session, SessionConfig, Source};
-use std::path::PathBuf;
 use std::time::Duration;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio_tungstenite::tungstenite::Message as Ws;
 
-/// A 4 cm cube of soft tissue (E = 5 kPa, ν = 0.45) fixed at its base, one level of
-/// explicit dynamics (damped) — small enough for a debug test.
-const CUBE: &str = r#"
-name = "cube"
-[mesh]
-generate = "box"
-size = [0.04, 0.04, 0.04]
-divisions = [4, 4, 4]
-[material]
-law = "neo-hookean"
-young = 5e3
-poisson = 0.45
-[damping]
-alpha = 50.0
-[[fix]]
-plane = { point = [0, 0, 0], normal = [0, 0, 1] }
-[run]
-duration = 1.0
-"#;
-
-async fn start() -> (String, tokio::task::JoinHandle<()>) {
-    let source = Source::from_text(CUBE, PathBuf::from("."), "cube", "cube.toml".as_ref())
-        .expect("the cube scenario");
-    assert_eq!(source.method, Method::Single);
-    let session = Session::spawn(
-        source,
-        SessionConfig {
-            grab_stiffness: None,
-            budget: Budget::Cycles(20),
-            max_fps: 200.0,
-            method: None,
-            record_path: None,
-        },
-    )
-    .expect("session");
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let addr = listener.local_addr().unwrap();
-    let app = raisov_serve::server::router(session);
-    let task = tokio::spawn(async move {
-        axum::serve(listener, app).await.unwrap();
-    });
-    (format!("127.0.0.1:{}", addr.port()), task)
-}
-
-type Client =
-    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
-
-async fn connect(addr: &str) -> Client {
-    let (ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws"))
-        .await
-        .expect("connect");
-    ws
-}
-
-async fn send(ws: &mut Client, seq: u32, command: Command) {
-    ws.send(Ws::Binary(
-        protocol::encode(&Message { seq, command }).into(),
-    ))
-    .await
-    .unwrap();
-}
-
-/// The next text message (frames skipped), within 10 s.
-async fn next_text(ws: &mut Client) -> String {
-    tokio::time::timeout(Duration::from_secs(10), async {
-        loop {
-            match ws.next().await {
-                Some(Ok(Ws::Text(t))) => return t.to_string(),
-                Some(Ok(_)) => {}
-                other => panic!("connection ended: {other:?}"),
-            }
-        }
-    })
-    .await
-    .expect("a text message within 10 s")
-}
-
-/// The next frame, within 10 s.
-async fn next_frame(ws: &mut Client) -> protocol::Frame {
-    tokio::time::timeout(Duration::from_secs(10), async {
-        loop {
-            match ws.next().await {
-                Some(Ok(Ws::Binary(b))) => {
-                    if let Some(f) = protocol::decode_frame(&b) {
-                        return f;
-                    }
-                }
-                Some(Ok(_)) => {}
-                other => panic!("connection ended: {other:?}"),
-            }
-        }
-    })
-    .await
-    .expect("a frame within 10 s")
-}
+mod common;
+use common::{connect, next_frame, next_text, send, start};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_grasp_moves_the_grasped_nodes() {
@@ -334,9 +240,8 @@ async fn hostile_messages_leave_the_server_serving() {
     assert!(next_text(&mut third).await.contains("hello"));
     next_frame(&mut third).await;
     let mut tcp = tokio::net::TcpStream::connect(&addr).await.unwrap();
-    tcp.write_all(b"GET / HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n")
-        .await
-        .unwrap();
+    let get = format!("GET / HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n");
+    tcp.write_all(get.as_bytes()).await.unwrap();
     let mut page = String::new();
     tcp.read_to_string(&mut page).await.unwrap();
     assert!(page.starts_with("HTTP/1.1 200") && page.contains("raisov serve"));

@@ -4,8 +4,11 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
 const STAT = { simFps: 0, residual: 1, cycles: 2, frameMs: 3, inputLag: 4, force: 5, grasp: 8,
-  scalarMax: 11, method: 12, appliedSeq: 13, holder: 14, grasped: 15 };
-const HEADER = 16 + 4 * 16;
+  scalarMax: 11, method: 12, appliedSeq: 13, holder: 14, grasped: 15, rejectedTries: 16, rejectedSteps: 17 };
+const NSTATS = 18;
+const HEADER = 16 + 4 * NSTATS;
+// Frame flags.
+const FLAG = { held: 1, stress: 2, rest: 4, stuck: 8 };
 const $ = (id) => document.getElementById(id);
 
 // Viridis (polynomial fit of matplotlib's map), 256 entries.
@@ -34,6 +37,7 @@ const state = {
   webgl: false, client: null, holder: null, topology: null, frames: 0, firstPositions: null,
   positions: null, forceN: 0, force: [0, 0, 0], bytesPerFrame: 0, errors: [], simFps: 0,
   displayFps: 0, latencyMs: null, serverLagMs: null, residuals: [], method: 0, stress: false,
+  resting: false, stuck: false,
 };
 window.raisovState = state;
 
@@ -85,7 +89,9 @@ function send(kind, floats = [], u32 = null) {
   const n = 8 + 4 * (u32 === null ? floats.length : 1);
   const b = new DataView(new ArrayBuffer(n));
   b.setUint8(0, kind);
-  const s = seq++;
+  // The counter wraps at 2^32 (the server compares modulo 2^32).
+  const s = seq;
+  seq = (seq + 1) >>> 0;
   b.setUint32(4, s, true);
   if (u32 !== null) b.setUint32(8, u32, true);
   else floats.forEach((x, i) => b.setFloat32(8 + 4 * i, x, true));
@@ -190,7 +196,9 @@ function onFrame(dv, bytes) {
   geometry.computeVertexNormals();
   geometry.computeBoundingSphere();
   if (!framed) frameCamera();
-  const stress = (flags & 2) !== 0;
+  const stress = (flags & FLAG.stress) !== 0;
+  state.resting = (flags & FLAG.rest) !== 0;
+  state.stuck = (flags & FLAG.stuck) !== 0;
   $('legendtitle').textContent = stress ? 'von Mises (kPa)' : '|u| (mm)';
   $('legendmax').textContent = stress ? (legendMax / 1e3).toPrecision(3) : (legendMax * 1e3).toPrecision(3);
   // Stats.
@@ -378,7 +386,12 @@ function loop() {
     shown = 0;
     fpsT = now;
   }
-  if (now - lastFrameAt > 3000 && ws.readyState === WebSocket.OPEN) $('status').textContent = 'waiting for frames…';
-  else if (ws.readyState === WebSocket.OPEN) $('status').textContent = 'connected';
+  if (ws.readyState === WebSocket.OPEN) {
+    let s = 'connected';
+    if (state.resting) s = 'at rest: the simulation sleeps until you grasp, pin or switch';
+    else if (now - lastFrameAt > 3000) s = 'waiting for frames…';
+    else if (state.stuck) s = 'the grasp cannot reach the cursor: move back towards the organ';
+    $('status').textContent = s;
+  }
 }
 loop();

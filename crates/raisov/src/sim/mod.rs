@@ -358,6 +358,11 @@ impl Simulation {
         self.max_retries = retries;
     }
 
+    /// Retries of a rejected frame ([`Simulation::set_max_retries`]).
+    pub fn max_retries(&self) -> u32 {
+        self.max_retries
+    }
+
     /// The stepper (for what this API does not cover: its description, diagnostics).
     pub fn stepper(&self) -> &dyn Stepper {
         &*self.stepper

@@ -237,7 +237,9 @@ enum MeshCmd {
         /// Output directory.
         #[arg(long, short)]
         out: PathBuf,
-        /// Base name of the files (default: the surface's file stem without `_surface`).
+        /// Base name of the files: 1 to 100 ASCII letters, digits, `-`, `_`, `.`, not starting
+        /// with `.` (default: the surface's file stem without `_surface`, other characters
+        /// replaced by `_`).
         #[arg(long)]
         name: Option<String>,
         /// No progress bar.
@@ -1070,6 +1072,22 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
     if !(a.scale > 0.0 && a.scale.is_finite()) {
         bad_args!("--scale {}: must be positive", a.scale);
     }
+    // Checked before the (long) meshing: the files are OUT/NAME_L0.msh, ...
+    let name = match &a.name {
+        Some(n) => match raisov::io::check_name(n) {
+            Ok(()) => n.clone(),
+            Err(e) => bad_args!("--name: {e} (it names the files NAME_L0.msh, ... under --out)"),
+        },
+        None => {
+            let stem = a
+                .surface
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let stem = stem.strip_suffix("_surface").unwrap_or(&stem);
+            raisov::io::name_from_stem(stem, "surface")
+        }
+    };
     let mut surface = raisov::io::load_surface(&a.surface).map_err(BadInput)?;
     surface.scale(a.scale);
     let check = raisov::mesh::check_surface(&mut surface)
@@ -1104,17 +1122,6 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
         (None, Some(h)) => LevelTarget::Size(h),
         (None, None) => LevelTarget::Nodes(30_000),
         (Some(_), Some(_)) => bad_args!("give --nodes or --size, not both"),
-    };
-    let name = match &a.name {
-        Some(n) => n.clone(),
-        None => {
-            let stem = a
-                .surface
-                .file_stem()
-                .and_then(|s| s.to_str())
-                .unwrap_or("surface");
-            stem.strip_suffix("_surface").unwrap_or(stem).to_string()
-        }
     };
     let bar = if a.quiet || !std::io::stderr().is_terminal() {
         ProgressBar::hidden()

@@ -88,11 +88,14 @@ impl Source {
             .parent()
             .map(Path::to_path_buf)
             .unwrap_or_else(|| PathBuf::from("."));
-        let stem = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("scenario")
-            .to_string();
+        // The scenario's default name, as `raisov run` makes it (raisov::io::name_from_stem).
+        let stem = raisov::io::name_from_stem(
+            &path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            "scenario",
+        );
         Self::from_text(&text, base, &stem, path)
     }
 
@@ -142,11 +145,14 @@ impl Source {
             path: path.to_path_buf(),
             source: e,
         })?;
-        let stem = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("surface")
-            .replace(['/', '\\', '.'], "_");
+        // The scenario's name: the stem within the name rule (raisov::io::NAME_RULE).
+        let stem = raisov::io::name_from_stem(
+            &path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            "surface",
+        );
         let text = format!(
             "name = {name}\n[mesh]\nsurface = {file}\nscale = {scale:e}\nnodes = {nodes}\n\
              [material]\nlaw = \"neo-hookean\"\nyoung = 5000.0\npoisson = 0.45\ndensity = 1060.0\n\

@@ -29,8 +29,15 @@
 //! same encodings, see [`vtp`]) and [`PvdWriter`] (ParaView, appended in place). The file
 //! writers go through [`write_atomic`]: the file appears complete or not at all. None of
 //! them writes a non-finite number. [`OutputLock`] keeps two runs out of one directory.
+//! Streamed CSV files ([`RowFile`]) end at a row boundary and say what they kept when a write
+//! fails. No writer writes through a symbolic link ([`output`]); [`sweep_temporaries`]
+//! removes the temporary files a killed writer left. Names that become file names follow one
+//! rule ([`check_name`], [`names`]).
 
 pub mod gmsh;
+pub mod names;
+pub mod output;
+mod rows;
 pub mod surface;
 mod text;
 pub mod triangle;
@@ -45,6 +52,9 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 pub use gmsh::write_msh22;
+pub use names::{check_name, name_from_stem, NAME_RULE};
+pub use output::{open_for_writing, refuse_link, sweep_temporaries};
+pub use rows::RowFile;
 pub use surface::{is_surface_path, load_surface, parse_surface, SURFACE_EXTENSIONS};
 pub use vtp::write_vtp;
 pub use vtu::{write_vtu, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
@@ -125,9 +135,12 @@ pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).map_err(|e| Error::io(path, e))
 }
 
-/// Write `path` atomically: `f` writes into a temporary file in the same directory, which is
-/// then renamed over `path`. On any error the temporary file is removed and `path` is left
-/// as it was. (Atomic for readers; the data is not fsynced.)
+/// Write `path` atomically: `f` writes into a temporary file `.NAME.PID.N.tmp` in the same
+/// directory (created new, so never through a symbolic link), which is then renamed over
+/// `path` (replacing a link there rather than writing through it). On any error, the final
+/// flush's included, the temporary file is removed and `path` is left as it was; a process
+/// killed in between leaves the temporary file to [`sweep_temporaries`]. (Atomic for
+/// readers; the data is not fsynced.)
 pub fn write_atomic(
     path: &Path,
     f: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
@@ -150,7 +163,10 @@ pub fn write_atomic(
         COUNTER.fetch_add(1, Ordering::Relaxed)
     ));
     let res = (|| {
-        let file = std::fs::File::create(&tmp)?;
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)?;
         let mut w = std::io::BufWriter::new(file);
         f(&mut w)?;
         w.flush()?;

@@ -497,6 +497,9 @@ pub(super) fn write_vtk_xml(
 /// A ParaView `.pvd` collection of frames, appended in constant time per [`add`]: the file
 /// stays open, each frame's `<DataSet>` line is written over the closing tags, which follow it
 /// again, so that after every `add` the file is a complete collection of the frames so far.
+/// The file is opened without following a symbolic link ([`super::open_for_writing`]). When
+/// a write fails (a full disk), the file is cut back to the frames before and its closing
+/// tags written again, and the error says how many frames the collection keeps.
 ///
 /// [`add`]: PvdWriter::add
 #[derive(Debug)]
@@ -552,12 +555,12 @@ impl PvdWriter {
                 ),
             ));
         }
-        let io = |e| Error::io(&self.path, e);
         if self.file.is_none() {
-            let mut f = std::fs::File::create(&self.path).map_err(io)?;
+            let mut f = super::open_for_writing(&self.path, true)?;
             let head = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" \
                         byte_order=\"LittleEndian\">\n  <Collection>\n";
-            f.write_all(head.as_bytes()).map_err(io)?;
+            f.write_all(head.as_bytes())
+                .map_err(|e| Error::io(&self.path, e))?;
             self.end = head.len() as u64;
             self.file = Some(f);
         }
@@ -568,9 +571,27 @@ impl PvdWriter {
         let f = self.file.as_mut().expect("opened above");
         let mut buf = line.into_bytes();
         buf.extend_from_slice(PVD_TAIL.as_bytes());
-        f.seek(SeekFrom::Start(self.end))
+        if let Err(e) = f
+            .seek(SeekFrom::Start(self.end))
             .and_then(|_| f.write_all(&buf))
-            .map_err(|e| Error::io(&self.path, e))?;
+        {
+            // Back to the frames before: cutting frees the space the closing tags need.
+            let restored = f
+                .set_len(self.end)
+                .and_then(|_| f.seek(SeekFrom::Start(self.end)))
+                .and_then(|_| f.write_all(PVD_TAIL.as_bytes()));
+            let kept = match restored {
+                Ok(()) => format!("the collection keeps its {} earlier frame(s)", self.count),
+                Err(e2) => format!(
+                    "its closing tags could not be written again ({e2}): the collection is \
+                     incomplete"
+                ),
+            };
+            return Err(Error::io(
+                &self.path,
+                std::io::Error::new(e.kind(), format!("{e}; {kept}")),
+            ));
+        }
         self.end += (buf.len() - PVD_TAIL.len()) as u64;
         self.count += 1;
         Ok(())

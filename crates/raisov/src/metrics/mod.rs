@@ -21,10 +21,9 @@
 
 use crate::error::{Error, Result};
 use crate::integrate::{State, System};
-use crate::io::write_atomic;
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use crate::io::{write_atomic, RowFile};
+use std::io::Write;
+use std::path::Path;
 
 /// One row of the measures CSV.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -230,53 +229,42 @@ pub fn write_csv(path: &Path, rows: &[Sample]) -> Result<()> {
     })
 }
 
-/// `measures.csv` written as the rows come: the header at creation, each [`CsvStream::push`]
-/// buffered, [`CsvStream::flush`] hands the rows so far to the operating system (a process
-/// killed after a flush leaves them in the file). Nothing is kept in memory but the buffer.
+/// `measures.csv` written as the rows come ([`RowFile`]): the header at creation, each
+/// [`CsvStream::push`] buffered, [`CsvStream::flush`] hands the rows so far to the operating
+/// system (a process killed after a flush leaves them in the file). Nothing is kept in memory
+/// but the buffer. The file only ever ends at a row boundary; a failed write says what it
+/// kept.
 pub struct CsvStream {
-    path: PathBuf,
-    w: BufWriter<File>,
-    /// The row being formatted: handed to the buffer whole, so that the file only ever
-    /// ends at a row boundary.
+    file: RowFile,
+    /// The row being formatted.
     line: Vec<u8>,
-    rows: u64,
 }
 
 impl CsvStream {
-    /// Create (truncate) `path` and write the header.
+    /// Create (truncate) `path` and write the header; never through a symbolic link.
     pub fn create(path: &Path) -> Result<CsvStream> {
-        let f = File::create(path).map_err(|e| Error::io(path, e))?;
-        let mut s = CsvStream {
-            path: path.to_path_buf(),
-            w: BufWriter::with_capacity(1 << 16, f),
+        Ok(CsvStream {
+            file: RowFile::create(path, CSV_HEADER)?,
             line: Vec::with_capacity(512),
-            rows: 0,
-        };
-        writeln!(s.w, "{CSV_HEADER}").map_err(|e| Error::io(path, e))?;
-        s.flush()?;
-        Ok(s)
+        })
     }
     /// Append one row.
     pub fn push(&mut self, r: &Sample) -> Result<()> {
         self.line.clear();
-        csv_row(&mut self.line, r)
-            .and_then(|_| writeln!(self.line))
-            .and_then(|_| self.w.write_all(&self.line))
-            .map_err(|e| Error::io(&self.path, e))?;
-        self.rows += 1;
-        Ok(())
+        csv_row(&mut self.line, r).map_err(|e| Error::io(self.file.path(), e))?;
+        self.file.push(&self.line)
     }
     /// Write the buffered rows to the file.
     pub fn flush(&mut self) -> Result<()> {
-        self.w.flush().map_err(|e| Error::io(&self.path, e))
+        self.file.flush()
     }
     /// Rows written so far.
     pub fn rows(&self) -> u64 {
-        self.rows
+        self.file.rows()
     }
     /// The file.
     pub fn path(&self) -> &Path {
-        &self.path
+        self.file.path()
     }
 }
 

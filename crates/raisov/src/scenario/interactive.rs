@@ -24,8 +24,9 @@
 //! that frame's lag is not measured (empty in `frames.csv`) and the summary says so instead
 //! of quoting a lag against it; without a reference the summary does not claim to keep up.
 //!
-//! The output directory is locked as in [`mod@super::run`]; `frames.csv` is streamed (one row per
-//! frame, flushed per frame) and the summary keeps running totals only, so memory does not
+//! The output directory is locked and cleared of the previous run's results as in
+//! [`mod@super::run`]; `frames.csv` is streamed (one row per frame, flushed per frame, ending
+//! at a row boundary whatever fails: [`crate::io::RowFile`]) and the summary keeps running totals only, so memory does not
 //! grow with the number of frames. [`RunOptions::stop`] ends the run after the current frame
 //! with a summary that says it was interrupted. Under the output directory:
 //! `frames.csv`, `NAME.pvd` + `frames/*.vtu` (reference points with
@@ -40,8 +41,7 @@ use super::{err, positive, Scenario, StopRule};
 use crate::error::{Error, Result};
 use crate::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
 use crate::integrate::{hold, Stepper};
-use crate::io::{write_atomic, write_vtu_as, Field, FieldData, OutputLock, PvdWriter};
-use std::io::Write;
+use crate::io::{write_atomic, write_vtu_as, Field, FieldData, OutputLock, PvdWriter, RowFile};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -306,6 +306,7 @@ pub fn run_interactive(
     };
     let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
     let _lock = OutputLock::acquire(&out)?;
+    super::run::prepare_output(&out, &sc.name)?;
     let n = sc.mesh.num_nodes();
     let frames_n = (duration(sc) * settings.fps).ceil().max(1.0) as usize;
     // The reference system, its solver and solution.
@@ -339,7 +340,6 @@ pub fn run_interactive(
     let mut rows = FrameRows::create(&out.join("frames.csv"))?;
     let frames_dir = out.join("frames");
     std::fs::create_dir_all(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
-    super::run::clear_old_frames(&out, &sc.name)?;
     let mut surface_frames = sc
         .surface
         .as_ref()
@@ -521,21 +521,12 @@ pub fn run_interactive(
 pub const FRAMES_HEADER: &str =
     "frame,time_s,steps,wall_s,residual_N,max_u_m,lag_max_m,lag_rms_m,static_max_u_m,lag_rel";
 
-/// `frames.csv` written as the frames come.
-struct FrameRows {
-    path: PathBuf,
-    w: std::io::BufWriter<std::fs::File>,
-}
+/// `frames.csv` written as the frames come ([`RowFile`]).
+struct FrameRows(RowFile);
 
 impl FrameRows {
     fn create(path: &Path) -> Result<FrameRows> {
-        let f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-        let mut r = FrameRows {
-            path: path.to_path_buf(),
-            w: std::io::BufWriter::new(f),
-        };
-        writeln!(r.w, "{FRAMES_HEADER}").map_err(|e| Error::io(path, e))?;
-        Ok(r)
+        Ok(FrameRows(RowFile::create(path, FRAMES_HEADER)?))
     }
     fn push(&mut self, r: &FrameRow) -> Result<()> {
         let opt = |x: f64| {
@@ -545,9 +536,8 @@ impl FrameRows {
                 String::new()
             }
         };
-        // One write per row: the file only ever ends at a row boundary.
         let line = format!(
-            "{},{:.6},{},{:.6e},{:.9e},{:.9e},{},{},{},{}\n",
+            "{},{:.6},{},{:.6e},{:.9e},{:.9e},{},{},{},{}",
             r.frame,
             r.time,
             r.steps,
@@ -559,12 +549,10 @@ impl FrameRows {
             opt(r.static_max_u),
             opt(r.lag_rel())
         );
-        self.w
-            .write_all(line.as_bytes())
-            .map_err(|e| Error::io(&self.path, e))
+        self.0.push(line.as_bytes())
     }
     fn flush(&mut self) -> Result<()> {
-        self.w.flush().map_err(|e| Error::io(&self.path, e))
+        self.0.flush()
     }
 }
 

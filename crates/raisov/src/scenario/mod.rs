@@ -250,16 +250,32 @@ fn positive(path: &Path, key: &str, v: f64) -> Result<f64> {
     }
 }
 
-/// `name` names files under the output directory: a plain file name, so that nothing is
-/// written outside it.
-fn check_name(path: &Path, name: &str) -> Result<()> {
-    if name.is_empty() || name.contains(['/', '\\', '\0']) || name.contains("..") {
-        return Err(err(
-            path,
-            format!("`name` = {name:?}: must be a plain file name (not empty, no `/`, `\\` or `..`): it names the files under the output directory"),
-        ));
+/// The scenario's name: `name` checked against [`crate::io::NAME_RULE`] (it names the files
+/// under the output directory and, by default, the directory), or, not given, the file's
+/// stem made valid ([`crate::io::name_from_stem`]) with a note where that changed it.
+fn scenario_name(path: &Path, given: Option<&str>) -> Result<(String, Option<String>)> {
+    if let Some(name) = given {
+        crate::io::check_name(name).map_err(|e| {
+            err(
+                path,
+                format!("`name`: {e} (it names the files under the output directory)"),
+            )
+        })?;
+        return Ok((name.to_string(), None));
     }
-    Ok(())
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let name = crate::io::name_from_stem(&stem, defaults::NAME);
+    let note = (name != stem && !stem.is_empty()).then(|| {
+        format!(
+            "`name` not given: the file's stem {stem:?} is not a valid name ({}), so the \
+             scenario is named {name:?}",
+            crate::io::NAME_RULE
+        )
+    });
+    Ok((name, note))
 }
 
 impl Scenario {
@@ -293,12 +309,7 @@ impl Scenario {
         out: Option<&Path>,
     ) -> Result<Scenario> {
         let base = path.parent().unwrap_or(Path::new("."));
-        let name = spec.name.clone().unwrap_or_else(|| {
-            path.file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| defaults::NAME.into())
-        });
-        check_name(path, &name)?;
+        let (name, name_note) = scenario_name(path, spec.name.as_deref())?;
         let out_dir = match out {
             Some(o) => o.to_path_buf(),
             None => spec
@@ -368,6 +379,7 @@ impl Scenario {
         if let Some(sl) = &surface_levels {
             notes.splice(0..0, sl.notes.iter().cloned());
         }
+        notes.splice(0..0, name_note);
         // Node-id selectors name the file's ids: into the mesh's order, once, here.
         let new_of = file_ids.as_deref().map(crate::mesh::inverse_order);
         let ids = NodeIds::new(node_labels.as_deref(), mesh.num_nodes(), &mesh_source.shape);

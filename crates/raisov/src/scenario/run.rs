@@ -21,9 +21,14 @@
 //!   (usable as a later run's `output.reference`);
 //! - `summary.txt`: what the closing summary says, how the run stopped included.
 //!
-//! Frames, `nodal_stress.csv` and `summary.txt` are written atomically (temp file + rename,
-//! no temp file stays); the `.pvd` collections are appended in place
-//! ([`crate::io::PvdWriter`]).
+//! Frames, `nodal_stress.csv` and `summary.txt` are written atomically (temp file + rename:
+//! a failed write removes its temp file, one that a killed run left is swept by the next run);
+//! the `.pvd` collections are appended in place ([`crate::io::PvdWriter`]). No output is
+//! written through a symbolic link: one at an output's name is an error naming it
+//! ([`crate::io::output`]). A failed write (a full disk) stops the run with an error naming
+//! the file, the operating system's reason and what the file keeps (`measures.csv`: its
+//! complete rows, the last one's step and time; [`crate::io::RowFile`]); no summary is
+//! written then.
 //!
 //! How a run stops ([`StopReason`]): after `duration`; at steady state (`stop = "steady"`:
 //! kinetic energy and residual below their tolerances times their peaks, once every
@@ -35,9 +40,13 @@
 //! run ends at the next step boundary, writes its last row, frame, `nodal_stress.csv` and a
 //! summary that says it was interrupted.
 //!
-//! A run first removes the numbered frames of the same scenario name that an earlier run left
-//! in `frames/` (`clear_old_frames`); everything else stays, the level cache `cache/`
-//! included.
+//! A run first clears what the previous run left (`run/outputs.rs`): once it holds the lock it
+//! removes `measures.csv`, `frames.csv`, `nodal_stress.csv` and `summary.txt`, this
+//! scenario's `.pvd` collections and numbered frames, and the temporary files of killed
+//! writers, so that a run killed or diverging early never leaves an older summary beside its
+//! own measures; everything else stays, the level cache `cache/` and other scenarios' frames
+//! included. A `reference` file is read before that (it may be the last run's
+//! `nodal_stress.csv`).
 //!
 //! A diverging run writes what it measured up to the last finite state, then returns
 //! [`Error::Diverged`] naming time, step, element and cause. Nothing non-finite is written.
@@ -52,7 +61,9 @@ use crate::metrics::{CsvStream, Meter, Sample};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+mod outputs;
 mod statics;
+pub(crate) use outputs::prepare as prepare_output;
 pub use statics::{describe_static, run_static, StaticSummary};
 
 /// Why a run ended normally.
@@ -362,37 +373,6 @@ fn write_nodal_stress(path: &Path, sc: &Scenario, u: &[f64], t: &[f64]) -> Resul
     })
 }
 
-/// Remove the frames an earlier run of scenario `name` left in `out/frames`
-/// (`NAME_NNNNNN.vtu`, `NAME_surface_NNNNNN.vtp`), so that the collection holds this run's
-/// frames only. Nothing else is touched: other scenarios' frames and `out/cache` stay.
-pub(crate) fn clear_old_frames(out: &Path, name: &str) -> Result<()> {
-    let dir = out.join("frames");
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        return Ok(());
-    };
-    let numbered = |rest: &str, ext: &str| {
-        rest.strip_suffix(ext)
-            .is_some_and(|n| n.len() == 6 && n.bytes().all(|b| b.is_ascii_digit()))
-    };
-    for e in entries {
-        let e = e.map_err(|e| Error::io(&dir, e))?;
-        let file = e.file_name();
-        let Some(f) = file.to_str() else { continue };
-        let Some(rest) = f.strip_prefix(name).and_then(|r| r.strip_prefix('_')) else {
-            continue;
-        };
-        let ours = numbered(rest, ".vtu")
-            || rest
-                .strip_prefix("surface_")
-                .is_some_and(|r| numbered(r, ".vtp"));
-        if ours {
-            let p = e.path();
-            std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
-        }
-    }
-    Ok(())
-}
-
 /// Writes VTU frames (and the visual surface's VTP frames) and the PVD collections.
 struct Frames<'a> {
     dir: PathBuf,
@@ -417,7 +397,6 @@ impl<'a> Frames<'a> {
         let (name, n, format) = (sc.name.as_str(), sc.mesh.num_nodes(), sc.vtu);
         let dir = out.join("frames");
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-        clear_old_frames(out, name)?;
         let surface = sc
             .surface
             .as_ref()
@@ -511,16 +490,21 @@ pub fn run_with(
     let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
     let _lock = OutputLock::acquire(&out)?;
     let n = sc.mesh.num_nodes();
+    // Read before the directory is cleared: it may be the last run's `nodal_stress.csv`.
     let (t_inf, reference_note) = match &sc.reference {
-        Reference::None => (None, None),
-        Reference::Auto => {
-            let (t, note) = sc.steady_reference()?;
-            (Some(t), Some(note))
-        }
         Reference::File(p) => (
             Some(read_nodal_stress(p, sc)?),
             Some(format!("T_inf from {}", p.display())),
         ),
+        _ => (None, None),
+    };
+    prepare_output(&out, &sc.name)?;
+    let (t_inf, reference_note) = match &sc.reference {
+        Reference::Auto => {
+            let (t, note) = sc.steady_reference()?;
+            (Some(t), Some(note))
+        }
+        _ => (t_inf, reference_note),
     };
     let mut meter = Meter::new(n, t_inf);
     let mut frames = Frames::new(sc, &out)?;

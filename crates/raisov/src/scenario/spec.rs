@@ -5,9 +5,11 @@
 //! FAS settings, [`crate::multigrid::fas::FasParams::default`]).
 //!
 //! ```toml
-//! name = "membrane-lift"          # optional; default: the file's stem. A plain file name
-//!                                 # (no `/`, `\`, `..`): it names the files written under
-//!                                 # the output directory
+//! name = "membrane-lift"          # optional; default: the file's stem, characters outside
+//!                                 # the rule replaced by `_`. 1 to 100 ASCII letters,
+//!                                 # digits, `-`, `_`, `.`, not starting with `.`
+//!                                 # (crate::io::NAME_RULE): it names the files written
+//!                                 # under the output directory
 //! gravity = [0.0, 0.0, -9.81]     # m/s², default none
 //!
 //! [mesh]                          # one of `file`, `generate` or `surface`

@@ -665,18 +665,37 @@ fn non_finite_numbers_are_errors_naming_the_key() {
     }
 }
 
-/// `name` names files under the output directory: nothing that would reach outside it.
+/// `name` names files under the output directory: nothing that would reach outside it, hide,
+/// hold a newline or overflow a file name; each refusal states the rule.
 #[test]
 fn names_that_would_write_outside_the_output_directory_are_errors() {
-    for bad in ["../up", "a/b", "a\\\\b", "..", "", "/abs"] {
+    let long = "a".repeat(300);
+    for bad in [
+        "../up", "a/b", "a\\\\b", "..", ".", "", "/abs", "a\\nb", &long,
+    ] {
         let msg = error_of(&format!("name = \"{bad}\"\n{BASE}"));
         assert!(
-            msg.contains("`name`") && msg.contains("plain file name"),
+            msg.contains("`name`") && msg.contains(crate::io::NAME_RULE),
             "{bad}: {msg}"
         );
     }
     let sc = parse(&format!("name = \"drape-2.v1\"\n{BASE}")).unwrap();
     assert_eq!(sc.out_dir, PathBuf::from("raisov-out/drape-2.v1"));
+}
+
+/// Without `name`, a file stem outside the rule becomes a valid name, with a note.
+#[test]
+fn a_stem_outside_the_name_rule_becomes_a_valid_default_name() {
+    let sc = Scenario::from_toml(BASE, Path::new("my liver (2).toml")).unwrap();
+    assert_eq!(sc.name, "my_liver__2_");
+    assert!(
+        sc.notes.iter().any(|n| n.contains("\"my liver (2)\"")),
+        "{:?}",
+        sc.notes
+    );
+    let sc = parse(BASE).unwrap();
+    assert_eq!(sc.name, "test");
+    assert!(!sc.notes.iter().any(|n| n.contains("`name`")));
 }
 
 /// Keys of one multigrid scheme, coarse solve or motion mode are errors with another.

@@ -184,6 +184,7 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
     let settings = static_settings(sc)?;
     let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
     let _lock = OutputLock::acquire(&out)?;
+    super::prepare_output(&out, &sc.name)?;
     let n = sc.mesh.num_nodes();
     let mut stepper = crate::integrate::SingleLevel::new(
         sc.build_system()?,

@@ -143,7 +143,10 @@ pub(super) fn resolve(
                 Some(e) => {
                     return Err(err(
                         path,
-                        format!("`multigrid.epsilon` = {e}: must be >= 0 (m)"),
+                        format!(
+                            "`multigrid.epsilon` = {}: must be >= 0 (m)",
+                            crate::numbers::compact(e)
+                        ),
                     ))
                 }
                 None => defaults::EPSILON_PER_EDGE * mesh.edge_range().0,
@@ -302,7 +305,10 @@ fn resolve_meshes(
         Some(r) if !(r > 0.0 && r < 1.0) => {
             return Err(err(
                 path,
-                format!("`multigrid.ratio` = {r}: must be in (0, 1)"),
+                format!(
+                    "`multigrid.ratio` = {}: must be in (0, 1)",
+                    crate::numbers::compact(r)
+                ),
             ))
         }
         Some(r) => r,

@@ -246,7 +246,7 @@ fn positive(path: &Path, key: &str, v: f64) -> Result<f64> {
     } else {
         Err(err(
             path,
-            format!("`{key}` = {v}: must be a positive number"),
+            format!("`{key}` = {}: must be a positive number", compact(v)),
         ))
     }
 }
@@ -446,7 +446,7 @@ impl Scenario {
         }
         let alpha = match (spec.damping.alpha, spec.damping.ratio, spec.damping.omega) {
             (Some(a), None, None) if a >= 0.0 && a.is_finite() => a,
-            (Some(a), None, None) => return Err(err(path, format!("`damping.alpha` = {a}: must be >= 0 (1/s)"))),
+            (Some(a), None, None) => return Err(err(path, format!("`damping.alpha` = {}: must be >= 0 (1/s)", compact(a)))),
             (None, Some(z), Some(w)) => 2.0 * positive(path, "damping.ratio", z)? * positive(path, "damping.omega", w)?,
             (None, None, None) => defaults::ALPHA,
             _ => {
@@ -474,7 +474,7 @@ impl Scenario {
                 if !(r >= 0.0 && r.is_finite()) {
                     return Err(err(
                         path,
-                        format!("{key}: `radius` = {r}: must be >= 0 (m)"),
+                        format!("{key}: `radius` = {}: must be >= 0 (m)", compact(r)),
                     ));
                 }
                 let (g, mut nodes) = patch::surface_patch(&mesh, d.point, r)
@@ -705,7 +705,10 @@ impl Scenario {
         if !(frame_interval >= 0.0 && frame_interval.is_finite()) {
             return Err(err(
                 path,
-                format!("`output.frame_interval` = {frame_interval}: must be >= 0 (s)"),
+                format!(
+                    "`output.frame_interval` = {}: must be >= 0 (s)",
+                    compact(frame_interval)
+                ),
             ));
         }
         let multigrid = spec

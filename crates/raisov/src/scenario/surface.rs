@@ -150,7 +150,10 @@ pub(super) fn prepare(
                 Some(r) if !(r > 0.0 && r < 1.0) => {
                     return Err(err(
                         path,
-                        format!("`multigrid.ratio` = {r}: must be in (0, 1)"),
+                        format!(
+                            "`multigrid.ratio` = {}: must be in (0, 1)",
+                            crate::numbers::compact(r)
+                        ),
                     ))
                 }
                 Some(r) => r,

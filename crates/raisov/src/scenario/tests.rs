@@ -1132,8 +1132,8 @@ fn longest_digit_run(s: &str) -> usize {
         .unwrap_or(0)
 }
 
-/// Warnings print huge values compactly: `run.duration = 1e300` was printed as 301 digits,
-/// and the hours it takes as 290.
+/// Warnings (and errors that echo a value) print huge values compactly: `run.duration =
+/// 1e300` was printed as 301 digits, and the hours it takes as 290.
 #[test]
 fn huge_values_in_warnings_print_compactly() {
     let w = |text: &str| parse(text).unwrap().warnings.join("\n");
@@ -1147,6 +1147,12 @@ fn huge_values_in_warnings_print_compactly() {
     let s = w(&BASE.replace("nodes = 60", "nodes = 60\nscale = 1e300"));
     assert!(s.contains("[mesh] scale = 1e300"), "{s}");
     assert!(longest_digit_run(&s) <= 6, "{s}");
+    // Errors that echo a value too.
+    let e = error_of(&BASE.replace("duration = 0.01", "duration = -1e300"));
+    assert!(
+        e.contains("`run.duration` = -1e300: must be a positive number"),
+        "{e}"
+    );
 }
 
 /// An energy blow-up names the node holding the most kinetic energy, by its id in the mesh

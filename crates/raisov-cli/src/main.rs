@@ -1114,7 +1114,7 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
             "warning: the surface spans more than {} m after --scale {}; if its coordinates \
              are millimetres, pass --scale 0.001",
             raisov::mesh::surface_check::MAX_ORGAN_EXTENT_M,
-            a.scale
+            raisov::numbers::compact(a.scale)
         );
     }
     let target = match (a.nodes, a.size) {

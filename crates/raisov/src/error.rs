@@ -90,21 +90,82 @@ pub enum DivergenceCause {
         det_f: f64,
     },
     /// A displacement or velocity is NaN or infinite.
-    #[error("non-finite value in {what} at node {node}")]
+    #[error("non-finite value in {what} at {node}")]
     NonFinite {
-        /// Which vector (`"u"`, `"v"`).
+        /// Which vector (`"displacement"`, `"velocity"`).
         what: &'static str,
-        /// The node.
-        node: usize,
+        /// The first node with one.
+        node: NodeRef,
     },
     /// The kinetic energy passed the stepper's ceiling.
-    #[error("energy blow-up: kinetic energy {kinetic:.3e} J exceeds {limit:.3e} J")]
+    #[error(
+        "energy blow-up: kinetic energy {kinetic:.3e} J exceeds {limit:.3e} J; the most \
+         kinetic energy is at {node}, moving at {speed:.3e} m/s"
+    )]
     EnergyBlowUp {
         /// Kinetic energy (J).
         kinetic: f64,
         /// The ceiling (J).
         limit: f64,
+        /// The node of the largest kinetic energy `½ m_a |v_a|²`.
+        node: NodeRef,
+        /// Its speed `|v_a|` (m/s).
+        speed: f64,
     },
+}
+
+/// A node a [`Divergence`] names: its index in the stepper's mesh and, once the scenario has
+/// [located](Divergence::locate) it, its id in the mesh file and its position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeRef {
+    /// Index in the mesh (0-based, the mesh's own order).
+    pub index: usize,
+    /// Id in the mesh file, where known (what messages show instead of the index).
+    pub file_id: Option<u64>,
+    /// Reference position (m), where known.
+    pub at: Option<[f64; 3]>,
+}
+
+impl NodeRef {
+    /// Node `index` of the mesh, not located yet.
+    pub fn index(index: usize) -> Self {
+        NodeRef {
+            index,
+            file_id: None,
+            at: None,
+        }
+    }
+}
+
+impl std::fmt::Display for NodeRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.file_id {
+            Some(id) => write!(f, "node {id} of the mesh file")?,
+            None => write!(f, "node {}", self.index)?,
+        }
+        match self.at {
+            Some(p) => write!(f, " (at {} m)", crate::numbers::point(p)),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Divergence {
+    /// Name the divergence's node by its id in the mesh file (`file_id` of the mesh index)
+    /// and its reference position (`position` of the mesh index), as messages to the user
+    /// name nodes.
+    pub fn locate(
+        &mut self,
+        file_id: impl Fn(usize) -> u64,
+        position: impl Fn(usize) -> Option<[f64; 3]>,
+    ) {
+        if let DivergenceCause::NonFinite { node, .. }
+        | DivergenceCause::EnergyBlowUp { node, .. } = &mut self.cause
+        {
+            node.file_id = Some(file_id(node.index));
+            node.at = position(node.index);
+        }
+    }
 }
 
 impl Error {

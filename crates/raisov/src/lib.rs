@@ -56,6 +56,7 @@ pub mod memory;
 pub mod mesh;
 pub mod metrics;
 pub mod multigrid;
+pub mod numbers;
 // Documented separately (edited in parallel).
 #[allow(missing_docs)]
 pub mod scenario;

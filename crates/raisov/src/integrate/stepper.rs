@@ -3,7 +3,7 @@
 //! instead of ever producing non-finite numbers.
 
 use super::{Constraints, Integrator, Method, State, System};
-use crate::error::{Divergence, DivergenceCause};
+use crate::error::{Divergence, DivergenceCause, NodeRef};
 
 /// Divergence detection and time step of a stepper.
 #[derive(Clone, Debug, PartialEq)]
@@ -288,7 +288,8 @@ impl OwnConstraints {
     }
 }
 
-/// Check a state for non-finite values and kinetic-energy blow-up.
+/// Check a state for non-finite values and kinetic-energy blow-up; a blow-up names the node
+/// of the largest kinetic energy `½ m_a |v_a|²` and its speed.
 pub fn check_state(
     sys: &System,
     s: &State,
@@ -301,12 +302,19 @@ pub fn check_state(
                 time: s.t,
                 step,
                 element: None,
-                cause: DivergenceCause::NonFinite { what, node: i / 3 },
+                cause: DivergenceCause::NonFinite {
+                    what,
+                    node: NodeRef::index(i / 3),
+                },
             });
         }
     }
     let ke = sys.kinetic_energy(&s.v);
     if ke > kinetic_limit {
+        let speed2 = |a: usize| s.v[3 * a..3 * a + 3].iter().map(|x| x * x).sum::<f64>();
+        let node = (0..sys.mass.len())
+            .max_by(|&a, &b| (sys.mass[a] * speed2(a)).total_cmp(&(sys.mass[b] * speed2(b))))
+            .unwrap_or(0);
         return Err(Divergence {
             time: s.t,
             step,
@@ -314,6 +322,8 @@ pub fn check_state(
             cause: DivergenceCause::EnergyBlowUp {
                 kinetic: ke,
                 limit: kinetic_limit,
+                node: NodeRef::index(node),
+                speed: speed2(node).sqrt(),
             },
         });
     }

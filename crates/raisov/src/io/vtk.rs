@@ -1,9 +1,10 @@
 //! VTK legacy files (`.vtk`) holding an `UNSTRUCTURED_GRID`.
 //!
-//! ASCII files are read here (versions up to 5.1, including the 5.1 `CELLS` layout with
-//! `OFFSETS` and `CONNECTIVITY`), so errors carry line numbers; binary files of version 5.x
-//! too (the same layout, big-endian data, errors naming the byte offset), older binary files
-//! with `vtkio`. Sections read: `POINTS`, `CELLS`, `CELL_TYPES` (`FIELD` blocks and
+//! ASCII files are read (versions up to 5.1, including the 5.1 `CELLS` layout with `OFFSETS`
+//! and `CONNECTIVITY`) with errors naming the line; binary files of every version (keyword
+//! lines in ASCII, data big-endian, `CELLS` as the count-prefixed `int` list or the 5.1
+//! `OFFSETS` and `CONNECTIVITY` arrays) with errors naming the byte offset and what was
+//! expected there. Sections read: `POINTS`, `CELLS`, `CELL_TYPES` (`FIELD` blocks and
 //! `METADATA` blocks, which run to the next blank line, are skipped); reading stops at
 //! `POINT_DATA` or `CELL_DATA`.
 //!
@@ -98,11 +99,7 @@ pub fn read_vtk(path: &Path) -> Result<LoadedMesh> {
             finish(build(path, grid)?, path, "vtk legacy ascii")
         }
         Some("BINARY") => {
-            let grid = if version_major(&l1) >= 5 {
-                parse_binary51(path, &bytes)?
-            } else {
-                parse_binary(path, &bytes)?
-            };
+            let grid = parse_binary(path, &bytes)?;
             finish(build(path, grid)?, path, "vtk legacy binary")
         }
         other => Err(format_err(
@@ -267,16 +264,6 @@ fn parse_ascii(path: &Path, text: &str) -> Result<Grid> {
     })
 }
 
-/// The major version of `# vtk DataFile Version X.Y` (0 when unreadable).
-fn version_major(l1: &str) -> u32 {
-    l1.trim()
-        .rsplit(|c: char| c.is_ascii_whitespace())
-        .next()
-        .and_then(|v| v.split('.').next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(0)
-}
-
 /// Bytes of a legacy binary data type.
 fn legacy_size(t: &str) -> Option<usize> {
     Some(match t.to_ascii_lowercase().as_str() {
@@ -289,6 +276,15 @@ fn legacy_size(t: &str) -> Option<usize> {
     })
 }
 
+/// The data types [`legacy_size`] knows, for messages.
+const LEGACY_TYPES_VALID: &str = "char, unsigned_char, short, unsigned_short, int, \
+     unsigned_int, long, unsigned_long, float, double, vtktypeint32, vtktypeuint32, \
+     vtktypeint64, vtktypeuint64, vtkIdType";
+
+/// The section keywords of a binary file, for messages.
+const LEGACY_KEYWORDS: &str =
+    "`DATASET`, `POINTS`, `CELLS`, `CELL_TYPES`, `FIELD`, `METADATA`, `POINT_DATA` or `CELL_DATA`";
+
 /// A cursor over a legacy binary file: keyword lines in ASCII, data big-endian after them.
 struct BinCursor<'a> {
     path: &'a Path,
@@ -298,10 +294,14 @@ struct BinCursor<'a> {
 
 impl<'a> BinCursor<'a> {
     fn err(&self, msg: impl Into<String>) -> Error {
-        format_err_noline(self.path, format!("at byte {}: {}", self.pos, msg.into()))
+        format_err_noline(
+            self.path,
+            format!("binary legacy VTK, byte {}: {}", self.pos, msg.into()),
+        )
     }
 
-    /// The next non-blank line, split into tokens; `None` at the end of the file.
+    /// The next non-blank line, split into tokens; `None` at the end of the file. A line
+    /// that is not text (binary data where a keyword line belongs) is an error saying so.
     fn line(&mut self) -> Result<Option<Vec<String>>> {
         while self.pos < self.b.len() && self.b[self.pos].is_ascii_whitespace() {
             self.pos += 1;
@@ -314,10 +314,32 @@ impl<'a> BinCursor<'a> {
             .position(|&c| c == b'\n')
             .map_or(self.b.len(), |e| self.pos + e);
         let text = std::str::from_utf8(&self.b[self.pos..end])
-            .map_err(|_| self.err("expected a keyword line, found binary data"))?;
+            .ok()
+            .filter(|t| {
+                !t.chars()
+                    .any(|c| c.is_control() && !c.is_ascii_whitespace())
+            })
+            .ok_or_else(|| {
+                self.err(format!(
+                    "expected a keyword line ({LEGACY_KEYWORDS}), found binary data: a count \
+                     in the line before the data is wrong, or the data are not big-endian as \
+                     legacy VTK requires"
+                ))
+            })?;
         let toks = text.split_ascii_whitespace().map(str::to_string).collect();
         self.pos = (end + 1).min(self.b.len());
         Ok(Some(toks))
+    }
+
+    /// Whether the next non-blank line starts with `kw` (any case); the cursor stays.
+    fn next_is(&self, kw: &str) -> bool {
+        let start = self.b[self.pos..]
+            .iter()
+            .position(|c| !c.is_ascii_whitespace())
+            .map_or(self.b.len(), |k| self.pos + k);
+        self.b
+            .get(start..start + kw.len())
+            .is_some_and(|w| w.eq_ignore_ascii_case(kw.as_bytes()))
     }
 
     /// A raw line (for METADATA), `None` at the end of the file.
@@ -336,8 +358,12 @@ impl<'a> BinCursor<'a> {
 
     /// `n` values of type `t`, as `f64` (`float` / `double`) or integers.
     fn values(&mut self, what: &str, n: usize, t: &str) -> Result<Vec<f64>> {
-        let size = legacy_size(t)
-            .ok_or_else(|| self.err(format!("{what}: unsupported data type {}", show(t))))?;
+        let size = legacy_size(t).ok_or_else(|| {
+            self.err(format!(
+                "{what}: unsupported data type {}; supported: {LEGACY_TYPES_VALID}",
+                show(t)
+            ))
+        })?;
         let need = n
             .checked_mul(size)
             .filter(|&k| k <= self.b.len() - self.pos);
@@ -391,11 +417,11 @@ impl<'a> BinCursor<'a> {
     }
 }
 
-/// Parse a `# vtk DataFile Version 5.x` binary unstructured grid: `CELLS nOffsets nConn`
-/// followed by `OFFSETS type` and `CONNECTIVITY type` arrays (or the older count-prefixed
-/// `int` list), `CELL_TYPES` as `int`, `METADATA` blocks (to the next blank line) and
-/// `FIELD` arrays skipped, all data big-endian.
-fn parse_binary51(path: &Path, bytes: &[u8]) -> Result<Grid> {
+/// Parse a binary legacy unstructured grid (any version): `CELLS nOffsets nConn` followed by
+/// `OFFSETS type` and `CONNECTIVITY type` arrays (5.x) or `CELLS nCells size` followed by the
+/// count-prefixed `int` list (older versions), `CELL_TYPES` as `int`, `METADATA` blocks (to
+/// the next blank line) and `FIELD` arrays skipped, all data big-endian.
+fn parse_binary(path: &Path, bytes: &[u8]) -> Result<Grid> {
     let mut c = BinCursor {
         path,
         b: bytes,
@@ -447,12 +473,8 @@ fn parse_binary51(path: &Path, bytes: &[u8]) -> Result<Grid> {
             "CELLS" => {
                 let a = count(&c, 1, "the number of cells")?;
                 let b = count(&c, 2, "the cell list size")?;
-                let save = c.pos;
-                let next = c.line()?.unwrap_or_default();
-                if next
-                    .first()
-                    .is_some_and(|k| k.eq_ignore_ascii_case("OFFSETS"))
-                {
+                if c.next_is("OFFSETS") {
+                    let next = c.line()?.unwrap_or_default();
                     let offs = c.ints("`OFFSETS`", a, &tok(&next, 1))?;
                     let kw2 = c.line()?.unwrap_or_default();
                     if !kw2
@@ -475,24 +497,8 @@ fn parse_binary51(path: &Path, bytes: &[u8]) -> Result<Grid> {
                     let conn = c.ints("`CONNECTIVITY`", b, &tok(&kw2, 1))?;
                     cells = Some((conn, offs.iter().map(|&o| o as usize).collect()));
                 } else {
-                    c.pos = save;
                     let list = c.ints("`CELLS`", b, "int")?;
-                    let mut conn = Vec::new();
-                    let mut offsets = vec![0usize];
-                    let mut i = 0usize;
-                    for cell in 0..a {
-                        let k = *list
-                            .get(i)
-                            .ok_or_else(|| c.err(format!("`CELLS` ends before cell {cell}")))?
-                            as usize;
-                        let ids = list
-                            .get(i + 1..i + 1 + k)
-                            .ok_or_else(|| c.err(format!("`CELLS` ends inside cell {cell}")))?;
-                        conn.extend_from_slice(ids);
-                        offsets.push(conn.len());
-                        i += 1 + k;
-                    }
-                    cells = Some((conn, offsets));
+                    cells = Some(count_prefixed(&c, a, b, &list)?);
                 }
             }
             "CELL_TYPES" => {
@@ -550,70 +556,46 @@ fn parse_binary51(path: &Path, bytes: &[u8]) -> Result<Grid> {
     })
 }
 
-fn parse_binary(path: &Path, bytes: &[u8]) -> Result<Grid> {
-    use vtkio::model::{DataSet, Piece, VertexNumbers};
-    let fail = |msg: String| format_err_noline(path, msg);
-    let vtk = vtkio::Vtk::parse_legacy_be(bytes)
-        .map_err(|e| fail(format!("cannot parse binary legacy VTK: {e}")))?;
-    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
-        return Err(fail("only `DATASET UNSTRUCTURED_GRID` is supported".into()));
-    };
-    let Some(Piece::Inline(piece)) = pieces.into_iter().next() else {
-        return Err(fail("no unstructured grid data in the file".into()));
-    };
-    let points = piece
-        .points
-        .cast_into::<f64>()
-        .ok_or_else(|| fail("unsupported point data type".into()))?;
-    if let Some(i) = points.iter().position(|v| !v.is_finite()) {
-        return Err(fail(format!(
-            "point {} has a non-finite coordinate {}",
-            i / 3,
-            points[i]
+/// The connectivity and offsets of the count-prefixed cell list `list` of `CELLS a b` (each
+/// cell its point count, then its point ids), which must hold exactly `b` numbers.
+fn count_prefixed(
+    c: &BinCursor,
+    a: usize,
+    b: usize,
+    list: &[u64],
+) -> Result<(Vec<u64>, Vec<usize>)> {
+    let at = format!("`CELLS {a} {b}`");
+    let mut conn = Vec::with_capacity(b.saturating_sub(a));
+    let mut offsets = Vec::with_capacity(a.min(b) + 1);
+    offsets.push(0usize);
+    let mut i = 0usize;
+    for cell in 0..a {
+        let Some(&k) = list.get(i) else {
+            return Err(c.err(format!(
+                "{at}: the list of {b} numbers ends before cell {cell} (the cell count or the \
+                 list size is wrong)"
+            )));
+        };
+        let ids = usize::try_from(k)
+            .ok()
+            .and_then(|k| list.get(i + 1..i.checked_add(1 + k)?))
+            .ok_or_else(|| {
+                c.err(format!(
+                    "{at}: cell {cell} announces {k} points, more than the {} numbers left in \
+                     the list (a wrong size, or little-endian data: legacy VTK is big-endian)",
+                    b - i - 1
+                ))
+            })?;
+        conn.extend_from_slice(ids);
+        offsets.push(conn.len());
+        i += 1 + ids.len();
+    }
+    if i != b {
+        return Err(c.err(format!(
+            "{at}: the {a} cells hold {i} numbers (counts included), not {b}"
         )));
     }
-    let (conn, offsets) = match piece.cells.cell_verts {
-        VertexNumbers::Legacy {
-            num_cells,
-            vertices,
-        } => {
-            let mut conn = Vec::new();
-            let mut offsets = vec![0usize];
-            let mut i = 0usize;
-            for c in 0..num_cells {
-                let k = *vertices
-                    .get(i)
-                    .ok_or_else(|| fail(format!("cell list ends before cell {c}")))?
-                    as usize;
-                let ids = vertices
-                    .get(i + 1..i + 1 + k)
-                    .ok_or_else(|| fail(format!("cell list ends inside cell {c}")))?;
-                conn.extend(ids.iter().map(|&v| v as u64));
-                offsets.push(conn.len());
-                i += 1 + k;
-            }
-            (conn, offsets)
-        }
-        VertexNumbers::XML {
-            connectivity,
-            offsets,
-        } => {
-            let mut o = vec![0usize];
-            o.extend(offsets.iter().map(|&v| v as usize));
-            (connectivity, o)
-        }
-    };
-    let types = piece.cells.types.iter().map(|&t| t as i64).collect();
-    Ok(Grid {
-        points,
-        conn,
-        offsets,
-        types,
-        cell_lines: None,
-        type_lines: None,
-        cells_name: LEGACY_CELLS,
-        types_name: LEGACY_TYPES,
-    })
+    Ok((conn, offsets))
 }
 
 /// Checks and conversion of a parsed grid.
@@ -827,6 +809,99 @@ LOOKUP_TABLE default
         std::fs::write(&p, &TET[..TET.find("3 0 1 2").unwrap()]).unwrap();
         let e = load_mesh(&p).unwrap_err().to_string();
         assert!(e.contains("unexpected end of file"), "{e}");
+    }
+
+    /// A binary legacy file of one tetrahedron: `head` after the three header lines, the
+    /// `POINTS` line and 4 points, the `CELLS` line and `cells` as `int`s (big-endian unless
+    /// `le`), the `CELL_TYPES` line and one type 10.
+    fn binary_tet(points: &str, cells: &str, ints: &[i32], le: bool, types: &str) -> Vec<u8> {
+        let mut b: Vec<u8> = Vec::new();
+        b.extend_from_slice(
+            b"# vtk DataFile Version 3.0\nbin\nBINARY\nDATASET UNSTRUCTURED_GRID\n",
+        );
+        b.extend_from_slice(format!("{points}\n").as_bytes());
+        for v in [0.0f64, 0., 0., 1., 0., 0., 0., 0., 1., 0., 1., 0.] {
+            b.extend_from_slice(&v.to_be_bytes());
+        }
+        b.extend_from_slice(format!("\n{cells}\n").as_bytes());
+        for v in ints {
+            b.extend_from_slice(&if le { v.to_le_bytes() } else { v.to_be_bytes() });
+        }
+        b.extend_from_slice(format!("\n{types}\n").as_bytes());
+        b.extend_from_slice(&10i32.to_be_bytes());
+        b.extend_from_slice(b"\n");
+        b
+    }
+
+    /// Broken binary legacy files (before VTK 5: read by `vtkio`, which said `Parse error:
+    /// Alt`) are errors that name the file, say that it is binary legacy VTK, where, and
+    /// what is wrong in words.
+    #[test]
+    fn binary_legacy_errors_say_what_is_wrong() {
+        let dir = tempfile::tempdir().unwrap();
+        let tet = [4, 0, 1, 2, 3];
+        let good = binary_tet("POINTS 4 double", "CELLS 1 5", &tet, false, "CELL_TYPES 1");
+        let cut_at = |b: &[u8], from: &str| {
+            let at = b
+                .windows(from.len())
+                .position(|w| w == from.as_bytes())
+                .unwrap();
+            b[..at + from.len() + 12].to_vec()
+        };
+        let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+            (
+                "cut_points.vtk",
+                cut_at(&good, "POINTS 4 double\n"),
+                "`POINTS`: 12 values of double need 96 bytes but the file ends after 12 (truncated?)",
+            ),
+            (
+                "few_points.vtk",
+                binary_tet("POINTS 3 double", "CELLS 1 5", &tet, false, "CELL_TYPES 1"),
+                "expected a keyword line (`DATASET`, `POINTS`",
+            ),
+            (
+                "list_size.vtk",
+                binary_tet("POINTS 4 double", "CELLS 1 4", &tet, false, "CELL_TYPES 1"),
+                "`CELLS 1 4`: cell 0 announces 4 points, more than the 3 numbers left",
+            ),
+            (
+                "cell_count.vtk",
+                binary_tet("POINTS 4 double", "CELLS 2 5", &tet, false, "CELL_TYPES 1"),
+                "`CELLS 2 5`: the list of 5 numbers ends before cell 1",
+            ),
+            (
+                "little_endian.vtk",
+                binary_tet("POINTS 4 double", "CELLS 1 5", &tet, true, "CELL_TYPES 1"),
+                "little-endian data: legacy VTK is big-endian",
+            ),
+            (
+                "types.vtk",
+                binary_tet("POINTS 4 double", "CELLS 1 5", &tet, false, "CELL_TYPES 2"),
+                "`CELL_TYPES`: 2 values of int need 8 bytes but the file ends after 5",
+            ),
+            (
+                "bit.vtk",
+                binary_tet("POINTS 4 bit", "CELLS 1 5", &tet, false, "CELL_TYPES 1"),
+                "unsupported data type `bit`; supported: char, unsigned_char",
+            ),
+            (
+                "cut_cells.vtk",
+                cut_at(&good, "CELLS 1 5\n"),
+                "`CELLS`: 5 values of int need 20 bytes but the file ends after 12",
+            ),
+        ];
+        for (name, bytes, want) in cases {
+            let p = dir.path().join(name);
+            std::fs::write(&p, &bytes).unwrap();
+            let e = load_mesh(&p).expect_err(name).to_string();
+            assert!(e.contains(name), "{e}");
+            assert!(e.contains("binary legacy VTK, byte "), "{e}");
+            assert!(e.contains(want), "{name}: {e}");
+            assert!(!e.contains("Parse error"), "{e}");
+        }
+        let p = dir.path().join("good.vtk");
+        std::fs::write(&p, &good).unwrap();
+        assert_eq!(load_mesh(&p).unwrap().mesh.num_elements(), 1);
     }
 
     #[test]

@@ -22,6 +22,16 @@
 //! meshio encode them separately, others jointly). Value types: `Int8` to `UInt64`,
 //! `Float32`, `Float64`. `offsets` may list the end of each cell (VTK) or also the leading 0.
 //!
+//! Sizes are checked before anything is allocated for them: `NumberOfPoints` and
+//! `NumberOfCells` (and the connectivity length, the last of `offsets`) against the memory
+//! available ([`crate::memory`]); then each array's size as its header announces it (the
+//! byte count, or the zlib blocks' inflated sizes) against what those counts allow for its
+//! type (`NumberOfPoints × 3` point coordinates, `NumberOfCells` types and offsets, or one
+//! more offset, the last offset's connectivity entries), before its data are decoded or
+//! inflated; ASCII values are counted before they are stored. Each zlib block is inflated
+//! through a bound of its announced size plus one byte, so a stream that inflates to more
+//! stops there.
+//!
 //! Every inconsistency (truncated data, a size that disagrees with `NumberOfPoints` /
 //! `NumberOfCells` or with the header, a block that does not inflate to its stated size, an
 //! unknown type or compressor, a cell referring to a missing point) is an
@@ -48,6 +58,21 @@ const B64: GeneralPurpose = GeneralPurpose::new(
         .with_decode_padding_mode(DecodePaddingMode::Indifferent)
         .with_decode_allow_trailing_bits(true),
 );
+
+/// Bytes a point may take while a `.vtu` is read and built into a mesh: its coordinates as
+/// stored (at most 24), as `f64` (24), in the grid (24), the mesh's node, file id and
+/// renumbering (about 40), with room to spare.
+const POINT_BYTES: u64 = 160;
+/// Bytes a cell may take while read: its offset and type as stored (at most 16), as `i128`
+/// (32), as `u64` and `i64` (16), in the grid (16), with room to spare.
+const CELL_BYTES: u64 = 96;
+/// Bytes a connectivity entry may take while read: as stored (at most 8), as `i128` (16), as
+/// `u64` (8), in the grid (8), in the mesh (4), with room to spare.
+const CONN_BYTES: u64 = 48;
+
+/// What a memory refusal while reading suggests.
+const READ_REMEDY: &str =
+    "the file's declared counts are wrong, or the mesh is too large for this machine";
 
 /// Parse the XML part of `bytes`.
 fn parse_xml<'x>(path: &Path, xml: &'x str) -> Result<Document<'x>> {
@@ -200,6 +225,11 @@ pub fn read_vtu(path: &Path) -> Result<LoadedMesh> {
         let base = (all.points.len() / 3) as u64;
         let np = cx.count_attr(piece, "NumberOfPoints")?;
         let nc = cx.count_attr(piece, "NumberOfCells")?;
+        cx.check_memory(
+            piece,
+            &format!("reading {np} points and {nc} cells"),
+            (base as u128 + np as u128) * POINT_BYTES as u128 + nc as u128 * CELL_BYTES as u128,
+        )?;
         let pts_el = child(&cx, piece, "Points")?;
         let pts = pts_el
             .children()
@@ -272,6 +302,11 @@ pub fn read_vtu(path: &Path) -> Result<LoadedMesh> {
             ));
         }
         let total = offs.last().copied().unwrap_or(0) as usize;
+        cx.check_memory(
+            offs_el,
+            &format!("reading {total} connectivity entries (the last of `offsets`)"),
+            (all.conn.len() as u128 + total as u128) * CONN_BYTES as u128,
+        )?;
         let conn_el = named("connectivity")?;
         let conn = cx.read_u64(conn_el, "connectivity", &[total])?;
         let types_el = named("types")?;
@@ -430,6 +465,16 @@ enum Vals {
     I(Vec<i128>),
 }
 
+/// What the declared counts allow an array to hold.
+struct Limit<'t> {
+    /// Values.
+    values: usize,
+    /// Bytes of those values as stored.
+    bytes: usize,
+    /// The array's type, as the file names it.
+    ty: &'t str,
+}
+
 /// File-wide settings and the appended data.
 struct Context<'a> {
     path: &'a Path,
@@ -575,6 +620,13 @@ impl<'a> Context<'a> {
         }
     }
 
+    /// Refuse reading what needs `bytes` (counted from the declared sizes) where the
+    /// memory available cannot hold it ([`crate::memory`]).
+    fn check_memory(&self, n: Node, what: &str, bytes: u128) -> Result<()> {
+        let bytes = u64::try_from(bytes).unwrap_or(u64::MAX);
+        crate::memory::check_for(what, bytes, READ_REMEDY).map_err(|e| self.err(n, e))
+    }
+
     /// A non-negative count attribute.
     fn count_attr(&self, n: Node, name: &str) -> Result<usize> {
         let s = n
@@ -627,6 +679,24 @@ impl<'a> Context<'a> {
                 ),
             )
         })?;
+        // What the declared counts allow, checked against memory before anything is decoded:
+        // the values as stored, as `i128` or `f64`, and the caller's copy.
+        let most = expect.iter().copied().max().unwrap_or(0);
+        let limit = Limit {
+            values: most,
+            bytes: most.checked_mul(ty.size()).ok_or_else(|| {
+                self.err(
+                    n,
+                    format!("`{what}`: {most} values of {tys} overflow the address space"),
+                )
+            })?,
+            ty: tys,
+        };
+        self.check_memory(
+            n,
+            &format!("reading `{what}` ({most} values)"),
+            most as u128 * (ty.size() as u128 + 24),
+        )?;
         let want = |len: usize| -> Result<()> {
             if expect.contains(&len) {
                 Ok(())
@@ -650,12 +720,10 @@ impl<'a> Context<'a> {
             "ascii" => {
                 seen[0] = true;
                 self.seen.set(seen);
-                let vals = self.parse_ascii(n, what, ty)?;
-                want(match &vals {
-                    Vals::F(v) => v.len(),
-                    Vals::I(v) => v.len(),
-                })?;
-                return Ok(vals);
+                // Counted before they are stored.
+                let text = own_text(n);
+                want(text.split_ascii_whitespace().count())?;
+                return self.parse_ascii(n, what, ty, &text);
             }
             "binary" => {
                 seen[1] = true;
@@ -663,7 +731,7 @@ impl<'a> Context<'a> {
                     .bytes()
                     .filter(|c| !c.is_ascii_whitespace())
                     .collect();
-                self.decode_base64(n, what, &text)?
+                self.decode_base64(n, what, &text, &limit)?
             }
             "appended" => {
                 seen[2] = true;
@@ -685,8 +753,8 @@ impl<'a> Context<'a> {
                     )
                 })?;
                 match enc {
-                    Encoding::Raw => self.decode_raw(n, what, rest)?,
-                    Encoding::Base64 => self.decode_base64(n, what, rest)?,
+                    Encoding::Raw => self.decode_raw(n, what, rest, &limit)?,
+                    Encoding::Base64 => self.decode_base64(n, what, rest, &limit)?,
                 }
             }
             other => {
@@ -714,8 +782,7 @@ impl<'a> Context<'a> {
         Ok(self.convert(ty, &bytes))
     }
 
-    fn parse_ascii(&self, n: Node, what: &str, ty: Ty) -> Result<Vals> {
-        let text = own_text(n);
+    fn parse_ascii(&self, n: Node, what: &str, ty: Ty, text: &str) -> Result<Vals> {
         let bad = |i: usize, tok: &str| {
             self.err(
                 n,
@@ -761,6 +828,59 @@ impl<'a> Context<'a> {
         }
     }
 
+    /// The array's length in bytes as the header announces it: the byte count, or for zlib
+    /// the blocks' inflated sizes (`(nblocks − 1) × block size + last block size`).
+    fn announced_len(&self, n: Node, what: &str, header: &[u8]) -> Result<usize> {
+        if !self.zlib {
+            return usize::try_from(self.word(header, 0))
+                .map_err(|_| self.err(n, format!("`{what}`: header size overflows")));
+        }
+        let nb = self.word(header, 0) as usize;
+        let bs = self.word(header, 1) as usize;
+        let last = self.word(header, 2) as usize;
+        if nb > 0 && bs == 0 {
+            return Err(self.err(n, format!("`{what}`: block size 0 in the header")));
+        }
+        if last > bs {
+            return Err(self.err(
+                n,
+                format!("`{what}`: last block size {last} exceeds the block size {bs}"),
+            ));
+        }
+        match nb {
+            0 => Ok(0),
+            _ => (nb - 1)
+                .checked_mul(bs)
+                .and_then(|t| t.checked_add(if last == 0 { bs } else { last }))
+                .ok_or_else(|| self.err(n, format!("`{what}`: header sizes overflow"))),
+        }
+    }
+
+    /// The announced length, refused where it exceeds what the declared counts allow (before
+    /// any data is decoded or inflated).
+    fn checked_len(&self, n: Node, what: &str, header: &[u8], limit: &Limit) -> Result<usize> {
+        let len = self.announced_len(n, what, header)?;
+        if len > limit.bytes {
+            return Err(self.err(
+                n,
+                format!(
+                    "`{what}`: the header announces {len} bytes{}, but {} values of {} (what \
+                     the piece's declared counts allow) take {} bytes; refused without {}",
+                    if self.zlib { " inflated" } else { "" },
+                    limit.values,
+                    limit.ty,
+                    limit.bytes,
+                    if self.zlib {
+                        "inflating it"
+                    } else {
+                        "reading it"
+                    }
+                ),
+            ));
+        }
+        Ok(len)
+    }
+
     fn stored_len(&self, n: Node, what: &str, header: &[u8]) -> Result<usize> {
         if self.zlib {
             let nb = self.word(header, 0) as usize;
@@ -777,7 +897,7 @@ impl<'a> Context<'a> {
     }
 
     /// Header + data, raw bytes from the start of `rest`.
-    fn decode_raw(&self, n: Node, what: &str, rest: &[u8]) -> Result<Vec<u8>> {
+    fn decode_raw(&self, n: Node, what: &str, rest: &[u8], limit: &Limit) -> Result<Vec<u8>> {
         let trunc = |need: usize| {
             self.err(
                 n,
@@ -805,16 +925,17 @@ impl<'a> Context<'a> {
                 )
             })?;
         let header = &rest[..hl];
+        let total = self.checked_len(n, what, header, limit)?;
         let dl = self.stored_len(n, what, header)?;
         let data = rest
             .get(hl..hl.saturating_add(dl))
             .ok_or_else(|| trunc(hl.saturating_add(dl)))?;
-        self.inflate(n, what, header, data)
+        self.inflate(n, what, header, data, total)
     }
 
     /// Header + data in base64 from the start of `text` (whitespace removed), the header
     /// encoded on its own or together with the data.
-    fn decode_base64(&self, n: Node, what: &str, text: &[u8]) -> Result<Vec<u8>> {
+    fn decode_base64(&self, n: Node, what: &str, text: &[u8], limit: &Limit) -> Result<Vec<u8>> {
         let chars = |bytes: usize| bytes.div_ceil(3) * 4;
         let dec = |t: &[u8], part: &str| -> Result<Vec<u8>> {
             B64.decode(t)
@@ -855,6 +976,7 @@ impl<'a> Context<'a> {
             return Err(self.err(n, format!("`{what}`: the header is cut short")));
         }
         let header = &head[..hl];
+        let total = self.checked_len(n, what, header, limit)?;
         let dl = self.stored_len(n, what, header)?;
         if dl > text.len() {
             return Err(self.err(
@@ -891,33 +1013,26 @@ impl<'a> Context<'a> {
                 format!("`{what}`: {} data bytes, the header says {dl}", data.len()),
             ));
         }
-        self.inflate(n, what, header, &data[..dl])
+        self.inflate(n, what, header, &data[..dl], total)
     }
 
-    /// The array's bytes: `data` as they are, or its zlib blocks inflated.
-    fn inflate(&self, n: Node, what: &str, header: &[u8], data: &[u8]) -> Result<Vec<u8>> {
+    /// The array's bytes: `data` as they are, or its zlib blocks inflated to the `total`
+    /// bytes the header announces ([`Context::checked_len`]), each block read through a
+    /// bound of its announced size, so that a stream inflating to more stops there.
+    fn inflate(
+        &self,
+        n: Node,
+        what: &str,
+        header: &[u8],
+        data: &[u8],
+        total: usize,
+    ) -> Result<Vec<u8>> {
         if !self.zlib {
             return Ok(data.to_vec());
         }
         let nb = self.word(header, 0) as usize;
         let bs = self.word(header, 1) as usize;
         let last = self.word(header, 2) as usize;
-        if nb > 0 && bs == 0 {
-            return Err(self.err(n, format!("`{what}`: block size 0 in the header")));
-        }
-        if last > bs {
-            return Err(self.err(
-                n,
-                format!("`{what}`: last block size {last} exceeds the block size {bs}"),
-            ));
-        }
-        let total = match nb {
-            0 => 0,
-            _ => (nb - 1)
-                .checked_mul(bs)
-                .and_then(|t| t.checked_add(if last == 0 { bs } else { last }))
-                .ok_or_else(|| self.err(n, format!("`{what}`: header sizes overflow")))?,
-        };
         // A zlib stream inflates at most ~1032:1; refuse sizes no data could produce before
         // allocating.
         if total / 1032 > data.len() + 1 {
@@ -929,7 +1044,9 @@ impl<'a> Context<'a> {
                 ),
             ));
         }
-        let mut out = Vec::with_capacity(total);
+        // One byte of room past `total`: a block inflating to more stops at its bound plus
+        // one byte, which then fits without growing the buffer.
+        let mut out = Vec::with_capacity(total.saturating_add(1));
         let mut pos = 0usize;
         for b in 0..nb {
             let c = self.word(header, 3 + b) as usize;
@@ -947,13 +1064,21 @@ impl<'a> Context<'a> {
                     )
                 })?;
             let got = out.len() - before;
-            if got != want {
+            if got > want {
                 return Err(self.err(
                     n,
                     format!(
-                        "`{what}`: zlib block {b} of {nb} inflates to {}{got} bytes; the header \
-                         says {want}",
-                        if got > want { "more than " } else { "" }
+                        "`{what}`: zlib block {b} of {nb} inflates to more than the {want} bytes \
+                         the header says (inflating stopped there)"
+                    ),
+                ));
+            }
+            if got < want {
+                return Err(self.err(
+                    n,
+                    format!(
+                        "`{what}`: zlib block {b} of {nb} inflates to {got} bytes; the header \
+                         says {want}"
                     ),
                 ));
             }
@@ -990,5 +1115,186 @@ impl<'a> Context<'a> {
             Ty::F32 => conv!(f32, 4, F, f64),
             Ty::F64 => conv!(f64, 8, F, f64),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::io::load_mesh;
+    use std::io::Write;
+    use std::sync::OnceLock;
+
+    /// A `.vtu` of one tetrahedron: `NumberOfPoints` = `np`, the `<Points>` array `points`
+    /// (a whole `<DataArray>` element), cells in ASCII with `offsets`, and the raw appended
+    /// bytes `appended` where not empty; `root` is added to `<VTKFile>`'s attributes.
+    fn vtu(root: &str, np: &str, points: &str, offsets: &str, appended: &[u8]) -> Vec<u8> {
+        let mut f = format!(
+            "<?xml version=\"1.0\"?>\n\
+             <VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" \
+             header_type=\"UInt32\"{root}>\n\
+             <UnstructuredGrid>\n<Piece NumberOfPoints=\"{np}\" NumberOfCells=\"1\">\n\
+             <Points>\n{points}\n</Points>\n<Cells>\n\
+             <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 2 3</DataArray>\n\
+             <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">{offsets}</DataArray>\n\
+             <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">10</DataArray>\n\
+             </Cells>\n</Piece>\n</UnstructuredGrid>\n"
+        )
+        .into_bytes();
+        if !appended.is_empty() {
+            f.extend_from_slice(b"<AppendedData encoding=\"raw\">\n_");
+            f.extend_from_slice(appended);
+            f.extend_from_slice(b"\n</AppendedData>\n");
+        }
+        f.extend_from_slice(b"</VTKFile>\n");
+        f
+    }
+
+    const ZLIB: &str = " compressor=\"vtkZLibDataCompressor\"";
+    const APPENDED_POINTS: &str = "<DataArray type=\"Float64\" Name=\"Points\" \
+                                   NumberOfComponents=\"3\" format=\"appended\" offset=\"0\"/>";
+
+    /// Bytes the bomb inflates to.
+    const BOMB: usize = 256 << 20;
+
+    /// A zlib stream of [`BOMB`] zero bytes (about 256 KiB), made once.
+    fn bomb() -> &'static [u8] {
+        static Z: OnceLock<Vec<u8>> = OnceLock::new();
+        Z.get_or_init(|| {
+            let mut e = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+            let zeros = vec![0u8; 1 << 20];
+            for _ in 0..BOMB >> 20 {
+                e.write_all(&zeros).unwrap();
+            }
+            e.finish().unwrap()
+        })
+    }
+
+    /// A VTK zlib header of one block of `size` inflated and `compressed` bytes, then `data`.
+    fn one_block(size: usize, compressed: usize, data: &[u8]) -> Vec<u8> {
+        let mut b = Vec::new();
+        for w in [1, size, 0, compressed] {
+            b.extend_from_slice(&(w as u32).to_le_bytes());
+        }
+        b.extend_from_slice(data);
+        b
+    }
+
+    /// The error of loading `bytes` saved as `name`.
+    fn load_err(name: &str, bytes: &[u8]) -> String {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        match load_mesh(&p) {
+            Ok(_) => panic!("{name}: read without error"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    /// A 256 KiB file whose `Points` header announces a 256 MiB zlib block for 4 points is
+    /// refused from the header, naming the file and the array, before any byte is inflated:
+    /// it was inflated in full (1 GiB from a 1.1 MB file) and only then found too long.
+    #[test]
+    fn vtu_zlib_bomb_is_refused_before_inflating() {
+        let z = bomb();
+        assert!(z.len() < BOMB / 500, "{} compressed bytes", z.len());
+        // Appended raw.
+        let f = vtu(
+            ZLIB,
+            "4",
+            APPENDED_POINTS,
+            "4",
+            &one_block(BOMB, z.len(), z),
+        );
+        let e = load_err("bomb.vtu", &f);
+        assert!(e.contains("bomb.vtu"), "{e}");
+        assert!(
+            e.contains(&format!(
+                "`Points`: the header announces {BOMB} bytes inflated"
+            )),
+            "{e}"
+        );
+        assert!(
+            e.contains("12 values of Float64") && e.contains("take 96 bytes"),
+            "{e}"
+        );
+        assert!(e.contains("refused without inflating it"), "{e}");
+        // Inline base64, the header encoded on its own as VTK does.
+        use base64::Engine;
+        let b64 = base64::engine::general_purpose::STANDARD;
+        let head = one_block(BOMB, z.len(), &[]);
+        let inline = format!(
+            "<DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" \
+             format=\"binary\">{}{}</DataArray>",
+            b64.encode(&head),
+            b64.encode(z)
+        );
+        let e = load_err("bomb64.vtu", &vtu(ZLIB, "4", &inline, "4", &[]));
+        assert!(e.contains("bomb64.vtu") && e.contains("`Points`"), "{e}");
+        assert!(e.contains("refused without inflating it"), "{e}");
+    }
+
+    /// A header that announces the 96 bytes 4 points take, in front of a stream that
+    /// inflates to 256 MiB: the block is inflated through a bound of 97 bytes and refused.
+    #[test]
+    fn vtu_zlib_stream_longer_than_its_header_stops_at_the_header_size() {
+        let z = bomb();
+        let f = vtu(ZLIB, "4", APPENDED_POINTS, "4", &one_block(96, z.len(), z));
+        let e = load_err("long.vtu", &f);
+        assert!(e.contains("long.vtu"), "{e}");
+        assert!(
+            e.contains(
+                "`Points`: zlib block 0 of 1 inflates to more than the 96 bytes the header says"
+            ),
+            "{e}"
+        );
+    }
+
+    /// Uncompressed data whose header announces more than the declared counts allow are
+    /// refused from the header, raw and base64.
+    #[test]
+    fn vtu_uncompressed_size_beyond_the_declared_counts_is_refused() {
+        let mut raw = (1u32 << 30).to_le_bytes().to_vec();
+        raw.extend_from_slice(&[0; 96]);
+        let e = load_err("big.vtu", &vtu("", "4", APPENDED_POINTS, "4", &raw));
+        assert!(
+            e.contains("big.vtu")
+                && e.contains("`Points`: the header announces 1073741824 bytes, but 12 values")
+                && e.contains("refused without reading it"),
+            "{e}"
+        );
+    }
+
+    /// Declared counts beyond the memory available are refused before any array is read,
+    /// naming the file, the counts and the memory; so is a connectivity size (the last of
+    /// `offsets`) beyond it.
+    #[test]
+    fn vtu_counts_beyond_memory_are_refused_before_reading() {
+        if crate::memory::available().is_none() {
+            return;
+        }
+        let e = load_err(
+            "huge.vtu",
+            &vtu("", "1000000000000000", APPENDED_POINTS, "4", &[]),
+        );
+        assert!(e.contains("huge.vtu"), "{e}");
+        assert!(
+            e.contains("reading 1000000000000000 points and 1 cells needs"),
+            "{e}"
+        );
+        assert!(e.contains("GiB are available"), "{e}");
+        let points = "<DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" \
+                      format=\"ascii\">0 0 0 1 0 0 0 1 0 0 0 1</DataArray>";
+        let e = load_err("conn.vtu", &vtu("", "4", points, "1000000000000000", &[]));
+        assert!(
+            e.contains("conn.vtu")
+                && e.contains("reading 1000000000000000 connectivity entries")
+                && e.contains("GiB are available"),
+            "{e}"
+        );
+        // The same file with its real offset reads.
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("ok.vtu");
+        std::fs::write(&p, vtu("", "4", points, "4", &[])).unwrap();
+        assert_eq!(load_mesh(&p).unwrap().mesh.num_elements(), 1);
     }
 }

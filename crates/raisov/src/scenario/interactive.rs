@@ -387,6 +387,7 @@ pub fn run_interactive(
         }
         let wall = start.elapsed().as_secs_f64();
         if let Some(mut d) = diverged {
+            sc.locate(&mut d);
             rows.flush()?;
             // The stepper's own clock counts its pseudo-time steps; the user's clock is the
             // path time of the frame.

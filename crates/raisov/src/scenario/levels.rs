@@ -143,7 +143,10 @@ pub(super) fn resolve(
                 Some(e) => {
                     return Err(err(
                         path,
-                        format!("`multigrid.epsilon` = {e}: must be >= 0 (m)"),
+                        format!(
+                            "`multigrid.epsilon` = {}: must be >= 0 (m)",
+                            crate::numbers::compact(e)
+                        ),
                     ))
                 }
                 None => defaults::EPSILON_PER_EDGE * mesh.edge_range().0,
@@ -302,7 +305,10 @@ fn resolve_meshes(
         Some(r) if !(r > 0.0 && r < 1.0) => {
             return Err(err(
                 path,
-                format!("`multigrid.ratio` = {r}: must be in (0, 1)"),
+                format!(
+                    "`multigrid.ratio` = {}: must be in (0, 1)",
+                    crate::numbers::compact(r)
+                ),
             ))
         }
         Some(r) => r,
@@ -523,15 +529,34 @@ impl Scenario {
         }
     }
 
-    /// The mesh of coarser level `i` (0: level 1) of shape `shape`, with its file ids.
+    /// The mesh of coarser level `i` (0: level 1) of shape `shape`, with its file ids. A
+    /// level file of another element kind than level 0 (triangles under tetrahedra) is an
+    /// error naming that file and level 0's.
     fn build_level(&self, shape: &Shape, i: usize) -> Result<(Mesh, Option<Vec<u32>>)> {
         let key = match shape {
             Shape::File(_) => format!("multigrid.files[{i}]"),
             _ => "mesh".to_string(),
         };
-        self.mesh_source
-            .build(shape, &self.path, &key)
-            .map(|r| (r.0, r.2))
+        let (mesh, _, ids, _) = self.mesh_source.build(shape, &self.path, &key)?;
+        if mesh.kind != self.mesh.kind {
+            let named = |key: &str, shape: &Shape| match shape {
+                Shape::File(p) => format!("`{key}` = \"{}\"", p.display()),
+                _ => "generated from [mesh]".to_string(),
+            };
+            return Err(err(
+                &self.path,
+                format!(
+                    "{}: level {} is a {} mesh but level 0 ({}) is a {} mesh; every level must \
+                     have level 0's element kind",
+                    named(&key, shape),
+                    i + 1,
+                    mesh.kind.name(),
+                    named("mesh.file", &self.mesh_source.shape),
+                    self.mesh.kind.name()
+                ),
+            ));
+        }
+        Ok((mesh, ids))
     }
 
     /// Fixed nodes, prescribed motions and nodal loads of this scenario on `mesh` (a level).

@@ -41,6 +41,7 @@ use crate::integrate::{Constraints, Method, Motion, System};
 use crate::io::VtuFormat;
 use crate::material::Material;
 use crate::mesh::{norm, sub, ElementKind, Mesh};
+use crate::numbers::{compact, rounded};
 pub use levels::{LevelConstraints, LevelMeshes, Multigrid, MultigridScheme, PickedLevel};
 use mesh_source::resolve_mesh_source;
 pub use mesh_source::{BoxCells, MeshSource, Shape};
@@ -245,7 +246,7 @@ fn positive(path: &Path, key: &str, v: f64) -> Result<f64> {
     } else {
         Err(err(
             path,
-            format!("`{key}` = {v}: must be a positive number"),
+            format!("`{key}` = {}: must be a positive number", compact(v)),
         ))
     }
 }
@@ -358,7 +359,7 @@ impl Scenario {
                 } else {
                     "a unit too small? (scale = 1e-3 means mm, 1e-2 cm)"
                 },
-                mesh_source.scale
+                compact(mesh_source.scale)
             ));
         }
         // A point selector far outside the mesh picks a node nobody meant.
@@ -457,7 +458,7 @@ impl Scenario {
         }
         let alpha = match (spec.damping.alpha, spec.damping.ratio, spec.damping.omega) {
             (Some(a), None, None) if a >= 0.0 && a.is_finite() => a,
-            (Some(a), None, None) => return Err(err(path, format!("`damping.alpha` = {a}: must be >= 0 (1/s)"))),
+            (Some(a), None, None) => return Err(err(path, format!("`damping.alpha` = {}: must be >= 0 (1/s)", compact(a)))),
             (None, Some(z), Some(w)) => 2.0 * positive(path, "damping.ratio", z)? * positive(path, "damping.omega", w)?,
             (None, None, None) => defaults::ALPHA,
             _ => {
@@ -485,7 +486,7 @@ impl Scenario {
                 if !(r >= 0.0 && r.is_finite()) {
                     return Err(err(
                         path,
-                        format!("{key}: `radius` = {r}: must be >= 0 (m)"),
+                        format!("{key}: `radius` = {}: must be >= 0 (m)", compact(r)),
                     ));
                 }
                 let (g, mut nodes) = patch::surface_patch(&mesh, d.point, r)
@@ -656,12 +657,12 @@ impl Scenario {
                 .is_none_or(|m| m.scheme == Some(spec::Scheme::RaisovPaper));
         if explicit_limit && dt > TOO_LARGE_STEP * dt_crit {
             warnings.push(format!(
-                "integrator.dt = {dt:.3e} s is {:.1} times the estimated critical step \
+                "integrator.dt = {dt:.3e} s is {} times the estimated critical step \
                  {dt_crit:.3e} s of {}: an explicit run this coarse usually diverges \
                  (leave `dt` out to take {} of the estimate)",
-                dt / dt_crit,
+                rounded(dt / dt_crit, 1),
                 method.name(),
-                safety
+                compact(safety)
             ));
         }
         let duration = spec
@@ -716,7 +717,10 @@ impl Scenario {
         if !(frame_interval >= 0.0 && frame_interval.is_finite()) {
             return Err(err(
                 path,
-                format!("`output.frame_interval` = {frame_interval}: must be >= 0 (s)"),
+                format!(
+                    "`output.frame_interval` = {}: must be >= 0 (s)",
+                    compact(frame_interval)
+                ),
             ));
         }
         let multigrid = spec
@@ -748,11 +752,12 @@ impl Scenario {
             let work = steps * mesh.num_nodes() as f64;
             if work > TOO_LONG_WORK {
                 warnings.push(format!(
-                    "{steps:.3e} steps of dt = {dt:.3e} s to simulate {t_end} s on {} nodes: \
-                     about {:.0} hours at {:.0e} node-steps/s (a fast single thread); raise \
+                    "{steps:.3e} steps of dt = {dt:.3e} s to simulate {} s on {} nodes: \
+                     about {} hours at {:.0e} node-steps/s (a fast single thread); raise \
                      `integrator.dt` or shorten `run.duration`",
+                    compact(t_end),
                     mesh.num_nodes(),
-                    work / NODE_STEPS_PER_SECOND / 3600.0,
+                    rounded(work / NODE_STEPS_PER_SECOND / 3600.0, 0),
                     NODE_STEPS_PER_SECOND
                 ));
             }

@@ -253,7 +253,10 @@ pub(super) fn resolve_material(
         if !(-1.0 < nu && nu < 0.5) {
             return Err(err(
                 path,
-                format!("`material.poisson` = {nu}: must be in (-1, 0.5)"),
+                format!(
+                    "`material.poisson` = {}: must be in (-1, 0.5)",
+                    crate::numbers::compact(nu)
+                ),
             ));
         }
         Ok((e, nu))

@@ -220,6 +220,20 @@ fn write_balance(
 }
 
 impl Scenario {
+    /// Name the node of `d` (of the stepper's finest level, this scenario's mesh) as
+    /// messages to the user name nodes: by its id in the mesh file
+    /// ([`Scenario::file_node`]), with its position.
+    pub fn locate(&self, d: &mut crate::error::Divergence) {
+        let n = self.mesh.num_nodes();
+        d.locate(
+            |a| match a < n {
+                true => self.file_node(a as u32),
+                false => a as u64,
+            },
+            |a| self.mesh.nodes.get(a).copied(),
+        );
+    }
+
     /// The time after which every prescribed motion, load and tool is constant.
     pub fn motion_end(&self) -> f64 {
         self.prescribed
@@ -555,7 +569,8 @@ pub fn run_with(
             reason = StopReason::Interrupted;
             break;
         }
-        if let Err(d) = stepper.advance() {
+        if let Err(mut d) = stepper.advance() {
+            sc.locate(&mut d);
             result = Err(Error::Diverged(d));
             break;
         }

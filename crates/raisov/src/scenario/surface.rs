@@ -150,7 +150,10 @@ pub(super) fn prepare(
                 Some(r) if !(r > 0.0 && r < 1.0) => {
                     return Err(err(
                         path,
-                        format!("`multigrid.ratio` = {r}: must be in (0, 1)"),
+                        format!(
+                            "`multigrid.ratio` = {}: must be in (0, 1)",
+                            crate::numbers::compact(r)
+                        ),
                     ))
                 }
                 Some(r) => r,
@@ -180,9 +183,10 @@ pub(super) fn prepare(
     }
     if looks_like_millimetres((report.bbox_min, report.bbox_max), 1.0) {
         notes.push(format!(
-            "warning: {} spans more than {} m after scale = {scale}; if its coordinates are millimetres, set [mesh] scale = 0.001",
+            "warning: {} spans more than {} m after scale = {}; if its coordinates are millimetres, set [mesh] scale = 0.001",
             file.display(),
-            crate::mesh::surface_check::MAX_ORGAN_EXTENT_M
+            crate::mesh::surface_check::MAX_ORGAN_EXTENT_M,
+            crate::numbers::compact(scale)
         ));
     }
     // The cache key.

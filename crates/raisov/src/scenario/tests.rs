@@ -1143,4 +1143,101 @@ fn interactive_scenarios_default_to_stable_neo_hookean() {
     assert!(matches!(named.material, Material::MooneyRivlin(_)));
 }
 
+/// The longest run of digits in `s`.
+fn longest_digit_run(s: &str) -> usize {
+    s.split(|c: char| !c.is_ascii_digit())
+        .map(str::len)
+        .max()
+        .unwrap_or(0)
+}
+
+/// Warnings (and errors that echo a value) print huge values compactly: `run.duration =
+/// 1e300` was printed as 301 digits, and the hours it takes as 290.
+#[test]
+fn huge_values_in_warnings_print_compactly() {
+    let w = |text: &str| parse(text).unwrap().warnings.join("\n");
+    let s = w(&BASE.replace("duration = 0.01", "duration = 1e300"));
+    assert!(s.contains("to simulate 1e300 s"), "{s}");
+    assert!(s.contains("e29") && s.contains(" hours at"), "{s}");
+    assert!(longest_digit_run(&s) <= 6, "{s}");
+    let s = w(&BASE.replace("[run]", "[integrator]\ndt = 1e300\n[run]"));
+    assert!(s.contains("times the estimated critical step"), "{s}");
+    assert!(longest_digit_run(&s) <= 6, "{s}");
+    let s = w(&BASE.replace("nodes = 60", "nodes = 60\nscale = 1e300"));
+    assert!(s.contains("[mesh] scale = 1e300"), "{s}");
+    assert!(longest_digit_run(&s) <= 6, "{s}");
+    // Errors that echo a value too.
+    let e = error_of(&BASE.replace("duration = 0.01", "duration = -1e300"));
+    assert!(
+        e.contains("`run.duration` = -1e300: must be a positive number"),
+        "{e}"
+    );
+}
+
+/// An energy blow-up names the node holding the most kinetic energy, by its id in the mesh
+/// file and its position, and its speed: it named no node.
+#[test]
+fn energy_blow_up_names_the_node_in_file_numbering() {
+    let text = format!("{BASE}\n[integrator]\nmethod = \"symplectic-euler\"\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ndisplacement = [0.0, 0.0, 0.03]\n")
+        .replace("duration = 0.01", "duration = 0.01\nblowup_factor = 1e-30");
+    let sc = parse(&text).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let e = run(
+        &sc,
+        RunOptions {
+            out_dir: Some(dir.path().to_path_buf()),
+            progress: None,
+            stop: None,
+        },
+    )
+    .unwrap_err();
+    let msg = e.to_string();
+    let Error::Diverged(d) = e else {
+        panic!("{msg}")
+    };
+    let crate::error::DivergenceCause::EnergyBlowUp { node, speed, .. } = d.cause else {
+        panic!("{msg}")
+    };
+    let at = sc.mesh.nodes[node.index];
+    assert_eq!(node.file_id, Some(sc.file_node(node.index as u32)), "{msg}");
+    assert_eq!(node.at, Some(at), "{msg}");
+    assert!(speed > 0.0, "{msg}");
+    let want = format!(
+        "the most kinetic energy is at node {} of the mesh file (at {} m), moving at {speed:.3e} m/s",
+        sc.file_node(node.index as u32),
+        crate::numbers::point(at)
+    );
+    assert!(msg.contains(&want), "{msg}\nwant: {want}");
+}
+
+/// A level file of triangles under a tetrahedral level 0 is an error naming the level's
+/// file and key and level 0's file: it said only "fine mesh is tetrahedron, coarse mesh is
+/// triangle membrane".
+#[test]
+fn triangles_under_tets_name_the_level_file() {
+    use crate::mesh::generate::{box_tets, rectangle_membrane, BoxPattern};
+    let dir = tempfile::tempdir().unwrap();
+    let tets = box_tets([0.1, 0.04, 0.04], [6, 2, 2], BoxPattern::Five).unwrap();
+    crate::io::write_msh22(&dir.path().join("b.msh"), &tets).unwrap();
+    let tris = rectangle_membrane(0.1, 0.04, 20).unwrap();
+    crate::io::write_msh22(&dir.path().join("c.msh"), &tris).unwrap();
+    let text = "[mesh]\nfile = \"b.msh\"\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e4\npoisson = 0.4\n[[fix]]\nplane = { point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }\n[run]\nduration = 0.01\n[multigrid]\nfiles = [\"c.msh\"]\n";
+    let e = match Scenario::from_toml(text, &dir.path().join("s.toml")) {
+        Err(e) => e,
+        Ok(sc) => sc.stepper().map(|_| ()).unwrap_err(),
+    };
+    let msg = e.to_string();
+    assert!(msg.contains("s.toml"), "{msg}");
+    assert!(msg.contains("`multigrid.files[0]` = \""), "{msg}");
+    assert!(
+        msg.contains("c.msh\": level 1 is a triangle membrane mesh"),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("but level 0 (`mesh.file` = \"")
+            && msg.contains("b.msh\") is a tetrahedron mesh"),
+        "{msg}"
+    );
+}
+
 mod statics;

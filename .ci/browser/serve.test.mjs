@@ -82,6 +82,52 @@ test('raisov serve: Shift-drag grasps the organ in the browser', { timeout: 1100
     await page.screenshot({ path: shot });
     await page.mouse.up();
     await page.keyboard.up('Shift');
+
+    // A pin (Ctrl+click) is drawn and counted.
+    await page.keyboard.down('Control');
+    await page.mouse.click(x0 - 30, y0 - 60);
+    await page.keyboard.up('Control');
+    await page.waitForFunction(() => window.raisovState.pins.length === 1, null, { timeout: 10000 });
+
+    // The colour switch and back: the displacement legend is in metres again (this organ
+    // moves centimetres), not the stress legend's pascals read as metres.
+    const framesNow = () => page.evaluate(() => window.raisovState.frames);
+    await page.click('input[name=colour][value="1"]');
+    await page.waitForFunction(() => window.raisovState.legendStress === true, null, { timeout: 10000 });
+    const stressMax = await page.evaluate(() => window.raisovState.legendMax);
+    await page.click('input[name=colour][value="0"]');
+    await page.waitForFunction(() => window.raisovState.legendStress === false, null, { timeout: 10000 });
+    const uMax = await page.evaluate(() => window.raisovState.legendMax);
+    console.log(`legend: stress max ${stressMax.toPrecision(3)} Pa, then displacement max ${(uMax * 1e3).toPrecision(3)} mm`);
+    assert.ok(uMax < 0.1, `the displacement legend reads ${uMax} m after the colour switch`);
+
+    // Every method: after the switch either frames of that method with work in them arrive, or
+    // the page says that the method diverged. Never a silent, frozen panel.
+    const outcomes = [];
+    for (const code of [1, 2, 0]) {
+      const before = await framesNow();
+      await page.click(`input[name=method][value="${code}"]`);
+      await page.waitForFunction((c) => window.raisovState.method === c, code, { timeout: 60000 });
+      // Wake the simulation (at rest it sleeps) with a short grasp and release.
+      await page.keyboard.down('Shift');
+      await page.mouse.move(x0, y0);
+      await page.mouse.down();
+      await page.mouse.move(x0 + 3, y0 + 8);
+      await page.waitForTimeout(300);
+      await page.mouse.up();
+      await page.keyboard.up('Shift');
+      await page.waitForFunction(({ c, n0 }) => {
+        const s = window.raisovState;
+        const stepped = s.frames > n0 + 3 && s.frameMethod === c && s.cycles > 0;
+        const told = s.diverged && s.errors.some((e) => e.includes('diverged'));
+        return stepped || told;
+      }, { c: code, n0: before }, { timeout: 30000 });
+      const o = await page.evaluate(() => ({ method: window.raisovState.method, diverged: window.raisovState.diverged,
+        status: document.getElementById('status').textContent, budget: document.getElementById('budget').textContent }));
+      outcomes.push(o);
+    }
+    console.log(`methods: ${JSON.stringify(outcomes)}`);
+    await page.screenshot({ path: shot.replace(/\.png$/, '-end.png') });
     console.log(`surface moved ${(r.moved * 1e3).toFixed(2)} mm, grasp force ${r.text}, ` +
       `${r.bytes} bytes/frame, sim ${r.simFps.toFixed(1)} fps, grasp→frame ${r.latency?.toFixed(1)} ms; ${shot}`);
     assert.ok(r.moved > 1e-3, `surface vertices moved ${r.moved} m (want > 1 mm)`);

@@ -35,13 +35,16 @@
 //!                   (sent once per connection, and after a method switch or reset)
 //! frame     "RSVF"  u32 frame number, u32 n, u32 flags (bit 0: a grasp is held, bit 1: the
 //!                   scalar is stress, bit 2: at rest, the simulation sleeps until a command
-//!                   arrives, bit 3: the grasp cannot reach its target), f32 × 18 stats
+//!                   arrives, bit 3: the grasp cannot reach its target, bit 4: the scheme
+//!                   diverged and the simulation waits), f32 × 18 stats
 //!                   (STAT_* indices), f32 × 3n surface positions (m), f32 × n scalar
 //!                   (m or Pa): 88 + 16 n bytes
 //! ```
 //!
-//! Text messages are small JSON objects: `hello` (client id, methods, units), `error`,
-//! `holder` (who holds the grasp), `recording` (the scenario TOML).
+//! Text messages are small JSON objects: `hello` (client id, methods, the frame budget
+//! `{"ms": …}` or `{"cycles": …}`, the frame-rate cap `max_fps`), `error`, `holder` (who holds
+//! the grasp), `pins` (every pin's point and radius, m: sent on connect and whenever they
+//! change), `recording` (the scenario TOML).
 
 use thiserror::Error;
 
@@ -70,6 +73,8 @@ pub const FLAG_STRESS: u32 = 2;
 pub const FLAG_REST: u32 = 4;
 /// Frame flag: the held grasp cannot reach its target (it holds where it was).
 pub const FLAG_STUCK: u32 = 8;
+/// Frame flag: the scheme diverged with no grasp moving; the simulation waits for a command.
+pub const FLAG_DIVERGED: u32 = 16;
 
 /// Stat index: simulation frames per second (frames of the simulation thread, 1 s window).
 pub const STAT_SIM_FPS: usize = 0;

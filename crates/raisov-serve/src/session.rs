@@ -28,6 +28,13 @@
 //! the next frames are ordinary frames; until a grasp move succeeds again each new target is
 //! tried once, without the retries of smaller sub-moves, so the frames of every viewer keep
 //! their rate. Frames carry the "stuck" flag meanwhile.
+//!
+//! Divergence: a frame rejected while no grasp moves means the scheme itself blew up (RaISoV
+//! as the paper reads it does so on organ hierarchies, growing from rounding errors: see
+//! `bench/RESULTS.md`). The state before the frame is kept, every client is told which
+//! element inverted and what to do (reset, or switch the method), frames carry the
+//! "diverged" flag, and the thread sleeps until a command arrives instead of retrying the
+//! same frame for ever.
 
 use crate::protocol::{
     self, Colour, Command, Method, STATS, STAT_APPLIED_SEQ, STAT_CYCLES, STAT_FORCE, STAT_FRAME_MS,
@@ -441,6 +448,8 @@ struct Worker {
     retries: u32,
     /// The scenario has loads or tools that change with time.
     timed: bool,
+    /// The scheme diverged with no grasp moving (module docs); cleared by any command.
+    diverged: bool,
 }
 
 impl Worker {
@@ -491,6 +500,7 @@ impl Worker {
             stuck: false,
             retries,
             timed,
+            diverged: false,
         };
         w.new_topology();
         w.publish(None);
@@ -537,7 +547,7 @@ impl Worker {
 
     /// Whether somebody needs the next frame (module docs: sleep).
     fn needed(&self) -> bool {
-        if self.clients.is_empty() && self.held.is_none() {
+        if self.diverged || (self.clients.is_empty() && self.held.is_none()) {
             return false;
         }
         self.timed || self.still < REST_FRAMES
@@ -577,6 +587,25 @@ impl Worker {
             let report = self.sim.step_frame(self.config.budget);
             if moving {
                 self.grasp_outcome(&report);
+            } else if !report.accepted {
+                self.diverged = true;
+                let why = report
+                    .rejection
+                    .as_deref()
+                    .unwrap_or("the frame was rejected");
+                let why = why.strip_prefix("diverged ").unwrap_or(why);
+                let hint = if self.method == Method::Raisov {
+                    " (the paper's scheme does not settle on organ hierarchies: it grows from \
+                     rounding errors at every step tried)"
+                } else {
+                    ""
+                };
+                let m = format!(
+                    "{} diverged {why}{hint}: the state before it is kept and the simulation \
+                     waits; press reset to start again from rest, or switch the method",
+                    self.method.label()
+                );
+                self.broadcast(protocol::error_json(&m));
             }
             if let Some(h) = &self.held {
                 self.recorder.sample(h.target);
@@ -663,6 +692,24 @@ impl Worker {
         self.reply(id, protocol::error_json(msg.as_ref()));
     }
 
+    /// The pins as a text message: `{"type":"pins","pins":[[x, y, z, r], …]}` (m).
+    fn pins_json(&self) -> String {
+        let pins: Vec<String> = self
+            .pins
+            .iter()
+            .map(|(p, r)| {
+                format!(
+                    "[{},{},{},{}]",
+                    json_number(p[0]),
+                    json_number(p[1]),
+                    json_number(p[2]),
+                    json_number(*r)
+                )
+            })
+            .collect();
+        format!("{{\"type\":\"pins\",\"pins\":[{}]}}", pins.join(","))
+    }
+
     fn holder_notice(&mut self) {
         let h = self
             .held
@@ -682,15 +729,22 @@ impl Worker {
                     .iter()
                     .map(|m| protocol::json_string(m.label()))
                     .collect();
+                let budget = match self.config.budget {
+                    Budget::Cycles(c) => format!("{{\"cycles\":{c}}}"),
+                    Budget::Millis(ms) => format!("{{\"ms\":{}}}", json_number(ms)),
+                };
                 let hello = format!(
-                    "{{\"type\":\"hello\",\"client\":{id},\"name\":{},\"methods\":[{}],\"method\":{},\"holder\":{},\"stress\":{}}}",
+                    "{{\"type\":\"hello\",\"client\":{id},\"name\":{},\"methods\":[{}],\"method\":{},\"holder\":{},\"stress\":{},\"budget\":{budget},\"max_fps\":{}}}",
                     protocol::json_string(&self.source.name),
                     methods.join(","),
                     self.method.code(),
                     self.held.as_ref().map_or("null".to_string(), |h| h.client.to_string()),
-                    self.nodal
+                    self.nodal,
+                    json_number(self.config.max_fps),
                 );
                 self.reply(id, hello);
+                let pins = self.pins_json();
+                self.reply(id, pins);
             }
             SessionCmd::Disconnect { id } => {
                 self.clients.retain(|(c, _)| *c != id);
@@ -700,6 +754,7 @@ impl Worker {
             }
             SessionCmd::Client { id, msg, arrived } => {
                 self.still = 0;
+                self.diverged = false;
                 self.command(id, msg, arrived);
             }
             SessionCmd::Shutdown => {}
@@ -775,6 +830,8 @@ impl Worker {
                 match self.sim.pin(p, r) {
                     Ok(pid) => {
                         self.pins.push((p, r));
+                        let pins = self.pins_json();
+                        self.broadcast(pins);
                         let bounds = self.reference_bounds(self.sim.pin_nodes(pid).unwrap_or(&[]));
                         self.recorder.push(Event::Pin {
                             point: p,
@@ -791,6 +848,8 @@ impl Worker {
                 self.recorder = Recorder::new();
                 self.rebuild(id, self.method, false);
                 self.holder_notice();
+                let pins = self.pins_json();
+                self.broadcast(pins);
             }
             Command::Method(m) => {
                 if m != self.method {
@@ -886,6 +945,10 @@ impl Worker {
                     self.nodal
                 );
                 self.broadcast(m);
+                if keep {
+                    let pins = self.pins_json();
+                    self.broadcast(pins);
+                }
             }
             Err(e) => self.error(id, format!("switching to {}: {e}", method.label())),
         }
@@ -967,7 +1030,8 @@ impl Worker {
         let flags = flag(self.held.is_some(), protocol::FLAG_HELD)
             | flag(stress, protocol::FLAG_STRESS)
             | flag(self.resting, protocol::FLAG_REST)
-            | flag(self.stuck, protocol::FLAG_STUCK);
+            | flag(self.stuck, protocol::FLAG_STUCK)
+            | flag(self.diverged, protocol::FLAG_DIVERGED);
         self.frame = self.frame.wrapping_add(1);
         let frame =
             protocol::encode_frame(self.frame, flags, &stats, &self.positions32, &self.scalar);
@@ -979,6 +1043,15 @@ impl Worker {
             method: self.method,
         };
         self.published.send_replace(Arc::new(published));
+    }
+}
+
+/// A finite number as JSON (non-finite ones, which JSON lacks, as `null`).
+fn json_number(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:e}")
+    } else {
+        "null".into()
     }
 }
 

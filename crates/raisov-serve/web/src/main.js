@@ -8,7 +8,7 @@ const STAT = { simFps: 0, residual: 1, cycles: 2, frameMs: 3, inputLag: 4, force
 const NSTATS = 18;
 const HEADER = 16 + 4 * NSTATS;
 // Frame flags.
-const FLAG = { held: 1, stress: 2, rest: 4, stuck: 8 };
+const FLAG = { held: 1, stress: 2, rest: 4, stuck: 8, diverged: 16 };
 const $ = (id) => document.getElementById(id);
 
 // Viridis (polynomial fit of matplotlib's map), 256 entries.
@@ -37,7 +37,8 @@ const state = {
   webgl: false, client: null, holder: null, topology: null, frames: 0, firstPositions: null,
   positions: null, forceN: 0, force: [0, 0, 0], bytesPerFrame: 0, errors: [], simFps: 0,
   displayFps: 0, latencyMs: null, serverLagMs: null, residuals: [], method: 0, stress: false,
-  resting: false, stuck: false,
+  resting: false, stuck: false, diverged: false, budget: null, maxFps: 0, pins: [],
+  legendStress: null, legendMax: 0, budgetUsed: null,
 };
 window.raisovState = state;
 
@@ -72,6 +73,24 @@ grabMarker.visible = false;
 scene.add(grabMarker);
 let diag = 0.1;
 let framed = false;
+// The pins: a translucent sphere of the pin's radius and a small solid marker at its point.
+const pinGroup = new THREE.Group();
+scene.add(pinGroup);
+const pinMaterial = new THREE.MeshBasicMaterial({ color: 0x4cc9f0, transparent: true, opacity: 0.35, depthWrite: false });
+const pinCore = new THREE.MeshBasicMaterial({ color: 0x4cc9f0 });
+function drawPins() {
+  pinGroup.clear();
+  for (const [x, y, z, r] of state.pins) {
+    const ball = new THREE.Mesh(new THREE.SphereGeometry(1, 16, 12), pinMaterial);
+    ball.position.set(x, y, z);
+    ball.scale.setScalar(Math.max(r, diag * 0.004));
+    const core = new THREE.Mesh(new THREE.SphereGeometry(1, 12, 8), pinCore);
+    core.position.set(x, y, z);
+    core.scale.setScalar(diag * 0.004);
+    pinGroup.add(ball, core);
+  }
+  $('pins').textContent = `${state.pins.length}`;
+}
 
 window.addEventListener('resize', () => {
   camera.aspect = window.innerWidth / window.innerHeight;
@@ -108,11 +127,29 @@ ws.onmessage = (ev) => {
   else if (magic === 'RSVF') onFrame(dv, ev.data.byteLength);
 };
 
+// Errors stay listed, newest first, each with its age, for 30 s (the newest five).
+const errorLog = [];
 function showError(m) {
   state.errors.push(m);
   if (state.errors.length > 20) state.errors.shift();
-  $('errors').textContent = m;
+  errorLog.unshift({ m, at: performance.now() });
+  if (errorLog.length > 5) errorLog.pop();
+  drawErrors();
 }
+function drawErrors() {
+  const now = performance.now();
+  while (errorLog.length && now - errorLog[errorLog.length - 1].at > 30000) errorLog.pop();
+  const box = $('errors');
+  box.replaceChildren(...errorLog.map(({ m, at }) => {
+    const d = document.createElement('div');
+    const age = document.createElement('span');
+    age.className = 'age';
+    age.textContent = `${Math.round((now - at) / 1000)} s ago: `;
+    d.append(age, document.createTextNode(m));
+    return d;
+  }));
+}
+setInterval(drawErrors, 1000);
 
 function onText(m) {
   if (m.type === 'hello') {
@@ -129,6 +166,11 @@ function onText(m) {
     setMethod(m.method);
     state.stress = m.stress;
     setHolder(m.holder);
+    state.budget = m.budget ?? null;
+    state.maxFps = m.max_fps ?? 0;
+  } else if (m.type === 'pins') {
+    state.pins = m.pins;
+    drawPins();
   } else if (m.type === 'error') {
     showError(m.message);
   } else if (m.type === 'holder') {
@@ -164,6 +206,7 @@ function onTopology(dv) {
   geometry.setAttribute('color', new THREE.BufferAttribute(new Float32Array(3 * n), 3));
   state.topology = { n, m };
   state.firstPositions = null;
+  legendMax = 0;
   framed = false;
 }
 
@@ -182,9 +225,13 @@ function onFrame(dv, bytes) {
   pa.needsUpdate = true;
   if (!state.firstPositions) state.firstPositions = pos.slice();
   state.positions = pos;
-  // Colour: a legend maximum that rises at once and falls slowly (no flicker).
+  // Colour: a legend maximum that rises at once and falls slowly (no flicker); it starts
+  // afresh when the scalar changes (displacement in m, stress in Pa) or the topology does.
+  const stressNow = (flags & FLAG.stress) !== 0;
+  if (state.legendStress !== stressNow) { legendMax = 0; state.legendStress = stressNow; }
   const smax = st[STAT.scalarMax];
   legendMax = Math.max(smax, legendMax * 0.995, 1e-12);
+  state.legendMax = legendMax;
   const ca = geometry.getAttribute('color');
   for (let i = 0; i < n; i++) {
     const k = Math.min(255, Math.max(0, Math.round((scalar[i] / legendMax) * 255)));
@@ -196,14 +243,17 @@ function onFrame(dv, bytes) {
   geometry.computeVertexNormals();
   geometry.computeBoundingSphere();
   if (!framed) frameCamera();
-  const stress = (flags & FLAG.stress) !== 0;
+  const stress = stressNow;
   state.resting = (flags & FLAG.rest) !== 0;
   state.stuck = (flags & FLAG.stuck) !== 0;
+  state.diverged = (flags & FLAG.diverged) !== 0;
   $('legendtitle').textContent = stress ? 'von Mises (kPa)' : '|u| (mm)';
   $('legendmax').textContent = stress ? (legendMax / 1e3).toPrecision(3) : (legendMax * 1e3).toPrecision(3);
   // Stats.
   state.frames++;
   state.bytesPerFrame = bytes;
+  state.cycles = st[STAT.cycles];
+  state.frameMethod = st[STAT.method];
   state.simFps = st[STAT.simFps];
   const f = [st[STAT.force], st[STAT.force + 1], st[STAT.force + 2]];
   state.force = f;
@@ -211,6 +261,17 @@ function onFrame(dv, bytes) {
   $('simfps').textContent = `${st[STAT.simFps].toFixed(1)} fps`;
   $('residual').textContent = `${st[STAT.residual].toExponential(2)} N`;
   $('cycles').textContent = `${st[STAT.cycles]} (${st[STAT.frameMs].toFixed(1)} ms)`;
+  // The budget meter: the frame's stepping time against the time it may take, the budget
+  // (--budget-ms) or, with a cycle budget, the frame period of the cap (--max-fps).
+  const allowed = state.budget && state.budget.ms ? state.budget.ms : (state.maxFps > 0 ? 1000 / state.maxFps : null);
+  if (allowed && !state.resting) {
+    const used = st[STAT.frameMs] / allowed;
+    state.budgetUsed = used;
+    $('budget').textContent = `${st[STAT.frameMs].toFixed(0)} / ${allowed.toFixed(0)} ms`;
+    const bar = $('meterbar');
+    bar.style.width = `${Math.min(100, 100 * used).toFixed(0)}%`;
+    bar.style.background = used > 1.05 ? '#e63946' : (used > 0.9 ? '#f4a261' : '#5ec962');
+  }
   $('lag').textContent = `${st[STAT.inputLag].toFixed(1)} ms`;
   state.serverLagMs = st[STAT.inputLag];
   $('bytes').textContent = `${(bytes / 1024).toFixed(1)} KiB`;
@@ -262,6 +323,7 @@ function frameCamera() {
   sun.position.set(c.x + diag, c.y - 2 * diag, c.z + 2 * diag);
   controls.update();
   framed = true;
+  drawPins();
 }
 
 function drawPlot() {
@@ -388,7 +450,8 @@ function loop() {
   }
   if (ws.readyState === WebSocket.OPEN) {
     let s = 'connected';
-    if (state.resting) s = 'at rest: the simulation sleeps until you grasp, pin or switch';
+    if (state.diverged) s = 'diverged: press reset, or switch the method';
+    else if (state.resting) s = 'at rest: the simulation sleeps until you grasp, pin or switch';
     else if (now - lastFrameAt > 3000) s = 'waiting for frames…';
     else if (state.stuck) s = 'the grasp cannot reach the cursor: move back towards the organ';
     $('status').textContent = s;

@@ -15,7 +15,7 @@ use tokio_tungstenite::tungstenite::http::HeaderValue;
 use tokio_tungstenite::tungstenite::Message as Ws;
 
 mod common;
-use common::{connect, next_frame, next_text, send, start, start_with, CUBE};
+use common::{connect, hello, next_frame, next_text, send, start, start_with, CUBE};
 
 /// `GET path` with these extra header lines on a new connection: the status line and the
 /// whole response.
@@ -141,7 +141,7 @@ async fn a_server_bound_beyond_loopback_needs_its_token() {
     let (mut ws, _) = tokio_tungstenite::connect_async(req)
         .await
         .expect("upgraded");
-    assert!(next_text(&mut ws).await.contains("hello"));
+    hello(&mut ws).await;
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -226,7 +226,7 @@ async fn a_client_that_stops_answering_pings_is_closed() {
 async fn a_message_counter_wrapping_past_u32_max_is_not_locked_out() {
     let (addr, _task) = start().await;
     let mut ws = connect(&addr).await;
-    assert!(next_text(&mut ws).await.contains("hello"));
+    hello(&mut ws).await;
     let grab = Command::Grab {
         point: [0.02, 0.02, 0.04],
         radius: 0.0,
@@ -321,8 +321,8 @@ async fn a_grasp_that_cannot_reach_its_target_is_reported_and_frames_keep_flowin
     let (addr, _task) = start().await;
     let mut holder = connect(&addr).await;
     let mut watcher = connect(&addr).await;
-    assert!(next_text(&mut holder).await.contains("hello"));
-    assert!(next_text(&mut watcher).await.contains("hello"));
+    hello(&mut holder).await;
+    hello(&mut watcher).await;
     // Grasp the top centre node and push it 6 cm down, through the fixed base: the
     // neo-Hookean cube inverts on the way, whatever the sub-moves.
     send(

@@ -13,7 +13,7 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio_tungstenite::tungstenite::Message as Ws;
 
 mod common;
-use common::{connect, next_frame, next_text, send, start};
+use common::{connect, hello, next_frame, next_text, send, start};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_grasp_moves_the_grasped_nodes() {
@@ -24,7 +24,7 @@ async fn a_grasp_moves_the_grasped_nodes() {
     tokio::time::timeout(Duration::from_secs(10), async {
         while hello.is_none() || topo.is_none() {
             match ws.next().await.expect("open").expect("a message") {
-                Ws::Text(t) => hello = Some(t.to_string()),
+                Ws::Text(t) if t.contains("\"type\":\"hello\"") => hello = Some(t.to_string()),
                 Ws::Binary(b) => {
                     if let Some(t) = protocol::decode_topology(&b) {
                         topo = Some(t);
@@ -136,7 +136,7 @@ async fn a_grasp_moves_the_grasped_nodes() {
 async fn hostile_messages_leave_the_server_serving() {
     let (addr, _task) = start().await;
     let mut ws = connect(&addr).await;
-    assert!(next_text(&mut ws).await.contains("hello"));
+    hello(&mut ws).await;
     let good = protocol::encode(&Message {
         seq: 5,
         command: Command::Grab {
@@ -193,7 +193,7 @@ async fn hostile_messages_leave_the_server_serving() {
     }
     // A second client watches: its grasp is refused while the first holds.
     let mut other = connect(&addr).await;
-    assert!(next_text(&mut other).await.contains("hello"));
+    hello(&mut other).await;
     send(
         &mut other,
         1,
@@ -237,7 +237,7 @@ async fn hostile_messages_leave_the_server_serving() {
     assert!(released, "the closed client's grasp is released");
     // New connections are served, and so is the page.
     let mut third = connect(&addr).await;
-    assert!(next_text(&mut third).await.contains("hello"));
+    hello(&mut third).await;
     next_frame(&mut third).await;
     let mut tcp = tokio::net::TcpStream::connect(&addr).await.unwrap();
     let get = format!("GET / HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n");
@@ -251,7 +251,7 @@ async fn hostile_messages_leave_the_server_serving() {
 async fn method_switch_keeps_the_grasp() {
     let (addr, _task) = start().await;
     let mut ws = connect(&addr).await;
-    assert!(next_text(&mut ws).await.contains("hello"));
+    hello(&mut ws).await;
     send(
         &mut ws,
         1,

@@ -8,7 +8,7 @@ use raisov_serve::protocol::{Command, FLAG_DIVERGED, FLAG_REST, STAT_CYCLES};
 use std::time::Duration;
 
 mod common;
-use common::{connect, next_frame, next_text, send, start, start_with, CUBE};
+use common::{connect, hello, next_frame, next_text, send, start, start_with, CUBE};
 
 /// The cube under gravity at a time step far beyond its stable one: explicit dynamics blows
 /// up within a few steps, with no grasp anywhere.
@@ -22,7 +22,7 @@ async fn a_scheme_that_diverges_is_reported_and_waits_for_a_command() {
         start_with(&unstable_cube(), "127.0.0.1:0", None, Limits::default()).await;
     let addr = bound.to_string();
     let mut ws = connect(&addr).await;
-    assert!(next_text(&mut ws).await.contains("hello"));
+    hello(&mut ws).await;
     let msg = loop {
         let t = next_text(&mut ws).await;
         if t.contains("\"type\":\"error\"") {
@@ -47,13 +47,16 @@ async fn a_scheme_that_diverges_is_reported_and_waits_for_a_command() {
         f.stats[STAT_CYCLES], 0.0,
         "the rejected frame is not shown as work"
     );
-    // It waits: one frame says so (flagged at rest), then none follows, instead of the same
-    // frame rejected over and over.
-    let waiting = tokio::time::timeout(Duration::from_secs(5), next_frame(&mut ws))
-        .await
-        .expect("the frame that says it waits");
-    assert_ne!(waiting.flags & FLAG_REST, 0);
-    assert_ne!(waiting.flags & FLAG_DIVERGED, 0);
+    // It waits: a frame says so (flagged at rest as well; the newest frame only reaches a
+    // client, so it may be the one above), then none follows, instead of the same frame
+    // rejected over and over.
+    if f.flags & FLAG_REST == 0 {
+        let waiting = tokio::time::timeout(Duration::from_secs(5), next_frame(&mut ws))
+            .await
+            .expect("the frame that says it waits");
+        assert_ne!(waiting.flags & FLAG_REST, 0);
+        assert_ne!(waiting.flags & FLAG_DIVERGED, 0);
+    }
     let more = tokio::time::timeout(Duration::from_secs(1), next_frame(&mut ws)).await;
     assert!(more.is_err(), "frames kept coming after the divergence");
     // A command wakes it; reset starts from rest (and, the step being what it is, it
@@ -74,14 +77,13 @@ async fn pins_are_sent_to_every_page_and_cleared_by_reset() {
     let mut a = connect(&addr).await;
     let mut b = connect(&addr).await;
     // The hello says the budget and the cap, then the (empty) pins follow.
-    let hello = next_text(&mut a).await;
+    let greeting = next_text(&mut a).await;
     assert!(
-        hello.contains("\"budget\":{\"cycles\":20}") && hello.contains("\"max_fps\":2e2"),
-        "{hello}"
+        greeting.contains("\"budget\":{\"cycles\":20}") && greeting.contains("\"max_fps\":2e2"),
+        "{greeting}"
     );
     assert_eq!(next_text(&mut a).await, "{\"type\":\"pins\",\"pins\":[]}");
-    assert!(next_text(&mut b).await.contains("hello"));
-    assert!(next_text(&mut b).await.contains("pins"));
+    hello(&mut b).await;
     send(
         &mut a,
         1,
@@ -118,7 +120,9 @@ async fn pins_are_sent_to_every_page_and_cleared_by_reset() {
     )
     .await;
     loop {
-        if next_text(&mut a).await.contains("\"type\":\"pins\"") {
+        // (a's queue still holds the first pin's and the reset's messages.)
+        let t = next_text(&mut a).await;
+        if t.contains("\"type\":\"pins\"") && t.contains("[[3.9") {
             break;
         }
     }

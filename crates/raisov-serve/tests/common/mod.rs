@@ -124,3 +124,12 @@ pub async fn next_frame(ws: &mut Client) -> protocol::Frame {
     .await
     .expect("a frame within 10 s")
 }
+
+/// The hello and the pins that follow it on connect: the hello.
+pub async fn hello(ws: &mut Client) -> String {
+    let h = next_text(ws).await;
+    assert!(h.contains("\"type\":\"hello\""), "{h}");
+    let p = next_text(ws).await;
+    assert!(p.contains("\"type\":\"pins\""), "{p}");
+    h
+}

@@ -99,7 +99,23 @@ pub struct SurfaceReport {
     pub bbox_min: [f64; 3],
     /// Upper corner of the bounding box.
     pub bbox_max: [f64; 3],
+    /// Work of the self-intersection test.
+    pub intersection_work: IntersectionWork,
 }
+
+/// Work of the self-intersection test, in counts that do not depend on the machine.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct IntersectionWork {
+    /// Bounding-volume tests of the broad phase.
+    pub volume_tests: u64,
+    /// Pairs the broad phase passed to the exact test.
+    pub candidates: u64,
+    /// Exact orientation predicates evaluated (`orient3d` and `orient2d`).
+    pub predicates: u64,
+}
+
+/// About how many times [`check_surface_with_progress`] reports its progress.
+const PROGRESS_CALLS: usize = 100;
 
 fn bad(msg: String) -> Error {
     Error::BadSurface { msg }
@@ -110,6 +126,16 @@ fn bad(msg: String) -> Error {
 /// solid; on error it is left unchanged and the message names the offending triangles and
 /// vertices ([`Error::BadSurface`]).
 pub fn check_surface(s: &mut Surface) -> Result<SurfaceReport> {
+    check_surface_with_progress(s, &mut |_, _| {})
+}
+
+/// [`check_surface`], calling `progress(done, total)` about a hundred times while the
+/// self-intersection test, the check's longest step, runs (`done` of `total` items tested;
+/// the last call has `done == total`).
+pub fn check_surface_with_progress(
+    s: &mut Surface,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<SurfaceReport> {
     let nt = s.triangles.len();
     let nv = s.points.len();
     if nt == 0 {
@@ -148,7 +174,7 @@ pub fn check_surface(s: &mut Surface) -> Result<SurfaceReport> {
         .zip(&flip)
         .map(|(&t, &f)| if f { [t[0], t[2], t[1]] } else { t })
         .collect();
-    check_self_intersections(&s.points, &tris)?;
+    let intersection_work = check_self_intersections(&s.points, &tris, progress)?;
 
     // Volumes, nesting, final turn of each component.
     let nc = comps.len();
@@ -245,6 +271,7 @@ pub fn check_surface(s: &mut Surface) -> Result<SurfaceReport> {
         enclosed_volume: s.enclosed_volume(),
         bbox_min,
         bbox_max,
+        intersection_work,
     })
 }
 
@@ -521,10 +548,13 @@ impl Bvh {
     }
 
     /// Items whose boxes overlap `(lo, hi)` (closed), appended to `out`.
-    fn query(&self, lo: [f64; 3], hi: [f64; 3], stack: &mut Vec<u32>, out: &mut Vec<u32>) {
+    /// Returns the number of nodes tested.
+    fn query(&self, lo: [f64; 3], hi: [f64; 3], stack: &mut Vec<u32>, out: &mut Vec<u32>) -> u64 {
         stack.clear();
         stack.push(0);
+        let mut tested = 0;
         while let Some(n) = stack.pop() {
+            tested += 1;
             let node = &self.nodes[n as usize];
             if (0..3).any(|k| node.hi[k] < lo[k] || hi[k] < node.lo[k]) {
                 continue;
@@ -537,10 +567,15 @@ impl Bvh {
                 stack.push(node.start + 1);
             }
         }
+        tested
     }
 }
 
-fn check_self_intersections(points: &[[f64; 3]], tris: &[[u32; 3]]) -> Result<()> {
+fn check_self_intersections(
+    points: &[[f64; 3]],
+    tris: &[[u32; 3]],
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<IntersectionWork> {
     let boxes: Vec<([f64; 3], [f64; 3])> = tris
         .iter()
         .map(|t| {
@@ -554,14 +589,21 @@ fn check_self_intersections(points: &[[f64; 3]], tris: &[[u32; 3]]) -> Result<()
     let bvh = Bvh::new(&boxes);
     let mut stack = Vec::new();
     let mut cand = Vec::new();
+    let mut work = IntersectionWork::default();
+    let n = &mut work.predicates;
+    let step = tris.len().div_ceil(PROGRESS_CALLS).max(1);
     for (i, ti) in tris.iter().enumerate() {
+        if i % step == 0 {
+            progress(i, tris.len());
+        }
         cand.clear();
-        bvh.query(boxes[i].0, boxes[i].1, &mut stack, &mut cand);
+        work.volume_tests += bvh.query(boxes[i].0, boxes[i].1, &mut stack, &mut cand);
         cand.retain(|&j| j as usize > i);
         cand.sort_unstable();
+        work.candidates += cand.len() as u64;
         for &j in &cand {
             let tj = &tris[j as usize];
-            if triangles_intersect(points, ti, tj) {
+            if triangles_intersect(n, points, ti, tj) {
                 let shared: Vec<String> = ti
                     .iter()
                     .filter(|v| tj.contains(v))
@@ -584,20 +626,23 @@ fn check_self_intersections(points: &[[f64; 3]], tris: &[[u32; 3]]) -> Result<()
             }
         }
     }
-    Ok(())
+    progress(tris.len(), tris.len());
+    Ok(work)
 }
 
-fn o3(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> i8 {
+fn o3(n: &mut u64, a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> i8 {
     let p = |v: [f64; 3]| robust::Coord3D {
         x: v[0],
         y: v[1],
         z: v[2],
     };
+    *n += 1;
     sign(robust::orient3d(p(a), p(b), p(c), p(d)))
 }
 
-fn o2(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> i8 {
+fn o2(n: &mut u64, a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> i8 {
     let p = |v: [f64; 2]| robust::Coord { x: v[0], y: v[1] };
+    *n += 1;
     sign(robust::orient2d(p(a), p(b), p(c)))
 }
 
@@ -626,7 +671,7 @@ fn projector(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> impl Fn([f64; 3]) -> [f64
 
 /// Whether two triangles meet anywhere other than in the vertices and edge they share by
 /// index (exact).
-fn triangles_intersect(points: &[[f64; 3]], ti: &[u32; 3], tj: &[u32; 3]) -> bool {
+fn triangles_intersect(n: &mut u64, points: &[[f64; 3]], ti: &[u32; 3], tj: &[u32; 3]) -> bool {
     let p = |v: u32| points[v as usize];
     let shared: Vec<u32> = ti.iter().copied().filter(|v| tj.contains(v)).collect();
     match shared.len() {
@@ -634,20 +679,20 @@ fn triangles_intersect(points: &[[f64; 3]], ti: &[u32; 3], tj: &[u32; 3]) -> boo
             let [a, b, c] = ti.map(p);
             let [d, e, f] = tj.map(p);
             // Quick reject: one triangle strictly on one side of the other's plane.
-            let s = [o3(a, b, c, d), o3(a, b, c, e), o3(a, b, c, f)];
+            let s = [o3(n, a, b, c, d), o3(n, a, b, c, e), o3(n, a, b, c, f)];
             if s.iter().all(|&x| x > 0) || s.iter().all(|&x| x < 0) {
                 return false;
             }
-            let s = [o3(d, e, f, a), o3(d, e, f, b), o3(d, e, f, c)];
+            let s = [o3(n, d, e, f, a), o3(n, d, e, f, b), o3(n, d, e, f, c)];
             if s.iter().all(|&x| x > 0) || s.iter().all(|&x| x < 0) {
                 return false;
             }
-            segment_triangle(a, b, d, e, f)
-                || segment_triangle(b, c, d, e, f)
-                || segment_triangle(c, a, d, e, f)
-                || segment_triangle(d, e, a, b, c)
-                || segment_triangle(e, f, a, b, c)
-                || segment_triangle(f, d, a, b, c)
+            segment_triangle(n, a, b, d, e, f)
+                || segment_triangle(n, b, c, d, e, f)
+                || segment_triangle(n, c, a, d, e, f)
+                || segment_triangle(n, d, e, a, b, c)
+                || segment_triangle(n, e, f, a, b, c)
+                || segment_triangle(n, f, d, a, b, c)
         }
         1 => {
             let v = shared[0];
@@ -658,7 +703,7 @@ fn triangles_intersect(points: &[[f64; 3]], ti: &[u32; 3], tj: &[u32; 3]) -> boo
             let (a, b) = others(ti);
             let (c, d) = others(tj);
             let (pv, pa, pb, pc, pd) = (p(v), p(a), p(b), p(c), p(d));
-            segment_triangle(pa, pb, pv, pc, pd) || segment_triangle(pc, pd, pv, pa, pb)
+            segment_triangle(n, pa, pb, pv, pc, pd) || segment_triangle(n, pc, pd, pv, pa, pb)
         }
         2 => {
             let c = ti
@@ -673,33 +718,40 @@ fn triangles_intersect(points: &[[f64; 3]], ti: &[u32; 3], tj: &[u32; 3]) -> boo
                 .unwrap_or(tj[0]);
             let (a, b) = (p(shared[0]), p(shared[1]));
             let (pc, pd) = (p(c), p(d));
-            if o3(a, b, pc, pd) != 0 {
+            if o3(n, a, b, pc, pd) != 0 {
                 return false;
             }
             let pr = projector(a, b, pc);
-            o2(pr(a), pr(b), pr(pc)) == o2(pr(a), pr(b), pr(pd))
+            o2(n, pr(a), pr(b), pr(pc)) == o2(n, pr(a), pr(b), pr(pd))
         }
         _ => true,
     }
 }
 
 /// Whether the closed segment pq meets the closed triangle abc (non-degenerate), exactly.
-fn segment_triangle(p: [f64; 3], q: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> bool {
-    let sp = o3(a, b, c, p);
-    let sq = o3(a, b, c, q);
+fn segment_triangle(
+    n: &mut u64,
+    p: [f64; 3],
+    q: [f64; 3],
+    a: [f64; 3],
+    b: [f64; 3],
+    c: [f64; 3],
+) -> bool {
+    let sp = o3(n, a, b, c, p);
+    let sq = o3(n, a, b, c, q);
     if sp * sq > 0 {
         return false;
     }
     if sp == 0 && sq == 0 {
         let pr = projector(a, b, c);
-        return segment_triangle_2d(pr(p), pr(q), pr(a), pr(b), pr(c));
+        return segment_triangle_2d(n, pr(p), pr(q), pr(a), pr(b), pr(c));
     }
-    let s = [o3(p, q, a, b), o3(p, q, b, c), o3(p, q, c, a)];
+    let s = [o3(n, p, q, a, b), o3(n, p, q, b, c), o3(n, p, q, c, a)];
     !(s.iter().any(|&x| x > 0) && s.iter().any(|&x| x < 0))
 }
 
-fn point_in_triangle_2d(p: [f64; 2], a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
-    let s = [o2(a, b, p), o2(b, c, p), o2(c, a, p)];
+fn point_in_triangle_2d(n: &mut u64, p: [f64; 2], a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
+    let s = [o2(n, a, b, p), o2(n, b, c, p), o2(n, c, a, p)];
     !(s.iter().any(|&x| x > 0) && s.iter().any(|&x| x < 0))
 }
 
@@ -708,9 +760,9 @@ fn on_segment_2d(p: [f64; 2], q: [f64; 2], r: [f64; 2]) -> bool {
     (0..2).all(|k| p[k].min(q[k]) <= r[k] && r[k] <= p[k].max(q[k]))
 }
 
-fn segments_2d(p: [f64; 2], q: [f64; 2], a: [f64; 2], b: [f64; 2]) -> bool {
-    let (d1, d2) = (o2(p, q, a), o2(p, q, b));
-    let (d3, d4) = (o2(a, b, p), o2(a, b, q));
+fn segments_2d(n: &mut u64, p: [f64; 2], q: [f64; 2], a: [f64; 2], b: [f64; 2]) -> bool {
+    let (d1, d2) = (o2(n, p, q, a), o2(n, p, q, b));
+    let (d3, d4) = (o2(n, a, b, p), o2(n, a, b, q));
     if d1 * d2 < 0 && d3 * d4 < 0 {
         return true;
     }
@@ -720,12 +772,19 @@ fn segments_2d(p: [f64; 2], q: [f64; 2], a: [f64; 2], b: [f64; 2]) -> bool {
         || (d4 == 0 && on_segment_2d(a, b, q))
 }
 
-fn segment_triangle_2d(p: [f64; 2], q: [f64; 2], a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
-    point_in_triangle_2d(p, a, b, c)
-        || point_in_triangle_2d(q, a, b, c)
-        || segments_2d(p, q, a, b)
-        || segments_2d(p, q, b, c)
-        || segments_2d(p, q, c, a)
+fn segment_triangle_2d(
+    n: &mut u64,
+    p: [f64; 2],
+    q: [f64; 2],
+    a: [f64; 2],
+    b: [f64; 2],
+    c: [f64; 2],
+) -> bool {
+    point_in_triangle_2d(n, p, a, b, c)
+        || point_in_triangle_2d(n, q, a, b, c)
+        || segments_2d(n, p, q, a, b)
+        || segments_2d(n, p, q, b, c)
+        || segments_2d(n, p, q, c, a)
 }
 
 #[cfg(test)]
@@ -1016,7 +1075,7 @@ pub(crate) mod tests {
             [-1.0, -1.0, 0.0], // 9
             [0.25, 0.25, 0.0], // 10: inside triangle (0, 1, 2)
         ];
-        let x = |a: [u32; 3], b: [u32; 3]| triangles_intersect(&pts, &a, &b);
+        let x = |a: [u32; 3], b: [u32; 3]| triangles_intersect(&mut 0, &pts, &a, &b);
         // Common edge, folded at a right angle: only the edge.
         assert!(!x([0, 1, 2], [0, 1, 3]));
         // Common edge, coplanar, opposite sides: only the edge. Same side: overlap.
@@ -1033,7 +1092,7 @@ pub(crate) mod tests {
         let tiny = [[0.2, 0.2, 0.0], [0.3, 0.2, 0.0], [0.2, 0.3, 0.0]];
         let mut p2 = pts.to_vec();
         p2.extend_from_slice(&tiny);
-        assert!(triangles_intersect(&p2, &[0, 1, 2], &[11, 12, 13]));
+        assert!(triangles_intersect(&mut 0, &p2, &[0, 1, 2], &[11, 12, 13]));
         // Disjoint.
         assert!(!x([0, 1, 2], [3, 6, 7]));
     }

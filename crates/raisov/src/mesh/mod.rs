@@ -21,6 +21,7 @@
 use std::collections::BTreeMap;
 
 pub mod generate;
+mod self_intersection;
 pub mod stuffing;
 pub mod surface;
 pub mod surface_check;

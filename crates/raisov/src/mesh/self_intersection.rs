@@ -26,23 +26,27 @@
 //! have to be enumerated: around a vertex of valence `k` (the apex of a fan) there are `k²/2`
 //! such triangle pairs but only the `k` opposite edges to test.
 //!
-//! **Broad phase.** A tree over the triangles, split at the median centroid along the axis of
-//! each node's oriented box on which the centroids spread widest, leaves of at most [`LEAF`] triangles. Each node keeps an
-//! axis-aligned box, an oriented box (axes: the eigenvectors of the covariance of its
-//! triangles' corners) and the vertices common to all its triangles. Every edge descends the
-//! tree and skips a node whose triangles all have one of its ends as a vertex, or whose boxes
-//! the segment misses (separating-axis test of a segment and a box: the box's three axes and
-//! their cross products with the segment are complete). Oriented boxes stay tight around long
-//! thin triangles whatever their direction, where axis-aligned boxes of a fan all overlap
-//! near its centre. The boxes are grown by [`MARGIN_REL`] times the largest coordinate
-//! magnitude, far more than the rounding error of computing them and testing them, so the
-//! broad phase never drops a pair that meets: the result is exact.
+//! **Broad phase.** A tree over the triangles, split at the median centroid along the axis
+//! of each node's oriented box on which the centroids spread widest, leaves of at most
+//! [`LEAF`] triangles. Each node keeps an axis-aligned box, an oriented box (axes: the
+//! eigenvectors of the covariance of its triangles' corners) and the vertices common to all
+//! its triangles. Every edge descends the tree and skips a node whose triangles all have one of
+//! its ends as a vertex, or whose boxes the segment misses (separating-axis test of a segment
+//! and a box: the box's three axes and their cross products with the segment are complete).
+//! Oriented boxes stay tight around long thin triangles whatever their direction, where
+//! axis-aligned boxes of a fan all overlap near its centre. The boxes are grown by
+//! [`MARGIN_REL`] times the largest coordinate magnitude `M`, and each cross-product axis's
+//! test by that margin times the segment's half-length: far more than the rounding of
+//! computing and testing them (a few units of `1e-16 M`), so the broad phase never drops a
+//! pair that meets, and the result is exact.
 //!
 //! Edges are taken in order of their lowest-numbered triangle, in chunks tested in parallel;
 //! the first meeting in that order is reported, so the result and the work counts do not
 //! depend on the number of threads.
+//!
+//! One concern, the exact self-intersection test and its broad phase; about a third of the
+//! file is tests.
 
-use nalgebra::{Matrix3, SymmetricEigen};
 use rayon::prelude::*;
 
 use super::{cross, dot, sub};
@@ -50,9 +54,12 @@ use super::{cross, dot, sub};
 /// Largest number of triangles in a leaf of the tree.
 const LEAF: usize = 4;
 
+/// Subtrees of more triangles than this are built in parallel.
+const PARALLEL_BUILD: usize = 4096;
+
 /// Growth of every bounding box, relative to the largest coordinate magnitude of the surface:
 /// computing a box and testing it against a segment rounds by a few units in the last place of
-/// that magnitude (about 1e-16), six orders of magnitude below this.
+/// that magnitude (about 1e-16), seven orders of magnitude below this.
 pub const MARGIN_REL: f64 = 1e-9;
 
 const NONE: u32 = u32::MAX;
@@ -91,7 +98,7 @@ pub struct Meeting {
 /// Look for a self-intersection (see the module docs) among `tris` over `points`, with `nbr`
 /// the triangle across each local edge `e` (from corner `e` to corner `e + 1`) of a closed
 /// 2-manifold surface. `progress(done, total)` is called about a hundred times as the edges
-/// are tested, last with `done == total`.
+/// are tested, up to `done == total` when there is no meeting.
 pub fn find_meeting(
     points: &[[f64; 3]],
     tris: &[[u32; 3]],
@@ -200,8 +207,8 @@ struct Node {
     obb: Obb,
     /// Vertices of every triangle of the node, `NONE` after the last.
     common: [u32; 3],
-    /// Leaf: `items[start..start + len]`; inner node (`len == 0`): children `start` and
-    /// `start + 1`.
+    /// Leaf: `items[start..start + len]`; inner node (`len == 0`): children the next node
+    /// and node `start` (depth-first order).
     start: u32,
     len: u32,
 }
@@ -212,150 +219,201 @@ struct Tree {
     margin: f64,
 }
 
+/// A triangle while the tree is built: its corners, and their sum and sum of outer products
+/// relative to the surface's box centre (the moments a node's mean and covariance add up).
+struct Prim {
+    corners: [[f64; 3]; 3],
+    sum: [f64; 3],
+    /// `xx, yy, zz, xy, xz, yz`.
+    outer: [f64; 6],
+}
+
+/// Leaves of a tree over `m` triangles (split in halves down to [`LEAF`] or fewer); the tree
+/// has `2 leaves − 1` nodes.
+fn leaves(m: usize) -> usize {
+    if m <= LEAF {
+        1
+    } else {
+        leaves(m / 2) + leaves(m - m / 2)
+    }
+}
+
+/// What building the tree reads.
+struct Build<'a> {
+    tris: &'a [[u32; 3]],
+    prims: &'a [Prim],
+    origin: [f64; 3],
+    margin: f64,
+}
+
+impl Build<'_> {
+    /// Build the subtree of `items` (at `first` in the tree's items) into `nodes` (at `base`
+    /// in the tree's nodes): its root, the left subtree, the right one. Large subtrees are
+    /// built in parallel; the tree does not depend on the number of threads.
+    fn build(&self, nodes: &mut [Node], base: usize, items: &mut [u32], first: usize) {
+        let origin = self.origin;
+        let mut sum = [0.0; 3];
+        let mut outer = [0.0; 6];
+        for &t in items.iter() {
+            let p = &self.prims[t as usize];
+            for k in 0..3 {
+                sum[k] += p.sum[k];
+            }
+            for k in 0..6 {
+                outer[k] += p.outer[k];
+            }
+        }
+        let count = (3 * items.len()) as f64;
+        let mean = sum.map(|x| x / count);
+        let m = |i: usize, j: usize| {
+            let k = match (i.min(j), i.max(j)) {
+                (a, b) if a == b => a,
+                (0, 1) => 3,
+                (0, 2) => 4,
+                _ => 5,
+            };
+            outer[k] / count - mean[i] * mean[j]
+        };
+        let axes = eigenvectors([0, 1, 2].map(|i| [0, 1, 2].map(|j| m(i, j))));
+        // The corners' extents: in the coordinates, and along the axes (relative to `origin`);
+        // the centroids' along the axes.
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        let mut smin = [f64::INFINITY; 3];
+        let mut smax = [f64::NEG_INFINITY; 3];
+        let mut cmin = [f64::INFINITY; 3];
+        let mut cmax = [f64::NEG_INFINITY; 3];
+        let mut keys: Vec<([f64; 3], u32)> = Vec::with_capacity(items.len());
+        for &t in items.iter() {
+            let mut c = [0.0; 3];
+            for p in self.prims[t as usize].corners {
+                let d = sub(p, origin);
+                for k in 0..3 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                    let s = dot(axes[k], d);
+                    smin[k] = smin[k].min(s);
+                    smax[k] = smax[k].max(s);
+                    c[k] += s / 3.0;
+                }
+            }
+            for k in 0..3 {
+                cmin[k] = cmin[k].min(c[k]);
+                cmax[k] = cmax[k].max(c[k]);
+            }
+            keys.push((c, t));
+        }
+        let mid = [0, 1, 2].map(|k| 0.5 * (smin[k] + smax[k]));
+        let centre =
+            [0, 1, 2].map(|i| origin[i] + (0..3).map(|k| mid[k] * axes[k][i]).sum::<f64>());
+        let margin = self.margin;
+        let Some((root, below)) = nodes.split_first_mut() else {
+            return;
+        };
+        root.lo = lo.map(|x| x - margin);
+        root.hi = hi.map(|x| x + margin);
+        root.obb = Obb {
+            centre,
+            axes,
+            half: [0, 1, 2].map(|k| 0.5 * (smax[k] - smin[k]) + margin),
+        };
+        if items.len() <= LEAF {
+            root.start = first as u32;
+            root.len = items.len() as u32;
+            let mut common = self.tris[items[0] as usize];
+            for &t in &items[1..] {
+                for v in &mut common {
+                    if !self.tris[t as usize].contains(v) {
+                        *v = NONE;
+                    }
+                }
+            }
+            root.common = packed(common);
+            return;
+        }
+        // Split along the box axis of the widest spread of centroids, at the median centroid.
+        let k = (0..3)
+            .max_by(|&a, &b| (cmax[a] - cmin[a]).total_cmp(&(cmax[b] - cmin[b])))
+            .unwrap_or(0);
+        let half = items.len() / 2;
+        keys.select_nth_unstable_by(half, |a, b| a.0[k].total_cmp(&b.0[k]).then(a.1.cmp(&b.1)));
+        for (slot, (_, t)) in items.iter_mut().zip(keys) {
+            *slot = t;
+        }
+        let parallel = items.len() > PARALLEL_BUILD;
+        let (left_items, right_items) = items.split_at_mut(half);
+        let (left_nodes, right_nodes) = below.split_at_mut(2 * leaves(half) - 1);
+        let right = base + 1 + left_nodes.len();
+        root.start = right as u32;
+        if parallel {
+            rayon::join(
+                || self.build(left_nodes, base + 1, left_items, first),
+                || self.build(right_nodes, right, right_items, first + half),
+            );
+        } else {
+            self.build(left_nodes, base + 1, left_items, first);
+            self.build(right_nodes, right, right_items, first + half);
+        }
+        let (l, r) = (nodes[1].common, nodes[right - base].common);
+        nodes[0].common = packed(l.map(|v| if r.contains(&v) { v } else { NONE }));
+    }
+}
+
 impl Tree {
     fn new(points: &[[f64; 3]], tris: &[[u32; 3]]) -> Tree {
         let big = points
             .iter()
             .flat_map(|p| p.iter())
             .fold(0.0f64, |m, c| m.max(c.abs()));
-        let mut tree = Tree {
-            nodes: Vec::with_capacity(tris.len()),
-            items: (0..tris.len() as u32).collect(),
-            margin: MARGIN_REL * big,
-        };
-        let centroids: Vec<[f64; 3]> = tris
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|v| points[v as usize]);
-                [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0)
-            })
-            .collect();
-        tree.nodes.push(tree.placeholder());
-        tree.build(0, 0, tris.len(), points, tris, &centroids);
-        tree
-    }
-
-    fn placeholder(&self) -> Node {
-        Node {
-            lo: [0.0; 3],
-            hi: [0.0; 3],
-            obb: Obb {
-                centre: [0.0; 3],
-                axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-                half: [0.0; 3],
-            },
-            common: [NONE; 3],
-            start: 0,
-            len: 0,
-        }
-    }
-
-    fn build(
-        &mut self,
-        node: usize,
-        start: usize,
-        end: usize,
-        points: &[[f64; 3]],
-        tris: &[[u32; 3]],
-        centroids: &[[f64; 3]],
-    ) {
-        let corners = || {
-            self.items[start..end]
-                .iter()
-                .flat_map(|&t| tris[t as usize].map(|v| points[v as usize]))
-        };
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        let mut mean = [0.0; 3];
-        for p in corners() {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in points {
             for k in 0..3 {
                 lo[k] = lo[k].min(p[k]);
                 hi[k] = hi[k].max(p[k]);
-                mean[k] += p[k];
             }
         }
-        let count = (3 * (end - start)) as f64;
-        let mean = mean.map(|m| m / count);
-        let mut cov = Matrix3::<f64>::zeros();
-        for p in corners() {
-            let d = sub(p, mean);
-            for i in 0..3 {
-                for j in 0..3 {
-                    cov[(i, j)] += d[i] * d[j];
-                }
-            }
-        }
-        // Any orthonormal axes bound the node; the covariance's eigenvectors bound it tightly.
-        let axes = SymmetricEigen::try_new(cov, f64::EPSILON, 1000)
-            .map(|e| {
-                let v = e.eigenvectors;
-                [0, 1, 2].map(|k| [v[(0, k)], v[(1, k)], v[(2, k)]])
-            })
-            .unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-        let mut smin = [f64::INFINITY; 3];
-        let mut smax = [f64::NEG_INFINITY; 3];
-        for p in corners() {
-            let d = sub(p, mean);
-            for k in 0..3 {
-                let s = dot(axes[k], d);
-                smin[k] = smin[k].min(s);
-                smax[k] = smax[k].max(s);
-            }
-        }
-        let mid = [0, 1, 2].map(|k| 0.5 * (smin[k] + smax[k]));
-        let centre = [0, 1, 2].map(|i| mean[i] + (0..3).map(|k| mid[k] * axes[k][i]).sum::<f64>());
-        let m = self.margin;
-        let n = &mut self.nodes[node];
-        n.lo = lo.map(|x| x - m);
-        n.hi = hi.map(|x| x + m);
-        n.obb = Obb {
-            centre,
-            axes,
-            half: [0, 1, 2].map(|k| 0.5 * (smax[k] - smin[k]) + m),
-        };
-        if end - start <= LEAF {
-            n.start = start as u32;
-            n.len = (end - start) as u32;
-            let mut common = tris[self.items[start] as usize];
-            for &t in &self.items[start + 1..end] {
-                for v in &mut common {
-                    if !tris[t as usize].contains(v) {
-                        *v = NONE;
+        let origin = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+        let prims: Vec<Prim> = tris
+            .par_iter()
+            .map(|t| {
+                let corners = t.map(|v| points[v as usize]);
+                let mut sum = [0.0; 3];
+                let mut outer = [0.0; 6];
+                for p in corners {
+                    let d = sub(p, origin);
+                    for k in 0..3 {
+                        sum[k] += d[k];
+                    }
+                    let m = [d[0] * d[0], d[1] * d[1], d[2] * d[2]];
+                    let x = [d[0] * d[1], d[0] * d[2], d[1] * d[2]];
+                    for k in 0..3 {
+                        outer[k] += m[k];
+                        outer[3 + k] += x[k];
                     }
                 }
-            }
-            n.common = packed(common);
-            return;
-        }
-        // Split along the box axis of the widest spread of centroids, at the median centroid.
-        let spread = |k: usize| {
-            let (lo, hi) = self.items[start..end]
-                .iter()
-                .map(|&t| dot(axes[k], centroids[t as usize]))
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
-                    (l.min(x), h.max(x))
-                });
-            hi - lo
+                Prim {
+                    corners,
+                    sum,
+                    outer,
+                }
+            })
+            .collect();
+        let mut items: Vec<u32> = (0..tris.len() as u32).collect();
+        let mut nodes: Vec<Node> = (0..2 * leaves(tris.len()) - 1)
+            .map(|_| placeholder())
+            .collect();
+        let cx = Build {
+            tris,
+            prims: &prims,
+            origin,
+            margin: MARGIN_REL * big,
         };
-        let spreads = [0, 1, 2].map(spread);
-        let k = (0..3)
-            .max_by(|&a, &b| spreads[a].total_cmp(&spreads[b]))
-            .unwrap_or(0);
-        let key = |t: &u32| dot(axes[k], centroids[*t as usize]);
-        let half = (start + end) / 2;
-        self.items[start..end].select_nth_unstable_by(half - start, |a, b| {
-            key(a).total_cmp(&key(b)).then(a.cmp(b))
-        });
-        let left = self.nodes.len();
-        let blank = self.placeholder();
-        self.nodes.push(blank);
-        let blank = self.placeholder();
-        self.nodes.push(blank);
-        self.nodes[node].start = left as u32;
-        self.build(left, start, half, points, tris, centroids);
-        self.build(left + 1, half, end, points, tris, centroids);
-        let (l, r) = (self.nodes[left].common, self.nodes[left + 1].common);
-        self.nodes[node].common = packed(l.map(|v| if r.contains(&v) { v } else { NONE }));
+        cx.build(&mut nodes, 0, &mut items, 0);
+        Tree {
+            nodes,
+            items,
+            margin: cx.margin,
+        }
     }
 
     /// The first triangle (in the tree's order) that the edge `(a, b)` meets without a common
@@ -385,12 +443,12 @@ impl Tree {
             if (0..3).any(|k| node.hi[k] < lo[k] || hi[k] < node.lo[k]) {
                 continue;
             }
-            if segment_misses_box(mid, half, &node.obb) {
+            if segment_misses_box(mid, half, &node.obb, self.margin) {
                 continue;
             }
             if node.len == 0 {
-                stack.push(node.start + 1);
                 stack.push(node.start);
+                stack.push(i + 1);
                 continue;
             }
             let s = node.start as usize;
@@ -410,6 +468,64 @@ impl Tree {
     }
 }
 
+/// Orthonormal axes along the eigenvectors of the symmetric matrix `a` (cyclic Jacobi
+/// rotations). Any orthonormal axes bound a node; these bound it tightly. The axes are a
+/// product of rotations, orthonormal to rounding whether or not the sweeps converged.
+fn eigenvectors(mut a: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let scale: f64 = (0..3).map(|i| a[i][i].abs()).sum();
+    for _ in 0..8 {
+        let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
+        if !(off > 1e-15 * scale) {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = if theta.abs() > 1e100 {
+                0.5 / theta
+            } else {
+                theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
+            };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            for row in a.iter_mut() {
+                let (x, y) = (row[p], row[q]);
+                row[p] = c * x - s * y;
+                row[q] = s * x + c * y;
+            }
+            for k in 0..3 {
+                let (x, y) = (a[p][k], a[q][k]);
+                a[p][k] = c * x - s * y;
+                a[q][k] = s * x + c * y;
+            }
+            for row in v.iter_mut() {
+                let (x, y) = (row[p], row[q]);
+                row[p] = c * x - s * y;
+                row[q] = s * x + c * y;
+            }
+        }
+    }
+    [0, 1, 2].map(|k| [v[0][k], v[1][k], v[2][k]])
+}
+
+fn placeholder() -> Node {
+    Node {
+        lo: [0.0; 3],
+        hi: [0.0; 3],
+        obb: Obb {
+            centre: [0.0; 3],
+            axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            half: [0.0; 3],
+        },
+        common: [NONE; 3],
+        start: 0,
+        len: 0,
+    }
+}
+
 /// The set's real vertices first, `NONE` after.
 fn packed(mut v: [u32; 3]) -> [u32; 3] {
     v.sort_unstable();
@@ -417,17 +533,20 @@ fn packed(mut v: [u32; 3]) -> [u32; 3] {
 }
 
 /// Whether the segment `mid ± half` misses the box (separating axes: the box's axes and their
-/// cross products with the segment).
-fn segment_misses_box(mid: [f64; 3], half: [f64; 3], b: &Obb) -> bool {
+/// cross products with the segment). The cross products' tests are grown by `margin` times the
+/// segment's half-length: near a box axis the cross product is short and its test is all
+/// rounding.
+fn segment_misses_box(mid: [f64; 3], half: [f64; 3], b: &Obb, margin: f64) -> bool {
     let d = sub(mid, b.centre);
     let t = b.axes.map(|u| dot(u, d));
     let h = b.axes.map(|u| dot(u, half));
     let e = b.half;
     let ha = h.map(f64::abs);
+    let slack = margin * (ha[0] + ha[1] + ha[2]);
     (0..3).any(|k| t[k].abs() > e[k] + ha[k])
-        || (t[1] * h[2] - t[2] * h[1]).abs() > e[1] * ha[2] + e[2] * ha[1]
-        || (t[2] * h[0] - t[0] * h[2]).abs() > e[0] * ha[2] + e[2] * ha[0]
-        || (t[0] * h[1] - t[1] * h[0]).abs() > e[0] * ha[1] + e[1] * ha[0]
+        || (t[1] * h[2] - t[2] * h[1]).abs() > e[1] * ha[2] + e[2] * ha[1] + slack
+        || (t[2] * h[0] - t[0] * h[2]).abs() > e[0] * ha[2] + e[2] * ha[0] + slack
+        || (t[0] * h[1] - t[1] * h[0]).abs() > e[0] * ha[1] + e[1] * ha[0] + slack
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -669,7 +788,16 @@ mod tests {
                 }
             }
             s.points[v] = p;
+            // The same far from the origin (exactly: integers plus eighths), where the boxes'
+            // margin and rounding grow with the coordinates.
+            let mut far = s.clone();
+            for p in &mut far.points {
+                for (c, o) in p.iter_mut().zip([1e5, -3e5, 2e5]) {
+                    *c += o;
+                }
+            }
             surfaces.push(s);
+            surfaces.push(far);
         }
         let (mut crossing, mut clean) = (0, 0);
         for (i, s) in surfaces.iter().enumerate() {
@@ -752,6 +880,34 @@ mod tests {
     }
 
     #[test]
+    fn eigenvectors_are_orthonormal_and_diagonalise() {
+        let a = [[4.0, 1.0, -2.0], [1.0, 3.0, 0.5], [-2.0, 0.5, 1.0]];
+        let u = eigenvectors(a);
+        let mul = |x: [f64; 3]| [0, 1, 2].map(|i| dot(a[i], x));
+        for i in 0..3 {
+            for j in 0..3 {
+                let want = if i == j { 1.0 } else { 0.0 };
+                assert!((dot(u[i], u[j]) - want).abs() < 1e-14, "{u:?}");
+                if i != j {
+                    assert!(dot(u[i], mul(u[j])).abs() < 1e-12, "{u:?}");
+                }
+            }
+        }
+        // Already diagonal, and rank one (a single direction of spread).
+        assert_eq!(
+            eigenvectors([[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0; 3]])[0],
+            [1.0, 0.0, 0.0]
+        );
+        let d = [1.0, 2.0, 2.0];
+        let r1 = [0, 1, 2].map(|i| [0, 1, 2].map(|j| d[i] * d[j]));
+        let u = eigenvectors(r1);
+        assert!(
+            u.iter().any(|x| (dot(*x, d).abs() - 3.0).abs() < 1e-12),
+            "{u:?}"
+        );
+    }
+
+    #[test]
     fn segment_box_test_keeps_touching_segments() {
         let b = Obb {
             centre: [0.0; 3],
@@ -759,10 +915,25 @@ mod tests {
             half: [1.0, 1.0, 1.0],
         };
         // Touches the corner (1, 1, 1) only.
-        assert!(!segment_misses_box([2.0, 2.0, 1.0], [1.0, 1.0, 0.0], &b));
+        assert!(!segment_misses_box(
+            [2.0, 2.0, 1.0],
+            [1.0, 1.0, 0.0],
+            &b,
+            0.0
+        ));
         // Passes the corner diagonally at a distance: only a cross-product axis separates.
-        assert!(segment_misses_box([2.0, 0.0, 2.0], [1.0, 0.0, -1.0], &b));
+        assert!(segment_misses_box(
+            [2.0, 0.0, 2.0],
+            [1.0, 0.0, -1.0],
+            &b,
+            0.0
+        ));
         // Touches the edge x = z = 1.
-        assert!(!segment_misses_box([1.0, 0.0, 1.0], [1.0, 0.0, -1.0], &b));
+        assert!(!segment_misses_box(
+            [1.0, 0.0, 1.0],
+            [1.0, 0.0, -1.0],
+            &b,
+            0.0
+        ));
     }
 }

@@ -32,7 +32,9 @@
 //! The report counts the flipped triangles (relative to the input order). Vertices no triangle
 //! uses are counted, not removed.
 //!
-//! One concern, the checks of a closed surface, in one file; about a third of it is tests.
+//! One concern, the checks of a closed surface and its orientation, in one file (about half of
+//! it tests); the self-intersection test, exact geometry with its own broad phase, is the
+//! `self_intersection` module's.
 
 use std::collections::VecDeque;
 

@@ -91,8 +91,9 @@ pub struct Meeting {
     pub first: usize,
     /// The other triangle.
     pub second: usize,
-    /// The edge `(a, b)` that meets the other triangle, when the two share no edge.
-    pub edge: Option<(u32, u32)>,
+    /// When the two share no edge: the edge `(a, b)` of triangle `t` (one of the two) that
+    /// meets the other, as `(a, b, t)`.
+    pub edge: Option<(u32, u32, usize)>,
 }
 
 /// Look for a self-intersection (see the module docs) among `tris` over `points`, with `nbr`
@@ -156,7 +157,7 @@ pub fn find_meeting(
             let m = Meeting {
                 first: s.min(t),
                 second: s.max(t),
-                edge: Some((a, b)),
+                edge: Some((a, b, s)),
             };
             return (Some(m), work);
         }

@@ -281,26 +281,21 @@ pub fn check_surface_with_progress(
 
 fn self_intersection(tris: &[[u32; 3]], m: Meeting) -> Error {
     let (ti, tj) = (tris[m.first], tris[m.second]);
-    let shared: Vec<String> = ti
-        .iter()
-        .filter(|v| tj.contains(v))
-        .map(|v| v.to_string())
-        .collect();
-    let how = if shared.is_empty() {
-        String::new()
-    } else {
-        format!(
-            " other than at their common vertex {}",
-            shared.join(" and ")
-        )
-    };
-    let edge = match m.edge {
-        Some((a, b)) => format!(" (edge ({a}, {b}) meets the other triangle)"),
-        None => " (coplanar, folded onto each other)".to_string(),
+    let shared: Vec<u32> = ti.iter().copied().filter(|v| tj.contains(v)).collect();
+    let how = match (m.edge, &shared[..]) {
+        (None, [a, b]) => format!(
+            " beyond their common edge ({a}, {b}): they are coplanar and folded onto each other"
+        ),
+        (Some((a, b, t)), []) => format!(": edge ({a}, {b}) of triangle {t} meets the other"),
+        (Some((a, b, t)), [v, ..]) => format!(
+            " other than at their common vertex {v}: edge ({a}, {b}) of triangle {t} meets \
+             the other"
+        ),
+        (None, _) => String::new(),
     };
     bad(format!(
         "self-intersection: triangles {} (vertices {}, {}, {}) and {} (vertices {}, {}, {}) \
-         intersect{how}{edge}; a surface bounding a solid must not cross or touch itself",
+         intersect{how}; a surface bounding a solid must not cross or touch itself",
         m.first, ti[0], ti[1], ti[2], m.second, tj[0], tj[1], tj[2]
     ))
 }
@@ -760,13 +755,29 @@ pub(crate) mod tests {
         let mut s = union(&cube(0.0, 1.0), &cube(0.5, 1.0));
         let e = err(&mut s);
         assert!(e.contains("self-intersection: triangles "), "{e}");
-        assert!(e.contains(" intersect"), "{e}");
+        assert!(
+            e.contains(" intersect: edge (") && e.contains(" meets the other"),
+            "{e}"
+        );
 
         // One component: a cube whose top vertex is pushed down through the bottom face.
         let mut s = cube(0.0, 1.0);
         s.points[7] = [1.0, 1.0, -0.5];
         let e = err(&mut s);
         assert!(e.contains("self-intersection"), "{e}");
+
+        // The bottom face's two triangles folded onto each other about their diagonal (0, 3):
+        // vertex 1 moved, in the face's plane, to vertex 2's side.
+        let mut s = cube(0.0, 1.0);
+        s.points[1] = [0.25, 0.75, 0.0];
+        let e = err(&mut s);
+        assert!(
+            e.contains(
+                "triangles 0 (vertices 0, 2, 3) and 1 (vertices 0, 3, 1) intersect beyond \
+                 their common edge (0, 3): they are coplanar and folded onto each other"
+            ),
+            "{e}"
+        );
     }
 
     /// The cone of `2 segments` triangles, axis along `axis`, radius 5 cm, height 10 cm.

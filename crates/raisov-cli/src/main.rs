@@ -46,6 +46,9 @@ enum BenchSuite {
     /// single-level Chebyshev and Newton-multigrid on the liver, the liver pulled, the heart and the drapes
     /// (`raisov_lab::equilibrium`).
     Equilibrium,
+    /// The closed-surface check (self-intersections) on fans of long thin triangles and the
+    /// organ surfaces (`raisov_lab::bench::surface_check`).
+    SurfaceCheck,
 }
 
 #[derive(Subcommand)]
@@ -69,7 +72,8 @@ enum Cmd {
     Check { scenario: PathBuf },
     /// Performance benchmark of the standard explicit-dynamics work (see `raisov_lab::bench`);
     /// `raisov bench api`: the embedding API's frame overhead and grasp-stiffness solves;
-    /// `raisov bench equilibrium`: time to static equilibrium of five solvers.
+    /// `raisov bench equilibrium`: time to static equilibrium of five solvers;
+    /// `raisov bench surface-check`: the closed-surface check on cones and organ surfaces.
     Bench {
         /// `api`: the embedding API's figures instead (`raisov_lab::bench::api`; --quick: a
         /// small cube); `equilibrium`: direct Newton, FAS, adaptive dynamic relaxation,
@@ -89,7 +93,8 @@ enum Cmd {
         /// Also write the table to FILE (.csv or .md).
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Write the standard boxes of --sizes to DIR/box_<size>.msh (Gmsh 2.2) and exit.
+        /// Write the standard boxes of --sizes to DIR/box_<size>.msh (Gmsh 2.2) and exit;
+        /// `surface-check`: the cones to DIR/cone_<triangles>.obj.
         #[arg(long)]
         write_mesh: Option<PathBuf>,
         /// Only the correctness check: STEPS steps on the boxes of --sizes, then exit.
@@ -103,13 +108,15 @@ enum Cmd {
         /// f32, arithmetic and state in f64). The other rows are f64.
         #[arg(long, default_value = "f64,f32")]
         precision: String,
-        /// `equilibrium`: directory with liver_L*.msh and heart_L*.msh; default `data`
-        /// (relative to the working directory).
+        /// `equilibrium`: directory with liver_L*.msh and heart_L*.msh; `surface-check`: with
+        /// liver_surface.obj and heart_surface.obj; default `data` (relative to the working
+        /// directory).
         #[arg(long)]
         meshes: Option<PathBuf>,
         /// `equilibrium`: only the cases with these names (comma-separated, e.g.
         /// "liver L0,membrane 100k"); default all but the liver meshed from its surface
-        /// ("liver mesher 17k", "liver mesher 70k"), which run only when named.
+        /// ("liver mesher 17k", "liver mesher 70k"), which run only when named;
+        /// `surface-check`: e.g. "cone 80k,liver".
         #[arg(long, value_delimiter = ',')]
         case: Vec<String>,
     },
@@ -414,6 +421,14 @@ fn real_main(cli: Cli) -> Result<i32> {
             case,
             ..
         } => on_pool(|| cmd_bench_equilibrium(quick, meshes, case)),
+        Cmd::Bench {
+            suite: Some(BenchSuite::SurfaceCheck),
+            quick,
+            meshes,
+            case,
+            write_mesh,
+            ..
+        } => ok(cmd_bench_surface_check(quick, meshes, case, write_mesh)),
         Cmd::Bench {
             suite: None,
             sizes,
@@ -740,6 +755,45 @@ fn cmd_check(path: &Path) -> Result<()> {
 
 /// `raisov bench equilibrium`: the table of `raisov_lab::equilibrium` on stdout, progress
 /// on stderr; exit status 3 if a solver missed the stopping rule or an equilibrium disagrees.
+fn cmd_bench_surface_check(
+    quick: bool,
+    meshes: Option<PathBuf>,
+    only: Vec<String>,
+    write_mesh: Option<PathBuf>,
+) -> Result<()> {
+    use raisov_lab::bench::surface_check as sc;
+    if let Some(dir) = write_mesh {
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        for (_, segments, axis) in sc::cones(quick) {
+            let s = raisov::mesh::generate::cone_surface(segments, 0.05, 0.1, axis)?;
+            let tilt = if axis == [0.0, 0.0, 1.0] { "_z" } else { "" };
+            let f = dir.join(format!("cone_{}{tilt}.obj", s.triangles.len()));
+            sc::write_obj(&f, &s)?;
+            println!("wrote {}", f.display());
+        }
+        return Ok(());
+    }
+    let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
+    let mut cases = sc::surface_cases(&meshes, quick, &mut |l| eprintln!("{l}"))
+        .map_err(BadInput)
+        .with_context(|| format!("loading the cases (surfaces from {})", meshes.display()))?;
+    if !only.is_empty() {
+        let names: Vec<String> = cases.iter().map(|c| c.name.clone()).collect();
+        if let Some(bad) = only.iter().find(|o| !names.contains(o)) {
+            bad_args!("--case {bad:?}: no such case; valid: {}", names.join(", "));
+        }
+        cases.retain(|c| only.contains(&c.name));
+    }
+    println!(
+        "raisov bench surface-check{}: {} thread(s)",
+        if quick { " --quick" } else { "" },
+        rayon::current_num_threads()
+    );
+    let rows = sc::surface_check(&cases, &mut |l| eprintln!("{l}"))?;
+    println!("{}", sc::to_markdown(&rows));
+    Ok(())
+}
+
 fn cmd_bench_equilibrium(quick: bool, meshes: Option<PathBuf>, only: Vec<String>) -> Result<i32> {
     use raisov_lab::equilibrium;
     let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
@@ -942,13 +996,42 @@ fn cmd_mesh_info(file: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Surfaces of more triangles than this show a progress bar while they are checked.
+const SURFACE_PROGRESS_TRIANGLES: usize = 50_000;
+
+/// [`raisov::mesh::check_surface`], with a progress bar on stderr for surfaces of more than
+/// [`SURFACE_PROGRESS_TRIANGLES`] triangles (unless `quiet` or stderr is not a terminal).
+fn check_surface_shown(
+    s: &mut raisov::mesh::Surface,
+    quiet: bool,
+) -> raisov::Result<raisov::mesh::SurfaceReport> {
+    let bar = if quiet
+        || s.triangles.len() <= SURFACE_PROGRESS_TRIANGLES
+        || !std::io::stderr().is_terminal()
+    {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(1)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("checking the surface {bar:30} {percent}% [{elapsed}]")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let r = raisov::mesh::check_surface_with_progress(s, &mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    });
+    bar.finish_and_clear();
+    r
+}
+
 /// `mesh info` for a triangle surface (.obj, .stl, .ply): counts, the checks, the repair.
 fn cmd_surface_info(file: &Path) -> Result<()> {
     let mut s = raisov::io::load_surface(file).map_err(BadInput)?;
     println!("file            {} (triangle surface)", file.display());
     println!("vertices        {}", s.points.len());
     println!("triangles       {}", s.triangles.len());
-    let r = match raisov::mesh::check_surface(&mut s) {
+    let r = match check_surface_shown(&mut s, false) {
         Ok(r) => r,
         Err(e) => {
             println!("closed/manifold no");
@@ -1090,7 +1173,7 @@ fn cmd_mesh_levels(a: &LevelsArgs) -> Result<()> {
     };
     let mut surface = raisov::io::load_surface(&a.surface).map_err(BadInput)?;
     surface.scale(a.scale);
-    let check = raisov::mesh::check_surface(&mut surface)
+    let check = check_surface_shown(&mut surface, a.quiet)
         .with_context(|| format!("{}: not a closed surface to mesh", a.surface.display()))?;
     let diag = raisov::mesh::norm(raisov::mesh::sub(check.bbox_max, check.bbox_min));
     println!(

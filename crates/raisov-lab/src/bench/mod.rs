@@ -55,6 +55,7 @@
 
 mod api;
 pub use api::api;
+pub mod surface_check;
 
 use raisov::fem::{FemModel, FemParams, FusedState, NodeLoad, Precision};
 use raisov::hierarchy::Correspondence;

@@ -9,9 +9,11 @@
 //!   requested one, typically within 1-2 % and always the closest count the search met.
 //! * [`box_tets`] / [`box_tets_target`]: a structured grid of cubes (bricks) cut into 6
 //!   (Kuhn/Freudenthal) or 5 (alternating) tetrahedra; both patterns are conforming.
+//! * [`cone_surface`]: a closed cone whose side and base are fans of long thin triangles (a
+//!   triangle surface, the shape CAD caps take).
 //!
-//! Every generator is deterministic: the same arguments give bit-identical meshes. Triangles
-//! are oriented with normal +z, tetrahedra are positive.
+//! Every generator is deterministic: the same arguments give bit-identical meshes. Membrane
+//! triangles are oriented with normal +z, tetrahedra are positive, surfaces outward.
 //!
 //! One concern, the built-in generators; about a third of the file is their tests.
 
@@ -21,7 +23,7 @@ use spade::{
     AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation,
 };
 
-use super::{ElementKind, Mesh};
+use super::{cross, norm, ElementKind, Mesh, Surface};
 use crate::{Error, Result};
 
 /// Minimum angle (degrees) asked of the Delaunay refinement of membranes. Triangles keep it
@@ -709,6 +711,66 @@ pub fn box_tets(size: [f64; 3], divisions: [usize; 3], pattern: BoxPattern) -> R
     let mut mesh = Mesh::new(ElementKind::Tet4, nodes, cells);
     mesh.groups = groups;
     Ok(mesh)
+}
+
+/// Closed right circular cone as a triangle [`Surface`]: base centre at the origin, apex at
+/// `height · axis/|axis|`, rim of `segments` vertices at `radius`. The side is a fan of
+/// `segments` triangles around the apex and the base a fan of `segments` triangles around its
+/// centre: long thin triangles meeting at two vertices of valence `segments`, as CAD exports
+/// write the caps of cylinders and cones. Vertices: 0 the apex, 1 the base centre, `2 + i`
+/// the rim vertex at angle `2π i / segments`; triangles: `i` the side triangle
+/// `(rim i, rim i+1, apex)`, `segments + i` the base triangle `(rim i+1, rim i, centre)`;
+/// all outward.
+///
+/// Errors: fewer than 3 or more than [`MAX_NODES`] segments, more than the available memory,
+/// a radius or height not finite and positive, an axis not finite and non-zero.
+pub fn cone_surface(segments: usize, radius: f64, height: f64, axis: [f64; 3]) -> Result<Surface> {
+    if !(3..=MAX_NODES).contains(&segments) {
+        return Err(Error::param(
+            "segments",
+            format!("{segments}: valid are 3 to {MAX_NODES}"),
+        ));
+    }
+    for (key, v) in [("radius", radius), ("height", height)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(Error::param(
+                key,
+                format!("{v}: must be finite and positive"),
+            ));
+        }
+    }
+    let len = norm(axis);
+    if !(len.is_finite() && len > 0.0) {
+        return Err(Error::param(
+            "axis",
+            format!("{axis:?}: must be finite and non-zero"),
+        ));
+    }
+    // A rim vertex: its point and two triangles.
+    generator_memory("segments", "a cone", segments as u128 + 2, 24 + 2 * 12)?;
+    let w = axis.map(|c| c / len);
+    // e1, e2, w right-handed: e1 across the coordinate axis least aligned with w.
+    let k = (0..3)
+        .min_by(|&a, &b| w[a].abs().total_cmp(&w[b].abs()))
+        .unwrap_or(0);
+    let mut ek = [0.0; 3];
+    ek[k] = 1.0;
+    let e1 = cross(w, ek);
+    let e1 = e1.map(|c| c / norm(e1));
+    let e2 = cross(w, e1);
+    let mut points = Vec::with_capacity(segments + 2);
+    points.push(w.map(|c| height * c));
+    points.push([0.0; 3]);
+    for i in 0..segments {
+        let t = std::f64::consts::TAU * i as f64 / segments as f64;
+        let (s, c) = t.sin_cos();
+        points.push([0, 1, 2].map(|j| radius * (c * e1[j] + s * e2[j])));
+    }
+    let rim = |i: usize| (2 + i % segments) as u32;
+    let mut triangles = Vec::with_capacity(2 * segments);
+    triangles.extend((0..segments).map(|i| [rim(i), rim(i + 1), 0]));
+    triangles.extend((0..segments).map(|i| [rim(i + 1), rim(i), 1]));
+    Ok(Surface { points, triangles })
 }
 
 /// Divisions for [`box_tets_target`]: cells as close to cubes as the count allows, with

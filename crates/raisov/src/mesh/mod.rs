@@ -21,12 +21,16 @@
 use std::collections::BTreeMap;
 
 pub mod generate;
+mod self_intersection;
 pub mod stuffing;
 pub mod surface;
 pub mod surface_check;
 
 pub use surface::Surface;
-pub use surface_check::{check_surface, looks_like_millimetres, SurfaceComponent, SurfaceReport};
+pub use surface_check::{
+    check_surface, check_surface_with_progress, looks_like_millimetres, IntersectionWork,
+    SurfaceComponent, SurfaceReport,
+};
 
 /// Element type of a mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -10,13 +10,12 @@
 //! * **orientable**: in each connected component (triangles joined through edges) the
 //!   triangles can be ordered so that every edge is used once as `a → b` and once as `b → a`;
 //! * no **self-intersection**: two triangles meet only in the vertices and the edge they share
-//!   by index. Candidate pairs come from a bounding-volume hierarchy over the triangles' boxes;
-//!   each pair is decided exactly with Shewchuk's adaptive `orient3d` / `orient2d` predicates
-//!   (`robust` crate), touching counts as intersecting. Two non-coplanar triangles with no common
-//!   vertex intersect iff an edge of one meets the other (closed segment–triangle test); with
-//!   one common vertex `v`, `(v, a, b)` and `(v, c, d)` meet elsewhere iff segment `ab` meets
-//!   the second or `cd` meets the first; with a common edge they overlap iff they are coplanar
-//!   and on the same side of that edge.
+//!   by index; touching counts as meeting. Decided exactly (Shewchuk's adaptive predicates):
+//!   two triangles sharing an edge overlap iff they are coplanar and on the same side of it;
+//!   every other meeting is an edge meeting a triangle it has no vertex in common with, so the
+//!   pairs of triangles around a vertex of high valence (a fan) are never enumerated. Each edge
+//!   descends a tree of oriented boxes over the triangles (the crate-private
+//!   `mesh::self_intersection` module states the rules and why they are exact).
 //!
 //! Repairs, written back into the surface only when every check passes:
 //!
@@ -33,10 +32,14 @@
 //! The report counts the flipped triangles (relative to the input order). Vertices no triangle
 //! uses are counted, not removed.
 //!
-//! One concern, the checks of a closed surface, in one file; about a third of it is tests.
+//! One concern, the checks of a closed surface and its orientation, in one file (about half of
+//! it tests); the self-intersection test, exact geometry with its own broad phase, is the
+//! `self_intersection` module's.
 
 use std::collections::VecDeque;
 
+pub use super::self_intersection::IntersectionWork;
+use super::self_intersection::{find_meeting, Meeting};
 use super::{cross, dot, norm, sub, Surface, DEGENERATE_REL};
 use crate::{Error, Result};
 
@@ -99,7 +102,15 @@ pub struct SurfaceReport {
     pub bbox_min: [f64; 3],
     /// Upper corner of the bounding box.
     pub bbox_max: [f64; 3],
+    /// Work of the self-intersection test.
+    pub intersection_work: IntersectionWork,
 }
+
+/// Bytes the check may take per triangle, with room to spare: the sorted edge list (48), the
+/// neighbours (12), the fans' corners (12), the components, flips and oriented copy (about
+/// 20), the self-intersection test's edges (18), centroids (24), items (4) and tree (fewer
+/// nodes than triangles, 192 bytes each).
+const CHECK_TRIANGLE_BYTES: u64 = 384;
 
 fn bad(msg: String) -> Error {
     Error::BadSurface { msg }
@@ -110,6 +121,16 @@ fn bad(msg: String) -> Error {
 /// solid; on error it is left unchanged and the message names the offending triangles and
 /// vertices ([`Error::BadSurface`]).
 pub fn check_surface(s: &mut Surface) -> Result<SurfaceReport> {
+    check_surface_with_progress(s, &mut |_, _| {})
+}
+
+/// [`check_surface`], calling `progress(done, total)` about a hundred times while the
+/// self-intersection test, the check's longest step, runs: `done` of the surface's `total`
+/// edges tested, up to `done == total` when it finds no intersection.
+pub fn check_surface_with_progress(
+    s: &mut Surface,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<SurfaceReport> {
     let nt = s.triangles.len();
     let nv = s.points.len();
     if nt == 0 {
@@ -138,6 +159,12 @@ pub fn check_surface(s: &mut Surface) -> Result<SurfaceReport> {
             )));
         }
     }
+    crate::memory::check_for(
+        &format!("checking a surface of {nt} triangles"),
+        (nt as u64).saturating_mul(CHECK_TRIANGLE_BYTES),
+        "simplify the surface to fewer triangles",
+    )
+    .map_err(bad)?;
     check_degenerate(s)?;
     let nbr = edge_neighbours(&s.triangles)?;
     let unused_vertices = check_vertex_fans(s, &nbr)?;
@@ -148,7 +175,10 @@ pub fn check_surface(s: &mut Surface) -> Result<SurfaceReport> {
         .zip(&flip)
         .map(|(&t, &f)| if f { [t[0], t[2], t[1]] } else { t })
         .collect();
-    check_self_intersections(&s.points, &tris)?;
+    let (meeting, intersection_work) = find_meeting(&s.points, &s.triangles, &nbr, progress);
+    if let Some(m) = meeting {
+        return Err(self_intersection(&s.triangles, m));
+    }
 
     // Volumes, nesting, final turn of each component.
     let nc = comps.len();
@@ -245,7 +275,29 @@ pub fn check_surface(s: &mut Surface) -> Result<SurfaceReport> {
         enclosed_volume: s.enclosed_volume(),
         bbox_min,
         bbox_max,
+        intersection_work,
     })
+}
+
+fn self_intersection(tris: &[[u32; 3]], m: Meeting) -> Error {
+    let (ti, tj) = (tris[m.first], tris[m.second]);
+    let shared: Vec<u32> = ti.iter().copied().filter(|v| tj.contains(v)).collect();
+    let how = match (m.edge, &shared[..]) {
+        (None, [a, b]) => format!(
+            " beyond their common edge ({a}, {b}): they are coplanar and folded onto each other"
+        ),
+        (Some((a, b, t)), []) => format!(": edge ({a}, {b}) of triangle {t} meets the other"),
+        (Some((a, b, t)), [v, ..]) => format!(
+            " other than at their common vertex {v}: edge ({a}, {b}) of triangle {t} meets \
+             the other"
+        ),
+        (None, _) => String::new(),
+    };
+    bad(format!(
+        "self-intersection: triangles {} (vertices {}, {}, {}) and {} (vertices {}, {}, {}) \
+         intersect{how}; a surface bounding a solid must not cross or touch itself",
+        m.first, ti[0], ti[1], ti[2], m.second, tj[0], tj[1], tj[2]
+    ))
 }
 
 fn check_degenerate(s: &Surface) -> Result<()> {
@@ -437,295 +489,6 @@ fn solid_angle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
     let num = dot(a, cross(b, c));
     let den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
     2.0 * num.atan2(den)
-}
-
-// ---------------------------------------------------------------------------------------------
-// Self-intersections.
-
-/// A bounding-volume hierarchy over boxes: leaves of at most 4, split at the median centroid
-/// along the longest axis.
-struct Bvh {
-    nodes: Vec<BvhNode>,
-    items: Vec<u32>,
-}
-
-struct BvhNode {
-    lo: [f64; 3],
-    hi: [f64; 3],
-    /// Leaf: `items[start..start + len]`; inner node (len == 0): children `start`, `start + 1`.
-    start: u32,
-    len: u32,
-}
-
-impl Bvh {
-    fn new(boxes: &[([f64; 3], [f64; 3])]) -> Bvh {
-        let mut bvh = Bvh {
-            nodes: Vec::with_capacity(boxes.len() / 2 + 1),
-            items: (0..boxes.len() as u32).collect(),
-        };
-        bvh.nodes.push(BvhNode {
-            lo: [0.0; 3],
-            hi: [0.0; 3],
-            start: 0,
-            len: 0,
-        });
-        bvh.build(0, 0, boxes.len(), boxes);
-        bvh
-    }
-
-    fn build(&mut self, node: usize, start: usize, end: usize, boxes: &[([f64; 3], [f64; 3])]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        let mut clo = [f64::INFINITY; 3];
-        let mut chi = [f64::NEG_INFINITY; 3];
-        for &i in &self.items[start..end] {
-            let (l, h) = boxes[i as usize];
-            for k in 0..3 {
-                lo[k] = lo[k].min(l[k]);
-                hi[k] = hi[k].max(h[k]);
-                let c = 0.5 * (l[k] + h[k]);
-                clo[k] = clo[k].min(c);
-                chi[k] = chi[k].max(c);
-            }
-        }
-        self.nodes[node].lo = lo;
-        self.nodes[node].hi = hi;
-        if end - start <= 4 {
-            self.nodes[node].start = start as u32;
-            self.nodes[node].len = (end - start) as u32;
-            return;
-        }
-        let axis = (0..3)
-            .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
-            .unwrap_or(0);
-        let mid = (start + end) / 2;
-        let centre = |i: &u32| {
-            let (l, h) = boxes[*i as usize];
-            l[axis] + h[axis]
-        };
-        self.items[start..end].select_nth_unstable_by(mid - start, |a, b| {
-            centre(a).total_cmp(&centre(b)).then(a.cmp(b))
-        });
-        let left = self.nodes.len();
-        for _ in 0..2 {
-            self.nodes.push(BvhNode {
-                lo: [0.0; 3],
-                hi: [0.0; 3],
-                start: 0,
-                len: 0,
-            });
-        }
-        self.nodes[node].start = left as u32;
-        self.build(left, start, mid, boxes);
-        self.build(left + 1, mid, end, boxes);
-    }
-
-    /// Items whose boxes overlap `(lo, hi)` (closed), appended to `out`.
-    fn query(&self, lo: [f64; 3], hi: [f64; 3], stack: &mut Vec<u32>, out: &mut Vec<u32>) {
-        stack.clear();
-        stack.push(0);
-        while let Some(n) = stack.pop() {
-            let node = &self.nodes[n as usize];
-            if (0..3).any(|k| node.hi[k] < lo[k] || hi[k] < node.lo[k]) {
-                continue;
-            }
-            if node.len > 0 {
-                let s = node.start as usize;
-                out.extend_from_slice(&self.items[s..s + node.len as usize]);
-            } else {
-                stack.push(node.start);
-                stack.push(node.start + 1);
-            }
-        }
-    }
-}
-
-fn check_self_intersections(points: &[[f64; 3]], tris: &[[u32; 3]]) -> Result<()> {
-    let boxes: Vec<([f64; 3], [f64; 3])> = tris
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| points[i as usize]);
-            (
-                [0, 1, 2].map(|k| a[k].min(b[k]).min(c[k])),
-                [0, 1, 2].map(|k| a[k].max(b[k]).max(c[k])),
-            )
-        })
-        .collect();
-    let bvh = Bvh::new(&boxes);
-    let mut stack = Vec::new();
-    let mut cand = Vec::new();
-    for (i, ti) in tris.iter().enumerate() {
-        cand.clear();
-        bvh.query(boxes[i].0, boxes[i].1, &mut stack, &mut cand);
-        cand.retain(|&j| j as usize > i);
-        cand.sort_unstable();
-        for &j in &cand {
-            let tj = &tris[j as usize];
-            if triangles_intersect(points, ti, tj) {
-                let shared: Vec<String> = ti
-                    .iter()
-                    .filter(|v| tj.contains(v))
-                    .map(|v| v.to_string())
-                    .collect();
-                let how = if shared.is_empty() {
-                    String::new()
-                } else {
-                    format!(
-                        " other than at their common vertex {}",
-                        shared.join(" and ")
-                    )
-                };
-                return Err(bad(format!(
-                    "self-intersection: triangles {i} (vertices {}, {}, {}) and {j} (vertices \
-                     {}, {}, {}) intersect{how}; a surface bounding a solid must not cross or \
-                     touch itself",
-                    ti[0], ti[1], ti[2], tj[0], tj[1], tj[2]
-                )));
-            }
-        }
-    }
-    Ok(())
-}
-
-fn o3(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> i8 {
-    let p = |v: [f64; 3]| robust::Coord3D {
-        x: v[0],
-        y: v[1],
-        z: v[2],
-    };
-    sign(robust::orient3d(p(a), p(b), p(c), p(d)))
-}
-
-fn o2(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> i8 {
-    let p = |v: [f64; 2]| robust::Coord { x: v[0], y: v[1] };
-    sign(robust::orient2d(p(a), p(b), p(c)))
-}
-
-fn sign(x: f64) -> i8 {
-    if x > 0.0 {
-        1
-    } else if x < 0.0 {
-        -1
-    } else {
-        0
-    }
-}
-
-/// Drop the coordinate along which the triangle's normal is largest.
-fn projector(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> impl Fn([f64; 3]) -> [f64; 2] {
-    let n = cross(sub(b, a), sub(c, a)).map(f64::abs);
-    let k = if n[0] >= n[1] && n[0] >= n[2] {
-        0
-    } else if n[1] >= n[2] {
-        1
-    } else {
-        2
-    };
-    move |p: [f64; 3]| [p[(k + 1) % 3], p[(k + 2) % 3]]
-}
-
-/// Whether two triangles meet anywhere other than in the vertices and edge they share by
-/// index (exact).
-fn triangles_intersect(points: &[[f64; 3]], ti: &[u32; 3], tj: &[u32; 3]) -> bool {
-    let p = |v: u32| points[v as usize];
-    let shared: Vec<u32> = ti.iter().copied().filter(|v| tj.contains(v)).collect();
-    match shared.len() {
-        0 => {
-            let [a, b, c] = ti.map(p);
-            let [d, e, f] = tj.map(p);
-            // Quick reject: one triangle strictly on one side of the other's plane.
-            let s = [o3(a, b, c, d), o3(a, b, c, e), o3(a, b, c, f)];
-            if s.iter().all(|&x| x > 0) || s.iter().all(|&x| x < 0) {
-                return false;
-            }
-            let s = [o3(d, e, f, a), o3(d, e, f, b), o3(d, e, f, c)];
-            if s.iter().all(|&x| x > 0) || s.iter().all(|&x| x < 0) {
-                return false;
-            }
-            segment_triangle(a, b, d, e, f)
-                || segment_triangle(b, c, d, e, f)
-                || segment_triangle(c, a, d, e, f)
-                || segment_triangle(d, e, a, b, c)
-                || segment_triangle(e, f, a, b, c)
-                || segment_triangle(f, d, a, b, c)
-        }
-        1 => {
-            let v = shared[0];
-            let others = |t: &[u32; 3]| {
-                let k = t.iter().position(|&w| w == v).unwrap_or(0);
-                (t[(k + 1) % 3], t[(k + 2) % 3])
-            };
-            let (a, b) = others(ti);
-            let (c, d) = others(tj);
-            let (pv, pa, pb, pc, pd) = (p(v), p(a), p(b), p(c), p(d));
-            segment_triangle(pa, pb, pv, pc, pd) || segment_triangle(pc, pd, pv, pa, pb)
-        }
-        2 => {
-            let c = ti
-                .iter()
-                .copied()
-                .find(|v| !tj.contains(v))
-                .unwrap_or(ti[0]);
-            let d = tj
-                .iter()
-                .copied()
-                .find(|v| !ti.contains(v))
-                .unwrap_or(tj[0]);
-            let (a, b) = (p(shared[0]), p(shared[1]));
-            let (pc, pd) = (p(c), p(d));
-            if o3(a, b, pc, pd) != 0 {
-                return false;
-            }
-            let pr = projector(a, b, pc);
-            o2(pr(a), pr(b), pr(pc)) == o2(pr(a), pr(b), pr(pd))
-        }
-        _ => true,
-    }
-}
-
-/// Whether the closed segment pq meets the closed triangle abc (non-degenerate), exactly.
-fn segment_triangle(p: [f64; 3], q: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> bool {
-    let sp = o3(a, b, c, p);
-    let sq = o3(a, b, c, q);
-    if sp * sq > 0 {
-        return false;
-    }
-    if sp == 0 && sq == 0 {
-        let pr = projector(a, b, c);
-        return segment_triangle_2d(pr(p), pr(q), pr(a), pr(b), pr(c));
-    }
-    let s = [o3(p, q, a, b), o3(p, q, b, c), o3(p, q, c, a)];
-    !(s.iter().any(|&x| x > 0) && s.iter().any(|&x| x < 0))
-}
-
-fn point_in_triangle_2d(p: [f64; 2], a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
-    let s = [o2(a, b, p), o2(b, c, p), o2(c, a, p)];
-    !(s.iter().any(|&x| x > 0) && s.iter().any(|&x| x < 0))
-}
-
-fn on_segment_2d(p: [f64; 2], q: [f64; 2], r: [f64; 2]) -> bool {
-    // r collinear with pq: inside the segment's box.
-    (0..2).all(|k| p[k].min(q[k]) <= r[k] && r[k] <= p[k].max(q[k]))
-}
-
-fn segments_2d(p: [f64; 2], q: [f64; 2], a: [f64; 2], b: [f64; 2]) -> bool {
-    let (d1, d2) = (o2(p, q, a), o2(p, q, b));
-    let (d3, d4) = (o2(a, b, p), o2(a, b, q));
-    if d1 * d2 < 0 && d3 * d4 < 0 {
-        return true;
-    }
-    (d1 == 0 && on_segment_2d(p, q, a))
-        || (d2 == 0 && on_segment_2d(p, q, b))
-        || (d3 == 0 && on_segment_2d(a, b, p))
-        || (d4 == 0 && on_segment_2d(a, b, q))
-}
-
-fn segment_triangle_2d(p: [f64; 2], q: [f64; 2], a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
-    point_in_triangle_2d(p, a, b, c)
-        || point_in_triangle_2d(q, a, b, c)
-        || segments_2d(p, q, a, b)
-        || segments_2d(p, q, b, c)
-        || segments_2d(p, q, c, a)
 }
 
 #[cfg(test)]
@@ -992,50 +755,165 @@ pub(crate) mod tests {
         let mut s = union(&cube(0.0, 1.0), &cube(0.5, 1.0));
         let e = err(&mut s);
         assert!(e.contains("self-intersection: triangles "), "{e}");
-        assert!(e.contains(" intersect"), "{e}");
+        assert!(
+            e.contains(" intersect: edge (") && e.contains(" meets the other"),
+            "{e}"
+        );
 
         // One component: a cube whose top vertex is pushed down through the bottom face.
         let mut s = cube(0.0, 1.0);
         s.points[7] = [1.0, 1.0, -0.5];
         let e = err(&mut s);
         assert!(e.contains("self-intersection"), "{e}");
+
+        // The bottom face's two triangles folded onto each other about their diagonal (0, 3):
+        // vertex 1 moved, in the face's plane, to vertex 2's side.
+        let mut s = cube(0.0, 1.0);
+        s.points[1] = [0.25, 0.75, 0.0];
+        let e = err(&mut s);
+        assert!(
+            e.contains(
+                "triangles 0 (vertices 0, 2, 3) and 1 (vertices 0, 3, 1) intersect beyond \
+                 their common edge (0, 3): they are coplanar and folded onto each other"
+            ),
+            "{e}"
+        );
+    }
+
+    /// The cone of `2 segments` triangles, axis along `axis`, radius 5 cm, height 10 cm.
+    fn cone(segments: usize, axis: [f64; 3]) -> Surface {
+        crate::mesh::generate::cone_surface(segments, 0.05, 0.1, axis).unwrap()
+    }
+
+    const TILTED: [f64; 3] = [0.3, 0.5, 0.8];
+
+    /// Work per triangle (volume tests, candidates, predicates) at `n` and `10 n` triangles:
+    /// testing pairs around a fan would multiply it by 10; a tree's descent adds a few nodes
+    /// per level (`log n`), and the candidates and predicates near a triangle do not grow.
+    fn grows_like_log_n(small: [f64; 3], big: [f64; 3]) {
+        assert!(
+            big[0] < 2.5 * small[0],
+            "volume tests: {small:?} -> {big:?}"
+        );
+        for k in 1..3 {
+            assert!(big[k] < 1.5 * small[k] + 1.0, "{small:?} -> {big:?}");
+        }
     }
 
     #[test]
-    fn triangle_pair_predicate() {
-        let pts = [
-            [0.0, 0.0, 0.0],   // 0
-            [1.0, 0.0, 0.0],   // 1
-            [0.0, 1.0, 0.0],   // 2
-            [0.0, 0.0, 1.0],   // 3
-            [1.0, 1.0, 0.0],   // 4
-            [0.2, 0.2, -1.0],  // 5
-            [0.2, 0.2, 1.0],   // 6
-            [0.3, 0.3, 1.0],   // 7
-            [0.5, 0.5, 0.0],   // 8: on edge (1, 2)
-            [-1.0, -1.0, 0.0], // 9
-            [0.25, 0.25, 0.0], // 10: inside triangle (0, 1, 2)
-        ];
-        let x = |a: [u32; 3], b: [u32; 3]| triangles_intersect(&pts, &a, &b);
-        // Common edge, folded at a right angle: only the edge.
-        assert!(!x([0, 1, 2], [0, 1, 3]));
-        // Common edge, coplanar, opposite sides: only the edge. Same side: overlap.
-        assert!(!x([0, 1, 2], [1, 2, 4]));
-        assert!(x([0, 1, 2], [1, 2, 10]));
-        // Common vertex only, planes crossing elsewhere: a segment pierces.
-        assert!(x([0, 1, 2], [0, 5, 7]));
-        assert!(!x([0, 1, 2], [0, 3, 9]));
-        // No common vertex: a vertical triangle piercing the middle.
-        assert!(x([0, 1, 2], [5, 6, 7]));
-        // Touching at a point counts (vertex 8 on the edge (1, 2)).
-        assert!(x([0, 1, 2], [8, 6, 7]));
-        // Coplanar, one inside the other without edge crossings.
-        let tiny = [[0.2, 0.2, 0.0], [0.3, 0.2, 0.0], [0.2, 0.3, 0.0]];
-        let mut p2 = pts.to_vec();
-        p2.extend_from_slice(&tiny);
-        assert!(triangles_intersect(&p2, &[0, 1, 2], &[11, 12, 13]));
-        // Disjoint.
-        assert!(!x([0, 1, 2], [3, 6, 7]));
+    fn fan_cone_self_intersection_check_is_not_quadratic() {
+        // The side and the base of a cone are fans of long thin triangles whose boxes all
+        // overlap at the apex and the centre: the check once tested every pair of them
+        // (20k triangles took minutes). Work per triangle must not grow with the fan.
+        let mut per_triangle = Vec::new();
+        for (segments, axis) in [
+            (1_000, TILTED),
+            (10_000, TILTED),
+            (1_000, [0.0, 0.0, 1.0]),
+            (10_000, [0.0, 0.0, 1.0]),
+        ] {
+            let mut s = cone(segments, axis);
+            let before = s.clone();
+            let r = check_surface(&mut s).unwrap();
+            assert_eq!(s, before, "a valid outward cone is left as it is");
+            assert_eq!(
+                (r.triangles, r.flipped, r.components.len()),
+                (2 * segments, 0, 1)
+            );
+            let n = segments as f64;
+            let v = n / 2.0 * 0.05f64.powi(2) * (std::f64::consts::TAU / n).sin() * 0.1 / 3.0;
+            assert!(
+                (r.enclosed_volume - v).abs() < 1e-9 * v,
+                "{} vs {v}",
+                r.enclosed_volume
+            );
+            let w = r.intersection_work;
+            let nt = r.triangles as f64;
+            per_triangle.push([w.volume_tests, w.candidates, w.predicates].map(|x| x as f64 / nt));
+        }
+        for pair in per_triangle.chunks(2) {
+            grows_like_log_n(pair[0], pair[1]);
+            assert!(pair[1][1] < 10.0, "candidates per triangle: {pair:?}");
+        }
+    }
+
+    /// A cylinder as CAD writes it: `segments` rim vertices at each end, the side quads
+    /// split into two long thin triangles, each cap a fan around its rim vertex 0. Axis along
+    /// `axis`, radius 5 cm, length 10 cm; `4 segments - 4` triangles, outward.
+    fn cad_cylinder(segments: usize, axis: [f64; 3]) -> Surface {
+        let c = cone(segments, axis);
+        let top = c.points[0];
+        let mut points: Vec<[f64; 3]> = c.points[2..].to_vec();
+        points.extend(
+            c.points[2..]
+                .iter()
+                .map(|p| [0, 1, 2].map(|k| p[k] + top[k])),
+        );
+        let n = segments as u32;
+        let mut triangles = Vec::new();
+        for i in 0..n {
+            let j = (i + 1) % n;
+            triangles.extend([[i, j, n + j], [i, n + j, n + i]]);
+        }
+        for i in 1..n - 1 {
+            triangles.extend([[0, i + 1, i], [n, n + i, n + i + 1]]);
+        }
+        Surface { points, triangles }
+    }
+
+    #[test]
+    fn cad_cylinder_of_slivers_and_fan_caps_is_checked_in_linear_work() {
+        // Side slivers as long as the cylinder, tilted (their axis-aligned boxes overlap by
+        // the hundred), caps fanned from one rim vertex.
+        let mut per_triangle = Vec::new();
+        for segments in [500, 5_000] {
+            let mut s = cad_cylinder(segments, TILTED);
+            let r = check_surface(&mut s).unwrap();
+            assert_eq!((r.flipped, r.components.len()), (0, 1));
+            let w = r.intersection_work;
+            let nt = r.triangles as f64;
+            per_triangle.push([w.volume_tests, w.candidates, w.predicates].map(|x| x as f64 / nt));
+        }
+        grows_like_log_n(per_triangle[0], per_triangle[1]);
+    }
+
+    #[test]
+    fn folded_fan_is_a_self_intersection_naming_its_triangles() {
+        // Rim vertex k moved along the rim past its next two neighbours: the fan folds, its
+        // triangles around k cross their neighbours (at the apex's side and at the base's).
+        let segments = 1_000;
+        let mut s = cone(segments, TILTED);
+        let k = 500;
+        let rim = |s: &Surface, i: usize| s.points[2 + i % segments];
+        let (a, b) = (rim(&s, k + 2), rim(&s, k + 3));
+        let m = [0, 1, 2].map(|j| a[j] + b[j]);
+        s.points[2 + k] = m.map(|c| c * 0.05 / norm(m));
+        let e = err(&mut s);
+        assert!(e.contains("self-intersection: triangles "), "{e}");
+        let named: Vec<usize> = e
+            .split("triangles ")
+            .nth(1)
+            .map(|rest| {
+                rest.split(" and ")
+                    .take(2)
+                    .filter_map(|w| w.split(' ').next()?.parse().ok())
+                    .collect()
+            })
+            .unwrap_or_default();
+        let [i, j] = named[..] else {
+            panic!("two triangles named: {e}")
+        };
+        // The fold is near rim vertex k: both named triangles are within three of it.
+        let near = |t: usize| {
+            let i = t % segments;
+            (k - 3..=k + 3).contains(&i)
+        };
+        assert!(near(i) && near(j) && i != j, "{e}");
+        let moved = (2 + k) as u32;
+        assert!(
+            s.triangles[i].contains(&moved) || s.triangles[j].contains(&moved),
+            "one of them has the moved vertex: {e}"
+        );
     }
 
     #[test]

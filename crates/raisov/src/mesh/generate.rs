@@ -853,7 +853,14 @@ pub fn box_divisions_for_target(size: [f64; 3], target_nodes: usize) -> Result<[
 /// Errors: a side not finite and positive, `target_nodes` below 8 or above [`MAX_NODES`].
 pub fn box_tets_target(size: [f64; 3], target_nodes: usize, pattern: BoxPattern) -> Result<Mesh> {
     let divisions = box_divisions_for_target(size, target_nodes)?;
-    box_tets(size, divisions, pattern)
+    // The user gave `nodes`, not the divisions derived from it: name that key.
+    box_tets(size, divisions, pattern).map_err(|e| match e {
+        Error::Param { name, msg } if name == "divisions" => Error::Param {
+            name: "nodes".into(),
+            msg: format!("{target_nodes} nodes take divisions {divisions:?}: {msg}"),
+        },
+        e => e,
+    })
 }
 
 #[cfg(test)]
@@ -932,6 +939,18 @@ mod tests {
         union.sort_unstable();
         union.dedup();
         assert_eq!(union, m.groups["boundary"]);
+    }
+
+    #[test]
+    fn box_target_errors_name_the_nodes_key_not_the_divisions() {
+        // A slab so thin that the node target needs more nodes than allowed along its plane.
+        let e = box_tets_target([1.0, 1.0, 1e-9], MAX_NODES, BoxPattern::Six).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            matches!(&e, Error::Param { name, .. } if name == "nodes"),
+            "{text}"
+        );
+        assert!(text.contains("more than 100000000"), "{text}");
     }
 
     #[test]

@@ -108,6 +108,18 @@ impl Simulation {
         report
     }
 
+    /// A divergence in words, its node named by its id in the mesh file and its reference
+    /// position, as the scenario runner names it.
+    pub(super) fn described(&self, mut d: crate::error::Divergence) -> String {
+        let mesh = self.mesh();
+        let ids = self.file_node_ids();
+        d.locate(
+            |a| ids.and_then(|f| f.get(a)).map_or(a as u64, |&i| i as u64),
+            |a| mesh.nodes.get(a).copied(),
+        );
+        d.to_string()
+    }
+
     fn set_positions(&mut self, ids: &[super::GrabId], p: &[[f64; 3]]) {
         for (id, &p) in ids.iter().zip(p) {
             if let Some(g) = self.grabs.get_mut(id) {
@@ -156,7 +168,7 @@ impl Simulation {
                         k = k.max(1);
                     }
                     for _ in 0..k {
-                        self.stepper.advance().map_err(|d| d.to_string())?;
+                        self.stepper.advance().map_err(|d| self.described(d))?;
                         *cycles += 1;
                     }
                 }
@@ -164,7 +176,7 @@ impl Simulation {
                     let until = ms.max(0.0) * 1e-3 * j as f64 / subs as f64;
                     let until = Duration::from_secs_f64(until);
                     loop {
-                        self.stepper.advance().map_err(|d| d.to_string())?;
+                        self.stepper.advance().map_err(|d| self.described(d))?;
                         *cycles += 1;
                         if start.elapsed() >= until {
                             break;

@@ -869,3 +869,53 @@ duration = 1.0
         }
     }
 }
+
+#[test]
+fn a_rejected_frame_names_its_node_in_file_numbering() {
+    // A bar whose nodes the scenario renumbers (file order ≠ memory order). A frame's
+    // rejection for a non-finite value names the node as the file numbers it, with its
+    // reference position, as `raisov run` does (the frame said the index in memory).
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = box_tets([0.2, 0.02, 0.02], [20, 2, 2], BoxPattern::Six).unwrap();
+    let n = mesh.num_nodes();
+    let perm: Vec<usize> = (0..n).map(|i| (i * 7919) % n).collect();
+    let mut shuffled = mesh.clone();
+    let mut inv = vec![0u32; n];
+    for (new, &old) in perm.iter().enumerate() {
+        shuffled.nodes[new] = mesh.nodes[old];
+        inv[old] = new as u32;
+    }
+    for c in shuffled.cells.iter_mut() {
+        *c = inv[*c as usize];
+    }
+    let file = dir.path().join("bar.msh");
+    crate::io::gmsh::write_msh22(&file, &shuffled).unwrap();
+    let text = format!(
+        "[mesh]\nfile = {file:?}\n[material]\nlaw = \"neo-hookean\"\nyoung = 5e3\n\
+         poisson = 0.45\n[[fix]]\nplane = {{ point = [0, 0, 0], normal = [1, 0, 0] }}\n\
+         [run]\nduration = 1.0\n"
+    );
+    let sim = Simulation::from_toml(&text, dir.path()).unwrap();
+    let ids = sim
+        .file_node_ids()
+        .expect("the scenario renumbered the bar")
+        .to_vec();
+    let a = 17;
+    assert_ne!(ids[a] as usize, a);
+    let d = crate::error::Divergence {
+        time: 0.0,
+        step: 1,
+        element: None,
+        cause: crate::error::DivergenceCause::NonFinite {
+            what: "velocity",
+            node: crate::error::NodeRef::index(a),
+        },
+    };
+    let why = sim.described(d);
+    let want = format!(
+        "node {} of the mesh file (at {} m)",
+        ids[a],
+        crate::numbers::point(sim.mesh().nodes[a])
+    );
+    assert!(why.contains(&want), "{why}\nwant {want}");
+}

@@ -173,18 +173,29 @@ fn haptic_reads_during_publishing_never_mix_two_frames() {
             time: 1e-3 * x,
         }
     };
+    // Each reader reads once before the writer starts and once after it ends, and as often
+    // as it can in between (both cores busy: the reads overlap the writes).
+    let ready = Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let readers: Vec<_> = (0..2)
         .map(|_| {
-            let (proxy, done) = (proxy.clone(), done.clone());
+            let (proxy, done, ready) = (proxy.clone(), done.clone(), ready.clone());
             std::thread::spawn(move || {
-                let (mut last, mut reads, mut seen) = (0u64, 0u64, 0u64);
-                while !done.load(Ordering::Acquire) {
+                let (mut seqs, mut reads) = (Vec::new(), 0u64);
+                loop {
+                    let end = done.load(Ordering::Acquire);
                     let f = proxy.frame();
                     reads += 1;
-                    assert!(f.seq >= last, "frames go backwards: {} after {last}", f.seq);
-                    if f.seq != last {
-                        seen += 1;
-                        last = f.seq;
+                    if reads == 1 {
+                        ready.fetch_add(1, Ordering::Release);
+                    }
+                    assert!(
+                        seqs.last().is_none_or(|&l| f.seq >= l),
+                        "frames go backwards: {} after {:?}",
+                        f.seq,
+                        seqs.last()
+                    );
+                    if seqs.last() != Some(&f.seq) {
+                        seqs.push(f.seq);
                     }
                     // Frame 1 is `synthetic`'s; the writer's frame k is published as k + 1.
                     if f.seq >= 2 {
@@ -196,21 +207,25 @@ fn haptic_reads_during_publishing_never_mix_two_frames() {
                             f.seq
                         );
                     }
+                    if end {
+                        return (reads, seqs);
+                    }
                 }
-                (reads, seen)
             })
         })
         .collect();
+    while ready.load(Ordering::Acquire) < 2 {
+        std::thread::yield_now();
+    }
     let frames = 200_000u64;
     for k in 1..=frames {
         writer.publish(&values(k));
     }
     done.store(true, Ordering::Release);
     for r in readers {
-        let (reads, seen) = r.join().expect("a reader panicked");
-        assert!(reads > 0);
-        // The readers overlapped the writer (they saw several frames, not just the last).
-        assert!(seen >= 2, "{seen} frames seen in {reads} reads");
+        let (reads, seqs) = r.join().expect("a reader panicked");
+        assert_eq!(seqs.first(), Some(&1), "{reads} reads");
+        assert_eq!(seqs.last(), Some(&(frames + 1)), "{reads} reads");
     }
     assert_eq!(proxy.frame().seq, frames + 1);
 }
@@ -222,26 +237,34 @@ fn a_device_thread_reads_the_proxy_while_frames_are_stepped() {
     let limits = HapticLimits::new(3.0, 0.002).unwrap();
     let proxy = sim.haptic_proxy(g, limits).unwrap();
     let done = Arc::new(AtomicBool::new(false));
+    let started = Arc::new(AtomicBool::new(false));
     let device = {
-        let (proxy, done) = (proxy.clone(), done.clone());
+        let (proxy, done, started) = (proxy.clone(), done.clone(), started.clone());
         std::thread::spawn(move || {
-            let (mut seqs, mut last) = (Vec::new(), 0);
-            while !done.load(Ordering::Acquire) {
+            let mut seqs = Vec::new();
+            loop {
+                let end = done.load(Ordering::Acquire);
                 let (frame, f) = proxy.sample([0.02, 0.02, 0.045]);
-                assert!(frame.seq >= last);
-                last = frame.seq;
+                started.store(true, Ordering::Release);
+                assert!(seqs.last().is_none_or(|&l| frame.seq >= l));
                 seqs.push(frame.seq);
                 assert!(frame.held);
                 // The force at the frame's own position is the frame's force.
                 let at = frame.extrapolate(frame.position, proxy.limits()).force;
                 assert_eq!(at, frame.force);
                 assert!(f.force.iter().all(|c| c.is_finite()) && norm(f.force) <= 3.0 + 1e-12);
+                if end {
+                    break;
+                }
                 std::thread::yield_now();
             }
             seqs.dedup();
-            seqs.len()
+            seqs
         })
     };
+    while !started.load(Ordering::Acquire) {
+        std::thread::yield_now();
+    }
     let p = sim.grab_position(g).unwrap();
     for k in 1..=10 {
         sim.move_grab(g, add(p, [0.0, 0.0, 0.0004 * k as f64]))
@@ -249,8 +272,10 @@ fn a_device_thread_reads_the_proxy_while_frames_are_stepped() {
         assert!(sim.step_frame(Budget::Cycles(2)).accepted);
     }
     done.store(true, Ordering::Release);
-    let distinct = device.join().expect("the device thread panicked");
-    assert!(distinct >= 2, "the device saw {distinct} frames");
+    let seqs = device.join().expect("the device thread panicked");
+    // It read the proxy's first frame before the frames and their last one after.
+    assert_eq!(seqs.first(), Some(&1), "{seqs:?}");
+    assert_eq!(seqs.last(), Some(&proxy.frame().seq), "{seqs:?}");
     let last = proxy.frame();
     assert_eq!(last.force, sim.grab_force(g).unwrap());
     assert!(last.force[2] < 0.0, "the lifted tissue pulls the tool down");

@@ -228,7 +228,8 @@ struct Grab {
 #[pymethods]
 impl Grab {
     fn __repr__(&self) -> String {
-        format!("raisov.{:?}", self.id)
+        // `GrabId(3)` → `raisov.Grab(3)`.
+        format!("{:?}", self.id).replacen("GrabId", "raisov.Grab", 1)
     }
 }
 
@@ -242,7 +243,7 @@ struct Pin {
 #[pymethods]
 impl Pin {
     fn __repr__(&self) -> String {
-        format!("raisov.{:?}", self.id)
+        format!("{:?}", self.id).replacen("PinId", "raisov.Pin", 1)
     }
 }
 
@@ -269,18 +270,22 @@ struct FrameReport {
 
 #[pymethods]
 impl FrameReport {
-    fn __repr__(&self) -> String {
-        format!(
-            "FrameReport(cycles={}, rejected_cycles={}, retries={}, accepted={}, target_reached={}, residual={:e}, rejection={:?}, wall_s={:e})",
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        // The rejection as Python writes a str or None.
+        let rejection = match &self.rejection {
+            None => "None".to_string(),
+            Some(r) => PyString::new(py, r).repr()?.to_string(),
+        };
+        Ok(format!(
+            "FrameReport(cycles={}, rejected_cycles={}, retries={}, accepted={}, target_reached={}, residual={:e}, rejection={rejection}, wall_s={:e})",
             self.cycles,
             self.rejected_cycles,
             self.retries,
             if self.accepted { "True" } else { "False" },
             if self.target_reached { "True" } else { "False" },
             self.residual,
-            self.rejection,
             self.wall_s
-        )
+        ))
     }
 }
 

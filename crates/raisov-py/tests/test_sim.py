@@ -376,3 +376,12 @@ def test_a_meshed_surface_is_what_python_draws(tmp_path):
     after = sim.surface_positions
     top = after[:, 2] > 0.02
     assert np.all(after[top, 2] < 0.04), after
+
+
+def test_reprs_read_as_python_not_as_rust_debug():
+    sim = static_cube()
+    g = sim.grab([0.02, 0.02, 0.05], 0.011)
+    p = sim.pin([0.0, 0.0, 0.05], 0.005)
+    assert repr(g) == "raisov.Grab(0)" and repr(p) == "raisov.Pin(1)", (repr(g), repr(p))
+    r = repr(sim.step_frame(cycles=1))
+    assert "rejection=None" in r and "Some(" not in r, r

@@ -51,6 +51,69 @@ class Reactions:
     sum: npt.NDArray[np.float64]
     """Their sum (N), shape (3,)."""
 
+class HapticFrame:
+    """One frame a haptic proxy published: the grasp's state after a simulation frame."""
+
+    seq: int
+    """Publication number: 1, 2, ... in the order published."""
+    held: bool
+    """Whether the grasp is held; False after a release (every force zero then)."""
+    position: npt.NDArray[np.float64]
+    """The grasp position x_f (m), shape (3,)."""
+    force: npt.NDArray[np.float64]
+    """The force the tissue exerts on the tool f_f (N), shape (3,)."""
+    stiffness: npt.NDArray[np.float64]
+    """K[i, j] = d f_i / d x_j (N/m), shape (3, 3)."""
+    time: float
+    """Simulated time of the frame (s)."""
+    age: float
+    """Seconds since the frame was published (when it was read)."""
+
+class HapticSample:
+    """The force at a device position and the frame it came from."""
+
+    frame: HapticFrame
+    force: npt.NDArray[np.float64]
+    """The force (N), shape (3,); zero when the grasp is not held."""
+    distance_clamped: bool
+    """The device was farther than max_distance from the frame's grasp position."""
+    force_clamped: bool
+    """The force was scaled down to max_force."""
+
+class HapticProxy:
+    """A haptic proxy of one grasp (Simulation.haptic_proxy). Every simulation frame publishes
+    the grasp's position x_f, force f_f and stiffness K; any thread reads it at any rate
+    without waiting for the simulation (the GIL is released while it reads) and gets, for the
+    device position x:
+
+        d = x - x_f, shortened to max_distance if longer (the linear model's trusted radius)
+        f = f_f + K d, scaled down to max_force if larger (the device's limit)
+
+    f is the force the tissue exerts on the tool (what the device renders on the hand)."""
+
+    def force_at(self, x: Point) -> npt.NDArray[np.float64]:
+        """The force at device position x (m) from the newest frame (N), shape (3,)."""
+    def sample(self, x: Point) -> HapticSample:
+        """The newest frame, the force at x from it, and what was clamped."""
+    def frame(self) -> HapticFrame:
+        """The newest published frame."""
+    def set_limits(
+        self, max_force: Optional[float] = None, max_distance: Optional[float] = None
+    ) -> None:
+        """Set either limit or both (each > 0, inf for none); ValueError otherwise."""
+    @property
+    def held(self) -> bool:
+        """Whether the grasp is held (as of the newest frame)."""
+    @property
+    def age(self) -> float:
+        """Seconds since the newest frame was published."""
+    @property
+    def max_force(self) -> float:
+        """The largest force rendered (N; inf: no limit)."""
+    @property
+    def max_distance(self) -> float:
+        """The largest extrapolation distance (m; inf: no limit)."""
+
 class Simulation:
     """A simulation stepped frame by frame.
 
@@ -63,8 +126,10 @@ class Simulation:
         top of the file, one per top-level key: a dict for a table, merged key by key
         (material={"young": 3e3}, damping={"alpha": 10}), any other value replacing the key
         (gravity=[0, 0, -9.81]). They are merged into the TOML document before it is parsed,
-        so errors read as for the same keys in the file. Raises ValueError (bad scenario) or
-        OSError (unreadable file) with the library's message."""
+        so errors read as for the same keys in the file. Raises ValueError (bad scenario) with
+        the library's message, or the OSError subclass Python raises for the file
+        (FileNotFoundError, PermissionError, IsADirectoryError, ...) with errno, strerror and
+        filename set."""
     @staticmethod
     def from_toml(
         text: str, base_dir: Union[str, PathLike[str]] = ".", **keys: Any
@@ -97,6 +162,13 @@ class Simulation:
         equal at equilibrium."""
     def grab_stiffness(self, g: Grab) -> npt.NDArray[np.float64]:
         """d grab_force / d grasp position (N/m), shape (3, 3): K[i, j] = dF_i / dx_j."""
+    def haptic_proxy(
+        self, g: Grab, max_force: float = ..., max_distance: float = ...
+    ) -> HapticProxy:
+        """A haptic proxy of grasp g for a device thread, its force limited to max_force (N)
+        and its extrapolation to max_distance (m) (each > 0; default inf, no limit). Every
+        frame then also computes the grasp's stiffness (three linear solves) and publishes
+        it with the position and the force; this call publishes the current ones."""
     def pin(self, point: Point, radius: float) -> Pin:
         """Pin the patch grab would take, where it stands."""
     def unpin(self, p: Pin) -> None: ...
@@ -117,6 +189,15 @@ class Simulation:
     @property
     def rest_positions(self) -> npt.NDArray[np.float64]:
         """Reference positions X (m), shape (n, 3)."""
+    @property
+    def surface_positions(self) -> npt.NDArray[np.float64]:
+        """The surface a renderer draws, now (m), shape (v, 3): the visual surface's vertices
+        when the scenario meshed one ([mesh] surface), else the mesh's nodes. A read-only
+        copy taken now."""
+    @property
+    def surface_triangles(self) -> npt.NDArray[np.int64]:
+        """The triangles of surface_positions, shape (m, 3): 0-based vertex indices,
+        counter-clockwise seen from outside. They do not change while the simulation runs."""
     @property
     def nodal_stress(self) -> npt.NDArray[np.float64]:
         """Nodal Cauchy stress (Pa), shape (n, 3, 3)."""

@@ -1,13 +1,22 @@
-/* Grasp the top of a block of tissue through raisov's C ABI, lift it 4 mm over 10 frames and
- * print the force on the tool.
+/* Grasp the top of a block of tissue through raisov's C ABI and render the tool force to a
+ * haptic device at 1 kHz on its own thread, through a haptic proxy: the simulation thread
+ * steps frames (5 ms of wall time each) with the grasp following the device; the device
+ * thread reads the force extrapolated to its own position, never waiting for a frame. The
+ * device here is scripted: it rises 4 mm over 0.2 s.
  *
  *   cargo build --release -p raisov-capi
  *   cc crates/raisov-capi/examples/grab.c -I crates/raisov-capi/include \
  *      target/release/libraisov_capi.a -lm -lpthread -ldl -o target/grab-c
- *   target/grab-c [scenario.toml]     (default: writes a small box scenario to target/) */
+ *   target/grab-c [scenario.toml]     (default: writes a small box scenario to target/)
+ *
+ * Exits non-zero if a call fails or the physics is off (checks at the end). */
+#define _POSIX_C_SOURCE 200809L
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <time.h>
 
 #include "raisov.h"
 
@@ -17,6 +26,55 @@ static const char *SCENARIO =
     "[material]\nlaw = \"neo-hookean\"\nyoung = 5e3\npoisson = 0.45\n"
     "[[fix]]\nplane = { point = [0, 0, 0], normal = [0, 0, 1] }\n"
     "[run]\nduration = 1.0\n";
+
+static const double MAX_FORCE = 2.0;    /* the device's limit (N) */
+static const double MAX_DISTANCE = 0.005; /* the linear model's trusted radius (m) */
+
+static double now_s(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* The scripted device: starts at the grasp point x0 and rises 4 mm over 0.2 s. */
+static double X0[3], T0;
+static void device_at(double x[3]) {
+    double s = (now_s() - T0) / 0.2;
+    x[0] = X0[0];
+    x[1] = X0[1];
+    x[2] = X0[2] + 0.004 * (s < 1.0 ? s : 1.0);
+}
+
+struct Device {
+    RaisovHaptic *haptic;
+    atomic_int stop;
+    long ticks, clamped, bad;
+};
+
+/* The device thread: one force per millisecond. */
+static void *device_loop(void *arg) {
+    struct Device *d = arg;
+    const struct timespec ms = {0, 1000000};
+    while (!atomic_load(&d->stop)) {
+        nanosleep(&ms, NULL);
+        double x[3], f[3];
+        device_at(x);
+        int flags = raisov_haptic_force_at(d->haptic, x, f);
+        double n = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+        /* ... here the force goes to the device ... */
+        if (flags < 0 || !(flags & RAISOV_HAPTIC_HELD) || !(n <= MAX_FORCE * (1 + 1e-12)))
+            d->bad++;
+        if (flags & RAISOV_HAPTIC_FORCE_CLAMPED) d->clamped++;
+        d->ticks++;
+    }
+    return NULL;
+}
+
+static int fail(RaisovSim *sim, const char *what) {
+    fprintf(stderr, "%s: %s\n", what, raisov_last_error());
+    raisov_sim_free(sim);
+    return 1;
+}
 
 int main(int argc, char **argv) {
     const char *path = argc > 1 ? argv[1] : "target/grab-c-scenario.toml";
@@ -28,70 +86,90 @@ int main(int argc, char **argv) {
         }
     }
     RaisovSim *sim = raisov_sim_from_file(path);
-    if (!sim) {
-        fprintf(stderr, "error: %s\n", raisov_last_error());
-        return 1;
-    }
-    int64_t n = raisov_sim_num_nodes(sim);
+    if (!sim) return fail(NULL, "error");
     const double point[3] = {0.02, 0.02, 0.05};
     int64_t g = raisov_sim_grab(sim, point, 0.011);
-    if (g < 0) {
-        fprintf(stderr, "error: %s\n", raisov_last_error());
-        raisov_sim_free(sim);
-        return 1;
+    if (g < 0 || raisov_sim_grab_position(sim, g, X0) != 0) return fail(sim, "grab");
+    struct Device dev = {.haptic = raisov_sim_haptic(sim, g, MAX_FORCE, MAX_DISTANCE)};
+    if (!dev.haptic) return fail(sim, "haptic proxy");
+    atomic_init(&dev.stop, 0);
+
+    /* The simulation loop: the grasp follows the device, 5 ms of stepping per frame, for
+     * 0.3 s; each frame publishes the grasp's position, force and stiffness to the proxy. */
+    pthread_t thread;
+    T0 = now_s();
+    if (pthread_create(&thread, NULL, device_loop, &dev) != 0) return fail(sim, "thread");
+    int frames = 0;
+    while (now_s() - T0 < 0.3) {
+        double x[3];
+        device_at(x);
+        if (raisov_sim_move_grab(sim, g, x) != 0 || raisov_sim_step_ms(sim, 5.0) < 0) break;
+        frames++;
     }
-    double force[3] = {0, 0, 0};
-    for (int frame = 1; frame <= 10; frame++) {
-        const double target[3] = {0.02, 0.02, 0.04 + 0.0004 * frame};
-        if (raisov_sim_move_grab(sim, g, target) != 0 || raisov_sim_step_cycles(sim, 8) != 1 ||
-            raisov_sim_grab_force(sim, g, force) != 0) {
-            fprintf(stderr, "frame %d: %s\n", frame, raisov_last_error());
-            raisov_sim_free(sim);
-            return 1;
-        }
-        printf("frame %2d: lift %.1f mm, force on the tool [%+.5f, %+.5f, %+.5f] N\n", frame,
-               0.4 * frame, force[0], force[1], force[2]);
+    atomic_store(&dev.stop, 1);
+    pthread_join(thread, NULL);
+    /* Let the tissue settle under the lifted grasp. */
+    for (int k = 0; k < 20; k++)
+        if (raisov_sim_step_cycles(sim, 8) != 1) return fail(sim, "frame");
+    printf("%d frames, %ld device ticks in %.2f s (%ld forces clamped at %.1f N)\n", frames,
+           dev.ticks, now_s() - T0, dev.clamped, MAX_FORCE);
+
+    /* The proxy's newest frame, and the extrapolation 0.1 mm above it. */
+    RaisovHapticFrame fr;
+    double f[3], up[3], fu[3];
+    if (raisov_haptic_frame(dev.haptic, &fr) != 0 || raisov_sim_grab_force(sim, g, f) != 0)
+        return fail(sim, "frame");
+    int at = raisov_haptic_force_at(dev.haptic, fr.position, fu);
+    int same = at == RAISOV_HAPTIC_HELD && fu[0] == f[0] && fu[1] == f[1] && fu[2] == f[2];
+    up[0] = fr.position[0];
+    up[1] = fr.position[1];
+    up[2] = fr.position[2] + 1e-4;
+    raisov_haptic_force_at(dev.haptic, up, fu);
+    double k_delta = 0.0; /* |f(x + d) - f - K d|, d = 0.1 mm along z */
+    for (int i = 0; i < 3; i++) k_delta += fabs(fu[i] - f[i] - fr.stiffness[3 * i + 2] * 1e-4);
+    printf("force on the tool [%+.5f, %+.5f, %+.5f] N, stiffness diagonal [%.1f, %.1f, %.1f] "
+           "N/m; 0.1 mm higher: %+.5f N\n",
+           f[0], f[1], f[2], fr.stiffness[0], fr.stiffness[4], fr.stiffness[8], fu[2]);
+
+    /* What a renderer draws: the surface triangles and their vertices now. */
+    int64_t nv = raisov_sim_surface_vertex_count(sim), nt = raisov_sim_surface_triangle_count(sim);
+    double *xs = malloc(sizeof(double) * 3 * (size_t)(nv > 0 ? nv : 1));
+    uint32_t *tri = malloc(sizeof(uint32_t) * 3 * (size_t)(nt > 0 ? nt : 1));
+    if (!xs || !tri || raisov_sim_surface_positions(sim, xs, 3 * (size_t)nv) != 3 * nv ||
+        raisov_sim_surface_triangles(sim, tri, 3 * (size_t)nt) != 3 * nt) {
+        free(xs);
+        free(tri);
+        return fail(sim, "surface");
     }
-    /* A spring grasp of a corner of the top face: 50 N/m, its anchor lifted by 2 mm, 20 more
-     * steps of the explicit dynamics (the tissue is still moving: the force is k times the
-     * patch's lag behind the anchor, of either sign). */
-    const double corner[3] = {0.036, 0.036, 0.05};
-    int64_t s = raisov_sim_grab_spring(sim, corner, 0.004, 50.0);
-    double spring[3] = {0, 0, 0}, lifted[3] = {0, 0, 0};
-    if (s < 0 || raisov_sim_grab_position(sim, s, lifted) != 0) {
-        fprintf(stderr, "spring grasp: %s\n", raisov_last_error());
-        raisov_sim_free(sim);
-        return 1;
-    }
-    lifted[2] += 0.002;
-    if (raisov_sim_move_grab(sim, s, lifted) != 0 ||
-        raisov_sim_step_cycles(sim, 20) != 1 || raisov_sim_grab_force(sim, s, spring) != 0) {
-        fprintf(stderr, "spring grasp: %s\n", raisov_last_error());
-        raisov_sim_free(sim);
-        return 1;
-    }
-    printf("spring grasp: force on the tool [%+.5f, %+.5f, %+.5f] N\n", spring[0], spring[1],
-           spring[2]);
-    if (raisov_sim_grab_spring(sim, corner, 0.004, -1.0) != -1) {
-        fprintf(stderr, "a negative stiffness must be an error\n");
-        raisov_sim_free(sim);
-        return 1;
-    }
-    double *x = malloc(sizeof(double) * 3 * (size_t)n);
-    if (!x || raisov_sim_positions(sim, x, 3 * (size_t)n) != 3 * n) {
-        fprintf(stderr, "positions: %s\n", x ? raisov_last_error() : "out of memory");
-        free(x);
-        raisov_sim_free(sim);
-        return 1;
-    }
-    double top = x[2];
-    for (int64_t a = 1; a < n; a++)
-        if (x[3 * a + 2] > top) top = x[3 * a + 2];
-    printf("%lld nodes, highest at z = %.4f m\n", (long long)n, top);
-    free(x);
+    int indices_ok = 1;
+    double top = xs[2];
+    for (int64_t i = 0; i < 3 * nt; i++) indices_ok &= tri[i] < (uint64_t)nv;
+    for (int64_t a = 1; a < nv; a++)
+        if (xs[3 * a + 2] > top) top = xs[3 * a + 2];
+    printf("surface: %lld triangles over %lld vertices, highest at z = %.4f m\n", (long long)nt,
+           (long long)nv, top);
+    free(xs);
+    free(tri);
+
+    /* Released: the device feels nothing. A spring grasp with a negative stiffness: an error. */
+    double zero[3] = {1, 1, 1};
+    int released = raisov_sim_release(sim, g) == 0 &&
+                   raisov_haptic_force_at(dev.haptic, up, zero) == 0 && zero[2] == 0.0;
+    int refused = raisov_sim_grab_spring(sim, point, 0.004, -1.0) == -1;
     raisov_sim_free(sim);
-    if (!(force[2] < 0.0) || !isfinite(spring[0] + spring[1] + spring[2])) {
-        fprintf(stderr, "the lifted tissue should pull the tool down, the spring be finite\n");
+    raisov_haptic_free(dev.haptic);
+
+    const char *why = NULL;
+    if (dev.ticks < 10 || dev.bad) why = "the device loop read too few or bad forces";
+    else if (!(f[2] < 0.0)) why = "the lifted tissue should pull the tool down";
+    else if (!(fr.stiffness[0] < 0.0 && fr.stiffness[4] < 0.0 && fr.stiffness[8] < 0.0))
+        why = "the grasp stiffness should resist every move (negative diagonal)";
+    else if (!same) why = "at the frame's position the proxy should give the frame's force";
+    else if (!(k_delta < 1e-12 && fu[2] < f[2])) why = "0.1 mm higher should add K d";
+    else if (!indices_ok || !(top > 0.0435)) why = "the surface should be lifted, indices valid";
+    else if (!released || !refused) why = "release or the spring-grasp check failed";
+    if (why) {
+        fprintf(stderr, "%s\n", why);
         return 1;
     }
     return 0;

@@ -1,6 +1,7 @@
 //! A small C ABI over [`raisov::sim`] (header `include/raisov.h`): create a simulation from a
-//! scenario file, grasp its surface, step frames, read node positions and the tool force,
-//! free it.
+//! scenario file, grasp its surface (hard or by springs), step frames (a number of steps or
+//! a wall-time budget), read node positions, the surface a renderer draws, the tool force and
+//! the grasp stiffness, hand a haptic device thread a proxy of a grasp, free it.
 //!
 //! Conventions are the Rust API's, in SI units: `raisov_sim_grab_force` writes
 //! `Σ_{a ∈ g} (V_a − R_a(u))`, the force the tissue exerts on the tool (N); positions are
@@ -9,10 +10,13 @@
 //! Errors: a function that fails returns `NULL`, a negative value or `0` as its doc says, and
 //! [`raisov_last_error`] gives the message of the last failure on the calling thread. No
 //! panic crosses the boundary: each entry point runs under `catch_unwind` and a panic becomes
-//! an error. Null pointers are checked. A `RaisovSim` is not thread-safe: call it from one
-//! thread at a time.
+//! an error. Null pointers are checked, and so is the room in every caller buffer. A
+//! `RaisovSim` is not thread-safe: call it from one thread at a time. A `RaisovHaptic`
+//! ([`raisov::sim::HapticProxy`]) is: any thread may read it at any time, concurrently with
+//! the simulation's calls on another, and it stays valid after the simulation is freed
+//! (rendering zero force from then on).
 
-use raisov::sim::{Budget, GrabId, Simulation};
+use raisov::sim::{Budget, GrabId, HapticLimits, HapticProxy, Simulation};
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::ffi::{c_char, CStr, CString};
@@ -247,6 +251,26 @@ pub unsafe extern "C" fn raisov_sim_release(sim: *mut RaisovSim, grab: i64) -> i
     })
 }
 
+/// One frame of `budget`: 1 accepted, 0 rejected (the reason in the last error).
+///
+/// # Safety
+/// `sim` must be null or a live handle, not used by another thread during the call.
+unsafe fn step(sim: *mut RaisovSim, budget: Budget) -> Result<i32, String> {
+    // SAFETY: the caller's contract, forwarded.
+    let s = unsafe { sim_mut(sim)? };
+    let r = s.sim.step_frame(budget);
+    if r.accepted {
+        Ok(1)
+    } else {
+        set_error(format!(
+            "frame rejected after {} tries: {}",
+            r.retries,
+            r.rejection.unwrap_or_default()
+        ));
+        Ok(0)
+    }
+}
+
 /// Run one frame of `cycles` stepper steps. Returns 1 when the frame was accepted, 0 when
 /// it was rejected (the state is the one before the frame; [`raisov_last_error`] says why),
 /// -1 on error.
@@ -255,21 +279,56 @@ pub unsafe extern "C" fn raisov_sim_release(sim: *mut RaisovSim, grab: i64) -> i
 /// `sim` must be null or a live handle.
 #[no_mangle]
 pub unsafe extern "C" fn raisov_sim_step_cycles(sim: *mut RaisovSim, cycles: u32) -> i32 {
+    // SAFETY: the caller's contract, forwarded.
+    guard(-1, || unsafe { step(sim, Budget::Cycles(cycles)) })
+}
+
+/// Run one frame of `ms` milliseconds of wall time (steps until the time has passed, at
+/// least one; a frame that makes the grasps' moves retries in smaller sub-moves, each with
+/// its share of the time). Returns 1 (accepted), 0 (rejected, [`raisov_last_error`] says
+/// why) or -1 on error (`ms` not finite and >= 0).
+///
+/// # Safety
+/// `sim` must be null or a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_step_ms(sim: *mut RaisovSim, ms: f64) -> i32 {
     guard(-1, || {
-        // SAFETY: the caller's contract, forwarded.
-        let s = unsafe { sim_mut(sim)? };
-        let r = s.sim.step_frame(Budget::Cycles(cycles));
-        if r.accepted {
-            Ok(1)
-        } else {
-            set_error(format!(
-                "frame rejected after {} tries: {}",
-                r.retries,
-                r.rejection.unwrap_or_default()
+        if !(ms.is_finite() && ms >= 0.0) {
+            return Err(format!(
+                "`ms` = {ms}: must be a finite number of milliseconds >= 0"
             ));
-            Ok(0)
         }
+        // SAFETY: the caller's contract, forwarded.
+        unsafe { step(sim, Budget::Millis(ms)) }
     })
+}
+
+/// # Safety
+/// `sim` must be null or a live handle (shared access only).
+unsafe fn sim_ref<'a>(sim: *const RaisovSim) -> Result<&'a RaisovSim, String> {
+    // SAFETY: the caller's contract: null or a live handle.
+    unsafe { sim.as_ref() }.ok_or_else(|| "the simulation pointer is NULL".to_string())
+}
+
+/// Copy `src` into the caller's buffer `out` of room `len` (in `T`s), checked: returns the
+/// number of values written. `what` names the values in errors.
+///
+/// # Safety
+/// `out` must be null or point to `len` writable `T`s.
+unsafe fn copy_out<T: Copy>(src: &[T], out: *mut T, len: usize, what: &str) -> Result<i64, String> {
+    if out.is_null() {
+        return Err("`out` is NULL".into());
+    }
+    if len < src.len() {
+        return Err(format!(
+            "`out` holds {len} values, {} needed ({what})",
+            src.len()
+        ));
+    }
+    // SAFETY: non-null with `len >= src.len()` writable values (caller's contract).
+    let dst = unsafe { std::slice::from_raw_parts_mut(out, src.len()) };
+    dst.copy_from_slice(src);
+    Ok(src.len() as i64)
 }
 
 /// Copy the node positions (m) into `out`, 3 doubles per node: `len` is the room in `out`
@@ -285,22 +344,91 @@ pub unsafe extern "C" fn raisov_sim_positions(
     len: usize,
 ) -> i64 {
     guard(-1, || {
-        // SAFETY: null or a live handle (caller's contract).
-        let s = unsafe { sim.as_ref() }.ok_or("the simulation pointer is NULL")?;
-        let p = s.sim.positions().as_flattened();
-        if out.is_null() {
-            return Err("`out` is NULL".into());
+        // SAFETY: the caller's contract, forwarded.
+        unsafe {
+            let s = sim_ref(sim)?;
+            copy_out(s.sim.positions().as_flattened(), out, len, "3 per node")
         }
-        if len < p.len() {
-            return Err(format!(
-                "`out` holds {len} doubles, {} needed (3 per node)",
-                p.len()
-            ));
+    })
+}
+
+/// Number of vertices of the surface a renderer draws, or -1 on error: the visual
+/// surface's when the scenario meshed one (`[mesh] surface`), else the mesh's nodes.
+///
+/// # Safety
+/// `sim` must be null or a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_surface_vertex_count(sim: *const RaisovSim) -> i64 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        let s = unsafe { sim_ref(sim)? };
+        Ok(s.sim.surface_positions().len() as i64)
+    })
+}
+
+/// Copy the surface's vertex positions at the current state (m, 3 doubles per vertex,
+/// [`raisov::sim::Simulation::surface_positions`]) into `out`, which holds `len` doubles (at
+/// least 3 × [`raisov_sim_surface_vertex_count`]). The number of doubles written, or -1.
+///
+/// # Safety
+/// `sim` must be null or a live handle; `out` null or `len` writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_surface_positions(
+    sim: *const RaisovSim,
+    out: *mut f64,
+    len: usize,
+) -> i64 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        unsafe {
+            let s = sim_ref(sim)?;
+            copy_out(
+                s.sim.surface_positions().as_flattened(),
+                out,
+                len,
+                "3 per surface vertex",
+            )
         }
-        // SAFETY: non-null with `len >= p.len()` writable doubles (caller's contract).
-        let dst = unsafe { std::slice::from_raw_parts_mut(out, p.len()) };
-        dst.copy_from_slice(p);
-        Ok(p.len() as i64)
+    })
+}
+
+/// Number of surface triangles, or -1 on error.
+///
+/// # Safety
+/// `sim` must be null or a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_surface_triangle_count(sim: *const RaisovSim) -> i64 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        let s = unsafe { sim_ref(sim)? };
+        Ok(s.sim.surface_triangles().len() as i64)
+    })
+}
+
+/// Copy the surface triangles (3 vertex indices each, 0-based into the surface's vertices,
+/// counter-clockwise seen from outside) into `out`, which holds `len` indices (at least 3 ×
+/// [`raisov_sim_surface_triangle_count`]). They do not change while the simulation runs.
+/// The number of indices written, or -1.
+///
+/// # Safety
+/// `sim` must be null or a live handle; `out` null or `len` writable `uint32_t`s.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_surface_triangles(
+    sim: *const RaisovSim,
+    out: *mut u32,
+    len: usize,
+) -> i64 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        unsafe {
+            let s = sim_ref(sim)?;
+            copy_out(
+                s.sim.surface_triangles().as_flattened(),
+                out,
+                len,
+                "3 per triangle",
+            )
+        }
     })
 }
 
@@ -355,6 +483,196 @@ pub unsafe extern "C" fn raisov_sim_grab_position(
         unsafe { std::slice::from_raw_parts_mut(out, 3) }.copy_from_slice(&p);
         Ok(0)
     })
+}
+
+/// Write the stiffness of grasp `grab`, `K[i][j] = d force_i / d position_j` (N/m,
+/// row-major, 9 doubles) into `out`: the change of the tool force when the grasp moves and
+/// the free nodes return to equilibrium (three warm-started linear solves). 0, or -1.
+///
+/// # Safety
+/// `sim` must be null or a live handle; `out` null or 9 writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_grab_stiffness(
+    sim: *mut RaisovSim,
+    grab: i64,
+    out: *mut f64,
+) -> i32 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        let s = unsafe { sim_mut(sim)? };
+        if out.is_null() {
+            return Err("`out` is NULL (9 doubles expected)".into());
+        }
+        let id = grab_id(s, grab)?;
+        let k = s.sim.grab_stiffness(id).map_err(|e| e.to_string())?;
+        // SAFETY: non-null with 9 writable doubles (caller's contract).
+        unsafe { std::slice::from_raw_parts_mut(out, 9) }.copy_from_slice(k.as_flattened());
+        Ok(0)
+    })
+}
+
+/// A haptic proxy of one grasp (`RaisovHaptic *` in C; [`raisov::sim::HapticProxy`]): safe to
+/// read from any thread at any time.
+pub struct RaisovHaptic {
+    proxy: HapticProxy,
+}
+
+/// One published frame of a haptic proxy (`RaisovHapticFrame` in C).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RaisovHapticFrame {
+    /// The publication's number (1, 2, ...).
+    pub seq: u64,
+    /// 1 while the grasp is held, 0 after a release or once the simulation is freed.
+    pub held: i32,
+    /// The grasp position (m).
+    pub position: [f64; 3],
+    /// The force the tissue exerts on the tool (N).
+    pub force: [f64; 3],
+    /// `K[i][j] = d force_i / d position_j` (N/m, row-major).
+    pub stiffness: [f64; 9],
+    /// Simulated time of the frame (s).
+    pub time: f64,
+    /// Seconds since the frame was published.
+    pub age: f64,
+}
+
+/// The force is from a held grasp (else zero).
+pub const RAISOV_HAPTIC_HELD: i32 = 1;
+/// The device was farther than `max_distance` from the frame's grasp position.
+pub const RAISOV_HAPTIC_DISTANCE_CLAMPED: i32 = 2;
+/// The force was scaled down to `max_force`.
+pub const RAISOV_HAPTIC_FORCE_CLAMPED: i32 = 4;
+
+/// # Safety
+/// `h` must be null or a live haptic handle.
+unsafe fn haptic_ref<'a>(h: *const RaisovHaptic) -> Result<&'a RaisovHaptic, String> {
+    // SAFETY: the caller's contract: null or a live handle.
+    unsafe { h.as_ref() }.ok_or_else(|| "the haptic pointer is NULL".to_string())
+}
+
+/// A haptic proxy of grasp `grab` (module docs of [`raisov::sim::haptic`]), its force limited
+/// to `max_force` (N) and its extrapolation to `max_distance` (m) from the frame's grasp
+/// position (each > 0; `INFINITY` for no limit). Every frame then publishes the grasp's
+/// position, force and stiffness to it. NULL on error. Free it with [`raisov_haptic_free`]
+/// (before or after the simulation).
+///
+/// # Safety
+/// `sim` must be null or a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_haptic(
+    sim: *mut RaisovSim,
+    grab: i64,
+    max_force: f64,
+    max_distance: f64,
+) -> *mut RaisovHaptic {
+    guard(std::ptr::null_mut(), || {
+        // SAFETY: the caller's contract, forwarded.
+        let s = unsafe { sim_mut(sim)? };
+        let id = grab_id(s, grab)?;
+        let limits = HapticLimits::new(max_force, max_distance).map_err(|e| e.to_string())?;
+        let proxy = s.sim.haptic_proxy(id, limits).map_err(|e| e.to_string())?;
+        Ok(Box::into_raw(Box::new(RaisovHaptic { proxy })))
+    })
+}
+
+/// Write the force at device position `x[3]` (m) into `out[3]` (N): the newest frame's force
+/// extrapolated, `force + K (x - position)`, within the limits. Returns a combination of
+/// [`RAISOV_HAPTIC_HELD`] (else the force is zero), [`RAISOV_HAPTIC_DISTANCE_CLAMPED`] and
+/// [`RAISOV_HAPTIC_FORCE_CLAMPED`], or -1 on error. Never waits for the simulation.
+///
+/// # Safety
+/// `h` must be null or a live haptic handle; `x` null or 3 readable doubles; `out` null or 3
+/// writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_haptic_force_at(
+    h: *const RaisovHaptic,
+    x: *const f64,
+    out: *mut f64,
+) -> i32 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        let (h, x) = unsafe { (haptic_ref(h)?, read3(x, "x")?) };
+        if out.is_null() {
+            return Err("`out` is NULL (3 doubles expected)".into());
+        }
+        let (frame, f) = h.proxy.sample(x);
+        // SAFETY: non-null with 3 writable doubles (caller's contract).
+        unsafe { std::slice::from_raw_parts_mut(out, 3) }.copy_from_slice(&f.force);
+        let flag = |on: bool, bit: i32| if on { bit } else { 0 };
+        Ok(flag(frame.held, RAISOV_HAPTIC_HELD)
+            | flag(f.distance_clamped, RAISOV_HAPTIC_DISTANCE_CLAMPED)
+            | flag(f.force_clamped, RAISOV_HAPTIC_FORCE_CLAMPED))
+    })
+}
+
+/// Write the newest published frame into `out`: 0, or -1 on error.
+///
+/// # Safety
+/// `h` must be null or a live haptic handle; `out` null or a writable `RaisovHapticFrame`.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_haptic_frame(
+    h: *const RaisovHaptic,
+    out: *mut RaisovHapticFrame,
+) -> i32 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        let h = unsafe { haptic_ref(h)? };
+        if out.is_null() {
+            return Err("`out` is NULL (a RaisovHapticFrame expected)".into());
+        }
+        let f = h.proxy.frame();
+        let frame = RaisovHapticFrame {
+            seq: f.seq,
+            held: i32::from(f.held),
+            position: f.position,
+            force: f.force,
+            stiffness: *f.stiffness.as_flattened().first_chunk().expect("9 values"),
+            time: f.time,
+            age: f.age().as_secs_f64(),
+        };
+        // SAFETY: non-null and writable (caller's contract).
+        unsafe { out.write(frame) };
+        Ok(0)
+    })
+}
+
+/// Set the proxy's limits (as [`raisov_sim_haptic`]'s): 0, or -1 (nothing changed).
+///
+/// # Safety
+/// `h` must be null or a live haptic handle.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_haptic_set_limits(
+    h: *const RaisovHaptic,
+    max_force: f64,
+    max_distance: f64,
+) -> i32 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        let h = unsafe { haptic_ref(h)? };
+        let limits = HapticLimits {
+            max_force,
+            max_distance,
+        };
+        h.proxy.set_limits(limits).map_err(|e| e.to_string())?;
+        Ok(0)
+    })
+}
+
+/// Free a haptic proxy (NULL is ignored); the simulation stops publishing to it.
+///
+/// # Safety
+/// `h` must be null or a pointer returned by [`raisov_sim_haptic`], not freed before, not in
+/// use by another thread; it must not be used afterwards.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_haptic_free(h: *mut RaisovHaptic) {
+    if !h.is_null() {
+        guard((), || {
+            // SAFETY: a live handle from Box::into_raw, given back once.
+            drop(unsafe { Box::from_raw(h) });
+            Ok(())
+        })
+    }
 }
 
 #[cfg(test)]
@@ -441,6 +759,178 @@ duration = 1.0
             assert!(raisov_sim_from_file(std::ptr::null()).is_null());
         }
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// The cube scenario written to a fresh file, the simulation loaded through C.
+    fn c_cube(name: &str) -> (std::path::PathBuf, *mut RaisovSim) {
+        let dir = tempfile_dir().join(name);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("cube.toml");
+        std::fs::write(&path, SCENARIO).unwrap();
+        let cpath = CString::new(path.to_str().unwrap()).unwrap();
+        // SAFETY: a NUL-terminated path.
+        let sim = unsafe { raisov_sim_from_file(cpath.as_ptr()) };
+        assert!(!sim.is_null(), "{}", last_error());
+        (path, sim)
+    }
+
+    #[test]
+    fn c_gives_the_surface_triangles_and_positions_a_renderer_draws() {
+        let (path, sim) = c_cube("surface");
+        let rust = Simulation::from_file(&path).unwrap();
+        unsafe {
+            let m = raisov_sim_surface_triangle_count(sim);
+            let n = raisov_sim_surface_vertex_count(sim);
+            // A 3x3x3 cube: 6 faces of 9 squares of 2 triangles; the mesh's 64 nodes.
+            assert_eq!((m, n), (108, 64));
+            let mut tri = vec![u32::MAX; 3 * m as usize];
+            assert_eq!(
+                raisov_sim_surface_triangles(sim, tri.as_mut_ptr(), tri.len()),
+                3 * m
+            );
+            assert_eq!(&tri[..], rust.surface_triangles().as_flattened());
+            assert!(tri.iter().all(|&v| (v as i64) < n));
+            let mut x = vec![f64::NAN; 3 * n as usize];
+            assert_eq!(
+                raisov_sim_surface_positions(sim, x.as_mut_ptr(), x.len()),
+                3 * n
+            );
+            assert_eq!(&x[..], rust.surface_positions().as_flattened());
+            // Buffers too small, or NULL: an error naming the room needed, nothing written.
+            let mut small = vec![7u32; 10];
+            assert_eq!(
+                raisov_sim_surface_triangles(sim, small.as_mut_ptr(), 10),
+                -1
+            );
+            assert!(last_error().contains("324 needed"), "{}", last_error());
+            assert!(small.iter().all(|&v| v == 7));
+            assert_eq!(raisov_sim_surface_positions(sim, x.as_mut_ptr(), 5), -1);
+            assert!(last_error().contains("192 needed"), "{}", last_error());
+            assert_eq!(
+                raisov_sim_surface_positions(sim, std::ptr::null_mut(), 999),
+                -1
+            );
+            assert_eq!(raisov_sim_surface_triangle_count(std::ptr::null()), -1);
+            raisov_sim_free(sim);
+        }
+    }
+
+    #[test]
+    fn c_steps_a_frame_on_a_time_budget_and_reads_the_grasp_stiffness() {
+        let (path, sim) = c_cube("budget");
+        let mut rust = Simulation::from_file(&path).unwrap();
+        let rg = rust.grab([0.02, 0.02, 0.05], 0.015).unwrap();
+        unsafe {
+            let g = raisov_sim_grab(sim, [0.02, 0.02, 0.05].as_ptr(), 0.015);
+            assert!(g > 0, "{}", last_error());
+            // Before any frame, the same stiffness as the Rust API's at the same state.
+            let mut k = [0.0; 9];
+            assert_eq!(
+                raisov_sim_grab_stiffness(sim, g, k.as_mut_ptr()),
+                0,
+                "{}",
+                last_error()
+            );
+            let kr = rust.grab_stiffness(rg).unwrap();
+            assert_eq!(&k[..], kr.as_flattened());
+            assert!(k[0] < 0.0 && k[4] < 0.0 && k[8] < 0.0, "{k:?}");
+            // A 2 ms frame steps (the cube sags under gravity); bad budgets are errors.
+            let mut before = vec![0.0; 192];
+            assert_eq!(raisov_sim_positions(sim, before.as_mut_ptr(), 192), 192);
+            assert_eq!(raisov_sim_step_ms(sim, 2.0), 1, "{}", last_error());
+            let mut after = vec![0.0; 192];
+            assert_eq!(raisov_sim_positions(sim, after.as_mut_ptr(), 192), 192);
+            assert_ne!(before, after);
+            assert_eq!(raisov_sim_step_ms(sim, f64::NAN), -1);
+            assert!(last_error().contains("`ms` = NaN"), "{}", last_error());
+            assert_eq!(raisov_sim_step_ms(sim, -1.0), -1);
+            assert_eq!(raisov_sim_step_ms(std::ptr::null_mut(), 1.0), -1);
+            assert_eq!(raisov_sim_grab_stiffness(sim, g, std::ptr::null_mut()), -1);
+            assert_eq!(raisov_sim_grab_stiffness(sim, 99, k.as_mut_ptr()), -1);
+            raisov_sim_free(sim);
+        }
+    }
+
+    #[test]
+    fn c_haptic_handle_is_read_from_another_thread_and_outlives_the_simulation() {
+        let (_, sim) = c_cube("haptic");
+        unsafe {
+            let g = raisov_sim_grab(sim, [0.02, 0.02, 0.05].as_ptr(), 0.015);
+            assert!(g > 0);
+            assert!(raisov_sim_haptic(sim, g, -1.0, 0.01).is_null());
+            assert!(last_error().contains("max_force"), "{}", last_error());
+            assert!(raisov_sim_haptic(sim, 99, 1.0, 0.01).is_null());
+            let h = raisov_sim_haptic(sim, g, 2.0, f64::INFINITY);
+            assert!(!h.is_null(), "{}", last_error());
+            // The handle crosses to a device thread as an address (it is Send + Sync).
+            let addr = h as usize;
+            let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+            let device = {
+                let stop = stop.clone();
+                std::thread::spawn(move || {
+                    let h = addr as *const RaisovHaptic;
+                    let mut reads = 0u32;
+                    let mut fr = RaisovHapticFrame::default();
+                    while !stop.load(std::sync::atomic::Ordering::Acquire) || reads == 0 {
+                        assert_eq!(raisov_haptic_frame(h, &mut fr), 0);
+                        let mut f = [0.0; 3];
+                        let flags = raisov_haptic_force_at(h, fr.position.as_ptr(), f.as_mut_ptr());
+                        assert_eq!(flags & RAISOV_HAPTIC_HELD, RAISOV_HAPTIC_HELD);
+                        // At the frame's own position: the frame's force (or a newer
+                        // frame's, published between the two reads).
+                        assert!(f.iter().all(|c| c.is_finite()));
+                        reads += 1;
+                    }
+                    reads
+                })
+            };
+            let mut target = [0.0; 3];
+            assert_eq!(raisov_sim_grab_position(sim, g, target.as_mut_ptr()), 0);
+            for _ in 0..4 {
+                target[2] += 0.001;
+                assert_eq!(raisov_sim_move_grab(sim, g, target.as_ptr()), 0);
+                assert_eq!(raisov_sim_step_cycles(sim, 4), 1);
+            }
+            stop.store(true, std::sync::atomic::Ordering::Release);
+            assert!(device.join().unwrap() > 0);
+            let mut fr = RaisovHapticFrame::default();
+            assert_eq!(raisov_haptic_frame(h, &mut fr), 0);
+            let mut f = [0.0; 3];
+            assert_eq!(raisov_sim_grab_force(sim, g, f.as_mut_ptr()), 0);
+            assert_eq!((fr.held, fr.force, fr.position), (1, f, target));
+            assert!(fr.force[2] < 0.0 && fr.stiffness[8] < 0.0, "{fr:?}");
+            let mut out = [0.0; 3];
+            assert_eq!(
+                raisov_haptic_force_at(h, fr.position.as_ptr(), out.as_mut_ptr()),
+                1
+            );
+            assert_eq!(out, fr.force);
+            // 5 cm above: the force passes 2 N and is clamped.
+            let far = [target[0], target[1], target[2] + 0.05];
+            let flags = raisov_haptic_force_at(h, far.as_ptr(), out.as_mut_ptr());
+            assert_eq!(flags, RAISOV_HAPTIC_HELD | RAISOV_HAPTIC_FORCE_CLAMPED);
+            assert!(
+                ((out[0] * out[0] + out[1] * out[1] + out[2] * out[2]).sqrt() - 2.0).abs() < 1e-12
+            );
+            assert_eq!(raisov_haptic_set_limits(h, 10.0, 0.001), 0);
+            let flags = raisov_haptic_force_at(h, far.as_ptr(), out.as_mut_ptr());
+            assert_eq!(flags, RAISOV_HAPTIC_HELD | RAISOV_HAPTIC_DISTANCE_CLAMPED);
+            assert_eq!(raisov_haptic_set_limits(h, f64::NAN, 0.001), -1);
+            assert_eq!(
+                raisov_haptic_force_at(h, std::ptr::null(), out.as_mut_ptr()),
+                -1
+            );
+            assert_eq!(
+                raisov_haptic_force_at(std::ptr::null(), far.as_ptr(), out.as_mut_ptr()),
+                -1
+            );
+            // The simulation freed first: the handle still reads, a zero force.
+            raisov_sim_free(sim);
+            assert_eq!(raisov_haptic_force_at(h, far.as_ptr(), out.as_mut_ptr()), 0);
+            assert_eq!(out, [0.0; 3]);
+            raisov_haptic_free(h);
+            raisov_haptic_free(std::ptr::null_mut());
+        }
     }
 
     fn tempfile_dir() -> std::path::PathBuf {

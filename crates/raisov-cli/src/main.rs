@@ -1,5 +1,7 @@
 //! `raisov`: run soft-tissue scenarios, inspect and generate meshes.
 
+mod check;
+
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -691,66 +693,104 @@ fn cmd_paper(
 }
 
 fn cmd_check(path: &Path) -> Result<()> {
+    use std::fmt::Write as _;
     let sc = Scenario::load(path).map_err(BadInput)?;
     let sys = sc.build_system().map_err(BadInput)?;
-    println!("scenario      {} ({})", sc.name, path.display());
+    // The report is written whole at the end (a closed pipe ends it quietly).
+    let mut out = String::new();
+    let mut line = |label: &str, text: &str| {
+        let _ = writeln!(out, "{label:<13} {text}");
+    };
+    line("scenario", &format!("{} ({})", sc.name, path.display()));
     for n in &sc.notes {
-        println!("note          {n}");
+        line("note", n);
     }
     for w in &sc.warnings {
-        println!("warning       {w}");
+        line("warning", w);
     }
-    println!(
-        "mesh          {} nodes, {} {} elements",
-        sc.mesh.num_nodes(),
-        sc.mesh.num_elements(),
-        sc.mesh.kind.name()
+    line(
+        "mesh",
+        &format!(
+            "{} nodes, {} {} elements",
+            sc.mesh.num_nodes(),
+            sc.mesh.num_elements(),
+            sc.mesh.kind.name()
+        ),
     );
-    println!("material      {:?}", sc.material);
-    println!(
-        "density       {} kg/m^3, total mass {:.4e} kg",
-        sc.density,
-        sys.mass.iter().sum::<f64>()
+    line("material", &check::material(&sc.material));
+    line(
+        "density",
+        &format!(
+            "{} kg/m^3, total mass {:.4e} kg",
+            sc.density,
+            sys.mass.iter().sum::<f64>()
+        ),
     );
-    println!("damping       alpha = {} 1/s", sc.alpha);
-    println!("gravity       {:?} m/s^2", sc.gravity);
-    println!("fixed nodes   {}", sc.fixed.len());
-    println!("loads         {} nodes", sc.loads.len());
+    line(
+        "damping",
+        &if sc.alpha == 0.0 {
+            "none".to_string()
+        } else {
+            format!("alpha = {} 1/s (D = alpha M)", sc.alpha)
+        },
+    );
+    line("gravity", &check::vector_or_none(sc.gravity, "m/s^2"));
+    line("fixed nodes", &sc.fixed.len().to_string());
+    line("loads", &format!("{} nodes", sc.loads.len()));
     for (a, m) in &sc.prescribed {
-        println!(
-            "prescribed    node {} at {:?}: {m:?}",
-            sc.file_node(*a),
-            sc.mesh.nodes[*a as usize]
+        line(
+            "prescribed",
+            &format!(
+                "node {} at {} m: {}",
+                sc.file_node(*a),
+                raisov::numbers::point(sc.mesh.nodes[*a as usize]),
+                check::motion(m)
+            ),
         );
     }
     if sc.statics.is_some() {
         // A static solve: no time stepping, no stop rule, no FAS stepper.
         let how = raisov::scenario::describe_static(&sc).map_err(BadInput)?;
-        println!("integrator    {how}");
-        println!("output        {}", sc.out_dir.display());
-        println!("ok");
-        return Ok(());
+        line("integrator", &how);
+    } else {
+        line(
+            "integrator",
+            &format!(
+                "{}, dt = {:.4e} s (estimated critical {:.4e} s), precision {}",
+                sc.method.name(),
+                sc.dt,
+                sc.dt_critical_estimate,
+                sc.precision.name()
+            ),
+        );
+        line("stop", &check::stop(&sc.stop));
+        if let Some(i) = &sc.interactive {
+            line("interactive", &check::interactive(i));
+        }
+        let stepper = sc
+            .stepper()
+            .map_err(BadInput)
+            .with_context(|| format!("{}: building the simulation", sc.path.display()))?;
+        line("stepping", &stepper.describe());
+        out += &stepper.report();
     }
-    println!(
-        "integrator    {}, dt = {:.4e} s (estimated critical {:.4e} s), precision {}",
-        sc.method.name(),
-        sc.dt,
-        sc.dt_critical_estimate,
-        sc.precision.name()
-    );
-    println!("stop          {:?}", sc.stop);
-    if let Some(i) = &sc.interactive {
-        println!("interactive   {i:?}");
+    let _ = writeln!(out, "{:<13} {}", "output", sc.out_dir.display());
+    out += "ok\n";
+    write_stdout(&out)
+}
+
+/// Write `text` to standard output; a reader that closed the pipe (`raisov check | head`)
+/// ends the output quietly.
+fn write_stdout(text: &str) -> Result<()> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    match stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+    {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        r => Ok(r.context("writing to standard output")?),
     }
-    let stepper = sc
-        .stepper()
-        .map_err(BadInput)
-        .with_context(|| format!("{}: building the simulation", sc.path.display()))?;
-    println!("stepping      {}", stepper.describe());
-    print!("{}", stepper.report());
-    println!("output        {}", sc.out_dir.display());
-    println!("ok");
-    Ok(())
 }
 
 /// `raisov bench equilibrium`: the table of `raisov_lab::equilibrium` on stdout, progress

@@ -14,26 +14,115 @@
 //!
 //! Every array handed to Python is a read-only copy (`flags.writeable` false): it keeps the
 //! values of the moment it was read, whatever the simulation does afterwards. Errors of the
-//! library become `ValueError` (bad input, scenario), `OSError` (files) or `RuntimeError`
-//! (divergence), with the library's message. A frame releases the GIL while it steps; the
-//! simulation sits behind a mutex, so calls from several Python threads take turns.
+//! library become `ValueError` (bad input, scenario) or `RuntimeError` (divergence) with the
+//! library's message, and a file's error the `OSError` subclass Python itself raises for it
+//! (`FileNotFoundError`, `PermissionError`, ...: `errno`, `strerror` and `filename` set). A
+//! frame releases the GIL while it steps; the simulation sits behind a mutex, so calls from
+//! several Python threads take turns. A `HapticProxy` ([`raisov::sim::haptic`]) does not: a
+//! device thread reads it while a frame steps, and releases the GIL while it reads.
 
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
-use raisov::sim::{Budget, GrabId, GrabOptions, PinId, Simulation as Sim};
+use pyo3::PyErrArguments;
+use raisov::sim::{
+    Budget, GrabId, GrabOptions, HapticLimits, HapticProxy as Proxy, PinId, Simulation as Sim,
+};
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard};
 
-/// The library's error as a Python exception with the same message.
+/// The library's error as a Python exception with the same message: a file's error as the
+/// `OSError` subclass of its kind ([`io_error`]), a divergence as `RuntimeError`, everything
+/// else (bad input, a bad scenario) as `ValueError`.
 fn to_py(e: raisov::Error) -> PyErr {
-    let msg = e.to_string();
     match e {
-        raisov::Error::Io { .. } => PyOSError::new_err(msg),
-        raisov::Error::Diverged(_) => PyRuntimeError::new_err(msg),
-        _ => PyValueError::new_err(msg),
+        raisov::Error::Io { path, source } => io_error(&path, &source),
+        raisov::Error::Diverged(d) => PyRuntimeError::new_err(d.to_string()),
+        e => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// The arguments of an `OSError`: `(errno, strerror, filename)` when the error has an errno
+/// (the operating system's, or the one of its kind, from Python's `errno` module), else the
+/// library's whole message.
+struct OsErrorArgs {
+    errno: Option<i32>,
+    errno_name: Option<&'static str>,
+    strerror: String,
+    filename: String,
+    message: String,
+}
+
+impl PyErrArguments for OsErrorArgs {
+    fn arguments(self, py: Python<'_>) -> Py<PyAny> {
+        let errno = self.errno.or_else(|| {
+            let name = self.errno_name?;
+            py.import("errno").ok()?.getattr(name).ok()?.extract().ok()
+        });
+        let args = match errno {
+            Some(n) => (n, self.strerror, self.filename).into_pyobject(py),
+            None => (self.message,).into_pyobject(py),
+        };
+        match args {
+            Ok(t) => t.into_any().unbind(),
+            Err(e) => e.into_value(py).into_any(),
+        }
+    }
+}
+
+/// A file's error as Python raises its own: the `OSError` subclass of the error's kind
+/// (`FileNotFoundError`, `PermissionError`, `IsADirectoryError`, ...) with `errno`,
+/// `strerror` and `filename` set, `str()` reading `[Errno 2] No such file or directory:
+/// 'path'`. An error with no errno (a message of the library's, such as a size limit) is a
+/// plain `OSError` of the library's message, which names the file.
+fn io_error(path: &std::path::Path, source: &std::io::Error) -> PyErr {
+    use pyo3::exceptions as x;
+    use std::io::ErrorKind as K;
+    let text = source.to_string();
+    let strerror = match source.raw_os_error() {
+        // The operating system's text without Rust's " (os error N)".
+        Some(n) => text
+            .strip_suffix(&format!(" (os error {n})"))
+            .unwrap_or(&text)
+            .to_string(),
+        None => text.clone(),
+    };
+    let kind = source.kind();
+    let errno_name = match kind {
+        K::NotFound => Some("ENOENT"),
+        K::PermissionDenied => Some("EACCES"),
+        K::AlreadyExists => Some("EEXIST"),
+        K::IsADirectory => Some("EISDIR"),
+        K::NotADirectory => Some("ENOTDIR"),
+        K::Interrupted => Some("EINTR"),
+        K::TimedOut => Some("ETIMEDOUT"),
+        K::WouldBlock => Some("EAGAIN"),
+        K::BrokenPipe => Some("EPIPE"),
+        K::StorageFull => Some("ENOSPC"),
+        K::ReadOnlyFilesystem => Some("EROFS"),
+        _ => None,
+    };
+    let args = OsErrorArgs {
+        errno: source.raw_os_error(),
+        errno_name,
+        strerror,
+        filename: path.display().to_string(),
+        message: format!("{}: {text}", path.display()),
+    };
+    match kind {
+        K::NotFound => PyErr::new::<x::PyFileNotFoundError, _>(args),
+        K::PermissionDenied => PyErr::new::<x::PyPermissionError, _>(args),
+        K::AlreadyExists => PyErr::new::<x::PyFileExistsError, _>(args),
+        K::IsADirectory => PyErr::new::<x::PyIsADirectoryError, _>(args),
+        K::NotADirectory => PyErr::new::<x::PyNotADirectoryError, _>(args),
+        K::Interrupted => PyErr::new::<x::PyInterruptedError, _>(args),
+        K::TimedOut => PyErr::new::<x::PyTimeoutError, _>(args),
+        K::WouldBlock => PyErr::new::<x::PyBlockingIOError, _>(args),
+        K::BrokenPipe => PyErr::new::<x::PyBrokenPipeError, _>(args),
+        // Any other errno: OSError picks its subclass from the errno itself.
+        _ => PyErr::new::<PyOSError, _>(args),
     }
 }
 
@@ -139,7 +228,8 @@ struct Grab {
 #[pymethods]
 impl Grab {
     fn __repr__(&self) -> String {
-        format!("raisov.{:?}", self.id)
+        // `GrabId(3)` → `raisov.Grab(3)`.
+        format!("{:?}", self.id).replacen("GrabId", "raisov.Grab", 1)
     }
 }
 
@@ -153,7 +243,7 @@ struct Pin {
 #[pymethods]
 impl Pin {
     fn __repr__(&self) -> String {
-        format!("raisov.{:?}", self.id)
+        format!("{:?}", self.id).replacen("PinId", "raisov.Pin", 1)
     }
 }
 
@@ -180,18 +270,22 @@ struct FrameReport {
 
 #[pymethods]
 impl FrameReport {
-    fn __repr__(&self) -> String {
-        format!(
-            "FrameReport(cycles={}, rejected_cycles={}, retries={}, accepted={}, target_reached={}, residual={:e}, rejection={:?}, wall_s={:e})",
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        // The rejection as Python writes a str or None.
+        let rejection = match &self.rejection {
+            None => "None".to_string(),
+            Some(r) => PyString::new(py, r).repr()?.to_string(),
+        };
+        Ok(format!(
+            "FrameReport(cycles={}, rejected_cycles={}, retries={}, accepted={}, target_reached={}, residual={:e}, rejection={rejection}, wall_s={:e})",
             self.cycles,
             self.rejected_cycles,
             self.retries,
             if self.accepted { "True" } else { "False" },
             if self.target_reached { "True" } else { "False" },
             self.residual,
-            self.rejection,
             self.wall_s
-        )
+        ))
     }
 }
 
@@ -205,6 +299,168 @@ struct Reactions {
     forces: Py<PyArray2<f64>>,
     /// Their sum (N, shape (3,)).
     sum: Py<PyArray1<f64>>,
+}
+
+/// One frame a haptic proxy published (`HapticProxy.frame`): the grasp's state after a
+/// simulation frame.
+#[pyclass(frozen, get_all, module = "raisov")]
+struct HapticFrame {
+    /// The publication's number: 1, 2, ... in the order published.
+    seq: u64,
+    /// Whether the grasp is held; False after a release (every force zero then).
+    held: bool,
+    /// The grasp position x_f (m, shape (3,)).
+    position: Py<PyArray1<f64>>,
+    /// The force the tissue exerts on the tool f_f (N, shape (3,)).
+    force: Py<PyArray1<f64>>,
+    /// K[i, j] = d f_i / d x_j (N/m, shape (3, 3)).
+    stiffness: Py<PyArray2<f64>>,
+    /// Simulated time of the frame (s).
+    time: f64,
+    /// Seconds since the frame was published (when it was read).
+    age: f64,
+}
+
+impl HapticFrame {
+    fn new(py: Python<'_>, f: &raisov::sim::HapticFrame) -> PyResult<Self> {
+        Ok(HapticFrame {
+            seq: f.seq,
+            held: f.held,
+            position: vec3(py, f.position)?.unbind(),
+            force: vec3(py, f.force)?.unbind(),
+            stiffness: rows3(py, &f.stiffness)?.unbind(),
+            time: f.time,
+            age: f.age().as_secs_f64(),
+        })
+    }
+}
+
+#[pymethods]
+impl HapticFrame {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        format!(
+            "HapticFrame(seq={}, held={}, position={}, force={}, time={:e})",
+            self.seq,
+            if self.held { "True" } else { "False" },
+            self.position.bind(py),
+            self.force.bind(py),
+            self.time
+        )
+    }
+}
+
+/// The force at a device position and the frame it came from (`HapticProxy.sample`).
+#[pyclass(frozen, get_all, module = "raisov")]
+struct HapticSample {
+    /// The frame the force was extrapolated from.
+    frame: Py<HapticFrame>,
+    /// The force (N, shape (3,)): zero when the grasp is not held.
+    force: Py<PyArray1<f64>>,
+    /// Whether the device was farther than max_distance from the frame's grasp position.
+    distance_clamped: bool,
+    /// Whether the force was scaled down to max_force.
+    force_clamped: bool,
+}
+
+/// A haptic proxy of one grasp (`Simulation.haptic_proxy`): every simulation frame publishes
+/// the grasp's position x_f, force f_f and stiffness K to it; any thread reads it at any rate
+/// without waiting for the simulation (the GIL is released while it reads) and gets the force
+/// at the device's position x,
+///
+///     d = x - x_f, shortened to max_distance if longer (the linear model's trusted radius)
+///     f = f_f + K d, scaled down to max_force if larger (the device's limit),
+///
+/// the force the tissue exerts on the tool, which the device renders on the hand.
+#[pyclass(frozen, module = "raisov")]
+struct HapticProxy {
+    proxy: Proxy,
+}
+
+fn limits_from(
+    old: HapticLimits,
+    max_force: Option<f64>,
+    max_distance: Option<f64>,
+) -> HapticLimits {
+    HapticLimits {
+        max_force: max_force.unwrap_or(old.max_force),
+        max_distance: max_distance.unwrap_or(old.max_distance),
+    }
+}
+
+#[pymethods]
+impl HapticProxy {
+    /// The force at device position `x` (m) from the newest frame, within the limits (N,
+    /// shape (3,)); zero when the grasp is not held.
+    fn force_at<'py>(
+        &self,
+        py: Python<'py>,
+        x: &Bound<'_, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let x = point3(x, "x")?;
+        let f = py.detach(|| self.proxy.force_at(x));
+        vec3(py, f)
+    }
+
+    /// The newest frame and the force at `x` from it, with what was clamped.
+    fn sample(&self, py: Python<'_>, x: &Bound<'_, PyAny>) -> PyResult<HapticSample> {
+        let x = point3(x, "x")?;
+        let (frame, f) = py.detach(|| self.proxy.sample(x));
+        Ok(HapticSample {
+            frame: Py::new(py, HapticFrame::new(py, &frame)?)?,
+            force: vec3(py, f.force)?.unbind(),
+            distance_clamped: f.distance_clamped,
+            force_clamped: f.force_clamped,
+        })
+    }
+
+    /// The newest published frame.
+    fn frame(&self, py: Python<'_>) -> PyResult<HapticFrame> {
+        let f = py.detach(|| self.proxy.frame());
+        HapticFrame::new(py, &f)
+    }
+
+    /// Whether the grasp is held (as of the newest frame).
+    #[getter]
+    fn held(&self) -> bool {
+        self.proxy.is_held()
+    }
+
+    /// Seconds since the newest frame was published.
+    #[getter]
+    fn age(&self) -> f64 {
+        self.proxy.age().as_secs_f64()
+    }
+
+    /// The largest force rendered (N; inf: no limit).
+    #[getter]
+    fn max_force(&self) -> f64 {
+        self.proxy.limits().max_force
+    }
+
+    /// The largest extrapolation distance (m; inf: no limit).
+    #[getter]
+    fn max_distance(&self) -> f64 {
+        self.proxy.limits().max_distance
+    }
+
+    /// Set either limit or both (each > 0, inf for none); ValueError, nothing changed, else.
+    #[pyo3(signature = (max_force = None, max_distance = None))]
+    fn set_limits(&self, max_force: Option<f64>, max_distance: Option<f64>) -> PyResult<()> {
+        let l = limits_from(self.proxy.limits(), max_force, max_distance);
+        self.proxy.set_limits(l).map_err(to_py)
+    }
+
+    fn __repr__(&self) -> String {
+        let f = self.proxy.frame();
+        let l = self.proxy.limits();
+        format!(
+            "raisov.HapticProxy(seq={}, held={}, max_force={}, max_distance={})",
+            f.seq,
+            if f.held { "True" } else { "False" },
+            l.max_force,
+            l.max_distance
+        )
+    }
 }
 
 /// A simulation stepped frame by frame: build it from a scenario file (`Simulation(path)`) or
@@ -394,6 +650,28 @@ impl Simulation {
         rows3(py, &k.map_err(to_py)?)
     }
 
+    /// A haptic proxy of grasp `g` for a device thread (`HapticProxy`), its force limited to
+    /// `max_force` (N) and its extrapolation to `max_distance` (m) from the frame's grasp
+    /// position (each > 0; inf for no limit). From now on every frame also computes the
+    /// grasp's stiffness (three linear solves) and publishes it with the position and the
+    /// force; this call publishes the current ones. The same grasp's proxy again shares the
+    /// first's frames and takes the new limits.
+    #[pyo3(signature = (g, max_force = f64::INFINITY, max_distance = f64::INFINITY))]
+    fn haptic_proxy(
+        &self,
+        py: Python<'_>,
+        g: &Grab,
+        max_force: f64,
+        max_distance: f64,
+    ) -> PyResult<HapticProxy> {
+        let limits = HapticLimits::new(max_force, max_distance).map_err(to_py)?;
+        let id = g.id;
+        let proxy = py.detach(|| self.sim().map(|mut s| s.haptic_proxy(id, limits)))?;
+        Ok(HapticProxy {
+            proxy: proxy.map_err(to_py)?,
+        })
+    }
+
     /// Pin the surface near `point` (m): the patch `grab` would take, held where it stands.
     fn pin(&self, point: &Bound<'_, PyAny>, radius: f64) -> PyResult<Pin> {
         let p = point3(point, "point")?;
@@ -461,6 +739,28 @@ impl Simulation {
         rows3(py, &s.mesh().nodes)
     }
 
+    /// The surface a renderer draws, at the current state (m, float64, shape (v, 3)): the
+    /// visual surface's vertices when the scenario meshed one (`[mesh] surface`, carried by
+    /// the simulation mesh), else the mesh's nodes (`positions`). A read-only copy, as
+    /// `positions`; index it with `surface_triangles`.
+    #[getter]
+    fn surface_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let s = self.sim()?;
+        rows3(py, s.surface_positions())
+    }
+
+    /// The triangles of `surface_positions` (int64, shape (m, 3), 0-based vertex indices,
+    /// counter-clockwise seen from outside): a tetrahedral mesh's boundary faces, a membrane's
+    /// own triangles, or the visual surface's. They do not change while the simulation runs.
+    #[getter]
+    fn surface_triangles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        let s = self.sim()?;
+        let t = s.surface_triangles();
+        let flat: Vec<i64> = t.as_flattened().iter().map(|&v| i64::from(v)).collect();
+        let a = Array2::from_shape_vec((t.len(), 3), flat).expect("3 per triangle");
+        read_only(a.into_pyarray(py))
+    }
+
     /// Nodal Cauchy stress (Pa, shape (n, 3, 3)); a read-only copy.
     #[getter]
     fn nodal_stress<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
@@ -522,6 +822,9 @@ fn raisov_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Pin>()?;
     m.add_class::<FrameReport>()?;
     m.add_class::<Reactions>()?;
+    m.add_class::<HapticProxy>()?;
+    m.add_class::<HapticFrame>()?;
+    m.add_class::<HapticSample>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

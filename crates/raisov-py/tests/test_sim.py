@@ -3,6 +3,9 @@ patch, the tool force and the support reactions balance the load at equilibrium,
 stiffness matches finite differences of the grasp force, bad input raises with the library's
 message."""
 
+import errno
+import os
+
 import numpy as np
 import pytest
 
@@ -284,3 +287,101 @@ def test_scenario_keys_as_keyword_arguments(tmp_path):
         raisov.Simulation.from_toml(CUBE, material={"yung": 1.0})
     with pytest.raises(ValueError, match="stiffness"):
         stiff.grab([0.0, 0.0, 0.05], 0.005, stiffness=-1.0)
+
+
+def test_a_missing_scenario_raises_file_not_found_with_errno_and_filename(tmp_path):
+    missing = tmp_path / "missing.toml"
+    with pytest.raises(FileNotFoundError) as e:
+        raisov.Simulation(missing)
+    assert e.value.errno == errno.ENOENT
+    assert e.value.filename == str(missing)
+    assert e.value.strerror == os.strerror(errno.ENOENT)
+    assert str(e.value) == f"[Errno {errno.ENOENT}] {os.strerror(errno.ENOENT)}: '{missing}'"
+    # A directory where a file is expected: the subclass Python raises for it.
+    with pytest.raises(IsADirectoryError) as e:
+        raisov.Simulation(tmp_path)
+    assert e.value.errno == errno.EISDIR and e.value.filename == str(tmp_path)
+
+
+@pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root reads any file"
+)
+def test_an_unreadable_scenario_raises_permission_error(tmp_path):
+    path = tmp_path / "cube.toml"
+    path.write_text(CUBE)
+    path.chmod(0)
+    try:
+        with pytest.raises(PermissionError) as e:
+            raisov.Simulation(path)
+        assert e.value.errno == errno.EACCES and e.value.filename == str(path)
+    finally:
+        path.chmod(0o644)
+
+
+def test_surface_triangles_and_positions_give_what_a_renderer_draws():
+    sim = static_cube()
+    tri = sim.surface_triangles
+    x = sim.surface_positions
+    # 4 x 4 squares of 2 triangles on each of 6 faces, over the mesh's own nodes.
+    assert tri.shape == (192, 3) and tri.dtype == np.int64
+    assert x.shape == (125, 3) and x.dtype == np.float64
+    assert not tri.flags.writeable and not x.flags.writeable
+    assert tri.min() >= 0 and tri.max() < len(x)
+    np.testing.assert_array_equal(x, sim.positions)
+    # Counter-clockwise seen from outside: every normal points away from the centre.
+    a, b, c = x[tri[:, 0]], x[tri[:, 1]], x[tri[:, 2]]
+    n = np.cross(b - a, c - a)
+    outward = np.einsum("ij,ij->i", n, (a + b + c) / 3 - SIDE / 2)
+    assert np.all(outward > 0), outward.min()
+    # Each surface edge is shared by exactly two triangles (a closed surface).
+    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert np.all(counts == 2)
+    # The positions follow the frames; the triangles do not change.
+    g = sim.grab([0.02, 0.02, 0.05], 0.011)
+    sim.move_grab(g, sim.grab_position(g) + [0.0, 0.0, 0.004])
+    converge(sim, tol=1e-8)
+    np.testing.assert_array_equal(sim.surface_triangles, tri)
+    np.testing.assert_array_equal(sim.surface_positions, sim.positions)
+    assert sim.surface_positions[:, 2].max() == pytest.approx(SIDE + 0.004, abs=1e-12)
+
+
+def cube_obj(path, side):
+    """A closed cube surface of `side` (m) as OBJ, its triangles facing outwards."""
+    v = [(x, y, z) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    lines = [f"v {x * side} {y * side} {z * side}" for x, y, z in v]
+    for a, b, c, d in quads:
+        lines += [f"f {a + 1} {b + 1} {c + 1}", f"f {a + 1} {c + 1} {d + 1}"]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_a_meshed_surface_is_what_python_draws(tmp_path):
+    cube_obj(tmp_path / "block.obj", 1.0)
+    scenario = CUBE.replace(
+        'generate = "box"\nsize = [0.04, 0.04, 0.04]\ndivisions = [4, 4, 4]',
+        'surface = "block.obj"\nscale = 0.04\nnodes = 300',
+    ).replace("[run]", '[output]\ndir = "out"\n[run]')
+    (tmp_path / "block.toml").write_text(scenario)
+    sim = raisov.Simulation(tmp_path / "block.toml")
+    tri, x = sim.surface_triangles, sim.surface_positions
+    # The OBJ's 8 corners and 12 triangles, not the tetrahedral mesh's nodes.
+    assert tri.shape == (12, 3) and x.shape == (8, 3)
+    assert sim.num_nodes > 8
+    corners = np.array([(x_, y, z) for z in (0, 1) for y in (0, 1) for x_ in (0, 1)]) * 0.04
+    np.testing.assert_allclose(x, corners, rtol=0, atol=1e-15)
+    # The block sags under gravity: its top corners go down with the volume.
+    for _ in range(3):
+        assert sim.step_frame(cycles=1).accepted
+    after = sim.surface_positions
+    top = after[:, 2] > 0.02
+    assert np.all(after[top, 2] < 0.04), after
+
+
+def test_reprs_read_as_python_not_as_rust_debug():
+    sim = static_cube()
+    g = sim.grab([0.02, 0.02, 0.05], 0.011)
+    p = sim.pin([0.0, 0.0, 0.05], 0.005)
+    assert repr(g) == "raisov.Grab(0)" and repr(p) == "raisov.Pin(1)", (repr(g), repr(p))
+    r = repr(sim.step_frame(cycles=1))
+    assert "rejection=None" in r and "Some(" not in r, r

@@ -149,6 +149,28 @@ pub enum CoarseSolve {
     },
 }
 
+impl std::fmt::Display for CoarseSolve {
+    /// In words, as `raisov check` and the stepper's description show it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use crate::numbers::compact;
+        match *self {
+            CoarseSolve::Explicit { time } => {
+                write!(f, "explicit damped steps over {} s", compact(time))
+            }
+            CoarseSolve::Chebyshev { iterations, ratio } => write!(
+                f,
+                "{iterations} Chebyshev iterations over [lambda_max / {}, lambda_max]",
+                compact(ratio)
+            ),
+            CoarseSolve::Newton { rel_tol } => write!(
+                f,
+                "Newton-Krylov to a relative residual of {}",
+                compact(rel_tol)
+            ),
+        }
+    }
+}
+
 /// Which weights carry state and corrections between levels.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TransferWeights {
@@ -1113,7 +1135,7 @@ impl Stepper for Fas {
             .map(|l| l.num_nodes().to_string())
             .collect();
         format!(
-            "fas multigrid, {} levels ({} nodes), nu1 = {}, nu2 = {}, coarsest {:?}, {}, fine dt = {:.4e} s",
+            "fas multigrid, {} levels ({} nodes), nu1 = {}, nu2 = {}, coarsest level by {}, {}, fine dt = {:.4e} s",
             self.levels.len(),
             nodes.join("/"),
             self.params.pre_smooth,

@@ -603,8 +603,11 @@ impl Stepper for Raisov {
             .map(|l| l.num_nodes().to_string())
             .collect();
         format!(
-            "raisov-paper ({:?} reading, epsilon = {:.3e} m), {} levels ({} nodes), {}, dt = {:.4e} s",
-            self.params.reading,
+            "raisov-paper (\"{}\" reading, epsilon = {:.3e} m), {} levels ({} nodes), {}, dt = {:.4e} s",
+            match self.params.reading {
+                Reading::Paper => "paper",
+                Reading::Correction => "correction",
+            },
             self.params.epsilon,
             self.levels.len(),
             nodes.join("/"),

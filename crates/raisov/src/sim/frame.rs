@@ -12,6 +12,9 @@
 //! stays at the state before the frame with the grasps where they were (their targets kept,
 //! for the next frame to try again), and the report says `accepted: false`.
 //!
+//! After the frame, accepted or not, every attached [`crate::sim::HapticProxy`] gets the
+//! grasp's new position, force and stiffness.
+//!
 //! Only [`Budget::Millis`] makes a frame depend on the machine's speed; [`Budget::Cycles`]
 //! frames give the same bits on any thread count.
 
@@ -44,7 +47,8 @@ pub struct FrameReport {
     pub residual: f64,
     /// Why the last rejected try was rejected.
     pub rejection: Option<String>,
-    /// Wall time of the frame.
+    /// Wall time of the frame, the updates of attached haptic proxies included
+    /// ([`crate::sim::haptic`]: the grasp stiffness per proxy, after the budget's steps).
     pub wall: Duration,
 }
 
@@ -104,6 +108,7 @@ impl Simulation {
             let _ = self.observe();
         }
         report.residual = self.residual;
+        self.publish_haptics();
         report.wall = start.elapsed();
         report
     }

@@ -376,6 +376,7 @@ impl Simulation {
     /// Let go of grasp `id`: its nodes are free from now on.
     pub fn release(&mut self, id: GrabId) -> Result<()> {
         self.grabs.remove(&id).ok_or_else(|| no_grab(id))?;
+        self.release_haptic(id);
         self.constraints_changed();
         Ok(())
     }

@@ -62,7 +62,9 @@
 //! the lumped mass: [`tangent::TangentPreconditioner`]) with matrix-free products
 //! `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)`, each warm-started from the grasp's previous
 //! solution (a spring grasp's, in series with its springs: [`tangent`]). `K_g` is symmetric negative semi-definite at a stable equilibrium; a haptic loop
-//! extrapolates between frames with `f ≈ f_frame + K_g (x_device − x_frame)`.
+//! extrapolates between frames with `f ≈ f_frame + K_g (x_device − x_frame)`: a
+//! [`HapticProxy`] ([`haptic`], [`Simulation::haptic_proxy`]) publishes `f_frame`, `K_g`
+//! and `x_frame` after every frame for a device thread to read at any rate.
 //!
 //! # Grasps and pins
 //!
@@ -109,6 +111,7 @@
 mod builder;
 pub mod frame;
 mod grab;
+pub mod haptic;
 pub mod overrides;
 pub mod tangent;
 mod tangent_mg;
@@ -116,6 +119,7 @@ mod tangent_mg;
 pub use builder::{Scheme, SimulationBuilder};
 pub use frame::{Budget, FrameReport};
 pub use grab::{Coupling, GrabOptions};
+pub use haptic::{HapticForce, HapticFrame, HapticLimits, HapticProxy};
 pub use tangent::{TangentPreconditioner, TangentStats};
 
 use crate::fem::{FemModel, ForceModel};
@@ -191,6 +195,8 @@ pub struct Simulation {
     length: f64,
     /// The visual surface carried by level 0, when the mesh came from one.
     visual: Option<Visual>,
+    /// The haptic proxies attached to grasps, published after every frame.
+    haptics: BTreeMap<GrabId, std::sync::Arc<haptic::Shared>>,
 }
 
 /// A visual surface embedded in level 0: `x(p) = p + Σ_j ω_j u_j` over its host element.
@@ -337,6 +343,7 @@ impl Simulation {
             length,
             mesh,
             visual: None,
+            haptics: BTreeMap::new(),
         };
         sim.constrained = sim.own.clone();
         sim.supports();

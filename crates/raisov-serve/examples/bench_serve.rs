@@ -23,9 +23,10 @@
 
 use futures_util::{SinkExt, StreamExt};
 use raisov::integrate::hold;
-use raisov::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
 use raisov::scenario::Scenario;
 use raisov::sim::{Budget, Simulation};
+use raisov::statics::krylov::{NewtonParams, NewtonSolver};
+use raisov::statics::relax::fictitious_mass;
 use raisov_serve::protocol::{self, Command, Message, Method};
 use raisov_serve::session::{Session, SessionConfig, Source};
 use std::path::PathBuf;

@@ -49,6 +49,7 @@ pub mod fem;
 pub mod hierarchy;
 pub mod integrate;
 pub mod io;
+pub mod linalg;
 // Documented separately (edited in parallel).
 #[allow(missing_docs)]
 pub mod material;
@@ -61,5 +62,6 @@ pub mod numbers;
 #[allow(missing_docs)]
 pub mod scenario;
 pub mod sim;
+pub mod statics;
 
 pub use error::{Error, Result};

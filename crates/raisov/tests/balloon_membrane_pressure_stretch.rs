@@ -37,9 +37,10 @@
 //! n = 16 stretch error within 1.2 % (neo-Hookean) and 0.4 % (Mooney-Rivlin). A membrane
 //! stress or a pressure off by a tenth of a per cent fails it.
 
-use raisov::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
 use raisov::mesh::{ElementKind, Mesh};
 use raisov::scenario::Scenario;
+use raisov::statics::krylov::{NewtonParams, NewtonSolver};
+use raisov::statics::relax::fictitious_mass;
 use std::collections::HashMap;
 
 const R: f64 = 0.05;

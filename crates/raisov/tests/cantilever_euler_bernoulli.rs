@@ -8,16 +8,16 @@
 //! changed, the 40x4x4 solve stalled at 3e-6 of the load. Near equilibrium the potential
 //! energy moved by round-off (6e-12 of itself) more than the line search's 1e-12 allowance, so
 //! every step was refused; the line search now takes a step that lowers the residual norm
-//! where the energy cannot tell (`integrate::statics`).
+//! where the energy cannot tell (`statics::krylov`).
 //!
 //! Static equilibrium by matrix-free Newton-Krylov to 1e-7 of the load. Slow:
 //! `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
 
 use raisov::fem::{FemModel, FemParams};
-use raisov::integrate::statics::{NewtonParams, NewtonSolver};
 use raisov::integrate::{Constraints, System};
 use raisov::material::{Material, NeoHookean};
 use raisov::mesh::generate::{box_tets, BoxPattern};
+use raisov::statics::krylov::{NewtonParams, NewtonSolver};
 
 const L: f64 = 0.1;
 const H: f64 = 0.01;

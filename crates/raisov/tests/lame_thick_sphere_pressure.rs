@@ -17,7 +17,7 @@
 //! on the x = 0, y = 0, z = 0 faces (symmetry planes, nodes sliding in them), `[[pressure]]`
 //! on the inner surface's group (positive: on a tet mesh it pushes into the body, here away
 //! from the cavity); the scenario's system (`Scenario::build_system`, the pressure in its force
-//! model) solved for static equilibrium by Newton-Krylov (`integrate::statics`, preconditioned
+//! model) solved for static equilibrium by Newton-Krylov (`statics::krylov`, preconditioned
 //! by the fictitious masses as `method = "newton"` runs) to 1e-9 of the initial residual.
 //!
 //! Tolerance: linear tetrahedra are stiff and the inner surface is faceted (chords of the
@@ -30,9 +30,10 @@
 //! within 0.5 % and the extrapolation within 0.1 % of Lamé's: a pressure or a stiffness off by
 //! a few per mille fails it.
 
-use raisov::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
 use raisov::mesh::{ElementKind, Mesh};
 use raisov::scenario::Scenario;
+use raisov::statics::krylov::{NewtonParams, NewtonSolver};
+use raisov::statics::relax::fictitious_mass;
 use std::collections::HashMap;
 
 const A: f64 = 0.01;

@@ -4,7 +4,7 @@
 //! two thirds of their limit: it preconditioned the last Newton iterations, whose tolerances
 //! are the tightest, with the tangent of the body hanging straight: 57 CG iterations in 9
 //! Newton iterations. A hierarchy built where the step was damped is now provisional and
-//! rebuilt after the first full step (`integrate::newton_direct`, module docs): 36 CG
+//! rebuilt after the first full step (`statics::newton`, module docs): 36 CG
 //! iterations in 8 Newton iterations, the same two hierarchies. Checked: one provisional
 //! rebuild, at most two hierarchies, at most 45 CG iterations and 8 Newton iterations, and the
 //! equilibrium of direct Newton within 1e-8 of the largest displacement.
@@ -13,7 +13,7 @@
 //! `cargo test --workspace -- --ignored`.
 
 use raisov::hierarchy::Transfer;
-use raisov::integrate::newton_direct::MultigridPcg;
+use raisov::statics::newton::MultigridPcg;
 
 mod common;
 

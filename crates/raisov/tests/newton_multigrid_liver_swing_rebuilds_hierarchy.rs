@@ -3,7 +3,7 @@
 //! soft liver through its equilibrium and up the far side of Π along the step; Armijo's rule
 //! accepted it, the tangent there was indefinite, and the regularisation's rise and fall
 //! rebuilt the multigrid hierarchy 12 times in 13 Newton iterations. The line search's
-//! curvature condition (`integrate::newton_direct`, module docs) now steps back to the secant
+//! curvature condition (`statics::newton`, module docs) now steps back to the secant
 //! estimate of the minimum along the step. Checked: convergence with at most 2 hierarchies and
 //! 11 Newton iterations (2 and 9 measured: the hierarchy built at rest, where the step is
 //! damped, and its provisional rebuild after the first full step), to the equilibrium of direct Newton within 1e-8 of
@@ -13,7 +13,7 @@
 //! `cargo test --workspace -- --ignored`.
 
 use raisov::hierarchy::Transfer;
-use raisov::integrate::newton_direct::MultigridPcg;
+use raisov::statics::newton::MultigridPcg;
 
 mod common;
 

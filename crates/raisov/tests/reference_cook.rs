@@ -36,11 +36,11 @@
 //!
 //! Slow: `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
 
-use raisov::integrate::statics::{NewtonParams, NewtonSolver};
 use raisov::io::gmsh::write_msh22;
 use raisov::mesh::generate::{box_tets, BoxPattern};
 use raisov::metrics::reactions;
 use raisov::scenario::Scenario;
+use raisov::statics::krylov::{NewtonParams, NewtonSolver};
 use std::path::{Path, PathBuf};
 
 /// Young's modulus (Pa).

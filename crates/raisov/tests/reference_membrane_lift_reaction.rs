@@ -16,7 +16,7 @@
 //! test, the same example with gravity (0, 0, −9.81) m/s² added.
 //!
 //! References: (1) direct Newton with the analytic tangent and sparse Cholesky
-//! (`integrate::newton_direct`, 10 load steps, largest nodal residual 1e-12 N), on the system
+//! (`statics::newton`, 10 load steps, largest nodal residual 1e-12 N), on the system
 //! of the scenario without `[multigrid]`; (2) for the example as shipped, also the scenario with
 //! `[integrator] method = "newton"` and `solver = "krylov"` (matrix-free Newton-Krylov, 10
 //! increments, relative residual 1e-10; `scenario::run_static`). Under gravity that solve
@@ -46,9 +46,9 @@
 //!
 //! Slow: `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
 
-use raisov::integrate::newton_direct::{solve_system, DirectNewtonParams};
 use raisov::metrics::reactions;
 use raisov::scenario::{run, run_static, RunOptions, Scenario, StaticSolver, StopReason};
+use raisov::statics::newton::{solve_system, DirectNewtonParams};
 use std::path::{Path, PathBuf};
 
 const EXAMPLE: &str = concat!(

@@ -3,7 +3,7 @@
 //! they leave after given frames ([`FRAME_MARKS`]).
 
 use super::{max_nodal, newton_mg_hierarchy, Case, ABS_TOL, REL_TOL};
-use raisov::integrate::newton_direct::{DirectNewton, DirectNewtonParams, MultigridPcg};
+use raisov::statics::newton::{DirectNewton, DirectNewtonParams, MultigridPcg};
 use raisov::{Error, Result};
 use std::time::Instant;
 

@@ -3,7 +3,7 @@
 //!
 //! Solvers, each at its best settings by one rule: every variant listed is run and the fastest
 //! that meets the stopping rule is reported, the others' wall times in its note:
-//! - **direct Newton** ([`raisov::integrate::newton_direct::solve_system`]): analytic tangent,
+//! - **direct Newton** ([`raisov::statics::newton::solve_system`]): analytic tangent,
 //!   faer sparse Cholesky, backtracking line search; [`Case::load_steps`] load steps (one;
 //!   the prescribed displacement in the first iteration's lift); variants: a factorisation at every
 //!   iteration, or each Newton system solved by conjugate gradients preconditioned by the last
@@ -15,21 +15,21 @@
 //!   cycle (one finest-level residual per cycle, counted in the wall time and in the force
 //!   evaluations); variants: 4 (the default), 8 or 16 pre- and post-smoothing sweeps per level
 //!   ([`FAS_SWEEPS`]);
-//! - **adaptive dynamic relaxation** (ADR, [`raisov::integrate::adaptive_relax::adaptive_relax`])
+//! - **adaptive dynamic relaxation** (ADR, [`raisov::statics::relax::adaptive::adaptive_relax`])
 //!   on the finest mesh alone, with `λ_max` from
 //!   [`raisov::integrate::stability::lambda_max_bound`]; its damping and step are set by its
 //!   own rule (critical damping of the lowest mode estimated every step); variants: from rest,
 //!   or from the coarse start below (the pull then in one increment);
-//! - **Chebyshev** ([`raisov::integrate::chebyshev_relax::chebyshev_relax`]): the Chebyshev
+//! - **Chebyshev** ([`raisov::statics::relax::chebyshev::chebyshev_relax`]): the Chebyshev
 //!   semi-iteration on the finest mesh alone, preconditioned by FAS's smoother's per-node
 //!   fictitious masses, over an interval of the spectrum estimated by Lanczos and tracked by
 //!   the increments' Rayleigh quotients; its settings by its own rule (module docs there);
 //!   variants as ADR's;
 //! - **Newton-multigrid** (direct Newton's iteration with
-//!   [`raisov::integrate::newton_direct::DirectNewtonParams::multigrid`]): each Newton system
+//!   [`raisov::statics::newton::DirectNewtonParams::multigrid`]): each Newton system
 //!   solved by conjugate gradients preconditioned by a Galerkin V-cycle
-//!   ([`raisov::integrate::galerkin`]) over two of the case's levels, the finest and
-//!   [`raisov::integrate::newton_direct::coarse_level`]'s (of the levels with at least 1/32
+//!   ([`raisov::linalg::galerkin`]) over two of the case's levels, the finest and
+//!   [`raisov::statics::newton::coarse_level`]'s (of the levels with at least 1/32
 //!   of its nodes, the finest with at most 1/[`NEWTON_MG_COARSEN`], else the coarsest), [`NEWTON_MG_SWEEPS`]
 //!   smoothing sweeps; variants ([`NEWTON_MG_VARIANTS`]): a Newton iteration reuses the
 //!   last hierarchy's coarse factorisation with operators rebuilt from its tangent, or the
@@ -37,9 +37,9 @@
 //!   Gauss-Seidel over a colouring, damped node-block Jacobi, or point Gauss-Seidel (the
 //!   library's default); each from rest and from the coarse start.
 //!
-//! The coarse start ([`raisov::integrate::newton_direct::nested_start`], nested iteration,
+//! The coarse start ([`raisov::statics::newton::nested_start`], nested iteration,
 //! as a static scenario's): the coarsest level of
-//! [`raisov::integrate::newton_direct::start_levels`] (Newton-multigrid's coarse level, or a
+//! [`raisov::statics::newton::start_levels`] (Newton-multigrid's coarse level, or a
 //! coarser one with at least 1 000 nodes), with the scenario's constraints and loads carried
 //! to it, solved by direct Newton over [`Case::load_steps`] load steps, then each finer
 //! level of it (about four times the nodes) from the last one's equilibrium, by
@@ -52,12 +52,12 @@
 //! liver), imposed at once with the rest of the body at rest, inverts the pulled node's
 //! elements. Direct Newton and Newton-multigrid take it in one load step: their first
 //! iteration moves the free nodes by the linear response to it (the lifted iteration of
-//! [`raisov::integrate::newton_direct`]). FAS, ADR and Chebyshev take it in [`PULL_INCREMENTS`] equal
+//! [`raisov::statics::newton`]). FAS, ADR and Chebyshev take it in [`PULL_INCREMENTS`] equal
 //! increments, gravity in full from the start, each increment but the last relaxed to
 //! [`PULL_STAGE_TOL`] × the largest nodal load before the next. Every increment counts in the
 //! figures.
 //!
-//! Stopping rule, common to all (that of [`raisov::integrate::newton_direct`]): the
+//! Stopping rule, common to all (that of [`raisov::statics::newton`]): the
 //! largest nodal residual over free nodes `max_a |V_a − R_a(u)|` at most [`REL_TOL`] × the
 //! largest nodal external load `max_a |V_a|` plus the absolute floor [`ABS_TOL`] (N), `|·|` the
 //! Euclidean norm of a node's 3-vector.
@@ -101,15 +101,15 @@ mod summary;
 
 pub use frames::{frame_budgets, frames_to_markdown, newton_frame_budgets, FrameRow, FRAME_MARKS};
 use raisov::hierarchy::Transfer;
-use raisov::integrate::adaptive_relax::adaptive_relax;
-use raisov::integrate::chebyshev_relax::chebyshev_relax;
 use raisov::integrate::hold;
-use raisov::integrate::newton_direct::{
+use raisov::integrate::stability::lambda_max_bound;
+use raisov::scenario::{MultigridScheme, Scenario};
+use raisov::statics::newton::{
     nested_start, solve_system, start_levels, BetweenSolve, CoarseStart, DirectNewton,
     DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg, Smoother,
 };
-use raisov::integrate::stability::lambda_max_bound;
-use raisov::scenario::{MultigridScheme, Scenario};
+use raisov::statics::relax::adaptive::adaptive_relax;
+use raisov::statics::relax::chebyshev::chebyshev_relax;
 use raisov::{Error, Result};
 use std::path::Path;
 use std::time::Instant;
@@ -130,14 +130,14 @@ pub const PULL_STAGE_TOL: f64 = 1e-4;
 pub const NEWTON_PCG_MAX: usize = 20;
 /// Direct Newton's sweep: factorisation reuse (CG iterations before refactoring; 0 none),
 /// and whether it starts from the coarse level's equilibrium
-/// ([`raisov::integrate::newton_direct::coarse_start`], on Newton-multigrid's coarse level).
+/// ([`raisov::statics::newton::coarse_start`], on Newton-multigrid's coarse level).
 pub const NEWTON_REUSE: [(usize, bool); 3] =
     [(0, false), (NEWTON_PCG_MAX, false), (NEWTON_PCG_MAX, true)];
 /// FAS's sweep: pre- and post-smoothing sweeps per level (the default is 4).
 pub const FAS_SWEEPS: [usize; 3] = [4, 8, 16];
 /// Newton-multigrid: its coarse level has at most 1/`NEWTON_MG_COARSEN` of the finest
 /// level's nodes where the levels allow (module docs).
-pub const NEWTON_MG_COARSEN: usize = raisov::integrate::newton_direct::COARSEN;
+pub const NEWTON_MG_COARSEN: usize = raisov::statics::newton::COARSEN;
 /// Newton-multigrid: smoothing sweeps before and after the coarse correction.
 pub const NEWTON_MG_SWEEPS: usize = 2;
 /// Newton-multigrid's variants: whether an iteration keeps the whole last hierarchy, or only
@@ -222,7 +222,7 @@ pub struct Parts {
     /// transfers, the tangent's pattern and the prolongations.
     pub setup_s: f64,
     /// Galerkin hierarchies: the products `PᵀAP`, the smoothers, the coarse factors
-    /// ([`raisov::integrate::newton_direct::DirectStatic::setup_s`]).
+    /// ([`raisov::statics::newton::DirectStatic::setup_s`]).
     pub hierarchies_s: f64,
     /// Tangent assemblies.
     pub assembly_s: f64,
@@ -489,9 +489,9 @@ fn lifted(o: &DirectStatic) -> &'static str {
 }
 
 /// The coarse start of every solver that takes one: the levels of
-/// [`raisov::integrate::newton_direct::start_levels`] below Newton-multigrid's coarse level
+/// [`raisov::statics::newton::start_levels`] below Newton-multigrid's coarse level
 /// ([`newton_mg_levels`], whose mesh `coarse` is where given), solved and interpolated into
-/// `u` ([`raisov::integrate::newton_direct::nested_start`], the levels between solved by
+/// `u` ([`raisov::statics::newton::nested_start`], the levels between solved by
 /// `multigrid`: Newton-multigrid smoothed as a static scenario's is by default, else by
 /// direct Newton); `None` where the case has no such level.
 fn start_from_coarse(
@@ -502,7 +502,7 @@ fn start_from_coarse(
     multigrid: bool,
 ) -> Result<Option<CoarseStart>> {
     let sc = &case.scenario;
-    let picked = sc.pick_level(raisov::integrate::newton_direct::coarse_level)?;
+    let picked = sc.pick_level(raisov::statics::newton::coarse_level)?;
     let Some((c, mesh)) = picked.chosen else {
         return Ok(None);
     };
@@ -600,10 +600,10 @@ fn newton_run(
 }
 
 /// Newton-multigrid's levels ([`newton_mg_run`]): the finest, and
-/// [`raisov::integrate::newton_direct::coarse_level`]'s (none where no level qualifies; a
+/// [`raisov::statics::newton::coarse_level`]'s (none where no level qualifies; a
 /// generated drape meshes only that level, [`Scenario::pick_level`]).
 fn newton_mg_levels(sc: &Scenario) -> Result<Vec<raisov::mesh::Mesh>> {
-    let picked = sc.pick_level(raisov::integrate::newton_direct::coarse_level)?;
+    let picked = sc.pick_level(raisov::statics::newton::coarse_level)?;
     Ok(std::iter::once(sc.mesh.clone())
         .chain(picked.chosen.map(|(_, m)| m))
         .collect())

@@ -5,12 +5,12 @@
 //! write it; the driver saves one such file per case and method under `scenarios/`.
 
 use raisov::error::{Error, Result};
-use raisov::integrate::relax::relax;
 use raisov::integrate::stability::critical_step_estimate;
-use raisov::integrate::statics::{NewtonParams, NewtonSolver};
 use raisov::integrate::{Method, State, Stepper, SwitchCounts};
 use raisov::metrics::Meter;
 use raisov::scenario::Scenario;
+use raisov::statics::krylov::{NewtonParams, NewtonSolver};
+use raisov::statics::relax::dynamic::relax;
 use std::path::Path;
 use std::time::Instant;
 

@@ -16,7 +16,7 @@
 //!   orthonormal frame, `F = Ds Dm⁻¹` is 3x2, `C = FᵀF` 2x2, `P = F S` 3x2, measure `h A0`.
 //!
 //! Element tangent stiffness `K_e = ∂R_e/∂u_e` ([`FemModel::element_stiffness`], for implicit
-//! solvers: [`crate::integrate::newton_direct`]): column `(b, k)` is `R_e`'s formula with
+//! solvers: [`crate::statics::newton`]): column `(b, k)` is `R_e`'s formula with
 //! `P` replaced by `dP = ∂P/∂F : (e_k ⊗ ∇N_b)` from the law's tangent (equations in
 //! `element.rs`); the generic path, never the packed one.
 //!
@@ -89,7 +89,7 @@ pub trait ForceModel: Send {
     /// Nodal stress tensor T (9 per node, row-major, Pa): the measure of paper section 3.
     fn nodal_stress(&self, u: &[f64], t: &mut [f64]);
     /// The finite-element model behind this force model, where there is one (for solvers
-    /// that need element tangents: [`crate::integrate::newton_direct`]).
+    /// that need element tangents: [`crate::statics::newton`]).
     fn as_fem_mut(&mut self) -> Option<&mut FemModel> {
         None
     }

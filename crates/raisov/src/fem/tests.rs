@@ -461,7 +461,7 @@ fn stable_neo_hookean_inverted_tet_recovers() {
 /// within the laws' difference at this strain (they agree to first order; 2 % of the sag).
 #[test]
 fn stable_neo_hookean_scenario_sags_like_neo_hookean() {
-    use crate::integrate::newton_direct::{solve_system, DirectNewtonParams};
+    use crate::statics::newton::{solve_system, DirectNewtonParams};
     let sag = |law: &str| {
         let text = format!(
             r#"

@@ -22,19 +22,55 @@
 //!   `u̇_{n+1/2} = [(1 − αΔ/2) u̇_{n−1/2} + Δ M⁻¹(V − R(u_n))] / (1 + αΔ/2)`,
 //!   `u_{n+1} = u_n + Δ u̇_{n+1/2}`; 1 evaluation.
 
-pub mod adaptive_relax;
-pub mod chebyshev_relax;
-pub mod coarse_factor;
 mod constraints;
-pub mod galerkin;
-// Documented separately (edited in parallel).
-#[allow(missing_docs)]
-pub mod newton_direct;
-pub mod relax;
-pub mod smoother;
 pub mod stability;
-pub mod statics;
 mod stepper;
+
+/// Moved to [`crate::statics::newton`] and [`crate::statics::nested`].
+#[deprecated(
+    since = "0.2.0",
+    note = "moved to raisov::statics::newton (and statics::nested)"
+)]
+pub mod newton_direct {
+    pub use crate::statics::nested::*;
+    pub use crate::statics::newton::*;
+}
+/// Moved to [`crate::statics::krylov`].
+#[deprecated(since = "0.2.0", note = "moved to raisov::statics::krylov")]
+pub mod statics {
+    pub use crate::statics::krylov::*;
+    pub use crate::statics::relax::fictitious_mass;
+}
+/// Moved to [`crate::statics::relax::adaptive`].
+#[deprecated(since = "0.2.0", note = "moved to raisov::statics::relax::adaptive")]
+pub mod adaptive_relax {
+    pub use crate::statics::relax::adaptive::*;
+}
+/// Moved to [`crate::statics::relax::chebyshev`].
+#[deprecated(since = "0.2.0", note = "moved to raisov::statics::relax::chebyshev")]
+pub mod chebyshev_relax {
+    pub use crate::statics::relax::chebyshev::*;
+}
+/// Moved to [`crate::statics::relax::dynamic`].
+#[deprecated(since = "0.2.0", note = "moved to raisov::statics::relax::dynamic")]
+pub mod relax {
+    pub use crate::statics::relax::dynamic::*;
+}
+/// Moved to [`crate::linalg::galerkin`].
+#[deprecated(since = "0.2.0", note = "moved to raisov::linalg::galerkin")]
+pub mod galerkin {
+    pub use crate::linalg::galerkin::*;
+}
+/// Moved to [`crate::linalg::smoother`].
+#[deprecated(since = "0.2.0", note = "moved to raisov::linalg::smoother")]
+pub mod smoother {
+    pub use crate::linalg::smoother::*;
+}
+/// Moved to [`crate::linalg::coarse_factor`].
+#[deprecated(since = "0.2.0", note = "moved to raisov::linalg::coarse_factor")]
+pub mod coarse_factor {
+    pub use crate::linalg::coarse_factor::*;
+}
 
 pub use constraints::{Constraints, Motion};
 pub(crate) use stepper::OwnConstraints;

@@ -39,12 +39,3 @@ pub fn critical_step_estimate(
 ) -> f64 {
     method.stability_bound() / lambda_max_bound(mesh, material, density).sqrt()
 }
-
-/// The entry keyed `key` of the fixed pseudo-random start vector of the power and Lanczos
-/// iterations that estimate a spectrum (FAS's smoother, the tangent multigrid's damping,
-/// [`super::chebyshev_relax`]): uniform in `[−0.5, 0.5)`, the same on every run and thread
-/// count.
-pub(crate) fn start_entry(key: u64) -> f64 {
-    let h = key.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(17);
-    (h >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-}

@@ -86,11 +86,11 @@ use super::{Level, Links};
 use crate::error::{Divergence, DivergenceCause};
 use crate::fem::ElementFailure;
 use crate::hierarchy::Transfer;
-use crate::integrate::statics::{NewtonParams, NewtonSolver};
 use crate::integrate::{
     check_state, Checkpoint, Constraints, Motion, OwnConstraints, RuntimeConstraints, State,
     Stepper,
 };
+use crate::statics::krylov::{NewtonParams, NewtonSolver};
 
 /// The smoother G on each level.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -337,47 +337,38 @@ fn estimate_lambda_max(
                 .node_keys
                 .as_ref()
                 .map_or(i, |k| 3 * k[i / 3] as usize + i % 3);
-            *xi = crate::integrate::stability::start_entry(key as u64);
+            *xi = crate::linalg::spectrum::start_entry(key as u64);
         }
     }
     lv.sys.constraints.zero_constrained(x);
     let umax = lv.state.u.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
     let (lo, hi) = lv.mesh.bounding_box();
     let length = 1e-3 * crate::mesh::norm(crate::mesh::sub(hi, lo));
-    let mut lambda = 0.0;
     let iterations = if warm {
         POWER_ITERATIONS_WARM
     } else {
         POWER_ITERATIONS
     };
-    for _ in 0..iterations {
-        let xmax = x.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        if xmax == 0.0 {
-            break;
-        }
-        let eps = 1e-7 * umax.max(length) / xmax;
-        for i in 0..n {
-            w[i] = lv.state.u[i] + eps * x[i];
-        }
-        lv.sys.residual(w, y).map_err(|f| diverged(step, t, f))?;
-        lv.evaluations += 1;
-        // y = K x
-        for i in 0..n {
-            y[i] = (r0[i] - y[i]) / eps;
-        }
-        let xkx: f64 = x.iter().zip(y.iter()).map(|(a, b)| a * b).sum();
-        let xmx: f64 = (0..n).map(|i| diag[i / 3] * x[i] * x[i]).sum();
-        lambda = xkx / xmx;
-        // x <- D⁻¹ K x, normalised
-        let mut norm = 0.0f64;
-        for i in 0..n {
-            x[i] = y[i] / diag[i / 3];
-            norm = norm.max(x[i].abs());
-        }
-        if norm > 0.0 {
-            x.iter_mut().for_each(|v| *v /= norm);
-        }
-    }
+    let lambda = crate::linalg::spectrum::power_iteration(
+        x,
+        crate::linalg::spectrum::Diagonal::Node(diag),
+        iterations,
+        y,
+        |x: &[f64], kx: &mut [f64]| {
+            // K x ≈ (r(u) − r(u + εx)) / ε
+            let xmax = x.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+            let eps = 1e-7 * umax.max(length) / xmax;
+            for i in 0..n {
+                w[i] = lv.state.u[i] + eps * x[i];
+            }
+            lv.sys.residual(w, kx).map_err(|f| diverged(step, t, f))?;
+            lv.evaluations += 1;
+            for i in 0..n {
+                kx[i] = (r0[i] - kx[i]) / eps;
+            }
+            Ok(())
+        },
+    )?;
     Ok(if lambda.is_finite() && lambda > 0.0 {
         lambda
     } else {
@@ -442,7 +433,7 @@ impl Fas {
             .map(|l| match scaling {
                 Scaling::Mass => (l.sys.mass.clone(), l.lambda_max),
                 Scaling::Fictitious => (
-                    crate::integrate::statics::fictitious_mass(&l.mesh, &l.sys.mass, l.lambda_max),
+                    crate::statics::relax::fictitious_mass(&l.mesh, &l.sys.mass, l.lambda_max),
                     1.0,
                 ),
             })

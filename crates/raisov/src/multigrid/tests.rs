@@ -1,9 +1,9 @@
 //! Invariants of the multigrid schemes.
 
-use crate::integrate::relax::relax;
 use crate::integrate::{Method, State, Stepper, SwitchCounts};
 use crate::multigrid::raisov::{Raisov, RaisovParams, Reading};
 use crate::scenario::Scenario;
+use crate::statics::relax::dynamic::relax;
 use std::path::Path;
 
 fn drape(nodes: usize, multigrid: &str, method: &str) -> Scenario {

@@ -39,9 +39,10 @@ use super::run::RunOptions;
 use super::spec::{defaults, InteractiveSpec, StaticReference};
 use super::{err, positive, Scenario, StopRule};
 use crate::error::{Error, Result};
-use crate::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
 use crate::integrate::{hold, Stepper};
 use crate::io::{write_atomic, write_vtu_as, Field, FieldData, OutputLock, PvdWriter, RowFile};
+use crate::statics::krylov::{NewtonParams, NewtonSolver};
+use crate::statics::relax::fictitious_mass;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

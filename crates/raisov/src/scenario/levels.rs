@@ -11,7 +11,6 @@ use super::spec::{
 use super::{build_system, err, positive, select, BoxCells, Scenario, Selector, Shape};
 use crate::error::Result;
 use crate::hierarchy::Correspondence;
-use crate::integrate::newton_direct::{NestedLevels, StartLevel};
 use crate::integrate::stability::{critical_step_estimate, lambda_max_bound};
 use crate::integrate::{
     energy_limit_for, Method, Motion, SingleLevel, Stepper, StepperParams, System,
@@ -20,6 +19,7 @@ use crate::mesh::Mesh;
 use crate::multigrid::fas::{CoarseSolve, Fas, FasParams, Smoother};
 use crate::multigrid::raisov::{Raisov, RaisovParams};
 use crate::multigrid::Level;
+use crate::statics::newton::{NestedLevels, StartLevel};
 use std::path::Path;
 
 /// Fewest nodes of a generated level.
@@ -450,7 +450,7 @@ impl Scenario {
     }
 
     /// The levels of a nested start through the coarser `levels` (indices, finest first, at
-    /// least one; [`crate::integrate::newton_direct::start_levels`]): each one's system (the
+    /// least one; [`crate::statics::newton::start_levels`]): each one's system (the
     /// scenario's constraints and loads carried to it) and its nodes located in the next,
     /// and the fine nodes located in the first. `known`, a level's mesh already built, is
     /// used for that level; the others are built or read ([`Scenario::level_mesh`]).

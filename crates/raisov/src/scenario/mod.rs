@@ -35,10 +35,10 @@ pub mod surface;
 use crate::error::{Error, Result};
 use crate::fem::loads::TimeFunction;
 use crate::fem::{FemModel, FemParams, Precision};
-use crate::integrate::smoother::Smoother;
 use crate::integrate::stability::critical_step_estimate;
 use crate::integrate::{Constraints, Method, Motion, System};
 use crate::io::VtuFormat;
+use crate::linalg::smoother::Smoother;
 use crate::material::Material;
 use crate::mesh::{norm, sub, ElementKind, Mesh};
 use crate::numbers::{compact, rounded};
@@ -203,7 +203,7 @@ pub struct StaticSolve {
     /// built: [`run::run_static`]).
     pub solver: StaticSolver,
     /// `[integrator] coarse_start`: [`StaticSolver::Multigrid`] starts from the coarse level's
-    /// equilibrium, interpolated ([`crate::integrate::newton_direct::coarse_start`]). Default
+    /// equilibrium, interpolated ([`crate::statics::newton::coarse_start`]). Default
     /// true for membranes, false for tetrahedra (`raisov bench equilibrium` times both starts
     /// on every case: the coarse start is the faster on the drapes, not on the livers).
     pub coarse_start: bool,

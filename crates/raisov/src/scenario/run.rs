@@ -54,10 +54,10 @@
 use super::surface::SurfaceFrames;
 use super::{Reference, Scenario, StopRule};
 use crate::error::{Error, Result};
-use crate::integrate::relax::relax;
 use crate::integrate::{State, Stepper};
 use crate::io::{write_atomic, write_vtu_as, Field, FieldData, OutputLock, PvdWriter, VtuFormat};
 use crate::metrics::{CsvStream, Meter, Sample};
+use crate::statics::relax::dynamic::relax;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

@@ -156,7 +156,7 @@
 //!                                 # true for membranes (the 100k drape from flat about 3x
 //!                                 # faster), false for tetrahedra (the liver no faster; both
 //!                                 # by `raisov bench equilibrium`), see
-//!                                 # integrate::newton_direct::coarse_start
+//!                                 # statics::newton::coarse_start
 //! smoother = "block-jacobi"       # newton, "multigrid" (also as "auto"'s choice): the
 //!                                 # V-cycle's smoother, "block-jacobi" (default for
 //!                                 # tetrahedra) | "block-gauss-seidel" (coloured; default for
@@ -433,20 +433,20 @@ named_enum! {
         Auto = "auto",
         /// The assembled analytic tangent, conjugate gradients preconditioned by a Galerkin
         /// V-cycle over the finest level and that coarser one
-        /// ([`crate::integrate::newton_direct::MultigridPcg`]).
+        /// ([`crate::statics::newton::MultigridPcg`]).
         Multigrid = "multigrid",
         /// The assembled analytic tangent, sparse Cholesky, the factor reused as the
-        /// preconditioner of conjugate gradients ([`crate::integrate::newton_direct`]).
+        /// preconditioner of conjugate gradients ([`crate::statics::newton`]).
         Direct = "direct",
         /// Matrix-free Newton-Krylov: finite-difference tangent products, conjugate gradients
-        /// ([`crate::integrate::statics`]); covers every force.
+        /// ([`crate::statics::krylov`]); covers every force.
         Krylov = "krylov",
     }
 }
 
 named_enum! {
     /// `[integrator] smoother` of `solver = "multigrid"`: the Galerkin V-cycle's smoother
-    /// ([`crate::integrate::smoother::Smoother`]).
+    /// ([`crate::linalg::smoother::Smoother`]).
     pub enum NewtonSmoother {
         /// Damped node-block Jacobi, rows in parallel; the default for tetrahedra.
         BlockJacobi = "block-jacobi",
@@ -576,7 +576,7 @@ named_enum! {
 pub enum Solve {
     /// Explicit dynamics with this integrator.
     Dynamic(Method),
-    /// Static equilibrium `R(u) = V` by Newton-Krylov ([`crate::integrate::statics`]).
+    /// Static equilibrium `R(u) = V` by Newton-Krylov ([`crate::statics::krylov`]).
     Newton,
 }
 

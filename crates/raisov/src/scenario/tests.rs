@@ -326,9 +326,7 @@ fn pick_level_meshes_the_chosen_generated_level_alone() {
         counts,
         requested,
         chosen,
-    } = sc
-        .pick_level(crate::integrate::newton_direct::coarse_level)
-        .unwrap();
+    } = sc.pick_level(crate::statics::newton::coarse_level).unwrap();
     assert_eq!(counts, vec![2000, 1000, 500, 250, 125, 63]);
     assert!(
         requested,

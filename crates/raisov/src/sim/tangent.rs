@@ -1,6 +1,6 @@
 //! The grasp stiffness `K_g = ∂ grab_force / ∂ x_g` by three tangent solves on the free dofs
 //! (equations in the [`super`] module docs): conjugate gradients with matrix-free products
-//! `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)` as in [`crate::integrate::statics`],
+//! `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)` as in [`crate::statics::krylov`],
 //! warm-started from the grasp's last solutions, preconditioned by one V-cycle of the
 //! linearised problem over the stepper's levels ([`TangentPreconditioner::Multigrid`], the
 //! default where the stepper has more than one level; flexible conjugate gradients) or by the
@@ -143,7 +143,7 @@ impl Simulation {
                     }
                 }
             }
-            iterations += tangent_solve(&mut cy, multigrid, &b, x, &mut s).map_err(fail)?;
+            iterations += tangent_solve(&mut cy, multigrid, &b, x).map_err(fail)?;
             match total {
                 None => {
                     // δu = w + x; column = −Σ_{a ∈ g} (K δu)_a, all rows (the grasped ones).
@@ -196,14 +196,15 @@ impl Simulation {
 }
 
 /// Solve `A x = b` on level 0's free dofs by conjugate gradients from `x`, preconditioned by
-/// one V-cycle (flexible, Polak–Ribière `β`) or by the lumped mass; returns the iterations.
+/// one V-cycle (flexible, Polak–Ribière `β`: the cycle's finite-difference products are not
+/// exactly linear) or by the lumped mass ([`crate::linalg::cg`]); returns the iterations.
 fn tangent_solve(
     cy: &mut Cycle<'_>,
     multigrid: bool,
     b: &[f64],
     x: &mut [f64],
-    s: &mut Scratch,
 ) -> std::result::Result<usize, ElementFailure> {
+    use crate::linalg::cg::{solve, CgSettings, PcgEnd};
     let n = b.len();
     let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt();
     let free = cy.ops[0].free().to_vec();
@@ -212,80 +213,50 @@ fn tangent_solve(
             x[i] = 0.0;
         }
     }
-    let precondition = |cy: &mut Cycle<'_>, d: &[f64], z: &mut [f64]| {
-        if multigrid {
-            cy.vcycle(0, d, z)
-        } else {
-            let inv_d = cy.ops[0].inv_d();
-            for i in 0..d.len() {
-                z[i] = inv_d[i] * d[i];
-            }
-            Ok(())
-        }
+    let settings = CgSettings {
+        warm: true,
+        flexible: multigrid,
+        ..CgSettings::new(CG_TOL * bnorm, 20 * n.max(50))
     };
-    // d = b − A x.
-    cy.apply(0, x, &mut s.q)?;
-    for i in 0..n {
-        s.d[i] = b[i] - s.q[i];
-    }
-    precondition(cy, &s.d, &mut s.z)?;
-    s.p.copy_from_slice(&s.z);
-    let mut rz: f64 = s.d.iter().zip(&s.z).map(|(a, b)| a * b).sum();
-    let mut it = 0;
-    while it < 20 * n.max(50) {
-        let dn = s.d.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if !(dn > CG_TOL * bnorm) {
-            break;
-        }
-        cy.apply(0, &s.p, &mut s.q)?;
-        it += 1;
-        let pq: f64 = s.p.iter().zip(&s.q).map(|(a, b)| a * b).sum();
-        if !(pq > 0.0) {
-            break;
-        }
-        let alpha = rz / pq;
-        s.dprev.copy_from_slice(&s.d);
-        for i in 0..n {
-            x[i] += alpha * s.p[i];
-            s.d[i] -= alpha * s.q[i];
-        }
-        precondition(cy, &s.d, &mut s.z)?;
-        let rz_new: f64 = s.d.iter().zip(&s.z).map(|(a, b)| a * b).sum();
-        let beta = if multigrid {
-            // Flexible: z·(d − d_prev) / (z_prev·d_prev).
-            let num: f64 = (0..n).map(|i| s.z[i] * (s.d[i] - s.dprev[i])).sum();
-            (num / rz).max(0.0)
-        } else {
-            rz_new / rz
-        };
-        rz = rz_new;
-        for i in 0..n {
-            s.p[i] = s.z[i] + beta * s.p[i];
-        }
-    }
-    Ok(it)
+    // The product and the preconditioner both run on the cycle's levels: one at a time.
+    let cy = std::cell::RefCell::new(cy);
+    let end = solve(
+        |p: &[f64], q: &mut [f64]| cy.borrow_mut().apply(0, p, q),
+        |d: &[f64], z: &mut [f64]| {
+            let mut cy = cy.borrow_mut();
+            if multigrid {
+                cy.vcycle(0, d, z)
+            } else {
+                let inv_d = cy.ops[0].inv_d();
+                for i in 0..d.len() {
+                    z[i] = inv_d[i] * d[i];
+                }
+                Ok(())
+            }
+        },
+        b,
+        x,
+        settings,
+        None,
+    )?;
+    Ok(match end {
+        PcgEnd::Converged(it) | PcgEnd::Truncated(it) | PcgEnd::Negative(it, _) => it,
+        PcgEnd::MaxIter => settings.max_iter,
+        PcgEnd::Breakdown(_) => 0,
+    })
 }
 
 /// The tangent solves' vectors.
 struct Scratch {
     w: Vec<f64>,
     q: Vec<f64>,
-    d: Vec<f64>,
-    dprev: Vec<f64>,
-    z: Vec<f64>,
-    p: Vec<f64>,
 }
 
 impl Scratch {
     fn new(n: usize) -> Self {
-        let z = vec![0.0; n];
         Scratch {
-            w: z.clone(),
-            q: z.clone(),
-            d: z.clone(),
-            dprev: z.clone(),
-            z: z.clone(),
-            p: z,
+            w: vec![0.0; n],
+            q: vec![0.0; n],
         }
     }
 }

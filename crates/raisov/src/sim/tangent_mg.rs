@@ -314,35 +314,21 @@ impl<'a> Cycle<'a> {
         let mut x: Vec<f64> = (0..n)
             .map(|i| {
                 if self.ops[l].free[i] {
-                    crate::integrate::stability::start_entry(i as u64)
+                    crate::linalg::spectrum::start_entry(i as u64)
                 } else {
                     0.0
                 }
             })
             .collect();
         let mut y = vec![0.0; n];
-        let mut lambda = 0.0f64;
-        for _ in 0..POWER {
-            self.apply(l, &x, &mut y)?;
-            let inv_d = &self.ops[l].inv_d;
-            let xay: f64 = x.iter().zip(&y).map(|(a, b)| a * b).sum();
-            let xdx: f64 = (0..n)
-                .filter(|&i| inv_d[i] > 0.0)
-                .map(|i| x[i] * x[i] / inv_d[i])
-                .sum();
-            if xdx > 0.0 {
-                lambda = xay / xdx;
-            }
-            let mut norm = 0.0f64;
-            for i in 0..n {
-                x[i] = inv_d[i] * y[i];
-                norm = norm.max(x[i].abs());
-            }
-            if norm == 0.0 || !norm.is_finite() {
-                break;
-            }
-            x.iter_mut().for_each(|v| *v /= norm);
-        }
+        let inv_d = self.ops[l].inv_d.clone();
+        let lambda = crate::linalg::spectrum::power_iteration(
+            &mut x,
+            crate::linalg::spectrum::Diagonal::InverseDof(&inv_d),
+            POWER,
+            &mut y,
+            |x: &[f64], ax: &mut [f64]| self.apply(l, x, ax),
+        )?;
         self.ops[l].omega = if lambda.is_finite() && lambda > 0.0 {
             4.0 / (3.0 * 1.1 * lambda)
         } else {

@@ -47,9 +47,9 @@ files = ["{d}/liver_L2.msh", "{d}/liver_L3.msh"]
 pub fn newton_from_rest(
     sc: &Scenario,
     down: &[raisov::hierarchy::Transfer],
-    multigrid: Option<raisov::integrate::newton_direct::MultigridPcg>,
-) -> (Vec<f64>, raisov::integrate::newton_direct::DirectStatic) {
-    use raisov::integrate::newton_direct::{DirectNewton, DirectNewtonParams};
+    multigrid: Option<raisov::statics::newton::MultigridPcg>,
+) -> (Vec<f64>, raisov::statics::newton::DirectStatic) {
+    use raisov::statics::newton::{DirectNewton, DirectNewtonParams};
     let mut sys = sc.build_system().unwrap();
     let f = sys.f_ext.clone();
     let model = sys.force.as_fem_mut().unwrap();

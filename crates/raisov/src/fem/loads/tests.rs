@@ -2,10 +2,10 @@
 
 use super::*;
 use crate::fem::{FemModel, FemParams};
-use crate::integrate::statics::{NewtonParams, NewtonSolver};
 use crate::integrate::{Constraints, System};
 use crate::material::{Material, StVenantKirchhoff};
 use crate::mesh::{ElementKind, Mesh};
+use crate::statics::krylov::{NewtonParams, NewtonSolver};
 
 #[test]
 fn time_functions_values_and_rates() {

@@ -4,13 +4,13 @@
 //!
 //! - `"multigrid"`: the assembled analytic tangent `K`, each Newton system `K δu = V − R(u)`
 //!   solved by conjugate gradients preconditioned by a Galerkin V-cycle over the finest level
-//!   and one coarser `[multigrid]` level ([`crate::integrate::newton_direct::coarse_level`]);
+//!   and one coarser `[multigrid]` level ([`crate::statics::newton::coarse_level`]);
 //! - `"direct"`: the same tangent factored by sparse Cholesky, the factor reused as the
 //!   preconditioner of conjugate gradients while they converge in 20 iterations;
 //! - `"krylov"`: matrix-free Newton-Krylov, tangent products by finite differences of the
-//!   force ([`crate::integrate::statics`]).
+//!   force ([`crate::statics::krylov`]).
 //!
-//! The two assembled solvers share [`crate::integrate::newton_direct`]: a line search on the
+//! The two assembled solvers share [`crate::statics::newton`]: a line search on the
 //! energy, a diagonal regularisation `σ d̄ D` where `K` is not positive definite (a flat
 //! membrane's first tangent), Eisenstat-Walker tolerances for the inner solves. They stop when
 //! the largest nodal residual over free nodes is at most `residual_tol` times (the largest
@@ -20,7 +20,7 @@
 //! 1e-14 N; `"krylov"` when `‖V − R(u)‖₂` is at most `residual_tol` times its starting value.
 //! The assembled solvers start with the prescribed nodes at rest; each increment's first
 //! iteration moves them with the free nodes' linear response (the lifted iteration of
-//! [`crate::integrate::newton_direct`]). `"auto"` takes `"multigrid"` where a coarse level
+//! [`crate::statics::newton`]). `"auto"` takes `"multigrid"` where a coarse level
 //! qualifies, `"direct"` where not, and `"krylov"` where the assembled tangent does not hold
 //! every force: pressure
 //! (a follower load), tool contact or spring grasps, or a node sliding along a direction
@@ -28,8 +28,8 @@
 //!
 //! With `[integrator] coarse_start` (default: membranes yes, tetrahedra no) `"multigrid"`
 //! starts from a coarser level's equilibrium, interpolated (nested iteration,
-//! [`crate::integrate::newton_direct::nested_start`] over the levels of
-//! [`crate::integrate::newton_direct::start_levels`]): the coarsest of them, with the
+//! [`crate::statics::newton::nested_start`] over the levels of
+//! [`crate::statics::newton::start_levels`]): the coarsest of them, with the
 //! scenario's constraints and loads carried to it, is solved by direct Newton over the
 //! increments, each finer one by Newton-multigrid from the last one's equilibrium, the fine
 //! level then in one increment. The stopping rule's starting out-of-balance force
@@ -37,16 +37,16 @@
 
 use super::{write_balance, write_nodal_stress, Frames, RunOptions};
 use crate::error::{Error, Result};
-use crate::integrate::newton_direct::{
-    axis_of, coarse_level, nested_start, start_levels, BetweenSolve, CoarseStart, DirectNewton,
-    DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg, NestedLevels,
-};
-use crate::integrate::statics::Static;
 use crate::integrate::{Stepper, System};
 use crate::io::{write_atomic, OutputLock};
 use crate::metrics::{CsvStream, Meter, Sample};
 use crate::scenario::spec::Named;
 use crate::scenario::{Scenario, StaticSolve, StaticSolver};
+use crate::statics::krylov::Static;
+use crate::statics::newton::{
+    axis_of, coarse_level, nested_start, start_levels, BetweenSolve, CoarseStart, DirectNewton,
+    DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg, NestedLevels,
+};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -436,7 +436,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
     let Some((c, coarse)) = picked.chosen else {
         let msg = format!(
             "no [multigrid] level has at least 1/{} of the finest level's {} nodes (levels: {:?})",
-            crate::integrate::newton_direct::COARSEN_LIMIT,
+            crate::statics::newton::COARSEN_LIMIT,
             nodes[0],
             &nodes[1..]
         );
@@ -497,7 +497,8 @@ fn krylov(
     u: &mut [f64],
     first: &Sample,
 ) -> Solved {
-    use crate::integrate::statics::{fictitious_mass, NewtonParams, NewtonSolver};
+    use crate::statics::krylov::{NewtonParams, NewtonSolver};
+    use crate::statics::relax::fictitious_mass;
     let diag = fictitious_mass(&sc.mesh, &sys.mass, 1.0);
     let mut newton = NewtonSolver::with_diagonal(sys, &diag);
     let p = NewtonParams {
@@ -594,7 +595,7 @@ fn prescribed_force_scale(sys: &mut System, t: f64, u: &[f64]) -> f64 {
     0.0
 }
 
-/// Newton with the assembled tangent ([`crate::integrate::newton_direct`]): sparse Cholesky,
+/// Newton with the assembled tangent ([`crate::statics::newton`]): sparse Cholesky,
 /// or with `down` CG preconditioned by the Galerkin V-cycle over those levels.
 fn assembled(
     settings: &StaticSolve,

@@ -292,7 +292,7 @@ residual_tol = 1e-11
 /// block Gauss-Seidel on membranes; a value given is taken as given.
 #[test]
 fn newton_smoother_defaults_by_element_kind() {
-    use crate::integrate::smoother::Smoother;
+    use crate::linalg::smoother::Smoother;
     let cube = |extra: &str| cube(&format!("[integrator]\nmethod = \"newton\"\n{extra}"));
     let smoother = |text: &str| parse(text).unwrap().statics.unwrap().smoother;
     assert_eq!(smoother(&cube("")), Smoother::BlockJacobi);

@@ -31,7 +31,8 @@
 //!
 //! Every factorisation runs on one thread: the same bits on any thread count.
 
-use super::galerkin::{Csr, GalerkinError};
+use super::galerkin::GalerkinError;
+use super::sparse::Csr;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
@@ -252,7 +253,7 @@ mod tests {
 
     /// The 1-D Laplacian of `n` points plus `c` on the diagonal.
     fn laplace(n: usize, c: f64) -> Csr {
-        let mut a = crate::integrate::galerkin::tests::laplace(n);
+        let mut a = crate::linalg::galerkin::tests::laplace(n);
         for i in 0..n {
             let (cols, _) = a.row(i);
             let k = a.ptr[i] + cols.iter().position(|&j| j as usize == i).unwrap();

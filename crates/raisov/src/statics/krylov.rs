@@ -10,10 +10,10 @@
 //! scale alike). Inexact Newton with a backtracking line search on ‖V − R‖; an element that
 //! would invert halves the step. Used for T∞ references, reference-value tests, and as the
 //! implicit coarsest-level solve of the multigrid (the paper's section 4 suggestion). Newton
-//! with the analytic tangent and a sparse direct solve is [`super::newton_direct`].
+//! with the analytic tangent and an assembled linear solve is [`super::newton`].
 
-use super::System;
 use crate::fem::ElementFailure;
+use crate::integrate::System;
 
 /// Settings of [`NewtonSolver::solve`]. The finite-difference tangent limits the attainable
 /// residual to about 1e-8 of the load scale; the solver stops when it stagnates there.
@@ -56,35 +56,6 @@ fn potential(sys: &System, u: &[f64]) -> f64 {
     }
 }
 
-/// Per-node fictitious masses `D_a = Σ_{e∋a} c² G_e ρ|e|/npe` (dynamic relaxation's, Underwood
-/// 1983): the element bound `K_e ≤ c² G_e M_e` ([`crate::fem::gradient_sums`]) summed at
-/// the node, so `λ_max(D⁻¹K) ≤ 1` at small strain; `c² = λ_max / max_e G_e`, `ρ` the mass over
-/// the measure (one material). A node in no element keeps `λ_max m_a`. As a diagonal
-/// preconditioner it equilibrates meshes with slivers, where `M` alone does not.
-pub fn fictitious_mass(mesh: &crate::mesh::Mesh, mass: &[f64], lambda_max: f64) -> Vec<f64> {
-    let g = crate::fem::gradient_sums(mesh);
-    let gmax = g.iter().fold(0.0f64, |a, &b| a.max(b));
-    let c2 = if gmax > 0.0 { lambda_max / gmax } else { 0.0 };
-    let npe = mesh.kind.nodes_per_element();
-    let measure: f64 = (0..mesh.num_elements())
-        .map(|e| mesh.element_measure(e).abs())
-        .sum();
-    let rho = mass.iter().sum::<f64>() / measure.max(f64::MIN_POSITIVE);
-    let mut d = vec![0.0; mesh.num_nodes()];
-    for (e, ge) in g.iter().enumerate() {
-        let share = c2 * ge * rho * mesh.element_measure(e).abs() / npe as f64;
-        for &a in mesh.element(e) {
-            d[a as usize] += share;
-        }
-    }
-    for (da, m) in d.iter_mut().zip(mass) {
-        if *da <= 0.0 {
-            *da = lambda_max * m;
-        }
-    }
-    d
-}
-
 /// Outcome of [`NewtonSolver::solve`].
 #[derive(Clone, Debug)]
 pub struct Static {
@@ -100,13 +71,43 @@ pub struct Static {
     pub converged: bool,
 }
 
+/// `q = K(u) p` by central differences of the residual (q = −Δresidual), `w` and `f1` scratch.
+#[allow(clippy::too_many_arguments)]
+fn apply_k(
+    sys: &mut System,
+    u: &[f64],
+    p: &[f64],
+    q: &mut [f64],
+    w: &mut [f64],
+    f1: &mut [f64],
+    length: f64,
+    evals: &mut u64,
+) -> Result<(), ElementFailure> {
+    let pmax = p.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    if pmax == 0.0 {
+        q.iter_mut().for_each(|x| *x = 0.0);
+        return Ok(());
+    }
+    let un = u.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    let eps = 1e-7 * un.max(length) / pmax;
+    for i in 0..u.len() {
+        w[i] = u[i] + eps * p[i];
+    }
+    sys.residual(w, f1)?;
+    for i in 0..u.len() {
+        w[i] = u[i] - eps * p[i];
+    }
+    sys.residual(w, q)?;
+    *evals += 2;
+    for i in 0..u.len() {
+        q[i] = (q[i] - f1[i]) / (2.0 * eps);
+    }
+    Ok(())
+}
+
 /// Scratch for [`NewtonSolver::solve`], reusable between calls on the same system size.
 pub struct NewtonSolver {
     r: Vec<f64>,
-    d: Vec<f64>,
-    z: Vec<f64>,
-    p: Vec<f64>,
-    q: Vec<f64>,
     x: Vec<f64>,
     w: Vec<f64>,
     f1: Vec<f64>,
@@ -135,45 +136,11 @@ impl NewtonSolver {
             .collect();
         NewtonSolver {
             r: z.clone(),
-            d: z.clone(),
-            z: z.clone(),
-            p: z.clone(),
-            q: z.clone(),
             x: z.clone(),
             w: z.clone(),
             f1: z,
             inv_m,
         }
-    }
-
-    /// `q = K(u) p` by central differences of the residual (q = −Δresidual).
-    fn apply_k(
-        &mut self,
-        sys: &mut System,
-        u: &[f64],
-        length: f64,
-        evals: &mut u64,
-    ) -> Result<(), ElementFailure> {
-        let pmax = self.p.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        if pmax == 0.0 {
-            self.q.iter_mut().for_each(|x| *x = 0.0);
-            return Ok(());
-        }
-        let un = u.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        let eps = 1e-7 * un.max(length) / pmax;
-        for i in 0..u.len() {
-            self.w[i] = u[i] + eps * self.p[i];
-        }
-        sys.residual(&self.w, &mut self.f1)?;
-        for i in 0..u.len() {
-            self.w[i] = u[i] - eps * self.p[i];
-        }
-        sys.residual(&self.w, &mut self.q)?;
-        *evals += 2;
-        for i in 0..u.len() {
-            self.q[i] = (self.q[i] - self.f1[i]) / (2.0 * eps);
-        }
-        Ok(())
     }
 
     /// Solve for `u` in place (constraints imposed at time `t`).
@@ -197,41 +164,27 @@ impl NewtonSolver {
         while res > target && newton < params.max_newton && stalled < 3 {
             newton += 1;
             let res_before = res;
-            // CG on K x = r, x0 = 0, preconditioner M⁻¹ (zero on constrained dofs).
-            self.x.iter_mut().for_each(|x| *x = 0.0);
-            self.d.copy_from_slice(&self.r);
-            for i in 0..n {
-                self.z[i] = self.inv_m[i] * self.d[i];
-            }
-            sys.constraints.zero_constrained(&mut self.z);
-            self.p.copy_from_slice(&self.z);
-            let mut rz: f64 = self.d.iter().zip(&self.z).map(|(a, b)| a * b).sum();
-            let dn0 = res;
-            for _ in 0..params.max_cg {
-                self.apply_k(sys, u, params.length, &mut evals)?;
-                let pq: f64 = self.p.iter().zip(&self.q).map(|(a, b)| a * b).sum();
-                if !(pq > 0.0) {
-                    break; // not positive definite along p: take what we have
-                }
-                let alpha = rz / pq;
-                for i in 0..n {
-                    self.x[i] += alpha * self.p[i];
-                    self.d[i] -= alpha * self.q[i];
-                }
-                let dn = self.d.iter().map(|x| x * x).sum::<f64>().sqrt();
-                if dn <= params.cg_tol * dn0 {
-                    break;
-                }
-                for i in 0..n {
-                    self.z[i] = self.inv_m[i] * self.d[i];
-                }
-                sys.constraints.zero_constrained(&mut self.z);
-                let rz_new: f64 = self.d.iter().zip(&self.z).map(|(a, b)| a * b).sum();
-                let beta = rz_new / rz;
-                rz = rz_new;
-                for i in 0..n {
-                    self.p[i] = self.z[i] + beta * self.p[i];
-                }
+            // CG on K x = r, x0 = 0, preconditioner M⁻¹ (zero on constrained dofs); a
+            // direction of non-positive curvature keeps what was found before it.
+            let NewtonSolver { r, x, w, f1, inv_m } = self;
+            let constraints = sys.constraints.clone();
+            let length = params.length;
+            let end = crate::linalg::cg::solve(
+                |p: &[f64], kp: &mut [f64]| apply_k(sys, u, p, kp, w, f1, length, &mut evals),
+                |d: &[f64], z: &mut [f64]| {
+                    for i in 0..n {
+                        z[i] = inv_m[i] * d[i];
+                    }
+                    constraints.zero_constrained(z);
+                    Ok(())
+                },
+                r,
+                x,
+                crate::linalg::cg::CgSettings::new(params.cg_tol * res, params.max_cg),
+                None,
+            )?;
+            if let crate::linalg::PcgEnd::Breakdown(_) = end {
+                x.iter_mut().for_each(|v| *v = 0.0);
             }
             // Backtracking line search on the potential energy Π = E(u) − V·u (the residual
             // norm is a poor merit function here: a linearized rotation shows up as spurious

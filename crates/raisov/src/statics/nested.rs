@@ -25,7 +25,7 @@
 //! large, smooth part of the displacement (a sag under gravity, a drape's shape, the field of
 //! a pull) is in place before the first fine tangent, and the fine iteration has only that
 //! difference left to remove, mostly in Newton's quadratic phase. The coarse problem (the
-//! level of [`super::coarse_level`]: 1/16 of the nodes or fewer where the levels allow), is
+//! level of [`super::newton::coarse_level`]: 1/16 of the nodes or fewer where the levels allow), is
 //! solved by direct Newton with
 //! factorisation reuse ([`COARSE_PCG_MAX`]) to [`COARSE_REL_TOL`], over the caller's load
 //! steps; the fine iteration then takes the full load in one step.
@@ -52,7 +52,7 @@
 //! solve fails or does not converge, or where an interpolation inverts an element
 //! (`det F ≤ 0`) of the level it reaches.
 
-use super::{
+use super::newton::{
     solve_system, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg,
     Smoother,
 };
@@ -83,7 +83,7 @@ pub const NESTED_GAP: usize = 3;
 pub const START_MIN_NODES: usize = 1000;
 
 /// Of levels with `nodes[l]` nodes (finest first) and Newton-multigrid's coarse level
-/// `coarse` ([`super::coarse_level`]), the levels a nested start passes through ([`nested_start`]),
+/// `coarse` ([`super::newton::coarse_level`]), the levels a nested start passes through ([`nested_start`]),
 /// finest first. The last, solved first by direct Newton, is the coarsest level with at
 /// least [`START_MIN_NODES`] nodes or as many as `coarse`; above it, each is the coarsest
 /// level with at least [`NESTED_GAP`] times the nodes of the one below and at most

@@ -1,6 +1,6 @@
 //! Single-level Chebyshev semi-iteration for static equilibrium `R(u) = V`: a baseline with
 //! FAS's smoother's preconditioner (per-node fictitious masses `D`,
-//! [`super::statics::fictitious_mass`]) on the finest mesh alone, over an interval `[a, b]` of
+//! [`super::fictitious_mass`]) on the finest mesh alone, over an interval `[a, b]` of
 //! the spectrum of `D⁻¹K` that is estimated, not fixed.
 //!
 //! The iteration (Saad, *Iterative Methods for Sparse Linear Systems*, Alg. 12.1, on the
@@ -24,7 +24,7 @@
 //!   smallest.
 //! - Every iteration, the Rayleigh quotient of the last increment `d`, the secant stiffness
 //!   along it: `q = d·(r_k − r_{k+1}) / (d·D d)` (adaptive dynamic relaxation's estimate of the
-//!   lowest mode, [`super::adaptive_relax`]). Once the modes inside `[a, b]` are damped, the
+//!   lowest mode, [`super::adaptive`]). Once the modes inside `[a, b]` are damped, the
 //!   error, and so `d`, is made of the modes below `a`, which a Lanczos run of a few steps
 //!   cannot resolve on an organ (`λ_min / λ_max` near 10⁻⁵). After each window of
 //!   `⌈√(b/a)⌉` iterations (the iteration's own time scale, at most [`MAX_WINDOW`]), where the
@@ -42,14 +42,14 @@
 //!   interval there again, doubles `b` once more for each such failure, and restarts; after
 //!   [`MAX_FAILURES`] failures the last element failure is returned.
 //!
-//! Stops on the criterion of [`super::newton_direct`]: the largest nodal residual over free
+//! Stops on the criterion of [`crate::statics::newton`]: the largest nodal residual over free
 //! nodes at most `rel_tol × max_a |V_a| + abs_tol`. Everything is sequential over one state
 //! and the force evaluations are deterministic: the same bits on any thread count.
 
-use super::stability::start_entry;
-use super::statics::fictitious_mass;
-use super::System;
+use super::fictitious_mass;
 use crate::fem::ElementFailure;
+use crate::integrate::System;
+use crate::linalg::spectrum::{start_entry, tridiagonal_extremes};
 use crate::mesh::Mesh;
 use crate::metrics::max_displacement;
 
@@ -98,7 +98,7 @@ pub struct ChebyshevRelaxed {
 
 /// Relax `u` in place (constraints imposed at time `t`) on `sys`, whose mesh is `mesh` and
 /// whose `M⁻¹K` is bounded by `lambda_max` (1/s², e.g.
-/// [`super::stability::lambda_max_bound`]; it scales the fictitious masses), spending at most
+/// [`crate::integrate::stability::lambda_max_bound`]; it scales the fictitious masses), spending at most
 /// `max_evaluations` force evaluations (module docs).
 #[allow(clippy::too_many_arguments)]
 pub fn chebyshev_relax(
@@ -290,46 +290,41 @@ impl Lanczos {
             return Ok([1.0, 1.0]);
         }
         self.q.iter_mut().for_each(|v| *v /= q0);
-        self.q_prev.iter_mut().for_each(|v| *v = 0.0);
         let umax = u.iter().fold(0.0f64, |m, &x| m.max(x.abs()));
-        let (mut alpha, mut beta) = (Vec::new(), Vec::new());
-        let mut beta_prev = 0.0;
-        for _ in 0..LANCZOS_STEPS {
-            // w = D^{-1/2} q; K w by the difference; back to D^{-1/2} K w.
-            let mut wmax = 0.0f64;
-            for i in 0..n {
-                let s = dm[i / 3];
-                self.w[i] = if s > 0.0 { self.q[i] / s.sqrt() } else { 0.0 };
-                wmax = wmax.max(self.w[i].abs());
-            }
-            let eps = 1e-7 * umax.max(length) / wmax;
-            for i in 0..n {
-                self.trial[i] = u[i] + eps * self.w[i];
-            }
-            *evaluations += 1;
-            sys.residual(&self.trial, &mut self.rt)?;
-            for i in 0..n {
-                let s = dm[i / 3];
-                let kw = (r[i] - self.rt[i]) / eps;
-                self.w[i] = if s > 0.0 { kw / s.sqrt() } else { 0.0 };
-            }
-            let al: f64 = self.w.iter().zip(&self.q).map(|(x, y)| x * y).sum();
-            for i in 0..n {
-                self.w[i] -= al * self.q[i] + beta_prev * self.q_prev[i];
-            }
-            alpha.push(al);
-            let be = norm(&self.w);
-            if be <= 1e-12 * al.abs() || !be.is_finite() {
-                break;
-            }
-            beta.push(be);
-            beta_prev = be;
-            std::mem::swap(&mut self.q_prev, &mut self.q);
-            for i in 0..n {
-                self.q[i] = self.w[i] / be;
-            }
-        }
-        beta.truncate(alpha.len().saturating_sub(1));
+        let Lanczos {
+            q,
+            q_prev,
+            w,
+            trial,
+            rt,
+        } = self;
+        // D^{-1/2} K D^{-1/2} q: w = D^{-1/2} q, K w by the difference, back to D^{-1/2} K w.
+        let (alpha, beta) = crate::linalg::spectrum::lanczos(
+            q,
+            q_prev,
+            w,
+            LANCZOS_STEPS,
+            |q: &[f64], kq: &mut [f64]| -> Result<(), ElementFailure> {
+                let mut wmax = 0.0f64;
+                for i in 0..n {
+                    let s = dm[i / 3];
+                    kq[i] = if s > 0.0 { q[i] / s.sqrt() } else { 0.0 };
+                    wmax = wmax.max(kq[i].abs());
+                }
+                let eps = 1e-7 * umax.max(length) / wmax;
+                for i in 0..n {
+                    trial[i] = u[i] + eps * kq[i];
+                }
+                *evaluations += 1;
+                sys.residual(trial, rt)?;
+                for i in 0..n {
+                    let s = dm[i / 3];
+                    let kw = (r[i] - rt[i]) / eps;
+                    kq[i] = if s > 0.0 { kw / s.sqrt() } else { 0.0 };
+                }
+                Ok(())
+            },
+        )?;
         let (lo, hi) = tridiagonal_extremes(&alpha, &beta);
         // A Ritz value at or below zero (an indefinite tangent) or above the fictitious bound's
         // reach says nothing usable about the lower end: keep a positive one.
@@ -343,89 +338,13 @@ impl Lanczos {
     }
 }
 
-/// The smallest and largest eigenvalues of the symmetric tridiagonal matrix with diagonal
-/// `alpha` and off-diagonal `beta` (`alpha.len() − 1` entries), by Sturm-sequence bisection
-/// inside the Gershgorin bounds.
-pub(crate) fn tridiagonal_extremes(alpha: &[f64], beta: &[f64]) -> (f64, f64) {
-    let m = alpha.len();
-    if m == 0 {
-        return (f64::NAN, f64::NAN);
-    }
-    let off = |i: usize| -> f64 {
-        let l = if i > 0 { beta[i - 1].abs() } else { 0.0 };
-        let r = if i + 1 < m { beta[i].abs() } else { 0.0 };
-        l + r
-    };
-    let glo = (0..m)
-        .map(|i| alpha[i] - off(i))
-        .fold(f64::INFINITY, f64::min);
-    let ghi = (0..m)
-        .map(|i| alpha[i] + off(i))
-        .fold(f64::NEG_INFINITY, f64::max);
-    // Eigenvalues below x: sign changes of the Sturm sequence (LDLᵀ pivots below zero).
-    let below = |x: f64| -> usize {
-        let mut count = 0;
-        let mut p = alpha[0] - x;
-        if p < 0.0 {
-            count += 1;
-        }
-        for i in 1..m {
-            let pp = if p == 0.0 {
-                f64::EPSILON * (ghi - glo).abs().max(1e-300)
-            } else {
-                p
-            };
-            p = alpha[i] - x - beta[i - 1] * beta[i - 1] / pp;
-            if p < 0.0 {
-                count += 1;
-            }
-        }
-        count
-    };
-    let bisect = |k: usize| -> f64 {
-        // The (k+1)-th smallest eigenvalue: the smallest x with below(x) > k.
-        let (mut lo, mut hi) = (glo, ghi);
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if mid <= lo || mid >= hi {
-                break;
-            }
-            if below(mid) > k {
-                hi = mid;
-            } else {
-                lo = mid;
-            }
-        }
-        0.5 * (lo + hi)
-    };
-    (bisect(0), bisect(m - 1))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::integrate::stability::lambda_max_bound;
-    use crate::integrate::tests::{distance_to_newton, sagging_beam};
     use crate::scenario::Scenario;
+    use crate::statics::relax::tests::{distance_to_newton, sagging_beam};
     use std::path::Path;
-
-    /// The extremes of a tridiagonal matrix whose eigenvalues are known in closed form:
-    /// `tridiag(−1, 2, −1)` of order m has `2 − 2 cos(jπ/(m+1))`, j = 1..m.
-    #[test]
-    fn tridiagonal_extremes_match_the_closed_form() {
-        let m = 30;
-        let (lo, hi) = tridiagonal_extremes(&vec![2.0; m], &vec![-1.0; m - 1]);
-        let exact = |j: usize| 2.0 - 2.0 * (j as f64 * std::f64::consts::PI / (m + 1) as f64).cos();
-        assert!((lo - exact(1)).abs() <= 1e-12, "{lo} against {}", exact(1));
-        assert!((hi - exact(m)).abs() <= 1e-12, "{hi} against {}", exact(m));
-        // A 1x1 matrix, and an uncoupled one.
-        assert_eq!(tridiagonal_extremes(&[3.0], &[]), (3.0, 3.0));
-        let (lo, hi) = tridiagonal_extremes(&[5.0, -1.0, 2.0], &[0.0, 0.0]);
-        assert!(
-            (lo + 1.0).abs() < 1e-12 && (hi - 5.0).abs() < 1e-12,
-            "{lo} {hi}"
-        );
-    }
 
     /// On a sagging soft beam (neo-Hookean, ν = 0.45, large deflection) the Chebyshev
     /// semi-iteration reaches 1e-10 of the load and the equilibrium of direct Newton, within
@@ -514,26 +433,25 @@ duration = 1.0
             .collect();
         sys.constraints.zero_constrained(&mut x);
         let (mut y, mut w) = (vec![0.0; 3 * n], vec![0.0; 3 * n]);
-        let mut lambda = 0.0;
-        for _ in 0..200 {
-            let xmax = x.iter().fold(0.0f64, |m, &v| m.max(v.abs()));
-            let eps = 1e-7 * length / xmax;
-            for i in 0..3 * n {
-                w[i] = eps * x[i];
-            }
-            sys.residual(&w, &mut y).unwrap();
-            for i in 0..3 * n {
-                y[i] = (r[i] - y[i]) / eps;
-            }
-            let xkx: f64 = x.iter().zip(&y).map(|(p, q)| p * q).sum();
-            let xdx: f64 = (0..3 * n).map(|i| dm[i / 3] * x[i] * x[i]).sum();
-            lambda = xkx / xdx;
-            for i in 0..3 * n {
-                x[i] = y[i] / dm[i / 3];
-            }
-            let m = x.iter().fold(0.0f64, |m, &v| m.max(v.abs()));
-            x.iter_mut().for_each(|v| *v /= m);
-        }
+        let lambda = crate::linalg::spectrum::power_iteration(
+            &mut x,
+            crate::linalg::spectrum::Diagonal::Node(&dm),
+            200,
+            &mut y,
+            |x: &[f64], kx: &mut [f64]| {
+                let xmax = x.iter().fold(0.0f64, |m, &v| m.max(v.abs()));
+                let eps = 1e-7 * length / xmax;
+                for i in 0..3 * n {
+                    w[i] = eps * x[i];
+                }
+                sys.residual(&w, kx)?;
+                for i in 0..3 * n {
+                    kx[i] = (r[i] - kx[i]) / eps;
+                }
+                Ok::<(), ElementFailure>(())
+            },
+        )
+        .unwrap();
         assert!(b <= 1.0 + 1e-6, "largest Ritz value {b} above the bound");
         assert!(
             (b - lambda).abs() <= 0.05 * lambda,

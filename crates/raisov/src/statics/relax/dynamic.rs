@@ -7,8 +7,8 @@
 //! staggered velocity, which near the stability limit does not lower the scheme's modified
 //! energy, and the relaxation can then stall (measured on a cantilever at 0.9 Δ_crit).
 
-use super::{Integrator, State, SymplecticEuler, System};
 use crate::fem::ElementFailure;
+use crate::integrate::{Integrator, State, SymplecticEuler, System};
 
 /// Result of [`relax`].
 #[derive(Clone, Debug)]

@@ -59,10 +59,10 @@
 //!
 //! Multigrid-preconditioned Newton ([`DirectNewtonParams::multigrid`], with the levels given
 //! to [`DirectNewton::with_levels`]): each Newton system is solved by conjugate gradients on
-//! `K + σ d̄ D` preconditioned by one Galerkin V-cycle ([`super::galerkin`]: coarse operators
-//! `Pᵀ A P` over the hierarchy's host weights, Gauss-Seidel smoothing ([`super::smoother`]),
+//! `K + σ d̄ D` preconditioned by one Galerkin V-cycle ([`crate::linalg::galerkin`]: coarse operators
+//! `Pᵀ A P` over the hierarchy's host weights, Gauss-Seidel smoothing ([`crate::linalg::smoother`]),
 //! a sparse Cholesky
-//! factorisation of the coarsest level only, solved in `f32`: [`super::coarse_factor`]), to
+//! factorisation of the coarsest level only, solved in `f32`: [`crate::linalg::coarse_factor`]), to
 //! the same inexact-Newton tolerance η. A direction of non-positive curvature is not
 //! truncated here: the iterate before it can be a step along a nearly singular direction,
 //! thousands of times too long (the drape's first fine tangent after the coarse start: every
@@ -117,26 +117,23 @@
 //! few Newton iterations per frame (`max_newton`) carries the regularisation a flat
 //! membrane's first tangent needs from one frame to the next.
 
-mod nested;
 mod pattern;
-mod pcg;
 mod shift;
 
-pub use nested::{
+pub use super::nested::{
     coarse_start, nested_start, start_levels, BetweenSolve, CoarseStart, NestedLevels, StartLevel,
     BETWEEN_REL_TOL, COARSE_PCG_MAX, COARSE_REL_TOL, NESTED_GAP, START_MIN_NODES,
 };
-use pcg::{forcing_term, pcg, pcg_from, PcgEnd};
+use crate::linalg::cg::{pcg, pcg_from, PcgEnd};
 use shift::{raise_sigma, shift_needed, sigma_after_full_step};
 
-pub use super::coarse_factor::Precision;
-use super::galerkin::{
-    Csr, GalerkinError, GalerkinMultigrid, GalerkinSymbolic, Prolongations, SymScatter,
-};
-pub use super::smoother::Smoother;
-use super::{Constraints, System};
 use crate::fem::{ElementFailure, FemModel, ForceModel};
 use crate::hierarchy::Transfer;
+use crate::integrate::{Constraints, System};
+pub use crate::linalg::coarse_factor::Precision;
+use crate::linalg::galerkin::{GalerkinError, GalerkinMultigrid, GalerkinSymbolic, Prolongations};
+pub use crate::linalg::smoother::Smoother;
+use crate::linalg::sparse::{sym_lower_matvec, Csr, SymScatter};
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
@@ -224,7 +221,7 @@ pub struct MultigridPcg {
     /// coarsest factorisation, the smoothed levels' Galerkin operators being rebuilt from the
     /// current tangent (`false`, the default).
     pub keep: bool,
-    /// The precision of the coarse solve ([`super::coarse_factor`]). Default
+    /// The precision of the coarse solve ([`crate::linalg::coarse_factor`]). Default
     /// [`Precision::Single`]: the factor computed in `f64`, rounded to `f32`.
     pub coarse_precision: Precision,
 }
@@ -302,28 +299,44 @@ pub struct DirectStatic {
     pub setup_s: f64,
     /// Largest nodal residual after each iteration of the last load step (N).
     pub history: Vec<f64>,
+    /// Whether the stopping rule held at the full load.
     pub converged: bool,
 }
 
 /// Errors of the direct solver.
 #[derive(Debug, thiserror::Error)]
 pub enum DirectNewtonError {
+    /// The force model has no assembled tangent.
     #[error("the direct Newton solver needs a finite-element force model (FemModel)")]
     NotFem,
+    /// A state the solver had to evaluate inverts an element.
     #[error("element {} is inverted or collapsed at a state the solver had to evaluate (det F = {:.3e})", .0.element, .0.det_f)]
     Inverted(ElementFailure),
+    /// The sparse factorisation failed even with the largest regularisation.
     #[error("sparse factorisation failed: {0}")]
     Factor(String),
+    /// A factor or hierarchy would not fit in the available memory ([`crate::memory`]).
     #[error("{0}")]
     Memory(String),
+    /// A sliding constraint along a direction other than x, y or z.
     #[error("node {node} slides along ({:.3}, {:.3}, {:.3}): the direct Newton solver takes fixed components along x, y or z only", .dir[0], .dir[1], .dir[2])]
-    SlidingNotAxis { node: u32, dir: [f64; 3] },
+    SlidingNotAxis {
+        /// The node.
+        node: u32,
+        /// Its sliding direction.
+        dir: [f64; 3],
+    },
+    /// Spring grasps act: their tangent is not assembled.
     #[error("the direct Newton solver does not take spring grasps (System::springs); use a hard grasp or the Newton-Krylov solver")]
     Springs,
+    /// A level transfer does not match its finer level's node count.
     #[error("level transfer {level} locates {got} nodes, but its finer level has {expected}")]
     Levels {
+        /// The transfer's index.
         level: usize,
+        /// The nodes it locates.
         got: usize,
+        /// The finer level's node count.
         expected: usize,
     },
 }
@@ -1052,6 +1065,19 @@ impl DirectNewton {
     }
 }
 
+/// Eisenstat and Walker's choice 2 with its safeguard, not below what the stopping rule
+/// needs (`tol` against the largest nodal residual `max`), at most 0.5.
+fn forcing_term(prev_norm: Option<f64>, norm: f64, eta_prev: f64, tol: f64, max: f64) -> f64 {
+    let mut eta = match prev_norm {
+        Some(p) if p > 0.0 => 0.9 * (norm / p).powi(2),
+        _ => 0.5,
+    };
+    if 0.9 * eta_prev * eta_prev > 0.1 {
+        eta = eta.max(0.9 * eta_prev * eta_prev);
+    }
+    eta.max(0.1 * tol / max.max(f64::MIN_POSITIVE)).min(0.5)
+}
+
 /// Where the kept hierarchy stands with respect to the provisional rule (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 enum Standing {
@@ -1090,29 +1116,6 @@ fn potential(model: &FemModel, u: &[f64], s: f64, f_ext: &[f64]) -> f64 {
         e - s * w
     } else {
         f64::INFINITY
-    }
-}
-
-/// `y = A x` for a symmetric `A` stored as its lower triangle in compressed columns.
-fn sym_lower_matvec(a: &SparseColMat<usize, f64>, x: &[f64], y: &mut [f64]) {
-    y.iter_mut().for_each(|v| *v = 0.0);
-    let cp = a.symbolic().col_ptr();
-    let ri = a.symbolic().row_idx();
-    let val = a.val();
-    for j in 0..x.len() {
-        let xj = x[j];
-        let mut acc = 0.0;
-        for k in cp[j]..cp[j + 1] {
-            let i = ri[k];
-            let v = val[k];
-            if i == j {
-                acc += v * xj;
-            } else {
-                y[i] += v * xj;
-                acc += v * x[i];
-            }
-        }
-        y[j] += acc;
     }
 }
 

@@ -4,7 +4,7 @@
 //! equilibrium, critically damped on the lowest mode, estimated on the fly.
 //!
 //! Central differences on `D ü + c D u̇ + R(u) = V` with fictitious per-node masses `D`
-//! ([`super::statics::fictitious_mass`], so that `λ_max(D⁻¹K) ≤ 1` at small strain) and the
+//! ([`super::fictitious_mass`], so that `λ_max(D⁻¹K) ≤ 1` at small strain) and the
 //! fictitious step `h = 1`:
 //!
 //! ```text
@@ -15,12 +15,12 @@
 //! Rayleigh quotient of the last increment (the secant stiffness along it):
 //! `ω₀² = Δu·(r_{n−1} − r_n) / (Δu·D Δu)`, `Δu = u_n − u_{n−1}`, `r = V − R` on free dofs,
 //! clamped to `[0, 1]` (λ_max's bound); recomputed every step. Stops on the criterion of
-//! [`super::newton_direct`]: the largest nodal residual over free nodes at most
+//! [`crate::statics::newton`]: the largest nodal residual over free nodes at most
 //! `rel_tol × max_a |V_a| + abs_tol`.
 
-use super::statics::fictitious_mass;
-use super::System;
+use super::fictitious_mass;
 use crate::fem::ElementFailure;
+use crate::integrate::System;
 use crate::mesh::Mesh;
 use crate::metrics::max_displacement;
 
@@ -41,7 +41,7 @@ pub struct AdaptiveRelaxed {
 
 /// Relax `u` in place (constraints imposed at time `t`) on `sys`, whose mesh is `mesh` and
 /// whose `M⁻¹K` is bounded by `lambda_max` (1/s²; e.g.
-/// [`super::stability::lambda_max_bound`]).
+/// [`crate::integrate::stability::lambda_max_bound`]).
 #[allow(clippy::too_many_arguments)]
 pub fn adaptive_relax(
     sys: &mut System,
@@ -104,7 +104,7 @@ pub fn adaptive_relax(
 mod tests {
     use super::*;
     use crate::integrate::stability::lambda_max_bound;
-    use crate::integrate::tests::{distance_to_newton, sagging_beam};
+    use crate::statics::relax::tests::{distance_to_newton, sagging_beam};
 
     /// On a sagging soft beam (neo-Hookean, ν = 0.45, large deflection) adaptive dynamic
     /// relaxation reaches 1e-10 of the load and the equilibrium of direct Newton, within 1e-7

@@ -38,7 +38,7 @@
 //!   on any thread count; the sweep is its own adjoint, so forward and backward are the
 //!   same.
 
-use super::galerkin::{row_dot, Csr, Entry};
+use super::sparse::{row_dot, Csr, Entry};
 use rayon::prelude::*;
 
 /// Blocks per parallel task within one colour.
@@ -48,7 +48,7 @@ const MIN_BLOCKS_PER_TASK: usize = 64;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Smoother {
     /// Point Gauss-Seidel on one thread (the default of
-    /// [`super::newton_direct::MultigridPcg`], and the reference; a scenario's `[integrator]
+    /// [`crate::statics::newton::MultigridPcg`], and the reference; a scenario's `[integrator]
     /// smoother` defaults by element kind, [`crate::scenario::StaticSolve::smoother`]).
     #[default]
     GaussSeidel,

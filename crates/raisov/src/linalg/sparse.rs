@@ -3,7 +3,7 @@
 //! (compressed columns, as faer keeps it) into full rows ([`SymScatter`]).
 //!
 //! Every product is split into row blocks that are independent and each row is accumulated
-//! in a fixed order ([`row_dot`]): the same bits on any thread count.
+//! in a fixed order (`row_dot`): the same bits on any thread count.
 
 use faer::sparse::SparseColMat;
 use rayon::prelude::*;

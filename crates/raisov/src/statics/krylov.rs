@@ -120,7 +120,7 @@ impl NewtonSolver {
         Self::with_diagonal(sys, &sys.mass)
     }
 
-    /// CG preconditioned by a per-node diagonal `diag` (e.g. [`fictitious_mass`]).
+    /// CG preconditioned by a per-node diagonal `diag` (e.g. [`crate::statics::relax::fictitious_mass`]).
     pub fn with_diagonal(sys: &System, diag: &[f64]) -> Self {
         let n = 3 * sys.num_nodes();
         let z = vec![0.0; n];

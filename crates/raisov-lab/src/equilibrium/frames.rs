@@ -82,11 +82,8 @@ pub fn newton_frame_budgets(case: &Case, iterations: &[usize]) -> Result<Vec<Fra
         let mut sys = sc.build_system()?;
         let vmax = max_nodal(&sys.f_ext);
         let f = sys.f_ext.clone();
-        let model = sys
-            .force
-            .as_fem_mut()
-            .ok_or_else(|| Error::param("bench equilibrium", "not a finite-element model"))?;
-        let mut newton = DirectNewton::with_levels(model, &sys.constraints, &down)
+        let model = &mut *sys.force;
+        let mut newton = DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, &down)
             .map_err(|e| Error::param("Newton-multigrid", e.to_string()))?;
         let params = DirectNewtonParams {
             rel_tol: REL_TOL,
@@ -105,7 +102,15 @@ pub fn newton_frame_budgets(case: &Case, iterations: &[usize]) -> Result<Vec<Fra
         for frame in 1..=last {
             let t0 = Instant::now();
             let out = newton
-                .solve(model, &sys.constraints, &f, 0.0, &mut u, params)
+                .solve(
+                    model,
+                    &sys.springs,
+                    &sys.constraints,
+                    &f,
+                    0.0,
+                    &mut u,
+                    params,
+                )
                 .map_err(|e| Error::param("Newton-multigrid", e.to_string()))?;
             if out.newton_steps > 0 {
                 wall += t0.elapsed().as_secs_f64();

@@ -106,7 +106,7 @@ use raisov::integrate::stability::lambda_max_bound;
 use raisov::scenario::{MultigridScheme, Scenario};
 use raisov::statics::newton::{
     nested_start, solve_system, start_levels, BetweenSolve, CoarseStart, DirectNewton,
-    DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg, Smoother,
+    DirectNewtonParams, DirectStatic, MultigridPcg, Smoother,
 };
 use raisov::statics::relax::adaptive::adaptive_relax;
 use raisov::statics::relax::chebyshev::chebyshev_relax;
@@ -508,10 +508,7 @@ fn start_from_coarse(
     };
     let chain = start_levels(&picked.counts, c);
     let mut levels = sc.nested_levels(&chain, (coarse.unwrap_or(&mesh), c))?;
-    let model = sys
-        .force
-        .as_fem_mut()
-        .ok_or_else(|| Error::param("bench equilibrium", "not a finite-element model"))?;
+    let model = &mut *sys.force;
     Ok(Some(nested_start(
         &mut levels,
         0.0,
@@ -633,10 +630,6 @@ fn newton_mg_run(
     let mut row = blank_row(case, "Newton-multigrid", target);
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
     let mut sys = sc.build_system()?;
-    if sys.springs.iter().any(|s| s.k > 0.0) {
-        row.note = format!("failed: {}", DirectNewtonError::Springs);
-        return Ok((row, Vec::new()));
-    }
     let t0 = Instant::now();
     let (meshes, down) = newton_mg_hierarchy(sc)?;
     let mut parts = Parts {
@@ -650,17 +643,15 @@ fn newton_mg_run(
         None
     };
     parts.start_s = clock.elapsed().as_secs_f64();
-    let model = sys
-        .force
-        .as_fem_mut()
-        .ok_or_else(|| Error::param("bench equilibrium", "not a finite-element model"))?;
+    let model = &mut *sys.force;
     let load_steps = CoarseStart::fine_load_steps(start.as_ref(), case.load_steps);
     let clock = Instant::now();
-    let prepared = DirectNewton::with_levels(model, &sys.constraints, &down);
+    let prepared = DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, &down);
     parts.setup_s += clock.elapsed().as_secs_f64();
     let out = prepared.and_then(|mut s| {
         s.solve(
             model,
+            &sys.springs,
             &sys.constraints,
             &sys.f_ext,
             0.0,

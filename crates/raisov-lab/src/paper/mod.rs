@@ -684,7 +684,10 @@ const STABLE_NEO_HOOKEAN: &str = "stable-neo-hookean";
 /// the smallest `det F`.
 fn inverted_elements(sc: &Scenario, u: &[f64]) -> Result<(usize, f64)> {
     let fem = raisov::fem::FemModel::new(&sc.mesh, sc.fem_params())?;
-    Ok((fem.count_inverted(u), fem.min_det_f(u).1))
+    Ok((
+        fem.count_inverted(u),
+        raisov::fem::ForceModel::min_det_f(&fem, u).1,
+    ))
 }
 
 /// Experiment 5, cost of one V-cycle over one single-level step [eq. 14]: SLIM RK4, RaISoV and FAS on

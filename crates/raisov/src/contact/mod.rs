@@ -152,7 +152,85 @@ impl ToolShape {
     }
 }
 
+impl ToolShape {
+    /// The Hessian of `½ φ²` at a point `x` inside the shape translated by `d`,
+    /// `∇φ ∇φᵀ + φ ∇²φ` with `∇φ = n` (module docs): a plane's `n nᵀ`; a sphere's (and a
+    /// capsule's caps') `n nᵀ + φ (I − n nᵀ) / ρ`, `ρ = |x − q|`; a capsule's side,
+    /// `n nᵀ + φ (I − t tᵀ − n nᵀ) / ρ` with `t` its unit axis. At `ρ = 0` the curvature
+    /// term is left out. `None` outside.
+    pub fn penetration_hessian(&self, x: [f64; 3], d: [f64; 3]) -> Option<[[f64; 3]; 3]> {
+        let (phi, n) = self.penetration(x, d)?;
+        let mut h = [[0.0; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                h[i][j] = n[i] * n[j];
+            }
+        }
+        let (rho, axis) = match self {
+            ToolShape::Plane { .. } => return Some(h),
+            ToolShape::Sphere { .. } => (phi + self.radius(), None),
+            ToolShape::Capsule { a, b, .. } => {
+                let (a, b) = (add(*a, d), add(*b, d));
+                let ab = sub(b, a);
+                let l2 = dot(ab, ab);
+                let s = if l2 > 0.0 {
+                    dot(sub(x, a), ab) / l2
+                } else {
+                    0.0
+                };
+                let side = l2 > 0.0 && s > 0.0 && s < 1.0;
+                let t = ab.map(|c| c / l2.sqrt());
+                (phi + self.radius(), side.then_some(t))
+            }
+        };
+        if rho > 0.0 {
+            for i in 0..3 {
+                for j in 0..3 {
+                    let id = if i == j { 1.0 } else { 0.0 };
+                    let tt = axis.map_or(0.0, |t| t[i] * t[j]);
+                    h[i][j] += phi * (id - tt - n[i] * n[j]) / rho;
+                }
+            }
+        }
+        Some(h)
+    }
+
+    /// The radius of a sphere or capsule (0 for a plane).
+    fn radius(&self) -> f64 {
+        match self {
+            ToolShape::Sphere { radius, .. } | ToolShape::Capsule { radius, .. } => *radius,
+            ToolShape::Plane { .. } => 0.0,
+        }
+    }
+}
+
 impl Tool {
+    /// The penalty's stiffness blocks `k ∇²(½ φ²)` (3 × 3, row-major) of the nodes `x0 + u`
+    /// inside the tool at time `t`, each handed to `add(node, block)`, nodes ascending.
+    pub fn add_tangent(
+        &self,
+        x0: &[f64],
+        u: &[f64],
+        t: f64,
+        factor: f64,
+        add: &mut dyn FnMut(&[u32], &[f64]),
+    ) {
+        let d = self.offset(t, factor);
+        let k = self.stiffness;
+        for (a, (p, w)) in x0.chunks_exact(3).zip(u.chunks_exact(3)).enumerate() {
+            let x = [p[0] + w[0], p[1] + w[1], p[2] + w[2]];
+            if let Some(h) = self.shape.penetration_hessian(x, d) {
+                let mut block = [0.0; 9];
+                for i in 0..3 {
+                    for j in 0..3 {
+                        block[3 * i + j] = k * h[i][j];
+                    }
+                }
+                add(&[a as u32], &block);
+            }
+        }
+    }
+
     /// The translation at time `t` scaled by `factor` (static increments).
     pub fn offset(&self, t: f64, factor: f64) -> [f64; 3] {
         self.motion.displacement(t).map(|c| c * factor)
@@ -278,6 +356,36 @@ impl ForceModel for Contact {
     fn strain_energy(&self, u: &[f64]) -> f64 {
         let (e, _, _) = self.add_tool_forces(u, &mut vec![0.0; u.len()]);
         self.inner.strain_energy(u) + e
+    }
+
+    fn admissible_energy(&self, u: &[f64]) -> f64 {
+        let inner = self.inner.admissible_energy(u);
+        if !inner.is_finite() {
+            return f64::INFINITY;
+        }
+        let (e, _, _) = self.add_tool_forces(u, &mut vec![0.0; u.len()]);
+        inner + e
+    }
+
+    fn tangent_elements(&self) -> Option<crate::fem::ElementTopology<'_>> {
+        self.inner.tangent_elements()
+    }
+
+    fn element_tangent(&self, e: usize, u: &[f64], out: &mut [f64]) -> Result<(), ElementFailure> {
+        self.inner.element_tangent(e, u, out)
+    }
+
+    fn add_extra_tangent(&self, u: &[f64], add: &mut dyn FnMut(&[u32], &[f64])) {
+        self.inner.add_extra_tangent(u, add);
+        let t = self.time();
+        let g = f64::from_bits(self.factor.load(Ordering::Relaxed));
+        for tool in &self.tools {
+            tool.add_tangent(&self.x0, u, t, g, add);
+        }
+    }
+
+    fn element_det_f(&self, e: usize, u: &[f64]) -> f64 {
+        self.inner.element_det_f(e, u)
     }
 
     fn nodal_stress(&self, u: &[f64], t: &mut [f64]) {

@@ -77,3 +77,51 @@ fn penalty_force_is_the_energy_gradient() {
         );
     }
 }
+
+/// A penalty tool's tangent blocks (`k ∇²(½ φ²)` per penetrating node) plus the elements' are
+/// the derivative of the forces, for each shape: a sphere pressed into a tet box, a plane
+/// cutting its corner, a capsule across it (side and end cap), moved by its motion at `t`.
+#[test]
+fn tool_tangent_is_the_force_derivative_for_each_shape() {
+    use crate::fem::tests::{assert_tangent_matches_fd, jittered_box, random_u};
+    use crate::fem::{FemModel, FemParams};
+    use crate::material::{Material, NeoHookean};
+    let mesh = jittered_box(3, 0.3);
+    let shapes = [
+        ToolShape::Sphere {
+            center: [0.005, 0.005, 0.0135],
+            radius: 0.005,
+        },
+        ToolShape::Plane {
+            point: [0.0, 0.0, 0.0035],
+            normal: [0.6, 0.0, 0.8],
+        },
+        ToolShape::Capsule {
+            a: [0.0042, -0.002, 0.0115],
+            b: [0.0042, 0.0065, 0.0115],
+            radius: 0.0025,
+        },
+    ];
+    for shape in shapes {
+        let fem = FemModel::new(
+            &mesh,
+            FemParams::new(Material::NeoHookean(NeoHookean::from_young(1e4, 0.4))),
+        )
+        .unwrap();
+        let x0 = fem.reference_positions().to_vec();
+        let tool = Tool {
+            shape: shape.clone(),
+            motion: Motion::Ramp {
+                d: [0.0, 0.0, -0.001],
+                duration: 1.0,
+            },
+            stiffness: 5e3,
+        };
+        let mut c = Contact::new(Box::new(fem), x0, vec![tool]);
+        c.set_time(0.5);
+        let u = random_u(mesh.num_nodes(), 2e-4, 5);
+        let what = format!("{shape:?}");
+        let extra = assert_tangent_matches_fd(&mut c, &u, 1e-9, 1e-6, &what);
+        assert!(extra > 0.0, "{what}: no node penetrates");
+    }
+}

@@ -318,6 +318,47 @@ impl Loaded {
         work
     }
 
+    /// The symmetric part of the follower pressures' stiffness, one `9 × 9` block per loaded
+    /// triangle handed to `add` (module docs of [`super::ForceModel`]). With
+    /// `n = x₁×x₂ + x₂×x₃ + x₃×x₁` (twice the area vector) and `e₁ = x₂ − x₃`,
+    /// `e₂ = x₃ − x₁`, `e₃ = x₁ − x₂`, `∂n/∂x_b = −[e_b]×`, so each node's force
+    /// `f_a = −p n / 6` has `∂f_a/∂x_b = (p/6) [e_b]×`; the internal force carries `−f`, and
+    /// the symmetric part of its block `(a, b)` is `(p/12) [e_a − e_b]×` (zero on the
+    /// diagonal). On a closed surface the skew parts cancel between neighbouring triangles
+    /// and this is the whole tangent; on an open one the boundary edges' terms are left out,
+    /// which the Newton iteration's exact residual tolerates.
+    fn add_pressure_tangent(&self, u: &[f64], add: &mut dyn FnMut(&[u32], &[f64])) {
+        let t = self.time();
+        let g = self.factor();
+        let skew = |e: [f64; 3]| [[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]];
+        let mut block = [0.0; 81];
+        for s in &self.surface {
+            let SurfaceLoadKind::Pressure(p) = s.kind else {
+                continue;
+            };
+            let p = p * g * s.time.value(t);
+            if p == 0.0 {
+                continue;
+            }
+            for tri in &s.triangles {
+                let x = tri.map(|a| self.position(u, a));
+                let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+                let e = [sub(x[1], x[2]), sub(x[2], x[0]), sub(x[0], x[1])];
+                for a in 0..3 {
+                    for b in 0..3 {
+                        let m = skew(sub(e[a], e[b]));
+                        for i in 0..3 {
+                            for j in 0..3 {
+                                block[(3 * a + i) * 9 + 3 * b + j] = p / 12.0 * m[i][j];
+                            }
+                        }
+                    }
+                }
+                add(tri, &block);
+            }
+        }
+    }
+
     /// The tractions' and timed nodal loads' forces added into `f`; returns `W = F·u`.
     fn add_dead_forces(&self, u: &[f64], f: &mut [f64]) -> f64 {
         let t = self.time();
@@ -373,6 +414,34 @@ impl ForceModel for Loaded {
         let w = self.add_dead_forces(u, &mut f);
         let wp: f64 = self.frozen.iter().zip(u).map(|(a, b)| a * b).sum();
         self.inner.strain_energy(u) - w - wp
+    }
+
+    fn admissible_energy(&self, u: &[f64]) -> f64 {
+        let e = self.inner.admissible_energy(u);
+        if !e.is_finite() {
+            return f64::INFINITY;
+        }
+        let mut f = vec![0.0; u.len()];
+        let w = self.add_dead_forces(u, &mut f);
+        let wp: f64 = self.frozen.iter().zip(u).map(|(a, b)| a * b).sum();
+        e - w - wp
+    }
+
+    fn tangent_elements(&self) -> Option<super::ElementTopology<'_>> {
+        self.inner.tangent_elements()
+    }
+
+    fn element_tangent(&self, e: usize, u: &[f64], out: &mut [f64]) -> Result<(), ElementFailure> {
+        self.inner.element_tangent(e, u, out)
+    }
+
+    fn add_extra_tangent(&self, u: &[f64], add: &mut dyn FnMut(&[u32], &[f64])) {
+        self.inner.add_extra_tangent(u, add);
+        self.add_pressure_tangent(u, add);
+    }
+
+    fn element_det_f(&self, e: usize, u: &[f64]) -> f64 {
+        self.inner.element_det_f(e, u)
     }
 
     fn nodal_stress(&self, u: &[f64], t: &mut [f64]) {

@@ -77,9 +77,46 @@ pub struct ElementFailure {
     pub det_f: f64,
 }
 
-/// What integrators see of the physics (Vega FEM's `ForceModel`): internal forces R(u) and
-/// the strain energy whose gradient they are. Displacements and forces are flat, 3 per node.
-pub trait ForceModel: Send {
+/// The element structure of a force model's tangent ([`ForceModel::tangent_elements`]):
+/// `nodes` nodes, elements of `nodes_per_element` nodes each, listed in `cells`.
+#[derive(Clone, Copy, Debug)]
+pub struct ElementTopology<'a> {
+    /// Number of nodes.
+    pub nodes: usize,
+    /// Nodes per element (3 or 4).
+    pub nodes_per_element: usize,
+    /// Each element's nodes, `nodes_per_element` of them, element after element.
+    pub cells: &'a [u32],
+}
+
+impl ElementTopology<'_> {
+    /// Number of elements.
+    pub fn len(&self) -> usize {
+        self.cells.len() / self.nodes_per_element.max(1)
+    }
+    /// Whether there is no element.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+    /// Element `e`'s nodes.
+    pub fn element(&self, e: usize) -> &[u32] {
+        let k = self.nodes_per_element;
+        &self.cells[e * k..(e + 1) * k]
+    }
+}
+
+/// What every integrator and solver sees of the physics (Vega FEM's `ForceModel`): internal
+/// forces `R(u)`, the strain energy whose gradient they are, and their tangent
+/// `K = ∂R/∂u`. Displacements and forces are flat, 3 per node.
+///
+/// The tangent is the sum of element blocks (the finite-element model's
+/// [`ForceModel::element_tangent`], over [`ForceModel::tangent_elements`]) and of symmetric
+/// blocks over a few nodes each ([`ForceModel::add_extra_tangent`]: a follower pressure's
+/// triangles, a penalty tool's penetrating nodes), so that an assembled solver builds `K` on
+/// the elements' pattern. Wrappers that add forces ([`loads::Loaded`],
+/// [`crate::contact::Contact`]) pass their inner model's elements on and add their own
+/// blocks; each block is checked against finite differences of the forces in the tests.
+pub trait ForceModel: Send + Sync {
     /// Number of nodes (the vectors have 3 entries per node).
     fn num_nodes(&self) -> usize;
     /// `r = R(u)`. Fails on the lowest-numbered element that cannot be evaluated.
@@ -88,10 +125,45 @@ pub trait ForceModel: Send {
     fn strain_energy(&self, u: &[f64]) -> f64;
     /// Nodal stress tensor T (9 per node, row-major, Pa): the measure of paper section 3.
     fn nodal_stress(&self, u: &[f64], t: &mut [f64]);
-    /// The finite-element model behind this force model, where there is one (for solvers
-    /// that need element tangents: [`crate::statics::newton`]).
-    fn as_fem_mut(&mut self) -> Option<&mut FemModel> {
+    /// The strain energy where every element is admissible: `+∞` where one is inverted or
+    /// collapsed or the energy is not finite. The line searches' merit. Default:
+    /// [`ForceModel::strain_energy`].
+    fn admissible_energy(&self, u: &[f64]) -> f64 {
+        self.strain_energy(u)
+    }
+    /// The elements whose tangents sum to `K` ([`ForceModel::element_tangent`]); `None` where
+    /// the model has no element tangent (an assembled solver cannot take it, finite
+    /// differences of the forces can). Default: none.
+    fn tangent_elements(&self) -> Option<ElementTopology<'_>> {
         None
+    }
+    /// `K_e = ∂R_e/∂u_e` of element `e` at `u` into `out` (`(3 npe)²` entries, row-major, row
+    /// and column `3 i + k` the `k`-th component of the element's `i`-th node). Called only
+    /// for the elements of [`ForceModel::tangent_elements`]; the default has none.
+    fn element_tangent(&self, e: usize, _u: &[f64], out: &mut [f64]) -> Result<(), ElementFailure> {
+        out.iter_mut().for_each(|x| *x = 0.0);
+        let _ = e;
+        Ok(())
+    }
+    /// The tangent's blocks beyond the elements at `u`: `add(nodes, block)` for each, `block`
+    /// symmetric, `(3 k)²` entries row-major over the `k` nodes (the symmetric part of a
+    /// follower pressure's stiffness per loaded triangle, a penalty tool's per penetrating
+    /// node), in a fixed order. Default: none.
+    fn add_extra_tangent(&self, _u: &[f64], _add: &mut dyn FnMut(&[u32], &[f64])) {}
+    /// `det F` of element `e` at `u` (tets), or its signed area ratio (membranes): `≤ 0`
+    /// where it is inverted or collapsed. Called only for the elements of
+    /// [`ForceModel::tangent_elements`]; the default has none.
+    fn element_det_f(&self, _e: usize, _u: &[f64]) -> f64 {
+        1.0
+    }
+    /// The smallest [`ForceModel::element_det_f`] over the elements of
+    /// [`ForceModel::tangent_elements`] at `u`, and where (the first of equals); `(0, ∞)`
+    /// without elements.
+    fn min_det_f(&self, u: &[f64]) -> (usize, f64) {
+        let ne = self.tangent_elements().map_or(0, |t| t.len());
+        (0..ne)
+            .map(|e| (e, self.element_det_f(e, u)))
+            .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
     }
     /// Set the time (s) at which the time-dependent loads and tools a model carries are
     /// evaluated ([`loads::Loaded`]); [`crate::integrate::System::impose`] calls it with the
@@ -546,13 +618,6 @@ impl FemModel {
         self.deformation(e, u).1
     }
 
-    /// Smallest `det F` over elements (tets) or signed area ratio (membranes), and where.
-    pub fn min_det_f(&self, u: &[f64]) -> (usize, f64) {
-        (0..self.num_elements())
-            .map(|e| (e, self.deformation(e, u).1))
-            .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
-    }
-
     /// The number of elements with `det F ≤ 0` (tets) or a non-positive signed area ratio
     /// (membranes): inverted or collapsed.
     pub fn count_inverted(&self, u: &[f64]) -> usize {
@@ -769,12 +834,28 @@ impl ForceModel for FemModel {
         self.nodal_cauchy(u, t)
     }
 
-    fn as_fem_mut(&mut self) -> Option<&mut FemModel> {
-        Some(self)
-    }
-
     fn strain_energy(&self, u: &[f64]) -> f64 {
         self.energy_sum(u, false)
+    }
+
+    fn admissible_energy(&self, u: &[f64]) -> f64 {
+        self.admissible_strain_energy(u)
+    }
+
+    fn tangent_elements(&self) -> Option<ElementTopology<'_>> {
+        Some(ElementTopology {
+            nodes: self.n_nodes,
+            nodes_per_element: self.npe(),
+            cells: &self.cells,
+        })
+    }
+
+    fn element_tangent(&self, e: usize, u: &[f64], out: &mut [f64]) -> Result<(), ElementFailure> {
+        self.element_stiffness(e, u, out)
+    }
+
+    fn element_det_f(&self, e: usize, u: &[f64]) -> f64 {
+        FemModel::element_det_f(self, e, u)
     }
 }
 

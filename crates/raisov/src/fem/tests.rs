@@ -448,8 +448,7 @@ fn stable_neo_hookean_inverted_tet_recovers() {
             continue;
         }
         assert!(!failed);
-        let fem = sys.force.as_fem_mut().unwrap();
-        let (_, det) = fem.min_det_f(&s.u);
+        let (_, det) = sys.force.min_det_f(&s.u);
         assert!(det > 0.0, "still inverted (det F = {det})");
         let umax = s.u.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
         assert!(umax <= 1e-6 * h, "not back at rest: |u| = {umax:e}");
@@ -571,4 +570,96 @@ fn admissible_energy_refuses_inverted_tetrahedra_like_the_forces() {
             .install(|| model.strain_energy(&u))
     };
     assert_eq!(on(1).to_bits(), on(2).to_bits());
+}
+
+/// The tangent `model` assembles at `u` (its element blocks over
+/// [`ForceModel::tangent_elements`] plus the blocks of [`ForceModel::add_extra_tangent`]), as a
+/// dense matrix, against central differences (step `h`) of its [`ForceModel::internal_forces`]:
+/// every entry within `tol` times the largest. Returns the largest entry of the extra blocks
+/// (so a test can see that they were exercised).
+pub(crate) fn assert_tangent_matches_fd(
+    model: &mut dyn ForceModel,
+    u: &[f64],
+    h: f64,
+    tol: f64,
+    what: &str,
+) -> f64 {
+    let nd = 3 * model.num_nodes();
+    let mut k = vec![0.0; nd * nd];
+    if let Some(topo) = model.tangent_elements() {
+        for e in 0..topo.len() {
+            let nodes = topo.element(e).to_vec();
+            let m = 3 * nodes.len();
+            let mut ke = vec![0.0; m * m];
+            model.element_tangent(e, u, &mut ke).unwrap();
+            for (a, &na) in nodes.iter().enumerate() {
+                for (b, &nb) in nodes.iter().enumerate() {
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            k[(3 * na as usize + i) * nd + 3 * nb as usize + j] +=
+                                ke[(3 * a + i) * m + 3 * b + j];
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let mut extra_max = 0.0f64;
+    model.add_extra_tangent(u, &mut |nodes, block| {
+        let m = 3 * nodes.len();
+        for (a, &na) in nodes.iter().enumerate() {
+            for (b, &nb) in nodes.iter().enumerate() {
+                for i in 0..3 {
+                    for j in 0..3 {
+                        let v = block[(3 * a + i) * m + 3 * b + j];
+                        assert_eq!(
+                            v,
+                            block[(3 * b + j) * m + 3 * a + i],
+                            "{what}: asymmetric block"
+                        );
+                        extra_max = extra_max.max(v.abs());
+                        k[(3 * na as usize + i) * nd + 3 * nb as usize + j] += v;
+                    }
+                }
+            }
+        }
+    });
+    let scale = k.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    assert!(scale > 0.0, "{what}: zero tangent");
+    let (mut rp, mut rm) = (vec![0.0; nd], vec![0.0; nd]);
+    for j in 0..nd {
+        let mut w = u.to_vec();
+        w[j] = u[j] + h;
+        model.internal_forces(&w, &mut rp).unwrap();
+        w[j] = u[j] - h;
+        model.internal_forces(&w, &mut rm).unwrap();
+        for i in 0..nd {
+            let fd = (rp[i] - rm[i]) / (2.0 * h);
+            let an = k[i * nd + j];
+            assert!(
+                (fd - an).abs() <= tol * scale,
+                "{what}: K[{i}][{j}] = {an:e}, finite differences {fd:e} (largest entry {scale:e})"
+            );
+        }
+    }
+    extra_max
+}
+
+/// The finite-element model's own tangent (no extra blocks) is the derivative of its forces,
+/// assembled over its elements, on a tet box and a membrane.
+#[test]
+fn assembled_element_tangent_is_the_force_derivative() {
+    for (name, mesh) in [
+        ("tets", jittered_box(2, 0.3)),
+        ("membrane", jittered_membrane(3, 0.3)),
+    ] {
+        let mut fem = FemModel::new(
+            &mesh,
+            FemParams::new(Material::NeoHookean(NeoHookean::from_young(1e4, 0.4))),
+        )
+        .unwrap();
+        let u = random_u(mesh.num_nodes(), 3e-4, 3);
+        let extra = assert_tangent_matches_fd(&mut fem, &u, 1e-8, 1e-6, name);
+        assert_eq!(extra, 0.0, "{name}: no blocks beyond the elements");
+    }
 }

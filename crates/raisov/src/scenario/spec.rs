@@ -142,7 +142,8 @@
 //! solver = "auto"                 # newton: "auto" (default) | "multigrid" | "direct" |
 //!                                 # "krylov" (StaticSolver): "auto" is "multigrid" where
 //!                                 # [multigrid] gives a level with >= 1/32 of the nodes, else
-//!                                 # "direct"; "krylov" where pressure, a tool or springs act
+//!                                 # "direct" (pressure, tools and springs are in the
+//!                                 # assembled tangent)
 //! max_newton = 50                 # newton: Newton steps at most per increment, default 50
 //! increments = 10                 # newton: loads and prescribed displacements applied in
 //!                                 # this many equal increments, default 10 for "krylov",
@@ -428,8 +429,8 @@ named_enum! {
     /// `[integrator] solver` of `method = "newton"`: how each Newton system is solved.
     pub enum StaticSolver {
         /// `"multigrid"` where the scenario has a coarser level with at least 1/32 of the
-        /// finest level's nodes, else `"direct"`; `"krylov"` where the assembled tangent does
-        /// not cover the forces (pressure, tool contact, springs).
+        /// finest level's nodes, else `"direct"`; `"krylov"` only where the force model has no
+        /// element tangent.
         Auto = "auto",
         /// The assembled analytic tangent, conjugate gradients preconditioned by a Galerkin
         /// V-cycle over the finest level and that coarser one

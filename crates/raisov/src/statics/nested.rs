@@ -56,7 +56,7 @@ use super::newton::{
     solve_system, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg,
     Smoother,
 };
-use crate::fem::{FemModel, ForceModel};
+use crate::fem::ForceModel;
 use crate::hierarchy::Transfer;
 use crate::integrate::{Constraints, System};
 
@@ -180,7 +180,7 @@ pub fn coarse_start(
     t: f64,
     load_steps: usize,
     fine_in_coarse: &Transfer,
-    fine: &FemModel,
+    fine: &dyn ForceModel,
     fine_constraints: &Constraints,
     u: &mut [f64],
 ) -> CoarseStart {
@@ -241,7 +241,7 @@ pub fn nested_start(
     levels: &mut NestedLevels,
     t: f64,
     load_steps: usize,
-    fine: &FemModel,
+    fine: &dyn ForceModel,
     fine_constraints: &Constraints,
     u: &mut [f64],
     solve: BetweenSolve,
@@ -272,7 +272,7 @@ fn start_through(
     t: f64,
     load_steps: usize,
     fine_in_first: &Transfer,
-    fine: &FemModel,
+    fine: &dyn ForceModel,
     fine_constraints: &Constraints,
     u: &mut [f64],
     solve: BetweenSolve,
@@ -344,38 +344,46 @@ fn climb(
             force,
             f_ext,
             constraints,
+            mass,
+            springs,
             ..
         } = &mut level.system;
-        let model = force
-            .as_fem_mut()
-            .ok_or_else(|| DirectNewtonError::NotFem.to_string())?;
+        let model = &mut **force;
+        if model.tangent_elements().is_none() {
+            return Err(DirectNewtonError::NotFem.to_string());
+        }
         let mut ul = interpolate(&uc, &level.down, model, constraints, t)?;
         let params = DirectNewtonParams {
             rel_tol: BETWEEN_REL_TOL,
             ..Default::default()
         };
         let o = match solve {
-            BetweenSolve::Multigrid(smoother) => {
-                DirectNewton::with_levels(model, constraints, std::slice::from_ref(&level.down))
-                    .and_then(|mut s| {
-                        let multigrid = Some(MultigridPcg {
-                            smoother,
-                            ..Default::default()
-                        });
-                        let p = DirectNewtonParams {
-                            multigrid,
-                            ..params
-                        };
-                        s.solve(model, constraints, f_ext, t, &mut ul, p)
-                    })
-            }
-            BetweenSolve::Direct => DirectNewton::new(model, constraints).and_then(|mut s| {
+            BetweenSolve::Multigrid(smoother) => DirectNewton::with_levels(
+                model,
+                mass,
+                constraints,
+                std::slice::from_ref(&level.down),
+            )
+            .and_then(|mut s| {
+                let multigrid = Some(MultigridPcg {
+                    smoother,
+                    ..Default::default()
+                });
                 let p = DirectNewtonParams {
-                    pcg_max: COARSE_PCG_MAX,
+                    multigrid,
                     ..params
                 };
-                s.solve(model, constraints, f_ext, t, &mut ul, p)
+                s.solve(model, springs, constraints, f_ext, t, &mut ul, p)
             }),
+            BetweenSolve::Direct => {
+                DirectNewton::new(model, mass, constraints).and_then(|mut s| {
+                    let p = DirectNewtonParams {
+                        pcg_max: COARSE_PCG_MAX,
+                        ..params
+                    };
+                    s.solve(model, springs, constraints, f_ext, t, &mut ul, p)
+                })
+            }
         }
         .map_err(|e| {
             format!(
@@ -404,7 +412,7 @@ fn climb(
 fn interpolate(
     uc: &[f64],
     into: &Transfer,
-    model: &FemModel,
+    model: &dyn ForceModel,
     constraints: &Constraints,
     t: f64,
 ) -> Result<Vec<f64>, String> {
@@ -441,23 +449,26 @@ pub const SHRINK_ROUNDS: usize = 10;
 /// add the nodes of the elements still inverted, and their neighbours, to the extended set,
 /// then up to [`SHRINK_ROUNDS`] halvings of the free nodes of the elements still inverted
 /// (module docs); the nodes `held` constrains keep their values.
-fn repair(fine: &FemModel, held: &Constraints, outside: &[u32], u: &mut [f64]) {
+fn repair(fine: &dyn ForceModel, held: &Constraints, outside: &[u32], u: &mut [f64]) {
     let n = u.len() / 3;
-    let graph = node_graph(fine, n);
+    let Some(elements) = fine.tangent_elements() else {
+        return;
+    };
+    let graph = node_graph(&elements, n);
     let mut set = vec![false; n];
     for &a in outside {
         set[a as usize] = true;
     }
     for round in 0..=REPAIR_ROUNDS {
         if round > 0 {
-            let inverted: Vec<usize> = (0..fine.num_elements())
+            let inverted: Vec<usize> = (0..elements.len())
                 .filter(|&e| fine.element_det_f(e, u) <= 0.0)
                 .collect();
             if inverted.is_empty() {
                 return;
             }
             for e in inverted {
-                for &a in fine.element_nodes(e) {
+                for &a in elements.element(e) {
                     set[a as usize] = true;
                     for &b in graph.neighbours(a as usize) {
                         set[b as usize] = true;
@@ -471,7 +482,7 @@ fn repair(fine: &FemModel, held: &Constraints, outside: &[u32], u: &mut [f64]) {
         harmonic(&graph, &nodes, u);
     }
     for _ in 0..SHRINK_ROUNDS {
-        let inverted: Vec<usize> = (0..fine.num_elements())
+        let inverted: Vec<usize> = (0..elements.len())
             .filter(|&e| fine.element_det_f(e, u) <= 0.0)
             .collect();
         if inverted.is_empty() {
@@ -479,7 +490,7 @@ fn repair(fine: &FemModel, held: &Constraints, outside: &[u32], u: &mut [f64]) {
         }
         let mut shrink = vec![false; n];
         for e in inverted {
-            for &a in fine.element_nodes(e) {
+            for &a in elements.element(e) {
                 shrink[a as usize] = !held.is_constrained(a as usize);
             }
         }
@@ -501,10 +512,10 @@ impl Graph {
     }
 }
 
-fn node_graph(fine: &FemModel, n: usize) -> Graph {
+fn node_graph(elements: &crate::fem::ElementTopology<'_>, n: usize) -> Graph {
     let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for e in 0..fine.num_elements() {
-        let nodes = fine.element_nodes(e);
+    for e in 0..elements.len() {
+        let nodes = elements.element(e);
         for &a in nodes {
             lists[a as usize].extend(nodes.iter().filter(|&&b| b != a));
         }

@@ -52,10 +52,10 @@ pub fn newton_from_rest(
     use raisov::statics::newton::{DirectNewton, DirectNewtonParams};
     let mut sys = sc.build_system().unwrap();
     let f = sys.f_ext.clone();
-    let model = sys.force.as_fem_mut().unwrap();
+    let model = &mut *sys.force;
     let mut newton = match multigrid {
-        Some(_) => DirectNewton::with_levels(model, &sys.constraints, down),
-        None => DirectNewton::new(model, &sys.constraints),
+        Some(_) => DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, down),
+        None => DirectNewton::new(&*model, &sys.mass, &sys.constraints),
     }
     .unwrap();
     let params = DirectNewtonParams {
@@ -66,7 +66,15 @@ pub fn newton_from_rest(
     };
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
     let out = newton
-        .solve(model, &sys.constraints, &f, 0.0, &mut u, params)
+        .solve(
+            model,
+            &sys.springs,
+            &sys.constraints,
+            &f,
+            0.0,
+            &mut u,
+            params,
+        )
         .unwrap();
     assert!(out.converged, "{out:?}");
     (u, out)

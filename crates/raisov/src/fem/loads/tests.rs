@@ -368,3 +368,28 @@ fn thin_sphere_internal_pressure_matches_closed_form() {
         "{mean_hoop} vs {sigma}"
     );
 }
+
+/// The follower pressure's tangent blocks ([`ForceModel::add_extra_tangent`]) plus the
+/// membrane's element blocks are the derivative of the forces on a closed sphere, where the
+/// pressure is conservative (`W = −p V`) and its stiffness symmetric, at a deformed state and
+/// at a load factor and time that scale the pressure.
+#[test]
+fn pressure_tangent_is_the_force_derivative_on_a_closed_surface() {
+    let mesh = uv_sphere(0.1, 5, 12);
+    let mut lo = loaded_sphere(
+        -2e3,
+        &mesh,
+        FemParams::new(Material::StVenantKirchhoff(StVenantKirchhoff::from_young(
+            1e5, 0.3,
+        ))),
+    );
+    let u = crate::fem::tests::random_u(mesh.num_nodes(), 2e-3, 11);
+    lo.set_load_factor(0.7);
+    let extra = crate::fem::tests::assert_tangent_matches_fd(&mut lo, &u, 1e-8, 1e-6, "pressure");
+    assert!(extra > 0.0, "the pressure's blocks were added");
+    // The pressure's share alone: its blocks are the Hessian of −p V, so with the membrane's
+    // blocks left out the rest of the derivative must be the element part's.
+    lo.set_load_factor(0.0);
+    let none = crate::fem::tests::assert_tangent_matches_fd(&mut lo, &u, 1e-8, 1e-6, "no pressure");
+    assert_eq!(none, 0.0, "a zero load factor adds no pressure block");
+}

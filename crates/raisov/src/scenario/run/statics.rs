@@ -118,7 +118,6 @@ impl std::fmt::Display for StaticSummary {
         if !self.detail.is_empty() {
             writeln!(f, "                {}", self.detail)?;
         }
-        let rel = r.residual / r.initial_residual.max(f64::MIN_POSITIVE);
         match (self.inverted, &self.failure) {
             (Some((e, det)), _) => writeln!(
                 f,
@@ -141,16 +140,20 @@ impl std::fmt::Display for StaticSummary {
                 r.residual,
                 self.target.unwrap_or(0.0),
             )?,
+            // Newton-Krylov's rule is relative to its last increment's starting residual
+            // (or the load, where larger), not to the first increment's start printed below.
             (None, None) if r.converged => writeln!(
                 f,
-                "stopped         converged: relative residual {rel:.3e} <= {:.1e}",
-                self.rel_tol
+                "stopped         converged: residual {:.3e} N (2-norm) <= {:.1e} of the last \
+                 increment's starting residual or of the load",
+                r.residual, self.rel_tol
             )?,
             (None, None) => writeln!(
                 f,
-                "stopped         did not converge: relative residual {rel:.3e} > {:.1e} (stalled \
-                 or `integrator.max_newton` reached)",
-                self.rel_tol
+                "stopped         did not converge: residual {:.3e} N (2-norm) above {:.1e} of \
+                 the last increment's starting residual or of the load (stalled or \
+                 `integrator.max_newton` reached)",
+                r.residual, self.rel_tol
             )?,
         }
         writeln!(f, "newton steps    {}", r.newton_steps)?;
@@ -383,10 +386,8 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
     if asked == StaticSolver::Krylov {
         return Ok(krylov);
     }
-    let blocker = if sys.springs.iter().any(|s| s.k > 0.0) {
-        Some("spring grasps act")
-    } else if sys.force.as_fem_mut().is_none() {
-        Some("pressure or tool contact acts (forces outside the assembled tangent)")
+    let blocker = if sys.force.tangent_elements().is_none() {
+        Some("the force model has no element tangent")
     } else if sys
         .constraints
         .sliding()
@@ -453,16 +454,24 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
         });
     };
     let down = crate::hierarchy::Transfer::build(&sc.mesh.nodes, &coarse)?;
-    let start = match settings.coarse_start {
+    // The coarse levels carry no pressure, traction, timed load or tool: a start from their
+    // equilibrium would be one of another problem.
+    let loaded = sc.has_model_loads();
+    let start = match settings.coarse_start && !loaded {
         true => start_levels(&nodes, c),
         false => Vec::new(),
     };
     let why = format!(
-        "levels of {} and {} nodes{}",
+        "levels of {} and {} nodes{}{}",
         sc.mesh.num_nodes(),
         coarse.num_nodes(),
         if asked == StaticSolver::Auto {
             " (solver \"auto\")"
+        } else {
+            ""
+        },
+        if settings.coarse_start && loaded {
+            "; no coarse start (the loads and tools act on the finest level)"
         } else {
             ""
         }
@@ -571,12 +580,10 @@ fn krylov(
 /// linear extrapolation); 0 where none does.
 fn prescribed_force_scale(sys: &mut System, t: f64, u: &[f64]) -> f64 {
     let n = u.len();
-    use crate::fem::ForceModel;
     let (mut ug, mut v, mut f) = (u.to_vec(), vec![0.0; n], vec![0.0f64; n]);
     sys.constraints.impose(t, &mut ug, &mut v);
-    let Some(model) = sys.force.as_fem_mut() else {
-        return 0.0;
-    };
+    let model = &mut *sys.force;
+    model.set_time(t);
     let mut fraction = 1.0;
     let mut trial = ug.clone();
     for _ in 0..=20 {
@@ -615,12 +622,12 @@ fn assembled(
         }
     }
     let scale = prescribed_force_scale(sys, t, u);
-    let start = match (start, down, sys.force.as_fem_mut()) {
-        (Some(levels), Some(_), Some(model)) => Some(nested_start(
+    let start = match (start, down) {
+        (Some(levels), Some(_)) => Some(nested_start(
             levels,
             t,
             increments,
-            model,
+            &*sys.force,
             &sys.constraints,
             u,
             BetweenSolve::Multigrid(settings.smoother),
@@ -642,14 +649,19 @@ fn assembled(
         }),
         ..Default::default()
     };
-    let out: std::result::Result<DirectStatic, DirectNewtonError> = match sys.force.as_fem_mut() {
-        None => Err(DirectNewtonError::NotFem),
-        Some(model) => match down {
-            Some(d) => DirectNewton::with_levels(model, &sys.constraints, d),
-            None => DirectNewton::new(model, &sys.constraints),
-        }
-        .and_then(|mut s| s.solve(model, &sys.constraints, &sys.f_ext, t, u, params)),
-    };
+    let System {
+        force,
+        mass,
+        f_ext,
+        constraints,
+        springs,
+        ..
+    } = sys;
+    let out: std::result::Result<DirectStatic, DirectNewtonError> = match down {
+        Some(d) => DirectNewton::with_levels(&**force, mass, constraints, d),
+        None => DirectNewton::new(&**force, mass, constraints),
+    }
+    .and_then(|mut s| s.solve(&mut **force, springs, constraints, f_ext, t, u, params));
     let failed = |failure: Option<String>, inverted: Option<(usize, f64)>| Solved {
         report: Static {
             residual: f64::NAN,

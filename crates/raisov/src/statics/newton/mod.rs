@@ -127,9 +127,9 @@ pub use super::nested::{
 use crate::linalg::cg::{pcg, pcg_from, PcgEnd};
 use shift::{raise_sigma, shift_needed, sigma_after_full_step};
 
-use crate::fem::{ElementFailure, FemModel, ForceModel};
+use crate::fem::{ElementFailure, ForceModel};
 use crate::hierarchy::Transfer;
-use crate::integrate::{Constraints, System};
+use crate::integrate::{Constraints, Spring, System};
 pub use crate::linalg::coarse_factor::Precision;
 use crate::linalg::galerkin::{GalerkinError, GalerkinMultigrid, GalerkinSymbolic, Prolongations};
 pub use crate::linalg::smoother::Smoother;
@@ -306,8 +306,8 @@ pub struct DirectStatic {
 /// Errors of the direct solver.
 #[derive(Debug, thiserror::Error)]
 pub enum DirectNewtonError {
-    /// The force model has no assembled tangent.
-    #[error("the direct Newton solver needs a finite-element force model (FemModel)")]
+    /// The force model has no element tangent ([`ForceModel::tangent_elements`]).
+    #[error("the assembled Newton solver needs a force model with an element tangent (a finite-element model, with or without loads and tools)")]
     NotFem,
     /// A state the solver had to evaluate inverts an element.
     #[error("element {} is inverted or collapsed at a state the solver had to evaluate (det F = {:.3e})", .0.element, .0.det_f)]
@@ -326,9 +326,6 @@ pub enum DirectNewtonError {
         /// Its sliding direction.
         dir: [f64; 3],
     },
-    /// Spring grasps act: their tangent is not assembled.
-    #[error("the direct Newton solver does not take spring grasps (System::springs); use a hard grasp or the Newton-Krylov solver")]
-    Springs,
     /// A level transfer does not match its finer level's node count.
     #[error("level transfer {level} locates {got} nodes, but its finer level has {expected}")]
     Levels {
@@ -378,14 +375,20 @@ pub struct DirectNewton {
 }
 
 impl DirectNewton {
-    /// The pattern of K over the free dofs of `model` under `constraints`.
-    pub fn new(model: &FemModel, constraints: &Constraints) -> Result<Self, DirectNewtonError> {
+    /// The pattern of K over the free dofs of `model` under `constraints`, the regularisation
+    /// weighted by the lumped `mass` (kg per node).
+    pub fn new(
+        model: &dyn ForceModel,
+        mass: &[f64],
+        constraints: &Constraints,
+    ) -> Result<Self, DirectNewtonError> {
+        let topology = model.tangent_elements().ok_or(DirectNewtonError::NotFem)?;
         for &(node, dir) in constraints.sliding() {
             if axis_of(dir).is_none() {
                 return Err(DirectNewtonError::SlidingNotAxis { node, dir });
             }
         }
-        let n = model.num_nodes();
+        let n = topology.nodes;
         let mut free = vec![usize::MAX; 3 * n];
         let mut nfree = 0;
         for (i, f) in free.iter_mut().enumerate() {
@@ -400,10 +403,9 @@ impl DirectNewton {
             row_idx,
             slots,
             diag,
-        } = pattern::build(model, &free, nfree).map_err(DirectNewtonError::Memory)?;
+        } = pattern::build(&topology, &free, nfree).map_err(DirectNewtonError::Memory)?;
         let nnz = row_idx.len();
         let symbolic = SymbolicSparseColMat::new_checked(nfree, nfree, col_ptr, None, row_idx);
-        let mass = model.lumped_mass();
         let mean = mass.iter().sum::<f64>() / n.max(1) as f64;
         let mut weight = vec![1.0; nfree];
         for (i, &f) in free.iter().enumerate() {
@@ -434,11 +436,12 @@ impl DirectNewton {
     /// locates level l's nodes in level l + 1's mesh (level 0 is `model`'s mesh), as
     /// [`crate::hierarchy::Correspondence::down`] does.
     pub fn with_levels(
-        model: &FemModel,
+        model: &dyn ForceModel,
+        mass: &[f64],
         constraints: &Constraints,
         down: &[Transfer],
     ) -> Result<Self, DirectNewtonError> {
-        let mut s = Self::new(model, constraints)?;
+        let mut s = Self::new(model, mass, constraints)?;
         let mut expected = model.num_nodes();
         for (level, t) in down.iter().enumerate() {
             if t.len() != expected {
@@ -468,7 +471,8 @@ impl DirectNewton {
     /// free ones, to first order.
     fn assemble(
         &mut self,
-        model: &FemModel,
+        model: &dyn ForceModel,
+        springs: &[Spring],
         u: &[f64],
         mut lift: Option<(&[f64], &mut [f64])>,
     ) -> Result<f64, ElementFailure> {
@@ -478,9 +482,12 @@ impl DirectNewton {
         }
         const BLOCK: usize = 4096;
         self.vals.iter_mut().for_each(|v| *v = 0.0);
-        let npe = model.element_nodes(0).len();
+        let Some(topology) = model.tangent_elements() else {
+            return Ok(0.0);
+        };
+        let npe = topology.nodes_per_element;
         let d = 3 * npe;
-        let ne = model.num_elements();
+        let ne = topology.len();
         let mut k = vec![0.0; BLOCK.min(ne) * d * d];
         let mut diag = 0.0;
         for first in (0..ne).step_by(BLOCK) {
@@ -488,11 +495,11 @@ impl DirectNewton {
             let ok = k[..count * d * d]
                 .par_chunks_mut(d * d)
                 .enumerate()
-                .try_for_each(|(j, out)| model.element_stiffness(first + j, u, out));
+                .try_for_each(|(j, out)| model.element_tangent(first + j, u, out));
             if ok.is_err() {
                 // Report the lowest failing element, whatever the scheduling.
                 for (j, out) in k[..count * d * d].chunks_mut(d * d).enumerate() {
-                    model.element_stiffness(first + j, u, out)?;
+                    model.element_tangent(first + j, u, out)?;
                 }
             }
             // Each task sums into its own range of the pattern's values, visiting the
@@ -524,7 +531,7 @@ impl DirectNewton {
                     }
                 }
                 if let Some((delta, out)) = lift.as_mut() {
-                    let el = model.element_nodes(e);
+                    let el = topology.element(e);
                     let dof = |q: usize| 3 * el[q / 3] as usize + q % 3;
                     for c in (0..d).filter(|&c| delta[dof(c)] != 0.0) {
                         for r in 0..d {
@@ -536,6 +543,45 @@ impl DirectNewton {
                     }
                 }
             }
+        }
+        // The blocks beyond the elements (a follower pressure's, a tool's) and the springs'
+        // `k I`, summed after the elements in the order the model hands them over.
+        let mut extra = |nodes: &[u32], block: &[f64]| {
+            let d = 3 * nodes.len();
+            let dof = |q: usize| 3 * nodes[q / 3] as usize + q % 3;
+            for r in 0..d {
+                let fr = self.free[dof(r)];
+                for c in 0..d {
+                    let v = block[r * d + c];
+                    if v == 0.0 {
+                        continue;
+                    }
+                    let fc = self.free[dof(c)];
+                    if fr == usize::MAX {
+                        continue;
+                    }
+                    if fc == usize::MAX {
+                        if let Some((delta, out)) = lift.as_mut() {
+                            out[fr] -= v * delta[dof(c)];
+                        }
+                        continue;
+                    }
+                    if fr < fc {
+                        continue;
+                    }
+                    if let Some(slot) = slot_of(&self.symbolic, fr, fc) {
+                        self.vals[slot] += v;
+                        if fr == fc {
+                            diag += v.abs();
+                        }
+                    }
+                }
+            }
+        };
+        model.add_extra_tangent(u, &mut extra);
+        for sp in springs.iter().filter(|sp| sp.k > 0.0) {
+            let k = sp.k;
+            extra(&[sp.node], &[k, 0.0, 0.0, 0.0, k, 0.0, 0.0, 0.0, k]);
         }
         Ok(diag / self.nfree.max(1) as f64)
     }
@@ -643,9 +689,11 @@ impl DirectNewton {
     /// Solve `R(u) = V` for `u` in place: `u`'s constrained dofs are driven to the values
     /// `constraints` impose at time `t` (over the load steps), the free ones start from `u`;
     /// the regularisation σ starts where the last solve left it (module docs).
+    #[allow(clippy::too_many_arguments)]
     pub fn solve(
         &mut self,
-        model: &mut FemModel,
+        model: &mut dyn ForceModel,
+        springs: &[Spring],
         constraints: &Constraints,
         f_ext: &[f64],
         t: f64,
@@ -656,6 +704,8 @@ impl DirectNewton {
         let mut g = u.to_vec();
         let mut v = vec![0.0; n];
         constraints.impose(t, &mut g, &mut v);
+        // The loads and tools the model carries are evaluated at `t` too.
+        model.set_time(t);
         let u0 = u.to_vec();
         let vmax = (0..n / 3)
             .map(|a| node_norm(f_ext, a))
@@ -674,13 +724,16 @@ impl DirectNewton {
         let mut prev_norm: Option<f64> = None;
         let mut eta_prev = 0.5f64;
         // Residual on the free dofs at load factor s; returns (2-norm, largest nodal norm).
-        let residual = |model: &mut FemModel,
+        let residual = |model: &mut dyn ForceModel,
                         u: &[f64],
                         s: f64,
                         r: &mut [f64],
                         fint: &mut [f64]|
          -> Result<(f64, f64), ElementFailure> {
+            // The loads and tools the model carries take the load factor too.
+            model.set_load_factor(s);
             model.internal_forces(u, fint)?;
+            add_springs(springs, u, fint);
             for i in 0..n {
                 r[i] = if fixed_dof(constraints, i) {
                     0.0
@@ -733,7 +786,12 @@ impl DirectNewton {
                 out.newton_steps += 1;
                 let clock = std::time::Instant::now();
                 let dbar = self
-                    .assemble(model, u, lifting.then_some((&pending[..], &mut lift[..])))
+                    .assemble(
+                        model,
+                        springs,
+                        u,
+                        lifting.then_some((&pending[..], &mut lift[..])),
+                    )
                     .map_err(DirectNewtonError::Inverted)?;
                 out.assembly_s += clock.elapsed().as_secs_f64();
                 let clock = std::time::Instant::now();
@@ -994,7 +1052,7 @@ impl DirectNewton {
                     Some(pi) => pi,
                     None => {
                         out.energy_evaluations += 1;
-                        potential(model, u, s, f_ext)
+                        potential(model, springs, u, s, f_ext)
                     }
                 };
                 let mut alpha = 1.0;
@@ -1002,7 +1060,7 @@ impl DirectNewton {
                 let mut secants = SECANT_STEPS;
                 for _ in 0..=12 {
                     self.step_to(u, alpha, &rhs, &mut trial);
-                    let pi = potential(model, &trial, s, f_ext);
+                    let pi = potential(model, springs, &trial, s, f_ext);
                     out.energy_evaluations += 1;
                     let armijo = pi <= pi0 - 1e-4 * alpha * slope;
                     let flat = pi.is_finite() && (pi - pi0).abs() <= 1e-9 * pi0.abs();
@@ -1060,6 +1118,7 @@ impl DirectNewton {
                 break;
             }
         }
+        model.set_load_factor(1.0);
         self.sigma = sigma;
         Ok(out)
     }
@@ -1107,16 +1166,47 @@ impl DirectNewton {
     }
 }
 
-/// `Π(u) = E(u) − s V·u` (J); +∞ where an element is inverted or the energy is not finite
-/// ([`FemModel::admissible_strain_energy`]).
-fn potential(model: &FemModel, u: &[f64], s: f64, f_ext: &[f64]) -> f64 {
-    let e = model.admissible_strain_energy(u);
+/// `Π(u) = E(u) + Σ ½ k |u_a − d|² − s V·u` (J, the springs' energy included); +∞ where an
+/// element is inverted or the energy is not finite ([`ForceModel::admissible_energy`]).
+fn potential(model: &dyn ForceModel, springs: &[Spring], u: &[f64], s: f64, f_ext: &[f64]) -> f64 {
+    let e = model.admissible_energy(u);
     let w: f64 = f_ext.iter().zip(u).map(|(f, x)| f * x).sum();
     if e.is_finite() {
-        e - s * w
+        e + spring_energy(springs, u) - s * w
     } else {
         f64::INFINITY
     }
+}
+
+/// `fint += k (u_a − d)` for every spring.
+fn add_springs(springs: &[Spring], u: &[f64], fint: &mut [f64]) {
+    for sp in springs {
+        let i = 3 * sp.node as usize;
+        for k in 0..3 {
+            fint[i + k] += sp.k * (u[i + k] - sp.d[k]);
+        }
+    }
+}
+
+/// `Σ ½ k |u_a − d|²` (J).
+fn spring_energy(springs: &[Spring], u: &[f64]) -> f64 {
+    springs
+        .iter()
+        .map(|sp| {
+            let i = 3 * sp.node as usize;
+            (0..3)
+                .map(|k| 0.5 * sp.k * (u[i + k] - sp.d[k]).powi(2))
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// The place of entry `(i, j)`, `i ≥ j`, in the lower triangle's values of `pattern`; `None`
+/// where the pattern has no such entry (nodes that share no element).
+fn slot_of(pattern: &SymbolicSparseColMat<usize>, i: usize, j: usize) -> Option<usize> {
+    let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
+    let col = &ri[cp[j]..cp[j + 1]];
+    col.binary_search(&i).ok().map(|k| cp[j] + k)
 }
 
 /// Whether dof `i` (3 per node) holds an imposed value. The one place that reads the
@@ -1146,26 +1236,24 @@ fn node_norm(x: &[f64], a: usize) -> f64 {
     (x[3 * a] * x[3 * a] + x[3 * a + 1] * x[3 * a + 1] + x[3 * a + 2] * x[3 * a + 2]).sqrt()
 }
 
-/// Solve `R(u) = V` on a [`System`] (its external forces `f_ext` and constraints at time `t`)
-/// whose force model is a [`FemModel`]; `u` is the start and receives the equilibrium.
+/// Solve `R(u) = V` on a [`System`] (its external forces `f_ext`, springs and constraints at
+/// time `t`) whose force model has an element tangent ([`ForceModel::tangent_elements`]);
+/// `u` is the start and receives the equilibrium.
 pub fn solve_system(
     sys: &mut System,
     t: f64,
     u: &mut [f64],
     params: DirectNewtonParams,
 ) -> Result<DirectStatic, DirectNewtonError> {
-    if sys.springs.iter().any(|s| s.k > 0.0) {
-        return Err(DirectNewtonError::Springs);
-    }
+    let mut solver = DirectNewton::new(&*sys.force, &sys.mass, &sys.constraints)?;
     let System {
         force,
         f_ext,
         constraints,
+        springs,
         ..
     } = sys;
-    let model = force.as_fem_mut().ok_or(DirectNewtonError::NotFem)?;
-    let mut solver = DirectNewton::new(model, constraints)?;
-    solver.solve(model, constraints, f_ext, t, u, params)
+    solver.solve(&mut **force, springs, constraints, f_ext, t, u, params)
 }
 
 #[cfg(test)]

@@ -21,7 +21,7 @@
 //! [`reference`] (tests) builds the same pattern from sorted node pairs with one binary search
 //! per entry.
 
-use crate::fem::{FemModel, ForceModel};
+use crate::fem::ElementTopology;
 use rayon::prelude::*;
 
 /// Nodes or elements per parallel task.
@@ -43,14 +43,14 @@ pub(super) struct Pattern {
 /// The pattern of `model`'s tangent over the free dofs (`free[i]`: dof `i`'s free index,
 /// `usize::MAX` where constrained; `nfree` of them); an error where its arrays and the
 /// values the caller keeps beside the slots would not fit in memory.
-pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Result<Pattern, String> {
-    let n = model.num_nodes();
-    let ne = model.num_elements();
-    let npe = if ne > 0 {
-        model.element_nodes(0).len()
-    } else {
-        0
-    };
+pub(super) fn build(
+    model: &ElementTopology<'_>,
+    free: &[usize],
+    nfree: usize,
+) -> Result<Pattern, String> {
+    let n = model.nodes;
+    let ne = model.len();
+    let npe = if ne > 0 { model.element(0).len() } else { 0 };
     let d = 3 * npe;
     // At most one value (8 B) and row index (4 B) per element entry, its slot (4 B); each
     // node's elements and neighbours.
@@ -61,7 +61,7 @@ pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Result<Pa
     // Pass 1: each node's elements, then its neighbours.
     let mut start = vec![0usize; n + 1];
     for e in 0..ne {
-        for &a in model.element_nodes(e) {
+        for &a in model.element(e) {
             start[a as usize + 1] += 1;
         }
     }
@@ -71,7 +71,7 @@ pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Result<Pa
     let mut elems = vec![0u32; start[n]];
     let mut fill = start.clone();
     for e in 0..ne {
-        for &a in model.element_nodes(e) {
+        for &a in model.element(e) {
             elems[fill[a as usize]] = e as u32;
             fill[a as usize] += 1;
         }
@@ -83,7 +83,7 @@ pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Result<Pa
         .map(|a| {
             let mut v = vec![a as u32];
             for &e in &elems[start[a]..start[a + 1]] {
-                v.extend_from_slice(model.element_nodes(e as usize));
+                v.extend_from_slice(model.element(e as usize));
             }
             v.sort_unstable();
             v.dedup();
@@ -132,7 +132,7 @@ pub(super) fn build(model: &FemModel, free: &[usize], nfree: usize) -> Result<Pa
             .par_chunks_mut(d * d)
             .enumerate()
             .with_min_len(MIN_PER_TASK)
-            .for_each(|(e, s)| place(model.element_nodes(e), free, &col_ptr, &row_idx, s));
+            .for_each(|(e, s)| place(model.element(e), free, &col_ptr, &row_idx, s));
     }
     let diag = col_ptr[..nfree].iter().map(|&p| p as u32).collect();
     Ok(Pattern {
@@ -193,12 +193,12 @@ fn place(el: &[u32], free: &[usize], col_ptr: &[usize], row_idx: &[usize], s: &m
 /// The same pattern as [`build`], simply: the sorted, deduplicated node pairs of every
 /// element, and one binary search per element entry.
 #[cfg(test)]
-pub(super) fn reference(model: &FemModel, free: &[usize], nfree: usize) -> Pattern {
-    let n = model.num_nodes();
-    let ne = model.num_elements();
+pub(super) fn reference(model: &ElementTopology<'_>, free: &[usize], nfree: usize) -> Pattern {
+    let n = model.nodes;
+    let ne = model.len();
     let mut edges: Vec<(u32, u32)> = (0..n as u32).map(|a| (a, a)).collect();
     for e in 0..ne {
-        let el = model.element_nodes(e);
+        let el = model.element(e);
         for &a in el {
             for &b in el {
                 edges.push((a, b));
@@ -235,13 +235,13 @@ pub(super) fn reference(model: &FemModel, free: &[usize], nfree: usize) -> Patte
         (col_ptr[gc] + rows.binary_search(&gr).expect("entry in the pattern")) as u32
     };
     let d = if ne > 0 {
-        3 * model.element_nodes(0).len()
+        3 * model.element(0).len()
     } else {
         0
     };
     let mut slots = vec![u32::MAX; ne * d * d];
     for e in 0..ne {
-        let el = model.element_nodes(e);
+        let el = model.element(e);
         for r in 0..d {
             let gr = free[3 * el[r / 3] as usize + r % 3];
             for c in 0..d {

@@ -300,11 +300,13 @@ fn multigrid_preconditioned_newton_reaches_the_direct_equilibrium() {
         let solve = |keep: bool, smoother: Smoother, coarse_precision: Precision| {
             let mut sys = sc.build_system().unwrap();
             let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
-            let model = sys.force.as_fem_mut().unwrap();
-            let mut s = DirectNewton::with_levels(model, &sys.constraints, &down).unwrap();
+            let model = &mut *sys.force;
+            let mut s =
+                DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, &down).unwrap();
             let out = s
                 .solve(
                     model,
+                    &sys.springs,
                     &sys.constraints,
                     &sys.f_ext,
                     0.0,
@@ -398,7 +400,7 @@ fn coarse_start_reaches_the_same_equilibrium_in_fewer_fine_iterations() {
         let solve = |nested: bool| {
             let mut sys = sc.build_system().unwrap();
             let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
-            let model = sys.force.as_fem_mut().unwrap();
+            let model = &mut *sys.force;
             let mut load_steps = steps;
             if nested {
                 let mut coarse = sc.level_system(&meshes[c], c).unwrap();
@@ -422,10 +424,12 @@ fn coarse_start_reaches_the_same_equilibrium_in_fewer_fine_iterations() {
                 assert!(u.iter().any(|&x| x != 0.0));
                 load_steps = 1;
             }
-            let mut s = DirectNewton::with_levels(model, &sys.constraints, &down).unwrap();
+            let mut s =
+                DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, &down).unwrap();
             let out = s
                 .solve(
                     model,
+                    &sys.springs,
                     &sys.constraints,
                     &sys.f_ext,
                     0.0,
@@ -489,7 +493,7 @@ fn start_through_a_level_between_lands_on_the_equilibrium_in_fewer_fine_iteratio
     let solve = |levels: Option<&[usize]>| {
         let mut sys = sc.build_system().unwrap();
         let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
-        let model = sys.force.as_fem_mut().unwrap();
+        let model = &mut *sys.force;
         if let Some(levels) = levels {
             let mut nested = sc.nested_levels(levels, (&meshes[c], c)).unwrap();
             assert_eq!(nested.between.len(), levels.len() - 1);
@@ -513,10 +517,11 @@ fn start_through_a_level_between_lands_on_the_equilibrium_in_fewer_fine_iteratio
                 }
             }
         }
-        let mut s = DirectNewton::with_levels(model, &sys.constraints, &down).unwrap();
+        let mut s = DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, &down).unwrap();
         let out = s
             .solve(
                 model,
+                &sys.springs,
                 &sys.constraints,
                 &sys.f_ext,
                 0.0,
@@ -558,18 +563,27 @@ fn one_newton_iteration_per_frame_leaves_the_flat_membrane() {
     let (_, _, down) = coarse_pair(&sc);
     let mut sys = sc.build_system().unwrap();
     let f = sys.f_ext.clone();
-    let model = sys.force.as_fem_mut().unwrap();
+    let model = &mut *sys.force;
     let params = DirectNewtonParams {
         multigrid: Some(MultigridPcg::default()),
         ..Default::default()
     };
     let mut whole = vec![0.0; f.len()];
-    let out = DirectNewton::with_levels(model, &sys.constraints, &down)
+    let out = DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, &down)
         .unwrap()
-        .solve(model, &sys.constraints, &f, 0.0, &mut whole, params)
+        .solve(
+            model,
+            &sys.springs,
+            &sys.constraints,
+            &f,
+            0.0,
+            &mut whole,
+            params,
+        )
         .unwrap();
     assert!(out.converged, "{out:?}");
-    let mut frames = DirectNewton::with_levels(model, &sys.constraints, &down).unwrap();
+    let mut frames =
+        DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, &down).unwrap();
     let mut u = vec![0.0; f.len()];
     let mut calls = 0;
     let mut last = None;
@@ -578,6 +592,7 @@ fn one_newton_iteration_per_frame_leaves_the_flat_membrane() {
         let o = frames
             .solve(
                 model,
+                &sys.springs,
                 &sys.constraints,
                 &f,
                 0.0,
@@ -712,8 +727,8 @@ normal = [1.0, 0.0, 0.0]
     for (sc, rollers) in [(beam(roller), true), (drape(""), false)] {
         let mut sys = sc.build_system().unwrap();
         let constraints = sys.constraints.clone();
-        let model = sys.force.as_fem_mut().unwrap();
-        let s = DirectNewton::new(model, &constraints).unwrap();
+        let model = &mut *sys.force;
+        let s = DirectNewton::new(&*model, &sys.mass, &constraints).unwrap();
         let partial = (0..s.free.len() / 3)
             .filter(|&a| {
                 let held = (0..3).filter(|&k| s.free[3 * a + k] == usize::MAX).count();
@@ -725,8 +740,9 @@ normal = [1.0, 0.0, 0.0]
             rollers,
             "{partial} nodes with some components held"
         );
-        let fast = pattern::build(model, &s.free, s.nfree).unwrap();
-        let simple = pattern::reference(model, &s.free, s.nfree);
+        let elements = model.tangent_elements().unwrap();
+        let fast = pattern::build(&elements, &s.free, s.nfree).unwrap();
+        let simple = pattern::reference(&elements, &s.free, s.nfree);
         assert_eq!(fast.col_ptr, simple.col_ptr);
         assert_eq!(fast.row_idx, simple.row_idx);
         assert_eq!(fast.diag, simple.diag);
@@ -750,7 +766,7 @@ fn negative_curvature_after_the_coarse_start_raises_the_shift_instead_of_a_trunc
     let sc = drape_sized(2000, "[multigrid]\nscheme = \"fas\"\nlevels = 5");
     let (meshes, c, down) = coarse_pair(&sc);
     let mut sys = sc.build_system().unwrap();
-    let model = sys.force.as_fem_mut().unwrap();
+    let model = &mut *sys.force;
     let mut u = vec![0.0; 3 * sc.mesh.num_nodes()];
     let mut coarse = sc.level_system(&meshes[c], c).unwrap();
     let start = coarse_start(
@@ -770,16 +786,32 @@ fn negative_curvature_after_the_coarse_start_raises_the_shift_instead_of_a_trunc
         }),
         ..Default::default()
     };
-    let out = DirectNewton::with_levels(model, &sys.constraints, &down)
+    let out = DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, &down)
         .unwrap()
-        .solve(model, &sys.constraints, &sys.f_ext, 0.0, &mut u, params)
+        .solve(
+            model,
+            &sys.springs,
+            &sys.constraints,
+            &sys.f_ext,
+            0.0,
+            &mut u,
+            params,
+        )
         .unwrap();
     assert!(out.converged, "{out:?}");
     assert_eq!(out.rejected_steps, 0, "{out:?}");
     let mut rest = vec![0.0; u.len()];
-    let cold = DirectNewton::with_levels(model, &sys.constraints, &down)
+    let cold = DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, &down)
         .unwrap()
-        .solve(model, &sys.constraints, &sys.f_ext, 0.0, &mut rest, params)
+        .solve(
+            model,
+            &sys.springs,
+            &sys.constraints,
+            &sys.f_ext,
+            0.0,
+            &mut rest,
+            params,
+        )
         .unwrap();
     assert!(cold.converged, "{cold:?}");
     let (scale, err) = max_diff(&rest, &u);
@@ -838,10 +870,10 @@ fn issue_multigrid_shift_lingers_after_full_steps() {
     let (_, _, down) = coarse_pair(&sc);
     let mut sys = sc.build_system().unwrap();
     let f = sys.f_ext.clone();
-    let model = sys.force.as_fem_mut().unwrap();
+    let model = &mut *sys.force;
     // (σ after the call, whether its step was full) per call, until converged.
     let mut frames = |multigrid: Option<MultigridPcg>| {
-        let mut s = DirectNewton::with_levels(model, &sys.constraints, &down).unwrap();
+        let mut s = DirectNewton::with_levels(&*model, &sys.mass, &sys.constraints, &down).unwrap();
         let mut u = vec![0.0; f.len()];
         let mut calls = Vec::new();
         for _ in 0..60 {
@@ -852,7 +884,15 @@ fn issue_multigrid_shift_lingers_after_full_steps() {
                 ..Default::default()
             };
             let o = s
-                .solve(model, &sys.constraints, &f, 0.0, &mut u, params)
+                .solve(
+                    model,
+                    &sys.springs,
+                    &sys.constraints,
+                    &f,
+                    0.0,
+                    &mut u,
+                    params,
+                )
                 .unwrap();
             calls.push((s.sigma, o.full_steps == 1));
             if o.converged {

@@ -142,6 +142,11 @@ enum Cmd {
         /// reaches steady state on the 100k membrane too (about 6 minutes there).
         #[arg(long, value_name = "SECONDS")]
         slim_cap: Option<f64>,
+        /// Section 7 on every case of `raisov bench equilibrium` (the liver L1 and L0, the
+        /// liver pulled, the heart, the 10k and 100k drapes; the run says how long up front);
+        /// default its quick cases (the liver L2 and a 1k drape).
+        #[arg(long)]
+        equilibrium: bool,
     },
     /// Mesh tools.
     Mesh {
@@ -459,7 +464,17 @@ fn real_main(cli: Cli) -> Result<i32> {
             meshes,
             quiet,
             slim_cap,
-        } => ok(on_pool(|| cmd_paper(out, quick, meshes, quiet, slim_cap))),
+            equilibrium,
+        } => ok(on_pool(|| {
+            cmd_paper(&PaperArgs {
+                out,
+                quick,
+                meshes,
+                quiet,
+                slim_cap,
+                equilibrium,
+            })
+        })),
         Cmd::Mesh {
             cmd: MeshCmd::Info { file },
         } => ok(cmd_mesh_info(&file)),
@@ -626,26 +641,52 @@ fn cmd_run(
     Ok(code)
 }
 
-fn cmd_paper(
+/// The options of `raisov paper`.
+struct PaperArgs {
     out: PathBuf,
     quick: bool,
     meshes: Option<PathBuf>,
     quiet: bool,
     slim_cap: Option<f64>,
-) -> Result<()> {
-    use raisov_lab::paper::{run_paper, PaperOptions, Progress};
+    equilibrium: bool,
+}
+
+/// Seconds as "40 s", "3 min" or "1 h 5 min" (estimates, rounded).
+fn duration_words(s: f64) -> String {
+    let m = (s / 60.0).round() as u64;
+    if s < 90.0 {
+        format!("{:.0} s", s.max(1.0))
+    } else if m < 60 {
+        format!("{m} min")
+    } else {
+        format!("{} h {} min", m / 60, m % 60)
+    }
+}
+
+fn cmd_paper(a: &PaperArgs) -> Result<()> {
+    use raisov_lab::paper::{estimate, run_paper, PaperOptions, Progress};
+    let PaperArgs {
+        out,
+        quick,
+        meshes,
+        quiet,
+        slim_cap,
+        equilibrium,
+    } = a;
+    let (quick, quiet, slim_cap) = (*quick, *quiet, *slim_cap);
     if let Some(c) = slim_cap {
         if !(c.is_finite() && c > 0.0) {
             bad_args!("--slim-cap {c}: give a positive number of seconds");
         }
     }
-    let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
+    let meshes = meshes.clone().unwrap_or_else(|| PathBuf::from("data"));
     let opts = PaperOptions {
         out_dir: out.clone(),
         quick,
         tiny: false,
         meshes_dir: Some(meshes),
         slim_cap,
+        equilibrium: *equilibrium,
     };
     let show = !quiet && std::io::stderr().is_terminal();
     let bar = if show {
@@ -664,8 +705,53 @@ fn cmd_paper(
         if quick { "quick" } else { "full" },
         out.display()
     );
+    // Section lines go above the bar on a terminal, else straight to stderr.
+    let say = |line: String| {
+        if show {
+            bar.println(line);
+        } else if !quiet {
+            eprintln!("{line}");
+        }
+    };
     let res = run_paper(&opts, &mut |p| match p {
         Progress::Planned(n) => bar.set_length(n),
+        Progress::Plan(sections) => {
+            let total: f64 = sections.iter().map(|(_, t)| t).sum();
+            eprintln!(
+                "estimated {} on a 2-core machine (more on a busy one): {}",
+                duration_words(total),
+                sections
+                    .iter()
+                    .enumerate()
+                    .map(|(i, (n, t))| format!("{} {n} {}", i + 1, duration_words(*t)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            if !opts.equilibrium {
+                let every = PaperOptions {
+                    equilibrium: true,
+                    ..opts.clone()
+                };
+                eprintln!(
+                    "section 7 runs the quick cases of the five-solver race; --equilibrium runs \
+                     every case (about {} more)",
+                    duration_words(estimate(&every)[6].1 - estimate(&opts)[6].1)
+                );
+            }
+        }
+        Progress::Section { index, of, name } => {
+            let est = estimate(&opts)[index - 1].1;
+            say(format!(
+                "[{index}/{of}] {name} (about {}) ...",
+                duration_words(est)
+            ));
+        }
+        Progress::SectionDone {
+            index,
+            of,
+            name,
+            wall,
+        } => say(format!("[{index}/{of}] {name}: done in {wall:.0} s")),
         Progress::Done(what) => {
             if !show && !quiet {
                 eprintln!("[{:>4}] {what}", bar.position() + 1);

@@ -10,7 +10,13 @@
 //! 4. element inversion of a tetrahedral block with one node driven fast [3.3];
 //! 5. cost of one V-cycle over one single-level step [eq. 14];
 //! 6. time to steady state of every method at its own largest stable step, on the paper's
-//!    membrane, larger membranes and the liver.
+//!    membrane, larger membranes and the liver;
+//! 7. static equilibrium of five solvers side by side ([`crate::equilibrium`]): its quick
+//!    cases (the liver L2, pulled and not, and a 1k drape), or with
+//!    [`PaperOptions::equilibrium`] every case of `raisov bench equilibrium`.
+//!
+//! [`estimate`] gives each section's expected wall time, [`Progress`] reports each section's
+//! start and end.
 //!
 //! Every run is a scenario written as TOML text ([`experiments::scenario_toml`]); one per case
 //! and method is saved under `scenarios/` so each can be run alone with `raisov run`.
@@ -46,14 +52,77 @@ pub struct PaperOptions {
     /// meshes (several minutes on the 100k membrane), so that the gain is a ratio, not a
     /// bound. `None`: the default rule.
     pub slim_cap: Option<f64>,
+    /// Section 7 on every case of [`crate::equilibrium::cases`] (the liver L1 and L0, the
+    /// heart, the 10k and 100k drapes); `false`: its quick cases (the liver L2 and a 1k drape).
+    pub equilibrium: bool,
 }
 
 /// Progress of [`run_paper`].
 pub enum Progress<'a> {
     /// About this many runs in all (the bar's length).
     Planned(u64),
+    /// The sections about to run, in order, each with its estimated wall time (s) from
+    /// [`estimate`]; sent once, before the first.
+    Plan(&'a [(&'static str, f64)]),
+    /// Section `index` (1-based) of `of` starts.
+    Section {
+        index: usize,
+        of: usize,
+        name: &'static str,
+    },
+    /// Section `index` of `of` is done after `wall` seconds.
+    SectionDone {
+        index: usize,
+        of: usize,
+        name: &'static str,
+        wall: f64,
+    },
     /// One run is done.
     Done(&'a str),
+}
+
+/// The report's sections in the order they run.
+pub const SECTIONS: [&str; 7] = [
+    "perturbation response",
+    "draping",
+    "largest stable step",
+    "element inversion",
+    "cost of a V-cycle",
+    "time to steady state",
+    "static equilibrium",
+];
+
+/// Estimated wall time (s) of each of [`SECTIONS`] but the last on a 2-core machine, in the
+/// full configuration and with `--quick`; then section 7's, on every case and on its quick
+/// cases. Rounded up from runs of `raisov paper` (`report.md`'s stage wall times); a busy or
+/// slower machine takes longer.
+const ESTIMATE_FULL: [f64; 6] = [20.0, 15.0, 120.0, 20.0, 60.0, 300.0];
+const ESTIMATE_QUICK: [f64; 6] = [15.0, 10.0, 60.0, 10.0, 5.0, 30.0];
+const ESTIMATE_EQUILIBRIUM_FULL: f64 = 2400.0;
+const ESTIMATE_EQUILIBRIUM_QUICK: f64 = 40.0;
+
+/// Each of [`SECTIONS`] with its estimated wall time (s) in the configuration of `opts`
+/// (tiny: zeros).
+pub fn estimate(opts: &PaperOptions) -> Vec<(&'static str, f64)> {
+    let head = if opts.tiny {
+        [0.0; 6]
+    } else if opts.quick {
+        ESTIMATE_QUICK
+    } else {
+        ESTIMATE_FULL
+    };
+    let eq = if opts.tiny {
+        0.0
+    } else if opts.equilibrium {
+        ESTIMATE_EQUILIBRIUM_FULL
+    } else {
+        ESTIMATE_EQUILIBRIUM_QUICK
+    };
+    SECTIONS
+        .iter()
+        .zip(head.iter().chain([&eq]))
+        .map(|(n, t)| (*n, *t))
+        .collect()
 }
 
 /// Sizes of one configuration (full, quick, tiny).
@@ -241,6 +310,10 @@ pub struct Results {
     pub steady: Vec<SteadyRow>,
     /// Section 7: the static-equilibrium rows of [`crate::equilibrium`] (empty where skipped).
     pub equilibrium: Vec<crate::equilibrium::Row>,
+    /// Section 7's cases, in the order run.
+    pub equilibrium_cases: Vec<String>,
+    /// Section 7 ran every case ([`PaperOptions::equilibrium`]), not only its quick ones.
+    pub equilibrium_full: bool,
     pub notes: Vec<String>,
     pub files: Vec<PathBuf>,
     pub wall: f64,
@@ -303,6 +376,7 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
             6
         };
     progress(Progress::Planned(planned));
+    progress(Progress::Plan(&estimate(opts)));
     let mut cx = Ctx {
         sz,
         scen_dir,
@@ -310,20 +384,29 @@ pub fn run_paper(opts: &PaperOptions, progress: &mut dyn FnMut(Progress)) -> Res
         files: Vec::new(),
         progress,
         start: Instant::now(),
+        section: (0, Instant::now()),
     };
+    cx.begin(1);
     let (lift, methods) = perturbation(&mut cx, &mut res)?;
+    cx.stage(&mut res);
+    cx.begin(2);
     let drape = draping(&mut cx, &mut res, &methods)?;
-    cx.stage(&mut res, "1-2. lift and drape");
+    cx.stage(&mut res);
+    cx.begin(3);
     stability(&mut cx, &mut res, &lift, &drape, &methods)?;
-    cx.stage(&mut res, "3. stability");
+    cx.stage(&mut res);
+    cx.begin(4);
     inversion(&mut cx, &mut res, &methods, opts.tiny)?;
-    cx.stage(&mut res, "4. inversion");
+    cx.stage(&mut res);
+    cx.begin(5);
     cost(&mut cx, &mut res)?;
-    cx.stage(&mut res, "5. cost");
+    cx.stage(&mut res);
+    cx.begin(6);
     time_to_steady(&mut cx, &mut res, opts, &drape, &methods)?;
-    cx.stage(&mut res, "6. time to steady state");
+    cx.stage(&mut res);
+    cx.begin(7);
     equilibrium(&mut cx, &mut res, opts)?;
-    cx.stage(&mut res, "7. static equilibrium");
+    cx.stage(&mut res);
     res.wall = cx.start.elapsed().as_secs_f64();
     res.files = std::mem::take(&mut cx.files);
     report::write_all(&opts.out_dir, &mut res)?;
@@ -339,6 +422,8 @@ struct Ctx<'p> {
     files: Vec<PathBuf>,
     progress: &'p mut dyn FnMut(Progress<'_>),
     start: Instant,
+    /// The section running (1-based index into [`SECTIONS`]) and when it started.
+    section: (usize, Instant),
 }
 
 impl Ctx<'_> {
@@ -357,10 +442,29 @@ impl Ctx<'_> {
     fn tick(&mut self, what: &str) {
         (self.progress)(Progress::Done(what));
     }
-    /// Record the wall time at the end of a stage.
-    fn stage(&self, res: &mut Results, name: &str) {
-        res.stages
-            .push((name.into(), self.start.elapsed().as_secs_f64()));
+    /// Start section `index` (1-based) of [`SECTIONS`].
+    fn begin(&mut self, index: usize) {
+        self.section = (index, Instant::now());
+        (self.progress)(Progress::Section {
+            index,
+            of: SECTIONS.len(),
+            name: SECTIONS[index - 1],
+        });
+    }
+    /// End the section running: its wall time since the start goes to `res.stages`.
+    fn stage(&mut self, res: &mut Results) {
+        let (index, t0) = self.section;
+        let name = SECTIONS[index - 1];
+        res.stages.push((
+            format!("{index}. {name}"),
+            self.start.elapsed().as_secs_f64(),
+        ));
+        (self.progress)(Progress::SectionDone {
+            index,
+            of: SECTIONS.len(),
+            name,
+            wall: t0.elapsed().as_secs_f64(),
+        });
     }
 }
 
@@ -755,8 +859,8 @@ fn cost(cx: &mut Ctx, res: &mut Results) -> Result<()> {
     Ok(())
 }
 
-/// Section 7: the four static solvers of [`crate::equilibrium`] side by side on its cases
-/// (quick: its quick cases), from the meshes under `opts.meshes_dir`; skipped with a note in
+/// Section 7: the five static solvers of [`crate::equilibrium`] side by side on its quick
+/// cases, or on every case with [`PaperOptions::equilibrium`], from the meshes under `opts.meshes_dir`; skipped with a note in
 /// the tiny configuration or where the liver and heart meshes are not there.
 fn equilibrium(cx: &mut Ctx, res: &mut Results, opts: &PaperOptions) -> Result<()> {
     if opts.tiny {
@@ -770,7 +874,7 @@ fn equilibrium(cx: &mut Ctx, res: &mut Results, opts: &PaperOptions) -> Result<(
         );
         return Ok(());
     };
-    let cases = match crate::equilibrium::cases(dir, opts.quick) {
+    let cases = match crate::equilibrium::cases(dir, !opts.equilibrium) {
         Ok(c) => c,
         Err(e) => {
             res.notes.push(format!(
@@ -786,6 +890,8 @@ fn equilibrium(cx: &mut Ctx, res: &mut Results, opts: &PaperOptions) -> Result<(
             .extend(crate::equilibrium::run_case(case, &mut |_| {})?);
         (cx.progress)(Progress::Done(&case.name));
     }
+    res.equilibrium_cases = cases.iter().map(|c| c.name.clone()).collect();
+    res.equilibrium_full = opts.equilibrium;
     Ok(())
 }
 

@@ -720,7 +720,8 @@ fn section_equilibrium(w: &mut String, res: &Results) {
         return;
     }
     let _ = writeln!(w, "Direct Newton (sparse Cholesky), FAS, adaptive dynamic relaxation, single-level Chebyshev and Newton-multigrid (CG preconditioned by a Galerkin V-cycle) from rest to one stopping rule, each at the fastest of its variants; cases, settings and what is timed: module docs of `raisov_lab::equilibrium` (the same run as `raisov bench equilibrium`{}). Also in `equilibrium.md`.
-", if res.quick { " --quick" } else { "" });
+", if res.equilibrium_full { "" } else { " --quick" });
+    let _ = writeln!(w, "{}\n", equilibrium_cases_line(res));
     let _ = writeln!(w, "{}", crate::equilibrium::to_markdown(&res.equilibrium));
     let _ = writeln!(
         w,
@@ -728,6 +729,20 @@ fn section_equilibrium(w: &mut String, res: &Results) {
         crate::equilibrium::summary_markdown(&res.equilibrium)
     );
     let _ = writeln!(w, "{}", crate::equilibrium::goal_markdown(&res.equilibrium));
+}
+
+/// Which of section 7's cases ran: its quick cases unless `raisov paper --equilibrium`.
+pub(super) fn equilibrium_cases_line(res: &Results) -> String {
+    let cases = res.equilibrium_cases.join(", ");
+    if res.equilibrium_full {
+        format!("Cases run: {cases} (every case, `raisov paper --equilibrium`).")
+    } else {
+        format!(
+            "Cases run: {cases}, the quick cases of `raisov bench equilibrium --quick`; \
+             `raisov paper --equilibrium` (or `raisov bench equilibrium`) runs every case: the \
+             liver L1 and L0, the liver L1 pulled, the heart L0 and the 10k and 100k drapes."
+        )
+    }
 }
 
 /// Stage times, notes, abbreviations, the scenario text and the list of files.

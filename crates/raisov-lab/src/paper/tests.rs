@@ -56,15 +56,45 @@ fn tiny_paper_run_writes_report_plots_and_csv() {
         tiny: true,
         meshes_dir: None,
         slim_cap: None,
+        equilibrium: false,
     };
     let mut planned = 0;
     let mut done = 0;
+    let mut plan = Vec::new();
+    let mut sections = Vec::new();
     let res = run_paper(&opts, &mut |p| match p {
         Progress::Planned(n) => planned = n,
+        Progress::Plan(p) => plan = p.iter().map(|(n, _)| n.to_string()).collect(),
+        Progress::Section { index, of, name } => {
+            sections.push(format!("start {index}/{of} {name}"))
+        }
+        Progress::SectionDone {
+            index,
+            of,
+            name,
+            wall,
+        } => {
+            assert!(wall >= 0.0);
+            sections.push(format!("done {index}/{of} {name}"));
+        }
         Progress::Done(_) => done += 1,
     })
     .unwrap();
     assert!(planned > 0 && done > 0);
+    // Every section is announced before its first run and once more when it ends, in order.
+    assert_eq!(plan, SECTIONS);
+    let expected: Vec<String> = SECTIONS
+        .iter()
+        .enumerate()
+        .flat_map(|(i, n)| {
+            [
+                format!("start {}/7 {n}", i + 1),
+                format!("done {}/7 {n}", i + 1),
+            ]
+        })
+        .collect();
+    assert_eq!(sections, expected);
+    assert_eq!(res.stages.len(), SECTIONS.len());
     for f in [
         "report.md",
         "fig5_left_lift.png",
@@ -222,4 +252,30 @@ fn regulation_rates_of_a_two_rate_decay() {
     let (early, late) = report::regulation_rates(&sim).unwrap();
     assert!((early - 10.0).abs() < 1e-6, "{early}");
     assert!((late - 1.0).abs() < 1e-6, "{late}");
+}
+
+/// The default run's estimate, said up front, keeps the paper's own experiments (sections
+/// 1-6) and section 7's quick cases within 10 minutes; the five-solver race on every case is
+/// asked for (`--equilibrium`) and estimated apart.
+#[test]
+fn paper_default_run_is_estimated_within_ten_minutes() {
+    let mut opts = PaperOptions {
+        out_dir: PathBuf::from("unused"),
+        quick: false,
+        tiny: false,
+        meshes_dir: Some(PathBuf::from("data")),
+        slim_cap: None,
+        equilibrium: false,
+    };
+    let total = |o: &PaperOptions| estimate(o).iter().map(|(_, t)| t).sum::<f64>();
+    let names: Vec<&str> = estimate(&opts).iter().map(|(n, _)| *n).collect();
+    assert_eq!(names, SECTIONS);
+    assert!(total(&opts) <= 600.0, "{}", total(&opts));
+    assert!(estimate(&opts).iter().all(|(_, t)| *t > 0.0));
+    let default_eq = estimate(&opts)[6].1;
+    opts.equilibrium = true;
+    assert!(estimate(&opts)[6].1 > default_eq);
+    opts.equilibrium = false;
+    opts.quick = true;
+    assert!(total(&opts) < 300.0, "{}", total(&opts));
 }

@@ -230,8 +230,17 @@ pub(crate) fn hold_on_levels(levels: &mut [Level], values: &[[f64; 3]]) {
 /// Links between consecutive levels: `links[i]` joins level i (fine) and i+1 (coarse).
 pub type Links = Vec<Correspondence>;
 
-/// Levels and correspondences, one line each, with a warning where the paper's covering
-/// condition (section 2.1) fails.
+/// Levels and correspondences, one line each, then, where the paper's covering condition
+/// (section 2.1) fails on some link, one paragraph saying what that means: a `note:` while the
+/// uncovered nodes are at most [`UNCOVERED_WARN_SHARE`] of every level's, else a `warning:`.
+///
+/// Covering: a fine node is covered when it is a corner of the fine element that hosts some
+/// node of the next coarser level. Restricting a state interpolates the fine state at the
+/// coarse nodes, so an uncovered node's own value does not enter it; residual forces are
+/// restricted by the transpose of the interpolation, in which every fine node takes part, so
+/// FAS converges to the single-level equilibrium with or without uncovered nodes. The paper's
+/// RaISoV cycle transfers states and variations only: there an uncovered node's own motion
+/// reaches the coarser levels only through its neighbours.
 pub fn hierarchy_report(levels: &[Level], links: &Links) -> String {
     let mut out = String::new();
     for (i, l) in levels.iter().enumerate() {
@@ -245,15 +254,63 @@ pub fn hierarchy_report(levels: &[Level], links: &Links) -> String {
     }
     for (i, c) in links.iter().enumerate() {
         out += &format!("link {i}-{}: {}\n", i + 1, c.report);
-        if !c.report.covered {
-            out += &format!(
-                "warning: level {} hosts do not cover level {i} ({} nodes uncovered); detail there can be lost in restriction\n",
-                i + 1,
-                c.report.uncovered_fine_nodes
-            );
-        }
     }
+    out += &covering_note(
+        links
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !c.report.covered)
+            .map(|(i, c)| (i, levels[i].num_nodes(), c.report.uncovered_fine_nodes)),
+    );
     out
+}
+
+/// The share of a level's nodes left uncovered above which [`hierarchy_report`] warns.
+pub const UNCOVERED_WARN_SHARE: f64 = 0.1;
+
+/// The paragraph of [`hierarchy_report`] for the uncovered links `(fine level, its nodes,
+/// uncovered nodes)`; empty where there are none.
+fn covering_note(uncovered: impl Iterator<Item = (usize, usize, usize)>) -> String {
+    let links: Vec<(usize, usize, usize)> = uncovered.collect();
+    if links.is_empty() {
+        return String::new();
+    }
+    let parts: Vec<String> = links
+        .iter()
+        .map(|(level, nodes, u)| format!("{u} of level {level}'s {nodes} nodes"))
+        .collect();
+    let list = match parts.as_slice() {
+        [one] => one.clone(),
+        [init @ .., last] => format!("{} and {last}", init.join(", ")),
+        [] => String::new(),
+    };
+    let verb = if links.len() == 1 && links[0].2 == 1 {
+        "is"
+    } else {
+        "are"
+    };
+    let large = links
+        .iter()
+        .any(|&(_, n, u)| u as f64 > UNCOVERED_WARN_SHARE * n as f64);
+    let (head, verdict) = if large {
+        (
+            "warning",
+            "That is a large share: a coarse level much coarser than its neighbour (raise \
+             `ratio` or its `level_nodes`) or levels that do not overlap.",
+        )
+    } else {
+        (
+            "note",
+            "A few such nodes are usual for independent meshes and harmless.",
+        )
+    };
+    format!(
+        "{head}: levels not covered (\"covering: no\" above): {list} {verb} a corner of no \
+         element hosting a node of the next coarser level, so restricting the state skips \
+         them. FAS (the default) restricts residual forces through every node and converges \
+         to the same equilibrium as one level; with scheme = \"raisov-paper\" their own \
+         motion reaches the coarser levels only through their neighbours. {verdict}\n"
+    )
 }
 
 #[cfg(test)]

@@ -710,3 +710,28 @@ fn switch_counts_sum_the_cycles_and_vanish_without_a_threshold() {
         }
     }
 }
+
+/// The default run printed three "hosts do not cover" warnings a newcomer could not act on:
+/// now one note says what uncovered nodes mean and that a few are harmless, and a large share
+/// is still a warning.
+#[test]
+fn uncovered_levels_get_one_note_not_a_warning_per_link() {
+    use super::{covering_note, UNCOVERED_WARN_SHARE};
+    let text = covering_note([(0, 187, 2), (1, 103, 2), (2, 55, 1)].into_iter());
+    assert_eq!(text.lines().count(), 1, "{text}");
+    assert!(text.starts_with("note: levels not covered"), "{text}");
+    assert!(
+        text.contains("2 of level 0's 187 nodes, 2 of level 1's 103 nodes and 1 of level 2's 55 nodes are a corner"),
+        "{text}"
+    );
+    assert!(text.contains("harmless"), "{text}");
+    let one = covering_note([(2, 55, 1)].into_iter());
+    assert!(one.contains("1 of level 2's 55 nodes is a corner"), "{one}");
+    assert_eq!(covering_note(std::iter::empty()), "");
+    let many = (UNCOVERED_WARN_SHARE * 100.0) as usize + 1;
+    let large = covering_note([(0, 100, many)].into_iter());
+    assert!(
+        large.starts_with("warning:") && large.contains("large share"),
+        "{large}"
+    );
+}

@@ -37,9 +37,9 @@
 //!   Gauss-Seidel over a colouring, damped node-block Jacobi, or point Gauss-Seidel (the
 //!   library's default); each from rest and from the coarse start.
 //!
-//! The coarse start ([`raisov::statics::newton::nested_start`], nested iteration,
+//! The coarse start ([`raisov::statics::nested::nested_start`], nested iteration,
 //! as a static scenario's): the coarsest level of
-//! [`raisov::statics::newton::start_levels`] (Newton-multigrid's coarse level, or a
+//! [`raisov::statics::nested::start_levels`] (Newton-multigrid's coarse level, or a
 //! coarser one with at least 1 000 nodes), with the scenario's constraints and loads carried
 //! to it, solved by direct Newton over [`Case::load_steps`] load steps, then each finer
 //! level of it (about four times the nodes) from the last one's equilibrium, by
@@ -104,9 +104,9 @@ use raisov::hierarchy::Transfer;
 use raisov::integrate::hold;
 use raisov::integrate::stability::lambda_max_bound;
 use raisov::scenario::{MultigridScheme, Scenario};
+use raisov::statics::nested::{nested_start, start_levels, BetweenSolve, CoarseStart};
 use raisov::statics::newton::{
-    nested_start, solve_system, start_levels, BetweenSolve, CoarseStart, DirectNewton,
-    DirectNewtonParams, DirectStatic, MultigridPcg, Smoother,
+    solve_system, DirectNewton, DirectNewtonParams, DirectStatic, MultigridPcg, Smoother,
 };
 use raisov::statics::relax::adaptive::adaptive_relax;
 use raisov::statics::relax::chebyshev::chebyshev_relax;
@@ -130,7 +130,7 @@ pub const PULL_STAGE_TOL: f64 = 1e-4;
 pub const NEWTON_PCG_MAX: usize = 20;
 /// Direct Newton's sweep: factorisation reuse (CG iterations before refactoring; 0 none),
 /// and whether it starts from the coarse level's equilibrium
-/// ([`raisov::statics::newton::coarse_start`], on Newton-multigrid's coarse level).
+/// ([`raisov::statics::nested::coarse_start`], on Newton-multigrid's coarse level).
 pub const NEWTON_REUSE: [(usize, bool); 3] =
     [(0, false), (NEWTON_PCG_MAX, false), (NEWTON_PCG_MAX, true)];
 /// FAS's sweep: pre- and post-smoothing sweeps per level (the default is 4).
@@ -489,9 +489,9 @@ fn lifted(o: &DirectStatic) -> &'static str {
 }
 
 /// The coarse start of every solver that takes one: the levels of
-/// [`raisov::statics::newton::start_levels`] below Newton-multigrid's coarse level
+/// [`raisov::statics::nested::start_levels`] below Newton-multigrid's coarse level
 /// ([`newton_mg_levels`], whose mesh `coarse` is where given), solved and interpolated into
-/// `u` ([`raisov::statics::newton::nested_start`], the levels between solved by
+/// `u` ([`raisov::statics::nested::nested_start`], the levels between solved by
 /// `multigrid`: Newton-multigrid smoothed as a static scenario's is by default, else by
 /// direct Newton); `None` where the case has no such level.
 fn start_from_coarse(

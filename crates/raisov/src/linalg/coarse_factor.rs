@@ -31,8 +31,19 @@
 //!
 //! Every factorisation runs on one thread: the same bits on any thread count.
 
-use super::galerkin::GalerkinError;
 use super::sparse::Csr;
+
+/// Why the coarsest level could not be factored.
+#[derive(Debug, thiserror::Error)]
+pub enum FactorError {
+    /// The Cholesky factor would not fit in the available memory ([`crate::memory`]); the
+    /// message names both sizes.
+    #[error("{0}")]
+    Memory(String),
+    /// The coarsest operator does not factor, even shifted.
+    #[error("{0}")]
+    Factor(String),
+}
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
@@ -80,12 +91,12 @@ impl CoarseFactor {
     /// indefinite state factors only at 1); [`Precision::Single`] tries the first shift in
     /// `f32` before the ladder in `f64` (module docs). `symbolic`, from an earlier call on the
     /// same pattern, is reused where given and filled in where not, after checking that the
-    /// factor fits in the available memory ([`GalerkinError::Memory`]).
+    /// factor fits in the available memory ([`FactorError::Memory`]).
     pub fn new(
         a: &Csr,
         symbolic: &mut Option<CoarseSymbolic>,
         precision: Precision,
-    ) -> Result<Self, GalerkinError> {
+    ) -> Result<Self, FactorError> {
         let n = a.rows;
         let diag = a.diagonal();
         let dbar = diag.iter().map(|d| d.abs()).sum::<f64>() / n.max(1) as f64;
@@ -100,7 +111,7 @@ impl CoarseFactor {
             let (c, v) = a.row(j);
             let start = c.partition_point(|&k| (k as usize) < j);
             if c.get(start) != Some(&(j as u32)) {
-                return Err(GalerkinError::Factor(
+                return Err(FactorError::Factor(
                     "the coarsest Galerkin operator lacks a diagonal entry".into(),
                 ));
             }
@@ -110,7 +121,7 @@ impl CoarseFactor {
             col_ptr.push(row_idx.len());
         }
         let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        let fail = |e: &dyn std::fmt::Debug| GalerkinError::Factor(format!("{e:?}"));
+        let fail = |e: &dyn std::fmt::Debug| FactorError::Factor(format!("{e:?}"));
         let symbolic = match symbolic {
             Some(s) => s.clone(),
             None => {
@@ -130,7 +141,7 @@ impl CoarseFactor {
                     ),
                     16 * s.len_val() as u64,
                 )
-                .map_err(GalerkinError::Memory)?;
+                .map_err(FactorError::Memory)?;
                 symbolic.insert(Arc::new(s)).clone()
             }
         };
@@ -155,7 +166,7 @@ impl CoarseFactor {
                 break l;
             }
             if sigma >= 1e6 {
-                return Err(GalerkinError::Factor(
+                return Err(FactorError::Factor(
                     "the coarsest Galerkin operator does not factor even shifted by 1e6 times \
                      its mean diagonal"
                         .into(),

@@ -19,7 +19,7 @@ use crate::mesh::Mesh;
 use crate::multigrid::fas::{CoarseSolve, Fas, FasParams, Smoother};
 use crate::multigrid::raisov::{Raisov, RaisovParams};
 use crate::multigrid::Level;
-use crate::statics::newton::{NestedLevels, StartLevel};
+use crate::statics::nested::{NestedLevels, StartLevel};
 use std::path::Path;
 
 /// Fewest nodes of a generated level.
@@ -450,7 +450,7 @@ impl Scenario {
     }
 
     /// The levels of a nested start through the coarser `levels` (indices, finest first, at
-    /// least one; [`crate::statics::newton::start_levels`]): each one's system (the
+    /// least one; [`crate::statics::nested::start_levels`]): each one's system (the
     /// scenario's constraints and loads carried to it) and its nodes located in the next,
     /// and the fine nodes located in the first. `known`, a level's mesh already built, is
     /// used for that level; the others are built or read ([`Scenario::level_mesh`]).

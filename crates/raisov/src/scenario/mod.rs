@@ -203,7 +203,7 @@ pub struct StaticSolve {
     /// built: [`run::run_static`]).
     pub solver: StaticSolver,
     /// `[integrator] coarse_start`: [`StaticSolver::Multigrid`] starts from the coarse level's
-    /// equilibrium, interpolated ([`crate::statics::newton::coarse_start`]). Default
+    /// equilibrium, interpolated ([`crate::statics::nested::coarse_start`]). Default
     /// true for membranes, false for tetrahedra (`raisov bench equilibrium` times both starts
     /// on every case: the coarse start is the faster on the drapes, not on the livers).
     pub coarse_start: bool,

@@ -157,7 +157,7 @@
 //!                                 # true for membranes (the 100k drape from flat about 3x
 //!                                 # faster), false for tetrahedra (the liver no faster; both
 //!                                 # by `raisov bench equilibrium`), see
-//!                                 # statics::newton::coarse_start
+//!                                 # statics::nested::coarse_start
 //! smoother = "block-jacobi"       # newton, "multigrid" (also as "auto"'s choice): the
 //!                                 # V-cycle's smoother, "block-jacobi" (default for
 //!                                 # tetrahedra) | "block-gauss-seidel" (coloured; default for

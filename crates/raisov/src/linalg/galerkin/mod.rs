@@ -141,17 +141,9 @@ impl Prolongations {
     }
 }
 
-/// Why a Galerkin hierarchy could not be set up.
-#[derive(Debug, thiserror::Error)]
-pub enum GalerkinError {
-    /// The coarsest level's Cholesky factor would not fit in the available memory
-    /// ([`crate::memory`]); the message names both sizes.
-    #[error("{0}")]
-    Memory(String),
-    /// The coarsest operator does not factor, even shifted.
-    #[error("{0}")]
-    Factor(String),
-}
+/// Why a Galerkin hierarchy could not be set up: its coarsest level's factor
+/// ([`super::coarse_factor::FactorError`]).
+pub use super::coarse_factor::FactorError as GalerkinError;
 
 /// One coarser level's Galerkin product patterns: `A_l P_l`'s and `A_{l+1} = P_lᵀ A_l P_l`'s
 /// (an empty row's unit diagonal included), values empty. Fixed by the finer operator's

@@ -28,8 +28,8 @@
 //!
 //! With `[integrator] coarse_start` (default: membranes yes, tetrahedra no) `"multigrid"`
 //! starts from a coarser level's equilibrium, interpolated (nested iteration,
-//! [`crate::statics::newton::nested_start`] over the levels of
-//! [`crate::statics::newton::start_levels`]): the coarsest of them, with the
+//! [`crate::statics::nested::nested_start`] over the levels of
+//! [`crate::statics::nested::start_levels`]): the coarsest of them, with the
 //! scenario's constraints and loads carried to it, is solved by direct Newton over the
 //! increments, each finer one by Newton-multigrid from the last one's equilibrium, the fine
 //! level then in one increment. The stopping rule's starting out-of-balance force
@@ -43,9 +43,10 @@ use crate::metrics::{CsvStream, Meter, Sample};
 use crate::scenario::spec::Named;
 use crate::scenario::{Scenario, StaticSolve, StaticSolver};
 use crate::statics::krylov::Static;
+use crate::statics::nested::{nested_start, start_levels, BetweenSolve, CoarseStart, NestedLevels};
 use crate::statics::newton::{
-    axis_of, coarse_level, nested_start, start_levels, BetweenSolve, CoarseStart, DirectNewton,
-    DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg, NestedLevels,
+    axis_of, coarse_level, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic,
+    MultigridPcg,
 };
 use std::path::PathBuf;
 use std::time::Instant;

@@ -107,7 +107,7 @@
 //! `V_a` the external force of node a (all nodes), `|·|` the Euclidean norm of a node's 3-vector.
 //! Intermediate load steps stop at `max(rel_tol, 1e-6)` of their own scale.
 //!
-//! Nested iteration ([`coarse_start`], [`nested_start`]): the start `u` may be the
+//! Nested iteration ([`super::nested::coarse_start`], [`super::nested::nested_start`]): the start `u` may be the
 //! equilibrium of a coarser discretisation, interpolated, itself reached from coarser ones
 //! (module `nested` in the source).
 //!
@@ -120,10 +120,6 @@
 mod pattern;
 mod shift;
 
-pub use super::nested::{
-    coarse_start, nested_start, start_levels, BetweenSolve, CoarseStart, NestedLevels, StartLevel,
-    BETWEEN_REL_TOL, COARSE_PCG_MAX, COARSE_REL_TOL, NESTED_GAP, START_MIN_NODES,
-};
 use crate::linalg::cg::{pcg, pcg_from, PcgEnd};
 use shift::{raise_sigma, shift_needed, sigma_after_full_step};
 

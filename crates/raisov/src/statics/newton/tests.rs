@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::scenario::Scenario;
+use crate::statics::nested::*;
 use std::path::Path;
 
 /// A soft neo-Hookean beam (ν = 0.45) clamped at x = 0, sagging under gravity, with

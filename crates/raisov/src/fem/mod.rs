@@ -863,6 +863,53 @@ impl ForceModel for FemModel {
 /// not depend on the thread count.
 pub const ENERGY_BLOCK: usize = 4096;
 
+/// `out_j = K(u) v_j` over all dofs for each `v_j` of `vs` (every row, constrained or not): the
+/// model's tangent as element blocks ([`ForceModel::element_tangent`]) plus its blocks beyond
+/// them ([`ForceModel::add_extra_tangent`]), applied without assembly. Elements with no
+/// nonzero entry of any `v_j` are skipped (a product with a vector over a few nodes costs
+/// their elements only). Sums in element order, then the extra blocks in their order: the
+/// same bits on any thread count. Without element tangents the element part is zero.
+pub fn tangent_products(
+    model: &dyn ForceModel,
+    u: &[f64],
+    vs: &[&[f64]],
+    outs: &mut [&mut [f64]],
+) -> Result<(), ElementFailure> {
+    for o in outs.iter_mut() {
+        o.iter_mut().for_each(|x| *x = 0.0);
+    }
+    let mut ke = Vec::new();
+    if let Some(topo) = model.tangent_elements() {
+        let d = 3 * topo.nodes_per_element;
+        ke.resize(d * d, 0.0);
+        for e in 0..topo.len() {
+            let el = topo.element(e);
+            let dof = |q: usize| 3 * el[q / 3] as usize + q % 3;
+            if !(0..d).any(|q| vs.iter().any(|v| v[dof(q)] != 0.0)) {
+                continue;
+            }
+            model.element_tangent(e, u, &mut ke)?;
+            for (v, o) in vs.iter().zip(outs.iter_mut()) {
+                for r in 0..d {
+                    let s: f64 = (0..d).map(|c| ke[r * d + c] * v[dof(c)]).sum();
+                    o[dof(r)] += s;
+                }
+            }
+        }
+    }
+    model.add_extra_tangent(u, &mut |nodes, block| {
+        let d = 3 * nodes.len();
+        let dof = |q: usize| 3 * nodes[q / 3] as usize + q % 3;
+        for (v, o) in vs.iter().zip(outs.iter_mut()) {
+            for r in 0..d {
+                let s: f64 = (0..d).map(|c| block[r * d + c] * v[dof(c)]).sum();
+                o[dof(r)] += s;
+            }
+        }
+    });
+    Ok(())
+}
+
 /// Per element `G_e = npe Σ_a |∇N_a|²` (1/m²; 0 for a degenerate element): the element's
 /// small-strain stiffness is bounded by `c² G_e` times its lumped mass, `K_e ≤ c² G_e M_e`.
 pub fn gradient_sums(mesh: &Mesh) -> Vec<f64> {

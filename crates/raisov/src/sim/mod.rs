@@ -58,10 +58,10 @@
 //! K_FF x = −(K w)_F,     δu = w + x,     column k of K_g = −Σ_{a ∈ g} (K δu)_a,
 //! ```
 //!
-//! three conjugate-gradient solves (preconditioned by a V-cycle over the stepper's levels, or
-//! the lumped mass: [`tangent::TangentPreconditioner`]) with matrix-free products
-//! `K v ≈ (R(u + ε v) − R(u − ε v)) / (2 ε)`, each warm-started from the grasp's previous
-//! solution (a spring grasp's, in series with its springs: [`tangent`]). `K_g` is symmetric negative semi-definite at a stable equilibrium; a haptic loop
+//! three solves with the static solver's assembled tangent (conjugate gradients preconditioned
+//! by its Galerkin V-cycle, each warm-started from the grasp's previous solution, or its sparse
+//! Cholesky factor: [`tangent::TangentPreconditioner`]; a spring grasp's in series with its
+//! springs: [`tangent`]). `K_g` is symmetric negative semi-definite at a stable equilibrium; a haptic loop
 //! extrapolates between frames with `f ≈ f_frame + K_g (x_device − x_frame)`: a
 //! [`HapticProxy`] ([`haptic`], [`Simulation::haptic_proxy`]) publishes `f_frame`, `K_g`
 //! and `x_frame` after every frame for a device thread to read at any rate.
@@ -114,7 +114,6 @@ mod grab;
 pub mod haptic;
 pub mod overrides;
 pub mod tangent;
-mod tangent_mg;
 
 pub use builder::{Scheme, SimulationBuilder};
 pub use frame::{Budget, FrameReport};
@@ -187,12 +186,9 @@ pub struct Simulation {
     tangent_stats: TangentStats,
     /// The preconditioner of `grab_stiffness`'s solves.
     tangent_preconditioner: TangentPreconditioner,
-    /// The coarse levels of the multigrid preconditioner, built at its first use.
-    tangent_hierarchy: Option<tangent_mg::TangentHierarchy>,
-    /// The physics of level 0's model (and the coarse levels' of the preconditioner).
-    params: crate::fem::FemParams,
-    /// Length scale of the finite-difference tangent products (m).
-    length: f64,
+    /// The assembled tangent's structure of `grab_stiffness`, kept while the constraints
+    /// stay the same.
+    tangent_operator: Option<tangent::TangentOperator>,
     /// The visual surface carried by level 0, when the mesh came from one.
     visual: Option<Visual>,
     /// The haptic proxies attached to grasps, published after every frame.
@@ -314,7 +310,6 @@ impl Simulation {
                 .map(|e| [e[0], e[1], e[2]])
                 .collect::<Vec<_>>(),
         };
-        let length = tangent_mg::length_of(&mesh);
         let mut sim = Simulation {
             stepper,
             file_ids,
@@ -338,9 +333,7 @@ impl Simulation {
             max_retries: 4,
             tangent_stats: TangentStats::default(),
             tangent_preconditioner: TangentPreconditioner::default(),
-            tangent_hierarchy: None,
-            params,
-            length,
+            tangent_operator: None,
             mesh,
             visual: None,
             haptics: BTreeMap::new(),

@@ -117,8 +117,10 @@
 //! few Newton iterations per frame (`max_newton`) carries the regularisation a flat
 //! membrane's first tangent needs from one frame to the next.
 
+mod linear;
 mod pattern;
 mod shift;
+pub use linear::{TangentSolver, TangentSolves};
 
 use crate::linalg::cg::{pcg, pcg_from, PcgEnd};
 use shift::{raise_sigma, shift_needed, sigma_after_full_step};

@@ -46,6 +46,7 @@
 pub mod contact;
 pub mod error;
 pub mod fem;
+pub mod geometry;
 pub mod hierarchy;
 pub mod integrate;
 pub mod io;

@@ -43,6 +43,7 @@
 
 use crate::fem::loads::LoadReport;
 use crate::fem::{ElementFailure, ForceModel};
+use crate::geometry::{add, dot, sub};
 use crate::integrate::Motion;
 use crate::mesh::{ElementKind, Mesh};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -99,16 +100,6 @@ pub struct Tool {
     pub shape: ToolShape,
     pub motion: Motion,
     pub stiffness: f64,
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
 /// Distance and normal from the nearest point `q` of a core (point or segment) of radius `r`.

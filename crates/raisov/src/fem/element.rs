@@ -14,8 +14,8 @@
 //! form of that contraction gives at once ([`SolidMaterial::contract_dpk1`], neo-Hookean).
 //! Checked against central differences of the element forces in tests.
 
+use crate::geometry::{cross, dot, norm, sub};
 use crate::material::{MembraneMaterial, SolidMaterial};
-use crate::mesh::{cross, dot, norm, sub};
 use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector3};
 
 /// `Dm⁻¹` (3x3) and the volume of a positive tetrahedron; `None` if degenerate or negative.

@@ -47,6 +47,7 @@
 //! ([`ForceModel::set_time`]): the time of the state being stepped.
 
 use super::{ElementFailure, ForceModel};
+use crate::geometry::cross;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A dimensionless factor of time, `s(t)` (see the module documentation).
@@ -181,14 +182,6 @@ pub struct LoadReport {
     pub tool: [f64; 3],
     /// The largest penetration of a node into a tool (m; 0 without contact).
     pub max_penetration: f64,
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// A force model with surface loads and timed nodal loads on top (see the module

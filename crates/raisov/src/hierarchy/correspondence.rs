@@ -7,7 +7,8 @@ use std::fmt;
 use rayon::prelude::*;
 
 use super::tree::{dist2, BoxItem, PointItem, Tree};
-use crate::mesh::{cross, dot, norm, sub, tet_volume, ElementKind, Mesh, DEGENERATE_REL};
+use crate::geometry::{cross, dot, norm, sub};
+use crate::mesh::{tet_volume, ElementKind, Mesh, DEGENERATE_REL};
 use crate::{Error, Result};
 
 /// A point counts as inside an element when its smallest weight is at least `-INSIDE_TOL`.

@@ -1,7 +1,8 @@
 use std::collections::HashMap;
 
 use super::*;
-use crate::mesh::{cross, dot, norm, sub, tet_volume, tri_area, ElementKind, Mesh};
+use crate::geometry::{cross, dot, norm, sub};
+use crate::mesh::{tet_volume, tri_area, ElementKind, Mesh};
 
 /// xorshift64: deterministic pseudo-random numbers in [0, 1).
 struct Rng(u64);

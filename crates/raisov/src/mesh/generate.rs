@@ -866,7 +866,7 @@ pub fn box_tets_target(size: [f64; 3], target_nodes: usize, pattern: BoxPattern)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{cross, sub};
+    use crate::geometry::{cross, sub};
 
     fn min_quality(m: &Mesh) -> f64 {
         (0..m.num_elements())

@@ -116,30 +116,7 @@ pub struct MeshStats {
 /// `DEGENERATE_REL * h^d` with h its longest edge.
 pub const DEGENERATE_REL: f64 = 1e-12;
 
-#[inline]
-/// `a − b`.
-pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-#[inline]
-/// `a · b`.
-pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-#[inline]
-/// `a × b`.
-pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-#[inline]
-/// Euclidean norm `|a|`.
-pub fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
+pub use crate::geometry::{cross, dot, norm, sub};
 
 /// Signed volume of the tetrahedron (a, b, c, d).
 #[inline]
@@ -537,6 +514,15 @@ impl Mesh {
                 *a = new_of[*a as usize];
             }
             g.sort_unstable();
+        }
+    }
+
+    /// The surface a grasp or a load takes: the boundary triangles of a tetrahedral mesh
+    /// ([`Mesh::boundary_facets`]), every triangle of a membrane.
+    pub fn surface_triangles(&self) -> Vec<[u32; 3]> {
+        match self.kind {
+            ElementKind::Tet4 => self.boundary_facets(),
+            ElementKind::Tri3 => self.elements().map(|e| [e[0], e[1], e[2]]).collect(),
         }
     }
 

@@ -91,11 +91,7 @@ impl Field for Diff<'_> {
     }
 }
 
-/// `x − y`, entry by entry.
-#[inline(always)]
-pub(crate) fn sub(x: [f64; 3], y: [f64; 3]) -> [f64; 3] {
-    [x[0] - y[0], x[1] - y[1], x[2] - y[2]]
-}
+pub(crate) use crate::geometry::sub;
 
 /// A flat field (3 entries per node) as one 3-vector per node.
 pub(crate) fn rows(s: &[f64]) -> &[[f64; 3]] {

@@ -5,11 +5,12 @@
 
 use super::{err, loading, positive, spec, Fixing, Selector, Shape};
 use crate::error::Result;
+use crate::geometry::{dot, norm, sub};
 use crate::integrate::Motion;
 use crate::material::{
     lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, StableNeoHookean, VerondaWestmann,
 };
-use crate::mesh::{dot, norm, sub, ElementKind, Mesh};
+use crate::mesh::{ElementKind, Mesh};
 use spec::{defaults, Law, MotionMode, Named};
 use std::path::Path;
 

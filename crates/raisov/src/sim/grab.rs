@@ -2,8 +2,8 @@
 //! give the stepper, and the tool force (conventions in the [`super`] module docs).
 
 use super::{GrabId, PinId, Simulation};
+use crate::geometry::sub;
 use crate::integrate::{RuntimeConstraints, Spring};
-use crate::mesh::{dot, sub};
 use crate::{Error, Result};
 use std::collections::BTreeMap;
 
@@ -152,57 +152,6 @@ pub(super) struct Pin {
     pub(super) levels: Vec<Vec<u32>>,
 }
 
-/// The point of triangle `(a, b, c)` nearest to `p` (Ericson, Real-Time Collision
-/// Detection, 5.1.5).
-fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [f64; 3] {
-    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
-    let at = |s: f64, t: f64| {
-        [
-            a[0] + s * ab[0] + t * ac[0],
-            a[1] + s * ab[1] + t * ac[1],
-            a[2] + s * ab[2] + t * ac[2],
-        ]
-    };
-    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = sub(p, b);
-    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return at(d1 / (d1 - d3), 0.0);
-    }
-    let cp = sub(p, c);
-    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return at(0.0, d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return [
-            b[0] + w * (c[0] - b[0]),
-            b[1] + w * (c[1] - b[1]),
-            b[2] + w * (c[2] - b[2]),
-        ];
-    }
-    let denom = 1.0 / (va + vb + vc);
-    at(vb * denom, vc * denom)
-}
-
-fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let d = sub(a, b);
-    dot(d, d)
-}
-
 fn check_point(name: &str, p: [f64; 3]) -> Result<()> {
     if p.iter().all(|x| x.is_finite()) {
         Ok(())
@@ -222,35 +171,11 @@ impl Simulation {
                 format!("{radius}: must be finite and >= 0 (m)"),
             ));
         }
-        let x = &self.positions;
-        let mut best = (f64::INFINITY, [0.0; 3], [0u32; 3]);
-        for f in &self.surface {
-            let q =
-                closest_on_triangle(point, x[f[0] as usize], x[f[1] as usize], x[f[2] as usize]);
-            let d = dist2(q, point);
-            if d < best.0 {
-                best = (d, q, *f);
-            }
-        }
-        let (_, g, face) = best;
-        if !best.0.is_finite() {
+        let Some((g, mut nodes)) =
+            crate::geometry::surface_patch(&self.positions, &self.surface, point, radius)
+        else {
             return Err(Error::param(what, "the mesh has no surface"));
-        }
-        let mut nodes: Vec<u32> = self
-            .surface
-            .iter()
-            .flatten()
-            .copied()
-            .filter(|&a| dist2(x[a as usize], g) <= radius * radius)
-            .collect();
-        // At least the node of the nearest face nearest to the grasp point.
-        let nearest = *face
-            .iter()
-            .min_by(|&&a, &&b| dist2(x[a as usize], g).total_cmp(&dist2(x[b as usize], g)))
-            .expect("three corners");
-        nodes.push(nearest);
-        nodes.sort_unstable();
-        nodes.dedup();
+        };
         let sprung = self.sprung();
         nodes.retain(|&a| !self.constrained[a as usize] && !sprung[a as usize]);
         if nodes.is_empty() {

@@ -38,6 +38,7 @@
 //! read returns one frame's fields together, never a mix of two frames.
 
 use super::{GrabId, Simulation};
+use crate::geometry::norm;
 use crate::{Error, Result};
 use std::sync::atomic::{fence, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -166,10 +167,6 @@ impl HapticFrame {
         out.force = f;
         out
     }
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
 }
 
 /// The words of a frame: held, position (3), force (3), stiffness (9, row-major), time,

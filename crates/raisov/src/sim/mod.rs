@@ -123,7 +123,7 @@ pub use tangent::{TangentPreconditioner, TangentStats};
 
 use crate::fem::{FemModel, ForceModel};
 use crate::integrate::{Checkpoint, Stepper};
-use crate::mesh::{ElementKind, Mesh};
+use crate::mesh::Mesh;
 use crate::scenario::Scenario;
 use crate::{Error, Result};
 use grab::{Grab, Pin};
@@ -303,13 +303,7 @@ impl Simulation {
         let f_ext = sys.f_ext.clone();
         let mass = sys.mass.clone();
         let own = (0..n).map(|a| sys.constraints.is_constrained(a)).collect();
-        let surface = match mesh.kind {
-            ElementKind::Tet4 => mesh.boundary_facets(),
-            ElementKind::Tri3 => mesh
-                .elements()
-                .map(|e| [e[0], e[1], e[2]])
-                .collect::<Vec<_>>(),
-        };
+        let surface = mesh.surface_triangles();
         let mut sim = Simulation {
             stepper,
             file_ids,

@@ -1,9 +1,9 @@
 use super::*;
 use crate::fem::{FemModel, FemParams};
+use crate::geometry::{cross, sub};
 use crate::integrate::Method;
 use crate::material::{lame, Material, NeoHookean, StableNeoHookean};
 use crate::mesh::generate::{box_tets, BoxPattern};
-use crate::mesh::{cross, sub};
 use crate::multigrid::fas::{CoarseSolve, FasParams};
 use crate::scenario::Scenario;
 use std::path::Path;

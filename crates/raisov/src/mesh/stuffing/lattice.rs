@@ -177,7 +177,8 @@ pub(crate) fn edge_key(a: u32, b: u32) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{norm, sub, tet_volume};
+    use crate::geometry::{norm, sub};
+    use crate::mesh::tet_volume;
 
     /// Every lattice tetrahedron has volume h³/12, two perpendicular long edges of length h
     /// and four short ones of length (√3/2) h, and its edges are lattice neighbours; the

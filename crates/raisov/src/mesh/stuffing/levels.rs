@@ -13,7 +13,8 @@
 
 use super::distance::SurfaceField;
 use super::{mean_edge, StuffStats, Stuffed, Stuffer, DIHEDRAL_BOUNDS};
-use crate::mesh::{cross, dot, norm, sub, tet_radius_ratio, Mesh, Surface};
+use crate::geometry::{cross, dot, norm, sub};
+use crate::mesh::{tet_radius_ratio, Mesh, Surface};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::fmt;

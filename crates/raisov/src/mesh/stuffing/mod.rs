@@ -47,7 +47,8 @@ pub use levels::{
     mesh_levels, mesh_levels_report, tet_dihedral_range, LevelReport, LevelTarget, LevelsReport,
 };
 
-use crate::mesh::{norm, sub, tet_volume, ElementKind, Mesh, Surface};
+use crate::geometry::{norm, sub};
+use crate::mesh::{tet_volume, ElementKind, Mesh, Surface};
 use crate::{Error, Result};
 use distance::SurfaceField;
 use lattice::{edge_key, Lattice};

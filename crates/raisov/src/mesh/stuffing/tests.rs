@@ -1,8 +1,8 @@
 //! Tests of the mesher on surfaces built here (sphere, torus, cube) with analytic volumes.
 
 use super::*;
+use crate::geometry::{norm, sub};
 use crate::mesh::Surface;
-use crate::mesh::{norm, sub};
 use std::collections::HashMap as Map;
 
 /// Icosphere of radius `r` centred at `c`: the icosahedron subdivided `k` times, vertices

@@ -697,8 +697,8 @@ impl<'de> Deserialize<'de> for BoxPattern {
     }
 }
 
-/// `[output] reference`: `"none"`, `"auto"` or a path (relative to the scenario file; made
-/// absolute and checked when the scenario is resolved).
+/// `[output] reference`: `"none"`, `"auto"` or a path (relative to the scenario file; joined
+/// to its directory and checked when the scenario is resolved).
 impl<'de> Deserialize<'de> for Reference {
     fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
         let s = String::deserialize(d)?;

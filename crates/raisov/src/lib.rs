@@ -41,8 +41,6 @@
 #![allow(clippy::needless_range_loop)]
 #![warn(missing_docs)]
 
-// Documented separately (edited in parallel).
-#[allow(missing_docs)]
 pub mod contact;
 pub mod error;
 pub mod fem;
@@ -51,16 +49,12 @@ pub mod hierarchy;
 pub mod integrate;
 pub mod io;
 pub mod linalg;
-// Documented separately (edited in parallel).
-#[allow(missing_docs)]
 pub mod material;
 pub mod memory;
 pub mod mesh;
 pub mod metrics;
 pub mod multigrid;
 pub mod numbers;
-// Documented separately (edited in parallel).
-#[allow(missing_docs)]
 pub mod scenario;
 pub mod sim;
 pub mod statics;

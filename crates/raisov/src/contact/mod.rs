@@ -78,18 +78,28 @@ pub fn nominal_pressure(forces: &[f64], areas: &[f64], out: &mut [f64]) {
 /// The shape of a rigid tool in its reference position (m).
 #[derive(Clone, Debug, PartialEq)]
 pub enum ToolShape {
+    /// A ball: `φ = |x − center| − radius`.
     Sphere {
+        /// Centre c (m).
         center: [f64; 3],
+        /// Radius r (m).
         radius: f64,
     },
     /// The tool occupies `(x − point)·normal < 0`; `normal` is a unit vector.
     Plane {
+        /// A point p of the plane (m).
         point: [f64; 3],
+        /// Unit normal m, pointing out of the tool.
         normal: [f64; 3],
     },
+    /// The points within `radius` of the segment a–b: `φ = |x − q| − radius`, `q` the
+    /// segment's point nearest x.
     Capsule {
+        /// One end of the axis (m).
         a: [f64; 3],
+        /// The other end of the axis (m).
         b: [f64; 3],
+        /// Radius r (m).
         radius: f64,
     },
 }
@@ -97,8 +107,11 @@ pub enum ToolShape {
 /// A rigid tool: its shape, its translation `d(t)` and its penalty stiffness `k` (N/m).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tool {
+    /// The shape at `d = 0`.
     pub shape: ToolShape,
+    /// The translation `d(t)` (m) of every point of the shape.
     pub motion: Motion,
+    /// Penalty stiffness k (N/m): a node penetrating by `−φ` feels `−k φ n`.
     pub stiffness: f64,
 }
 

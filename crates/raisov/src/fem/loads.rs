@@ -57,13 +57,25 @@ pub enum TimeFunction {
     #[default]
     Constant,
     /// `s = min(t / duration, 1)` for t ≥ 0 (duration in s, > 0).
-    Ramp { duration: f64 },
+    Ramp {
+        /// The ramp time T (s).
+        duration: f64,
+    },
     /// Piecewise linear through `(times[k], values[k])`, times strictly increasing (s).
-    Table { times: Vec<f64>, values: Vec<f64> },
+    Table {
+        /// The rows' times (s), strictly increasing.
+        times: Vec<f64>,
+        /// The factor at each time (dimensionless); the first before the first row, the last
+        /// after the last.
+        values: Vec<f64>,
+    },
     /// `s = amplitude · sin(2π frequency t + phase)` (frequency in Hz, phase in rad).
     Sine {
+        /// A (dimensionless).
         amplitude: f64,
+        /// f (Hz).
         frequency: f64,
+        /// φ (rad).
         phase: f64,
     },
 }
@@ -160,15 +172,20 @@ pub enum SurfaceLoadKind {
 pub struct SurfaceLoad {
     /// Node triples of the loaded triangles (normals by node order, see the module docs).
     pub triangles: Vec<[u32; 3]>,
+    /// The pressure (Pa) or traction (Pa per reference area) at `s = 1`.
     pub kind: SurfaceLoadKind,
+    /// `s(t)`, the factor of `kind`'s value.
     pub time: TimeFunction,
 }
 
 /// A force (N) on each of some nodes, times a time function.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TimedNodalLoad {
+    /// The loaded nodes (indices into the mesh's nodes, from 0).
     pub nodes: Vec<u32>,
+    /// The force on each node at `s = 1` (N).
     pub force: [f64; 3],
+    /// `s(t)`, the factor of `force`.
     pub time: TimeFunction,
 }
 

@@ -54,8 +54,6 @@
 //! path, in `packed/fused.rs`.
 
 mod element;
-// Documented separately (edited in parallel).
-#[allow(missing_docs)]
 pub mod loads;
 pub mod packed;
 

@@ -274,10 +274,15 @@ pub fn lame(young: f64, poisson: f64) -> (f64, f64) {
 /// The materials a scenario can name; dispatches statically to each law.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
+    /// `law = "stvk"`: St Venant-Kirchhoff, Lamé λ, μ.
     StVenantKirchhoff(StVenantKirchhoff),
+    /// `law = "neo-hookean"`: Lamé λ, μ.
     NeoHookean(NeoHookean),
+    /// `law = "mooney-rivlin"`: C1, C2, κ.
     MooneyRivlin(MooneyRivlin),
+    /// `law = "veronda-westmann"`: c1, γ, κ.
     VerondaWestmann(VerondaWestmann),
+    /// `law = "stable-neo-hookean"`: small-strain Lamé λ, μ.
     StableNeoHookean(StableNeoHookean),
 }
 

@@ -20,12 +20,16 @@ use nalgebra::{Matrix2, Matrix3};
 /// Mooney-Rivlin constants C1, C2 (Pa) and bulk modulus κ (Pa, solids only).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MooneyRivlin {
+    /// C1 (Pa), the coefficient of `Ī1 − 3` (membrane: `I1 − 3`).
     pub c1: f64,
+    /// C2 (Pa), the coefficient of `Ī2 − 3` (membrane: `I2 − 3`).
     pub c2: f64,
+    /// Bulk modulus κ (Pa) of the solid's `κ/2 (J − 1)²`; unused by membranes.
     pub kappa: f64,
 }
 
 impl MooneyRivlin {
+    /// The law with constants C1, C2 and bulk modulus κ (Pa).
     pub fn new(c1: f64, c2: f64, kappa: f64) -> Self {
         MooneyRivlin { c1, c2, kappa }
     }

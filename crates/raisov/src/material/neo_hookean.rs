@@ -27,11 +27,15 @@ use nalgebra::{Matrix2, Matrix3, Vector3};
 /// Neo-Hookean with Lamé parameters λ (bulk-like, solid only) and shear modulus μ (Pa).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NeoHookean {
+    /// Lamé λ (Pa), the coefficient of `λ/2 (ln J)²`; unused by membranes.
     pub lambda: f64,
+    /// Shear modulus μ (Pa).
     pub mu: f64,
 }
 
 impl NeoHookean {
+    /// The law with the Lamé parameters of Young's modulus E (Pa) and Poisson's ratio ν
+    /// ([`super::lame`]).
     pub fn from_young(young: f64, poisson: f64) -> Self {
         let (lambda, mu) = lame(young, poisson);
         NeoHookean { lambda, mu }

@@ -70,6 +70,8 @@ impl Consts {
 }
 
 impl StableNeoHookean {
+    /// The law whose small-strain Lamé parameters are those of Young's modulus E (Pa) and
+    /// Poisson's ratio ν ([`super::lame`]).
     pub fn from_young(young: f64, poisson: f64) -> Self {
         let (lame_lambda, lame_mu) = lame(young, poisson);
         StableNeoHookean {

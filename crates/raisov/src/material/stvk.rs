@@ -13,11 +13,15 @@ use nalgebra::{Matrix2, Matrix3};
 /// St Venant-Kirchhoff with Lamé parameters λ, μ (Pa).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StVenantKirchhoff {
+    /// Lamé λ (Pa); membranes use the plane-stress `λ* = 2λμ / (λ + 2μ)` in its place.
     pub lambda: f64,
+    /// Lamé μ, the shear modulus (Pa).
     pub mu: f64,
 }
 
 impl StVenantKirchhoff {
+    /// The law with the Lamé parameters of Young's modulus E (Pa) and Poisson's ratio ν
+    /// ([`super::lame`]).
     pub fn from_young(young: f64, poisson: f64) -> Self {
         let (lambda, mu) = lame(young, poisson);
         StVenantKirchhoff { lambda, mu }

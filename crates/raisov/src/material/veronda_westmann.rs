@@ -18,12 +18,16 @@ use nalgebra::{Matrix2, Matrix3};
 /// Veronda-Westmann constants c1 (Pa), γ (dimensionless) and bulk modulus κ (Pa, solids).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VerondaWestmann {
+    /// c1 (Pa), the scale of `c1 (exp(γ (I1 − 3)) − 1) − c1 γ / 2 (I2 − 3)`.
     pub c1: f64,
+    /// γ (dimensionless), the exponential stiffening rate.
     pub gamma: f64,
+    /// Bulk modulus κ (Pa) of the solid's `κ/2 (J − 1)²`; unused by membranes.
     pub kappa: f64,
 }
 
 impl VerondaWestmann {
+    /// The law with constants c1 (Pa), γ and bulk modulus κ (Pa).
     pub fn new(c1: f64, gamma: f64, kappa: f64) -> Self {
         VerondaWestmann { c1, gamma, kappa }
     }

@@ -13,8 +13,6 @@
 //! carried to the nearest node of each coarser level (paper section 3.1).
 
 pub mod fas;
-// Documented separately (edited in parallel).
-#[allow(missing_docs)]
 pub mod raisov;
 
 use crate::hierarchy::Correspondence;

@@ -34,7 +34,12 @@ use rayon::prelude::*;
 /// How the up stroke reads δX^(i+1) (design note, step 2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Reading {
+    /// Eq. 8 literally: `δX^(i+1)` is level i+1's state now minus its `X_n`, everything it
+    /// changed this cycle, including what was restricted down from level i.
     Paper,
+    /// The coarse-grid correction: `δX^(i+1)` is level i+1's state after its up stroke minus
+    /// its state just after its down-stroke transfer, so every coarser level's correction
+    /// reaches level 0.
     Correction,
 }
 
@@ -43,6 +48,7 @@ pub enum Reading {
 pub struct RaisovParams {
     /// The switch threshold ε of eqs. 10 and 12 (m).
     pub epsilon: f64,
+    /// How the up stroke reads `δX^(i+1)` (eq. 12's variation).
     pub reading: Reading,
     /// Kinetic-energy ceiling of the finest level (J), for divergence detection.
     pub kinetic_limit: f64,
@@ -58,8 +64,13 @@ pub struct RaisovParams {
 /// its hosts without being stored. The same bits as the literal whole-level snapshots (test
 /// `fused_cycle_equals_the_literal_cycle`).
 pub struct Raisov {
+    /// The levels, finest (level 0) first; each takes one integrator step G per cycle (eq. 13).
     pub levels: Vec<Level>,
+    /// `links[i]`: the correspondence of level i and level i+1, its `up` transfer the
+    /// restriction of eqs. 9-10 (level-(i+1) nodes hosted on level i), its `down` the
+    /// interpolation of eqs. 11-12 (level-i nodes hosted on level i+1).
     pub links: Links,
+    /// The threshold ε, the [`Reading`] and the divergence ceiling.
     pub params: RaisovParams,
     /// Per level: `X_(n−1)` at the start of a cycle, `X_n` once the cycle's first transfer into
     /// the level has swapped it with the state (so after the down stroke the coarse levels'
@@ -87,6 +98,8 @@ pub struct Raisov {
 }
 
 impl Raisov {
+    /// The integrator over `levels` (finest first) with one link per consecutive pair
+    /// (`links.len() + 1 == levels.len()`, asserted); `X_(n−1)` starts at each level's state.
     pub fn new(levels: Vec<Level>, links: Links, params: RaisovParams) -> Self {
         assert_eq!(links.len() + 1, levels.len());
         let m = levels.len();

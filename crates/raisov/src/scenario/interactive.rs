@@ -111,6 +111,7 @@ impl Interactive {
 /// One frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameRow {
+    /// The frame's number k, from 1.
     pub frame: usize,
     /// Path time `t_k` (s).
     pub time: f64,
@@ -124,6 +125,7 @@ pub struct FrameRow {
     pub max_u: f64,
     /// Lag to the static solution: largest and RMS nodal distance (m); NaN without reference.
     pub lag_max: f64,
+    /// `lag_rms = sqrt(mean_a |u_a − u*_a|²)` over the free nodes (m); NaN without reference.
     pub lag_rms: f64,
     /// Largest |u*| of the static solution (m).
     pub static_max_u: f64,
@@ -140,9 +142,13 @@ impl FrameRow {
 /// themselves (those are in `frames.csv`).
 #[derive(Clone, Debug)]
 pub struct InteractiveSummary {
+    /// The scenario's name ([`Scenario::name`]).
     pub name: String,
+    /// The stepper's description: method, levels, `dt` ([`Stepper::describe`]).
     pub stepper: String,
+    /// Nodes of the finest level.
     pub nodes: usize,
+    /// The resolved `[interactive]` settings the run used.
     pub settings: Interactive,
     /// Frames run.
     pub frames: usize,
@@ -152,16 +158,21 @@ pub struct InteractiveSummary {
     pub wall: f64,
     /// Over the frames with a reference: the count, Σ lag_max, max lag_max, max lag_rel.
     pub lag_frames: usize,
+    /// Σ lag_max over those frames (m).
     pub lag_sum: f64,
+    /// The largest lag_max of those frames (m).
     pub lag_max: f64,
+    /// The largest lag_rel of those frames (`lag_max / max|u*|`).
     pub lag_rel_max: f64,
     /// The last frame.
     pub last: Option<FrameRow>,
     /// Frames whose reference solve failed, and what the first failure was.
     pub reference_failures: usize,
+    /// The first reference solve's failure, with its frame; `None` if none failed.
     pub first_failure: Option<String>,
     /// [`RunOptions::stop`] ended the run early.
     pub interrupted: bool,
+    /// The output directory.
     pub out_dir: PathBuf,
 }
 

@@ -28,6 +28,7 @@ const MIN_LEVEL_NODES: usize = 4;
 /// The resolved `[multigrid]` section.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Multigrid {
+    /// `[multigrid] scheme` with its settings.
     pub scheme: MultigridScheme,
     /// The coarser levels' meshes.
     pub meshes: LevelMeshes,
@@ -41,7 +42,9 @@ pub struct Multigrid {
 /// stepper is built).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MultigridScheme {
+    /// `scheme = "fas"`: the full-approximation-scheme multigrid ([`crate::multigrid::fas`]).
     Fas(FasParams),
+    /// `scheme = "raisov-paper"`: the paper's RaISoV cycle ([`crate::multigrid::raisov`]).
     RaisovPaper(RaisovParams),
 }
 
@@ -49,7 +52,13 @@ pub enum MultigridScheme {
 #[derive(Clone, Debug, PartialEq)]
 pub enum LevelMeshes {
     /// `levels` generated levels, node counts (or divisions) shrinking by `ratio` per level.
-    Ratio { levels: usize, ratio: f64 },
+    Ratio {
+        /// `[multigrid] levels`: the number of levels, level 0 included.
+        levels: usize,
+        /// `[multigrid] ratio`, in (0, 1): level i has `ratio^i` times level 0's node target
+        /// (a box given by `divisions`: `ratio^(i/3)` times its divisions); default 0.5.
+        ratio: f64,
+    },
     /// Generated levels of these node targets, level 0 first.
     Nodes(Vec<usize>),
     /// Mesh files of levels 1.. (paths joined to the scenario's directory).
@@ -328,10 +337,14 @@ fn resolve_meshes(
 /// Constraints and loads of one level.
 #[derive(Clone, Debug, Default)]
 pub struct LevelConstraints {
+    /// Nodes with all three components held at zero.
     pub fixed: Vec<u32>,
     /// Nodes with held directions: `(node, unit direction)`.
     pub sliding: Vec<(u32, [f64; 3])>,
+    /// Prescribed nodes and their motions (m): on a coarser level the node nearest each of
+    /// level 0's prescribed nodes.
     pub prescribed: Vec<(u32, Motion)>,
+    /// Nodes with a constant nodal load and its force (N).
     pub loads: Vec<(u32, [f64; 3])>,
 }
 

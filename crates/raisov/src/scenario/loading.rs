@@ -29,7 +29,12 @@ pub enum SurfaceSelector {
     /// A physical group of the mesh file (its nodes; the triangles with all three in it).
     Group(String),
     /// The nodes within `radius` (m) of `point`.
-    Patch { point: [f64; 3], radius: f64 },
+    Patch {
+        /// `point` (m).
+        point: [f64; 3],
+        /// `radius` (m), positive.
+        radius: f64,
+    },
     /// The whole boundary (membranes: every element).
     Boundary,
 }
@@ -37,16 +42,24 @@ pub enum SurfaceSelector {
 /// A resolved `[[pressure]]` or `[[traction]]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceLoadDef {
+    /// The loaded surface: `group`, `point` with `radius`, or `boundary`.
     pub on: SurfaceSelector,
+    /// `value` (pressure, Pa) or `traction` (Pa per reference area).
     pub kind: SurfaceLoadKind,
+    /// `time`, default constant.
     pub time: TimeFunction,
 }
 
 /// A resolved `[[tool]]`: the penalty stiffness `None` takes the default on each level.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ToolDef {
+    /// `shape` with its keys (a plane's `normal` made unit).
     pub shape: ToolShape,
+    /// The translation (m): `displacement` times `time`, or `path`; held at zero without
+    /// either.
     pub motion: Motion,
+    /// `stiffness` (N/m); `None`: 4 × the material's stability modulus × the level's mean
+    /// edge length ([`tool_stiffness`]).
     pub stiffness: Option<f64>,
 }
 

@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 /// What `[mesh]` builds; the coarser `[multigrid]` levels are built the same way.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshSource {
+    /// Level 0's file or generated shape.
     pub shape: Shape,
     /// Coordinate factor to metres.
     pub scale: f64,
@@ -31,19 +32,29 @@ pub enum Shape {
     File(PathBuf),
     /// A rectangular membrane of about `nodes` nodes.
     Rectangle {
+        /// Side along x (m before [`MeshSource::scale`]); centred on the origin, z = 0.
         width: f64,
+        /// Side along y (m before [`MeshSource::scale`]).
         height: f64,
+        /// `[mesh] nodes`: the target node count.
         nodes: usize,
     },
     /// A polygonal membrane of about `nodes` nodes.
     Polygon {
+        /// `[mesh] polygon`: the outline's vertices `[x, y]` in the plane z = 0 (m before
+        /// [`MeshSource::scale`]).
         outline: Vec<[f64; 2]>,
+        /// `[mesh] nodes`: the target node count.
         nodes: usize,
     },
     /// A tetrahedral box.
     Box {
+        /// `[mesh] size`: the sides `[x, y, z]` of `[0, x] × [0, y] × [0, z]` (m before
+        /// [`MeshSource::scale`]).
         size: [f64; 3],
+        /// `[mesh] nodes` or `divisions`.
         cells: BoxCells,
+        /// `[mesh] pattern`: tetrahedra per cube, default 6.
         pattern: BoxPattern,
     },
 }

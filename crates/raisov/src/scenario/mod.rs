@@ -64,8 +64,11 @@ pub enum StopRule {
     /// Run until kinetic energy and residual fall below the tolerances (relative to their
     /// peaks), or until `max` simulated seconds.
     Steady {
+        /// `[run] kinetic_tol`: kinetic energy below this × its peak, default 1e-8.
         kinetic_tol: f64,
+        /// `[run] residual_tol`: residual norm below this × its peak, default 1e-4.
         residual_tol: f64,
+        /// `[run] duration`: the cap on simulated time (s), default 60.
         max: f64,
         /// Checks (rows of `measures.csv`) without progress after which the run gives up;
         /// 0 never (see [`run`](fn@run)).
@@ -76,6 +79,7 @@ pub enum StopRule {
 /// Where |T − T∞| takes T∞ from (`[output] reference`).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub enum Reference {
+    /// No T∞: the |T − T∞| measures are not computed (`"none"`, the default).
     #[default]
     None,
     /// Compute the steady state first, to a tolerance far below the run's.
@@ -90,9 +94,19 @@ pub enum Selector {
     /// Every boundary node.
     Boundary,
     /// The nodes inside an axis-aligned box (m).
-    Box { min: [f64; 3], max: [f64; 3] },
+    Box {
+        /// The lower corner (m).
+        min: [f64; 3],
+        /// The upper corner (m).
+        max: [f64; 3],
+    },
     /// The nodes with `(x − point)·normal ≤ 0`; `normal` is non-zero.
-    Plane { point: [f64; 3], normal: [f64; 3] },
+    Plane {
+        /// A point of the plane (m).
+        point: [f64; 3],
+        /// The plane's normal, pointing away from the selected side.
+        normal: [f64; 3],
+    },
     /// A physical group of the mesh file.
     Group(String),
     /// Nodes of [`Scenario::mesh`] by index (the file's ids mapped to the mesh's order).
@@ -114,8 +128,13 @@ pub enum Fixing {
 /// A resolved scenario, ready to run.
 #[derive(Clone, Debug)]
 pub struct Scenario {
+    /// `name`, or the file's stem made valid ([`crate::io::NAME_RULE`]): it names the files
+    /// under the output directory.
     pub name: String,
+    /// The scenario file, as given; relative paths in it are relative to its directory.
     pub path: PathBuf,
+    /// Level 0's mesh, in metres (`[mesh] scale` applied), nodes in the order of
+    /// [`Scenario::file_ids`].
     pub mesh: Mesh,
     /// How [`Scenario::mesh`] was made (for the coarser multigrid levels).
     pub mesh_source: MeshSource,
@@ -125,10 +144,16 @@ pub struct Scenario {
     /// too long to finish, a point selector far from the mesh, a mesh whose size suggests
     /// the wrong unit.
     pub warnings: Vec<String>,
+    /// `[material]`: the law and its constants.
     pub material: Material,
+    /// `[material] density` (kg/m³), default 1000.
     pub density: f64,
+    /// `[material] thickness` of membranes (m), default 1e-3.
     pub thickness: f64,
+    /// `[damping]`: the mass-proportional damping `D = α M`, α in 1/s (`alpha`, or
+    /// `2 ζ ω` from `ratio` and `omega`); default 0.
     pub alpha: f64,
+    /// `gravity` (m/s²), default zero.
     pub gravity: [f64; 3],
     /// `[[fix]]` selectors and what each holds, selected again on every multigrid level.
     pub fix: Vec<(Selector, Fixing)>,
@@ -147,6 +172,8 @@ pub struct Scenario {
     pub sliding: Vec<(u32, [f64; 3])>,
     /// The nodes `load` selects on [`Scenario::mesh`], each with its force.
     pub loads: Vec<(u32, [f64; 3])>,
+    /// `[[displace]]`: each prescribed node of [`Scenario::mesh`] and its motion (m); the
+    /// nodes of a patch (`radius`) share one motion.
     pub prescribed: Vec<(u32, Motion)>,
     /// `[mesh] renumber`: node `k` of [`Scenario::mesh`] is node `file_ids[k]` of the file
     /// (its position in file order after unused nodes are dropped; the id the file gives it
@@ -156,6 +183,9 @@ pub struct Scenario {
     /// [`Scenario::file_ids`]); `None` for generated meshes, whose ids are the 0-based
     /// positions. `nodes = [..]` selectors and the outputs use these ids.
     pub node_labels: Option<Vec<u64>>,
+    /// `[integrator] method`: the explicit integrator of level 0 (and of every level without
+    /// `[multigrid] level_methods`), default symplectic Euler; with `method = "newton"` that
+    /// default, and no step is taken ([`Scenario::statics`]).
     pub method: Method,
     /// Time step (s), given or estimated.
     pub dt: f64,
@@ -166,13 +196,23 @@ pub struct Scenario {
     pub safety: f64,
     /// `[integrator] precision`: storage precision of the packed tetrahedron data.
     pub precision: Precision,
+    /// `[run] stop` with its duration and tolerances.
     pub stop: StopRule,
+    /// `[run] blowup_factor`: the factor of the kinetic-energy ceiling that stops a diverging
+    /// run ([`crate::integrate::energy_limit`]), default 1e3.
     pub blowup_factor: f64,
+    /// The output directory: `raisov run --out`, else `[output] dir` relative to the
+    /// scenario file, else `raisov-out/NAME` relative to the working directory.
     pub out_dir: PathBuf,
+    /// `[output] frame_interval`: simulated time between frames (s), default 0.05; 0 writes
+    /// only the first and last.
     pub frame_interval: f64,
+    /// `[output] csv_every`: steps between rows of `measures.csv` (at least 1), default 1.
     pub csv_every: u64,
     /// `[output] vtu`: how the frames are stored (binary appended zlib, or ASCII).
     pub vtu: VtuFormat,
+    /// `[output] reference`: where T∞ of |T − T∞| comes from; a file's path is joined to the
+    /// scenario file's directory.
     pub reference: Reference,
     /// `[multigrid]`: the levels and the scheme; `None` for a single level.
     pub multigrid: Option<Multigrid>,

@@ -123,19 +123,33 @@ pub struct RunOptions<'a> {
 /// What a finished run reports.
 #[derive(Clone, Debug)]
 pub struct RunSummary {
+    /// The scenario's name ([`Scenario::name`]).
     pub name: String,
+    /// The stepper's description: method, levels, `dt` ([`Stepper::describe`]).
     pub stepper: String,
+    /// Nodes of the finest level.
     pub nodes: usize,
+    /// Elements of the finest level.
     pub elements: usize,
+    /// Steps taken ([`Stepper::steps`]).
     pub steps: u64,
+    /// Simulated time at the end (s).
     pub simulated: f64,
+    /// Wall-clock time of the time loop, its samples and frames included (s).
     pub wall: f64,
+    /// `steps / wall` (1/s).
     pub steps_per_second: f64,
+    /// Force evaluations in finest-level units ([`Stepper::force_evaluations`]).
     pub force_evaluations: f64,
+    /// How the run stopped.
     pub reason: StopReason,
+    /// The last row of `measures.csv`.
     pub last: Sample,
+    /// The output directory.
     pub out_dir: PathBuf,
+    /// The files written: `measures.csv`, the `.pvd` collection(s) and `nodal_stress.csv`.
     pub files: Vec<PathBuf>,
+    /// Where T∞ came from (`[output] reference`); `None` without one.
     pub reference_note: Option<String>,
     /// The stepper's closing counters ([`Stepper::diagnostics`]).
     pub diagnostics: Option<String>,

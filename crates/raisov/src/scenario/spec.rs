@@ -462,10 +462,20 @@ named_enum! {
 named_enum! {
     /// `[material] law`.
     pub enum Law {
+        /// `"stvk"` or `"st-venant-kirchhoff"`: St Venant-Kirchhoff, from `young` and
+        /// `poisson` ([`crate::material::StVenantKirchhoff`]).
         StVenantKirchhoff = "stvk" | "st-venant-kirchhoff",
+        /// `"neo-hookean"`: compressible neo-Hookean, from `young` and `poisson`
+        /// ([`crate::material::NeoHookean`]).
         NeoHookean = "neo-hookean",
+        /// `"mooney-rivlin"`: from `c1`, `c2` and, for solids, `kappa`
+        /// ([`crate::material::MooneyRivlin`]).
         MooneyRivlin = "mooney-rivlin",
+        /// `"veronda-westmann"`: from `c1`, `gamma` and, for solids, `kappa`
+        /// ([`crate::material::VerondaWestmann`]).
         VerondaWestmann = "veronda-westmann",
+        /// `"stable-neo-hookean"`: from `young` and `poisson`, finite for inverted elements
+        /// ([`crate::material::StableNeoHookean`]); the default with `[interactive]`.
         StableNeoHookean = "stable-neo-hookean",
     }
 }
@@ -536,7 +546,11 @@ named_enum! {
 named_enum! {
     /// `[multigrid] smoother` (fas).
     pub enum SmootherKind {
+        /// `"chebyshev"` (default): Chebyshev iteration on `D⁻¹(F − R(u))`, D by `scaling`
+        /// ([`crate::multigrid::fas::Smoother::Chebyshev`]).
         Chebyshev = "chebyshev",
+        /// `"dynamics"`: damped explicit steps of the level's integrator
+        /// ([`crate::multigrid::fas::Smoother::Dynamics`]).
         Dynamics = "dynamics",
     }
 }
@@ -544,8 +558,11 @@ named_enum! {
 named_enum! {
     /// `[multigrid] coarse` (fas).
     pub enum CoarseKind {
+        /// `"chebyshev"` (default): `coarse_iterations` Chebyshev iterations per visit.
         Chebyshev = "chebyshev",
+        /// `"explicit"`: damped explicit steps over `coarse_time` per visit.
         Explicit = "explicit",
+        /// `"newton"`: Newton-Krylov to a relative residual of 1e-6.
         Newton = "newton",
     }
 }
@@ -577,7 +594,8 @@ named_enum! {
 pub enum Solve {
     /// Explicit dynamics with this integrator.
     Dynamic(Method),
-    /// Static equilibrium `R(u) = V` by Newton-Krylov ([`crate::statics::krylov`]).
+    /// `"newton"`: static equilibrium `R(u) = V` by Newton's method, its linear solver by
+    /// `solver` ([`StaticSolver`]).
     Newton,
 }
 
@@ -679,8 +697,8 @@ impl<'de> Deserialize<'de> for BoxPattern {
     }
 }
 
-/// `[output] reference`: `"none"`, `"auto"` or a path (relative to the scenario file; made
-/// absolute and checked when the scenario is resolved).
+/// `[output] reference`: `"none"`, `"auto"` or a path (relative to the scenario file; joined
+/// to its directory and checked when the scenario is resolved).
 impl<'de> Deserialize<'de> for Reference {
     fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
         let s = String::deserialize(d)?;
@@ -697,31 +715,49 @@ impl<'de> Deserialize<'de> for Reference {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ScenarioSpec {
+    /// `name`: names the files written under the output directory; default the file's stem,
+    /// characters outside [`crate::io::NAME_RULE`] replaced by `_`.
     pub name: Option<String>,
+    /// `gravity` (m/s²); default none.
     pub gravity: Option<[f64; 3]>,
+    /// `[mesh]`: one of `file`, `generate` or `surface`.
     pub mesh: MeshSpec,
+    /// `[material]`: the law and its parameters.
     pub material: MaterialSpec,
+    /// `[damping]`; default undamped.
     #[serde(default)]
     pub damping: DampingSpec,
+    /// `[[fix]]`: fixed nodes, or held directions.
     #[serde(default)]
     pub fix: Vec<RegionSpec>,
+    /// `[[load]]`: nodal forces.
     #[serde(default)]
     pub load: Vec<LoadSpec>,
+    /// `[[displace]]`: prescribed displacements.
     #[serde(default)]
     pub displace: Vec<DisplaceSpec>,
+    /// `[[pressure]]`: follower pressures on surface triangles.
     #[serde(default)]
     pub pressure: Vec<SurfaceLoadSpec>,
+    /// `[[traction]]`: fixed tractions per reference area.
     #[serde(default)]
     pub traction: Vec<SurfaceLoadSpec>,
+    /// `[[tool]]`: rigid tools in frictionless penalty contact.
     #[serde(default)]
     pub tool: Vec<ToolSpec>,
+    /// `[integrator]`: the time integrator, or the static solve.
     #[serde(default)]
     pub integrator: IntegratorSpec,
+    /// `[run]`: when the run stops.
     #[serde(default)]
     pub run: RunSpec,
+    /// `[output]`: where and how the results are written.
     #[serde(default)]
     pub output: OutputSpec,
+    /// `[multigrid]`: a hierarchy of meshes of the same object; `None`: one level.
     pub multigrid: Option<MultigridSpec>,
+    /// `[interactive]`: a fixed budget per frame along the `[[displace]]` paths; `None`
+    /// for a plain run.
     pub interactive: Option<InteractiveSpec>,
 }
 
@@ -729,24 +765,50 @@ pub struct ScenarioSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MultigridSpec {
+    /// `scheme`: `"fas"` (default) or `"raisov-paper"`.
     pub scheme: Option<Scheme>,
+    /// `levels`: the level count, level 0 included, with `[mesh] generate` or `surface`; node
+    /// counts a geometric series of ratio `ratio`.
     pub levels: Option<usize>,
+    /// `ratio`: the node-count ratio between generated levels, in (0, 1); default 0.5.
     pub ratio: Option<f64>,
-    /// Explicit node targets of generated levels, level 0 first (= `[mesh] nodes`).
+    /// `level_nodes`: explicit node targets of generated levels, level 0 first (= `[mesh]
+    /// nodes`); instead of `levels` and `ratio`.
     pub level_nodes: Option<Vec<usize>>,
+    /// `files`: the coarser levels' mesh files, level 1 first, relative to the scenario file;
+    /// read with `[mesh] scale` and `renumber`.
     pub files: Option<Vec<String>>,
+    /// `reading` (raisov-paper): how the up stroke reads δX, `"paper"` or `"correction"`
+    /// (default).
     pub reading: Option<Reading>,
+    /// `epsilon` (raisov-paper): the switch threshold ε (m) of eqs. 10 and 12, at least 0;
+    /// default 1e-3 × level 0's shortest edge.
     pub epsilon: Option<f64>,
+    /// `pre_smooth` (fas): ν1, smoothing steps per level before the coarse correction; default 4.
     pub pre_smooth: Option<usize>,
+    /// `post_smooth` (fas): ν2, smoothing steps per level after it; default 4.
     pub post_smooth: Option<usize>,
+    /// `coarse` (fas): the coarsest level's solve; default `"chebyshev"`.
     pub coarse: Option<CoarseKind>,
+    /// `coarse_time` (fas, `coarse = "explicit"`): simulated time per visit (s); default 0.1.
     pub coarse_time: Option<f64>,
+    /// `coarse_iterations` (fas, `coarse = "chebyshev"`): iterations per visit, at least 1;
+    /// default 60.
     pub coarse_iterations: Option<usize>,
+    /// `smoother` (fas): `"chebyshev"` (default) or `"dynamics"`.
     pub smoother: Option<SmootherKind>,
+    /// `transfer` (fas): the weights of R and P; default `"convex"`.
     pub transfer: Option<TransferWeights>,
+    /// `scaling` (fas, Chebyshev smoother): the diagonal preconditioner; default
+    /// `"fictitious"`.
     pub scaling: Option<Scaling>,
+    /// `accelerate` (fas, Chebyshev smoother): `"cg"` (default) or `"none"`.
     pub accelerate: Option<Accelerate>,
+    /// `level_methods`: the integrator of each level, level 0 first; default `[integrator]
+    /// method` on every level.
     pub level_methods: Option<Vec<Method>>,
+    /// `level_dt`: the step of each level (s), level 0 first; default: raisov-paper level 0's
+    /// step on every level, fas each level's `safety` × its estimated critical step.
     pub level_dt: Option<Vec<f64>>,
 }
 
@@ -755,11 +817,19 @@ pub struct MultigridSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct InteractiveSpec {
+    /// `fps`: frames per second of path time; default 30.
     pub fps: Option<f64>,
+    /// `cycles`: steps (single level) or V-cycles (multigrid) per frame, at least 1; default
+    /// 4. Not with `budget_ms`.
     pub cycles: Option<usize>,
+    /// `budget_ms`: the wall-time budget per frame (ms): as many steps as fit, at least one.
     pub budget_ms: Option<f64>,
+    /// `reference`: the static solution per frame, `"newton"` (default) or `"none"`.
     pub reference: Option<StaticReference>,
+    /// `reference_tol`: the reference solve's relative residual; default 1e-6.
     pub reference_tol: Option<f64>,
+    /// `lag_tol`: the largest relative lag `lag_max / max|u*|` of a run that keeps up with
+    /// real time; default 0.05.
     pub lag_tol: Option<f64>,
 }
 
@@ -791,54 +861,92 @@ impl<'de> Deserialize<'de> for MeshSize {
     }
 }
 
+/// `[mesh]`: level 0's mesh file, surface or generated shape.
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MeshSpec {
+    /// `file`: a mesh file (.msh Gmsh 2.2/4.1, .node/.ele, .vtk, .vtu), relative to the
+    /// scenario file.
     pub file: Option<String>,
+    /// `scale`: the factor from the file's or generator's coordinates to metres (1e-3 for
+    /// mm); default 1.
     pub scale: Option<f64>,
+    /// `surface`: a closed triangle surface (.obj, .stl, .ply), relative to the scenario file,
+    /// meshed at load (see the module docs).
     pub surface: Option<String>,
+    /// `generate`: `"rectangle"`, `"polygon"` or `"box"`.
     pub generate: Option<Generator>,
+    /// `size`: `surface`: level 0's lattice spacing (m, after `scale`); `generate`: the
+    /// rectangle's `[w, h]` or the box's `[x, y, z]` (m).
     pub size: Option<MeshSize>,
+    /// `polygon`: the outline `[[x, y], ...]` of `generate = "polygon"` (m).
     pub polygon: Option<Vec<[f64; 2]>>,
+    /// `nodes`: the target node count of `generate` (rectangle, polygon, box), or of `surface`'s
+    /// level 0 (instead of `size`).
     pub nodes: Option<usize>,
+    /// `divisions`: cubes per side of `generate = "box"`, instead of `nodes`.
     pub divisions: Option<[usize; 3]>,
+    /// `pattern`: tetrahedra per cube of `generate = "box"`, 5 or 6; default 6.
     pub pattern: Option<BoxPattern>,
+    /// `renumber`: number the nodes in a banded order; default true for `file` and `surface`,
+    /// false for `generate`.
     pub renumber: Option<bool>,
 }
 
+/// `[material]`: the law and its parameters.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
+    /// `law`: required, except with `[interactive]` (default `"stable-neo-hookean"`).
     pub law: Option<Law>,
+    /// `young`: Young's modulus E (Pa) of stvk, neo-hookean and stable-neo-hookean.
     pub young: Option<f64>,
+    /// `poisson`: Poisson's ratio ν, in (−1, 0.5), with `young`.
     pub poisson: Option<f64>,
+    /// `c1` (Pa): mooney-rivlin's C1, veronda-westmann's c1.
     pub c1: Option<f64>,
+    /// `c2` (Pa): mooney-rivlin's C2.
     pub c2: Option<f64>,
+    /// `gamma`: veronda-westmann's γ (dimensionless).
     pub gamma: Option<f64>,
+    /// `kappa`: the bulk modulus κ (Pa) of mooney-rivlin and veronda-westmann solids; required
+    /// there, an error for membranes.
     pub kappa: Option<f64>,
+    /// `density` (kg/m³); default 1000.
     pub density: Option<f64>,
+    /// `thickness` of membranes (m); default 1e-3.
     pub thickness: Option<f64>,
 }
 
+/// `[damping]`: mass-proportional damping `D = α M`; default α = 0.
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct DampingSpec {
+    /// `alpha` (1/s); or `ratio` with `omega` instead.
     pub alpha: Option<f64>,
+    /// `ratio`: the damping ratio ζ, with `omega`: α = 2 ζ ω.
     pub ratio: Option<f64>,
+    /// `omega`: the reference angular frequency ω (rad/s) of `ratio`.
     pub omega: Option<f64>,
 }
 
+/// `box = { min = [..], max = [..] }`: an axis-aligned box.
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct BoxSpec {
+    /// `min`: the lower corner (m).
     pub min: [f64; 3],
+    /// `max`: the upper corner (m).
     pub max: [f64; 3],
 }
 
+/// `plane = { point = [..], normal = [..] }`: a half-space.
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct PlaneSpec {
+    /// `point`: a point of the plane (m).
     pub point: [f64; 3],
+    /// `normal`: non-zero; the nodes selected are those it points away from.
     pub normal: [f64; 3],
 }
 
@@ -846,12 +954,19 @@ pub struct PlaneSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RegionSpec {
+    /// `boundary = true`: every boundary node.
     pub boundary: Option<bool>,
+    /// `box`: the nodes inside an axis-aligned box.
     #[serde(rename = "box")]
     pub aabb: Option<BoxSpec>,
+    /// `plane`: the nodes with `(x − point)·normal ≤ 0`.
     pub plane: Option<PlaneSpec>,
+    /// `group`: the nodes of a physical group of the mesh file.
     pub group: Option<String>,
+    /// `nodes`: node ids as the mesh file numbers them (VTK files and generated meshes: by
+    /// position from 0).
     pub nodes: Option<Vec<u64>>,
+    /// `point`: the node nearest this point (m).
     pub point: Option<[f64; 3]>,
     /// `[[fix]]` only: the components held, `["x", "z"]`; default all three.
     pub components: Option<Vec<String>>,
@@ -860,11 +975,13 @@ pub struct RegionSpec {
     pub normal: Option<[f64; 3]>,
 }
 
+/// `[[load]]`: a force on each node of a selection.
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct LoadSpec {
     /// Which nodes: a selector table as in `[[fix]]`.
     pub at: RegionSpec,
+    /// `force`: the force on each selected node (N).
     pub force: [f64; 3],
     /// The force's time function; default constant.
     pub time: Option<TimeSpec>,
@@ -874,6 +991,7 @@ pub struct LoadSpec {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TimeSpec {
+    /// `kind`: `"constant"`, `"ramp"`, `"table"` or `"sine"`.
     pub kind: TimeKind,
     /// ramp: s.
     pub duration: Option<f64>,
@@ -892,14 +1010,20 @@ pub struct TimeSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct SurfaceLoadSpec {
+    /// `group`: the boundary triangles (tets) or elements (membranes) whose three nodes are
+    /// in this physical group.
     pub group: Option<String>,
+    /// `point` (m), with `radius`: the triangles whose three nodes are within `radius` of it.
     pub point: Option<[f64; 3]>,
+    /// `radius` (m) of the patch around `point`.
     pub radius: Option<f64>,
+    /// `boundary = true`: the whole boundary (membranes: every element).
     pub boundary: Option<bool>,
     /// `[[pressure]]`: Pa.
     pub value: Option<f64>,
     /// `[[traction]]`: Pa, per reference area.
     pub traction: Option<[f64; 3]>,
+    /// `time`: the time function of `value` or `traction`; default constant.
     pub time: Option<TimeSpec>,
 }
 
@@ -907,67 +1031,120 @@ pub struct SurfaceLoadSpec {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ToolSpec {
+    /// `shape`: `"sphere"`, `"plane"` or `"capsule"`.
     pub shape: ToolKind,
+    /// `center` (sphere): the centre (m).
     pub center: Option<[f64; 3]>,
+    /// `radius` (sphere, capsule): m.
     pub radius: Option<f64>,
+    /// `point` (plane): a point of the plane (m).
     pub point: Option<[f64; 3]>,
+    /// `normal` (plane): pointing out of the tool; non-zero, made unit.
     pub normal: Option<[f64; 3]>,
+    /// `a` (capsule): one end of the axis (m).
     pub a: Option<[f64; 3]>,
+    /// `b` (capsule): the other end of the axis (m).
     pub b: Option<[f64; 3]>,
-    /// The translation (m), times `time` (default constant); or instead
+    /// `displacement`: the tool's translation (m), times `time`; or `path` instead.
     pub displacement: Option<[f64; 3]>,
+    /// `time`: the time function of `displacement`; default constant.
     pub time: Option<TimeSpec>,
-    /// rows `[t, dx, dy, dz]`: the translation, piecewise linear.
+    /// `path`: rows `[t, dx, dy, dz]` (s, m), the translation, piecewise linear.
     pub path: Option<Vec<[f64; 4]>>,
-    /// Penalty stiffness (N/m); default the material's stability modulus × mean edge length.
+    /// `stiffness`: the penalty stiffness (N/m); default 4 × the material's stability modulus
+    /// × the mean edge length of the level it acts on.
     pub stiffness: Option<f64>,
 }
 
+/// `[[displace]]`: a prescribed displacement of the node nearest `point`, or of a
+/// surface patch.
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct DisplaceSpec {
+    /// `point` (m): the node nearest it is prescribed (with `radius`, a surface patch).
     pub point: [f64; 3],
+    /// `radius` (m), optional: prescribe the surface nodes within `radius` of the surface
+    /// point nearest `point` (at least the nearest node), all moving together.
     pub radius: Option<f64>,
+    /// `displacement` (m): the held value, the ramp's end, or the vector that `time`'s s(t)
+    /// multiplies.
     pub displacement: Option<[f64; 3]>,
+    /// `mode`: `"held"`, `"ramp"` or `"table"`; default `"table"` where `table` is given,
+    /// else `"held"`.
     pub mode: Option<MotionMode>,
+    /// `duration` (s) of `mode = "ramp"`.
     pub duration: Option<f64>,
+    /// `table` (`mode = "table"`): rows `[t, dx, dy, dz]` (s, m), t strictly increasing.
     pub table: Option<Vec<[f64; 4]>>,
     /// `displacement` times this time function (instead of `mode`).
     pub time: Option<TimeSpec>,
 }
 
+/// `[integrator]`: the time integrator, or the static solve.
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {
+    /// `method`: an explicit integrator or `"newton"` (static); default `"symplectic-euler"`.
     pub method: Option<Solve>,
+    /// `solver` (newton): `"auto"` (default), `"multigrid"`, `"direct"` or `"krylov"`.
     pub solver: Option<StaticSolver>,
+    /// `dt`: the time step (s); default `safety` × the estimated critical step.
     pub dt: Option<f64>,
+    /// `max_newton` (newton): Newton steps at most per increment, at least 1; default 50.
     pub max_newton: Option<usize>,
+    /// `increments` (newton): equal load increments, at least 1; default 10 for `"krylov"`,
+    /// 1 for `"direct"` and `"multigrid"`.
     pub increments: Option<usize>,
+    /// `coarse_start` (newton, multigrid): start from the coarse level's equilibrium,
+    /// interpolated; default true for membranes, false for tetrahedra.
     pub coarse_start: Option<bool>,
+    /// `smoother` (newton, multigrid): the V-cycle's smoother; default `"block-jacobi"` for
+    /// tetrahedra, `"block-gauss-seidel"` for membranes.
     pub smoother: Option<NewtonSmoother>,
+    /// `safety`: the fraction of the estimated critical step taken without `dt`; default 0.5.
     pub safety: Option<f64>,
+    /// `precision`: the force pass's element data, `"f64"` (default) or `"f32-storage"`.
     pub precision: Option<Precision>,
 }
 
+/// `[run]`: when the run stops.
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RunSpec {
+    /// `stop`: `"duration"` (default) or `"steady"`.
     pub stop: Option<Stop>,
+    /// `duration` (s): the simulated time, required with `stop = "duration"`; the cap with
+    /// `"steady"`, default 60.
     pub duration: Option<f64>,
+    /// `kinetic_tol` (steady): kinetic energy below this × its peak; default 1e-8.
     pub kinetic_tol: Option<f64>,
+    /// `residual_tol`: steady, the residual norm below this × its peak, default 1e-4;
+    /// `method = "newton"`, the relative residual, default 1e-7.
     pub residual_tol: Option<f64>,
+    /// `stagnation` (steady): checks (rows of `measures.csv`) without progress, once the
+    /// motions end, before the run gives up; 0 never. Default 1000.
     pub stagnation: Option<u64>,
+    /// `blowup_factor`: the factor of the kinetic-energy ceiling that stops a diverging run
+    /// ([`crate::integrate::energy_limit`]); default 1e3.
     pub blowup_factor: Option<f64>,
 }
 
+/// `[output]`: where and how the results are written.
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSpec {
+    /// `dir`: the output directory, relative to the scenario file; default `raisov-out/NAME`
+    /// relative to the working directory.
     pub dir: Option<String>,
+    /// `frame_interval`: simulated time between frames (s); default 0.05, 0 writes only the
+    /// first and last.
     pub frame_interval: Option<f64>,
+    /// `csv_every`: steps between rows of `measures.csv`, at least 1; default 1.
     pub csv_every: Option<u64>,
+    /// `vtu`: frame storage, `"binary"` (default) or `"ascii"`.
     pub vtu: Option<VtuFormat>,
+    /// `reference`: T∞ for |T − T∞|, `"none"` (default), `"auto"` or the path (relative to the
+    /// scenario file) of an earlier run's `nodal_stress.csv`.
     pub reference: Option<Reference>,
 }
 

@@ -60,8 +60,11 @@ const DIRECT_PCG_MAX: usize = 20;
 /// What a static solve (`method = "newton"`) reports.
 #[derive(Clone, Debug)]
 pub struct StaticSummary {
+    /// The scenario's name ([`Scenario::name`]).
     pub name: String,
+    /// Nodes of the mesh.
     pub nodes: usize,
+    /// Elements of the mesh.
     pub elements: usize,
     /// The linear solver that ran (`"auto"` resolved).
     pub solver: StaticSolver,
@@ -82,10 +85,14 @@ pub struct StaticSummary {
     pub increments: usize,
     /// The element that inverted, where the solve stopped on one.
     pub inverted: Option<(usize, f64)>,
+    /// Wall-clock time of the solve, the first sample and frame included (s).
     pub wall: f64,
     /// The state solved for: reactions and `max |u|` ([`crate::metrics::Sample`]).
     pub last: Sample,
+    /// The applied loads and body forces, `Σ_a V_a` (N), at the solution: the reactions
+    /// balance it at equilibrium ([`crate::metrics`]).
     pub applied: [f64; 3],
+    /// The output directory.
     pub out_dir: PathBuf,
 }
 

@@ -2,8 +2,8 @@
 //! the scenario's own terms and SI units (a material by its law and moduli, a motion by how
 //! it moves, a stopping rule by when it stops), never as the library's internal structures.
 
-use raisov::fem::loads::TimeFunction;
-use raisov::integrate::Motion;
+use raisov::time::TimeFunction;
+use raisov::time::Motion;
 use raisov::material::Material;
 use raisov::numbers::{compact, point};
 use raisov::scenario::interactive::{Budget, Interactive};

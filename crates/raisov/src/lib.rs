@@ -58,5 +58,6 @@ pub mod numbers;
 pub mod scenario;
 pub mod sim;
 pub mod statics;
+pub mod time;
 
 pub use error::{Error, Result};

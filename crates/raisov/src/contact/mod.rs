@@ -44,8 +44,8 @@
 use crate::fem::loads::LoadReport;
 use crate::fem::{ElementFailure, ForceModel};
 use crate::geometry::{add, dot, sub};
-use crate::integrate::Motion;
 use crate::mesh::{ElementKind, Mesh};
+use crate::time::Motion;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Each node's tributary area on the reference boundary (m²): a third of the area of every

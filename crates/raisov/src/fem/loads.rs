@@ -2,16 +2,7 @@
 //! that carries them to every integrator, every multigrid level and the static solve (the
 //! rigid tools of [`crate::contact`] wrap a force model the same way).
 //!
-//! **Time functions** ([`TimeFunction`], dimensionless factors multiplying a load's value or
-//! a prescribed displacement):
-//!
-//! ```text
-//! constant   s(t) = 1
-//! ramp       s(t) = min(max(t, 0) / T, 1)                    (T the duration, s)
-//! table      s(t) piecewise linear through (t_k, s_k); s_0 before the first row, the last
-//!            value after the last
-//! sine       s(t) = A sin(2π f t + φ)                        (A amplitude, f in Hz, φ in rad)
-//! ```
+//! Loads scale with a time function ([`crate::time::TimeFunction`], re-exported here).
 //!
 //! **Surface pressure** (a follower load) on triangles `(x1, x2, x3)` in the *current*
 //! configuration `x = X + u`, recomputed at every force evaluation:
@@ -48,115 +39,8 @@
 
 use super::{ElementFailure, ForceModel};
 use crate::geometry::cross;
+pub use crate::time::TimeFunction;
 use std::sync::atomic::{AtomicU64, Ordering};
-
-/// A dimensionless factor of time, `s(t)` (see the module documentation).
-#[derive(Clone, Debug, PartialEq, Default)]
-pub enum TimeFunction {
-    /// `s = 1`.
-    #[default]
-    Constant,
-    /// `s = min(t / duration, 1)` for t ≥ 0 (duration in s, > 0).
-    Ramp {
-        /// The ramp time T (s).
-        duration: f64,
-    },
-    /// Piecewise linear through `(times[k], values[k])`, times strictly increasing (s).
-    Table {
-        /// The rows' times (s), strictly increasing.
-        times: Vec<f64>,
-        /// The factor at each time (dimensionless); the first before the first row, the last
-        /// after the last.
-        values: Vec<f64>,
-    },
-    /// `s = amplitude · sin(2π frequency t + phase)` (frequency in Hz, phase in rad).
-    Sine {
-        /// A (dimensionless).
-        amplitude: f64,
-        /// f (Hz).
-        frequency: f64,
-        /// φ (rad).
-        phase: f64,
-    },
-}
-
-impl TimeFunction {
-    /// `s(t)`.
-    pub fn value(&self, t: f64) -> f64 {
-        match self {
-            TimeFunction::Constant => 1.0,
-            TimeFunction::Ramp { duration } => {
-                if *duration > 0.0 {
-                    (t / duration).clamp(0.0, 1.0)
-                } else {
-                    1.0
-                }
-            }
-            TimeFunction::Table { times, values } => {
-                let k = times.partition_point(|&x| x <= t);
-                if k == 0 {
-                    values[0]
-                } else if k == times.len() {
-                    values[k - 1]
-                } else {
-                    let s = (t - times[k - 1]) / (times[k] - times[k - 1]);
-                    values[k - 1] + s * (values[k] - values[k - 1])
-                }
-            }
-            TimeFunction::Sine {
-                amplitude,
-                frequency,
-                phase,
-            } => amplitude * (2.0 * std::f64::consts::PI * frequency * t + phase).sin(),
-        }
-    }
-    /// `ds/dt` (right derivative, 1/s).
-    pub fn rate(&self, t: f64) -> f64 {
-        match self {
-            TimeFunction::Constant => 0.0,
-            TimeFunction::Ramp { duration } => {
-                if *duration > 0.0 && (0.0..*duration).contains(&t) {
-                    1.0 / duration
-                } else {
-                    0.0
-                }
-            }
-            TimeFunction::Table { times, values } => {
-                let k = times.partition_point(|&x| x <= t);
-                if k == 0 || k == times.len() {
-                    0.0
-                } else {
-                    (values[k] - values[k - 1]) / (times[k] - times[k - 1])
-                }
-            }
-            TimeFunction::Sine {
-                amplitude,
-                frequency,
-                phase,
-            } => {
-                let w = 2.0 * std::f64::consts::PI * frequency;
-                amplitude * w * (w * t + phase).cos()
-            }
-        }
-    }
-    /// Largest `|s(t)|` over all t.
-    pub fn max_abs(&self) -> f64 {
-        match self {
-            TimeFunction::Constant | TimeFunction::Ramp { .. } => 1.0,
-            TimeFunction::Table { values, .. } => values.iter().fold(0.0, |m, v| m.max(v.abs())),
-            TimeFunction::Sine { amplitude, .. } => amplitude.abs(),
-        }
-    }
-    /// The time after which `s` is constant (s); infinite for a sine.
-    pub fn end(&self) -> f64 {
-        match self {
-            TimeFunction::Constant => 0.0,
-            TimeFunction::Ramp { duration } => *duration,
-            TimeFunction::Table { times, .. } => *times.last().unwrap_or(&0.0),
-            TimeFunction::Sine { .. } => f64::INFINITY,
-        }
-    }
-}
 
 /// What a surface load does per unit area.
 #[derive(Clone, Debug, PartialEq)]

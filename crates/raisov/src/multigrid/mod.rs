@@ -214,7 +214,7 @@ pub(crate) fn hold_on_levels(levels: &mut [Level], values: &[[f64; 3]]) {
             };
             for (a, m) in lv.sys.constraints.prescribed.iter_mut() {
                 if *a as usize == n {
-                    *m = crate::integrate::Motion::Held { d };
+                    *m = crate::time::Motion::Held { d };
                 }
             }
         }

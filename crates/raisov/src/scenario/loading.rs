@@ -19,8 +19,8 @@ use crate::fem::loads::{
     TimedNodalLoad,
 };
 use crate::fem::ForceModel;
-use crate::integrate::Motion;
 use crate::mesh::Mesh;
+use crate::time::Motion;
 use std::path::Path;
 
 /// Which surface a `[[pressure]]` or `[[traction]]` acts on.

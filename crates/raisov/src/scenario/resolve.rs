@@ -6,11 +6,11 @@
 use super::{err, loading, positive, spec, Fixing, Selector, Shape};
 use crate::error::Result;
 use crate::geometry::{dot, norm, sub};
-use crate::integrate::Motion;
 use crate::material::{
     lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, StableNeoHookean, VerondaWestmann,
 };
 use crate::mesh::{ElementKind, Mesh};
+use crate::time::Motion;
 use spec::{defaults, Law, MotionMode, Named};
 use std::path::Path;
 

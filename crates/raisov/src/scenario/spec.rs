@@ -78,7 +78,7 @@
 //! at = { point = [0.1, 0.0, 0.0] } # which nodes: a selector as in [[fix]]
 //! force = [0.0, 0.0, -0.1]        # N on each selected node
 //! time = { kind = "ramp", duration = 0.5 }  # optional time function, default constant:
-//!                                 # the force times s(t) (crate::fem::loads::TimeFunction):
+//!                                 # the force times s(t) (crate::time::TimeFunction):
 //!                                 # kind = "constant" | "ramp" (duration, s: s = min(t/T, 1))
 //!                                 # | "table" (table = [[t, s], ...], t increasing, linear
 //!                                 # between rows, held after the last) | "sine" (frequency,
@@ -494,7 +494,7 @@ named_enum! {
 
 named_enum! {
     /// `time = { kind = .. }`: the time function of a load, a prescribed displacement or a
-    /// tool path ([`crate::fem::loads::TimeFunction`]).
+    /// tool path ([`crate::time::TimeFunction`]).
     pub enum TimeKind {
         /// `s = 1`.
         Constant = "constant",

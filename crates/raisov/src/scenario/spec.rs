@@ -98,6 +98,28 @@
 //!                                 # sim::Simulation::grab selects them; fixed nodes and nodes of
 //!                                 # an earlier [[displace]] are left out. All move together
 //! time = { kind = "sine", frequency = 2.0 } # instead of `mode`: `displacement` times s(t)
+//! start = 1.2                     # s, [interactive] only: a grasp taken during the run, as
+//!                                 # `raisov serve` takes one: from the first frame at or
+//!                                 # after `start` (default 0), the surface patch within
+//!                                 # `radius` (default 0: one node) of the point g of the
+//!                                 # *deformed* surface nearest `point`, free nodes only,
+//!                                 # moved rigidly to g + d(t), d the path above (default:
+//!                                 # held where taken); free before. Any of `start`,
+//!                                 # `release`, `stiffness` makes the entry such a grasp
+//!                                 # (rules: scenario::grasps)
+//! release = 2.5                   # s, after `start`: let go from the first frame at or after
+//!                                 # it, the nodes free again; default: held to the end
+//! stiffness = 200.0               # N/m: pull the patch by zero-length springs of this total
+//!                                 # stiffness (sim::Coupling::Spring) instead of holding it
+//!
+//! [[pin]]                         # [interactive] only: a pin taken during the run, as
+//!                                 # `raisov serve` pins (scenario::grasps): the patch a grasp
+//!                                 # would take near `point` within `radius`, held where it
+//!                                 # stands, on every level, from the first frame at or
+//!                                 # after `start` to the end
+//! point = [0.04, 0.04, 0.04]      # m
+//! radius = 0.01                   # m, default 0
+//! start = 0.8                     # s, default 0
 //!
 //! [[pressure]]                    # follower pressure on surface triangles (crate::fem::loads):
 //! group = "zmax"                  # the boundary triangles (tets) or elements (membranes) whose
@@ -710,6 +732,8 @@ pub struct ScenarioSpec {
     #[serde(default)]
     pub displace: Vec<DisplaceSpec>,
     #[serde(default)]
+    pub pin: Vec<PinSpec>,
+    #[serde(default)]
     pub pressure: Vec<SurfaceLoadSpec>,
     #[serde(default)]
     pub traction: Vec<SurfaceLoadSpec>,
@@ -934,6 +958,21 @@ pub struct DisplaceSpec {
     pub table: Option<Vec<[f64; 4]>>,
     /// `displacement` times this time function (instead of `mode`).
     pub time: Option<TimeSpec>,
+    /// A grasp taken at this path time (s), interactive runs only.
+    pub start: Option<f64>,
+    /// A grasp let go at this path time (s).
+    pub release: Option<f64>,
+    /// A spring grasp of this total stiffness (N/m).
+    pub stiffness: Option<f64>,
+}
+
+/// `[[pin]]`: a pin taken during an interactive run.
+#[derive(Clone, Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct PinSpec {
+    pub point: [f64; 3],
+    pub radius: Option<f64>,
+    pub start: Option<f64>,
 }
 
 #[derive(Clone, Debug, Deserialize, Default)]

@@ -196,9 +196,11 @@ cycles = 40
         Scenario::from_toml(&text, Path::new("replay-test.toml")).unwrap()
     }
 
-    /// Step every frame of `sc`: per frame, the positions and, per grasp entry, the grasped
-    /// nodes while it is held.
-    fn frames(sc: &Scenario) -> (Replay, Vec<Vec<[f64; 3]>>, Vec<Vec<Option<Vec<u32>>>>) {
+    /// Per frame, per grasp entry: the grasped nodes while it is held.
+    type Held = Vec<Vec<Option<Vec<u32>>>>;
+
+    /// Step every frame of `sc`: per frame, the positions and the grasped nodes.
+    fn frames(sc: &Scenario) -> (Replay, Vec<Vec<[f64; 3]>>, Held) {
         let mut r = Replay::new(sc, sc.stepper().unwrap()).unwrap();
         let fps = sc.interactive.unwrap().fps;
         let n = match sc.stop {
@@ -414,7 +416,7 @@ cycles = 40
         let i = "[interactive]\ncycles = 2\n";
         for (extra, want) in [
             (format!("{g}start = 0.5\n"), "displace[0] (`start`, `release` or `stiffness`: a grasp) is taken during the run and replayed frame by frame: the scenario needs an [interactive] section"),
-            (format!("{p}"), "pin[0] is taken during the run"),
+            (p.to_string(), "pin[0] is taken during the run"),
             (format!("{i}{g}start = -1.0\n"), "`displace[0].start` = -1: must be >= 0 (s)"),
             (format!("{i}{g}start = 0.5\nrelease = 0.5\n"), "`displace[0].release` = 0.5: must come after `start` = 0.5 (s)"),
             (format!("{i}{g}stiffness = 0.0\n"), "`displace[0].stiffness` = 0: must be a positive number"),

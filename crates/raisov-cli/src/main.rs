@@ -835,21 +835,23 @@ fn cmd_check(path: &Path) -> Result<()> {
             ),
         );
     }
+    // (Six significant digits, as points are shown.)
+    let compact = |x: f64| raisov::numbers::compact(format!("{x:.5e}").parse().unwrap_or(x));
     for g in &sc.grasps {
         let held = match g.stiffness {
-            Some(k) => format!("pulled by springs of {k} N/m"),
+            Some(k) => format!("pulled by springs of {} N/m", compact(k)),
             None => "held hard".into(),
         };
-        let until = g
-            .release
-            .map_or("to the end".into(), |r| format!("let go at {r} s"));
+        let until = g.release.map_or("to the end".into(), |r| {
+            format!("let go at {} s", compact(r))
+        });
         line(
             "grasp",
             &format!(
                 "near {} m, radius {} m, taken at {} s, {held}, {until}; grasp point {}",
                 raisov::numbers::point(g.point),
-                g.radius,
-                g.start,
+                compact(g.radius),
+                compact(g.start),
                 check::motion(&g.motion)
             ),
         );
@@ -860,8 +862,8 @@ fn cmd_check(path: &Path) -> Result<()> {
             &format!(
                 "near {} m, radius {} m, taken at {} s",
                 raisov::numbers::point(p.point),
-                p.radius,
-                p.start
+                compact(p.radius),
+                compact(p.start)
             ),
         );
     }

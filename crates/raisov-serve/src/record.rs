@@ -28,7 +28,11 @@
 //!
 //! and pin `i`, taken before frame `P` at the point `p` with radius `r`, `[[pin]]` with
 //! `point`, `radius` and `start = P / fps`. A grasp let go before any frame stepped is not
-//! written (it held nothing); nor is anything after the last frame stepped. `[run] duration`
+//! written (it held nothing; a hard one did stop its patch, setting its velocity to zero,
+//! which the replay then does not); nor is anything after the last frame stepped. Within
+//! one frame the replay lets go, then pins, then grasps (`raisov::scenario::grasps`): a
+//! session that pinned after grasping an overlapping patch between the same two frames
+//! replays with the pin taken first. `[run] duration`
 //! is `F / fps`, `F` the frames stepped; `[interactive]` gets `fps`, the session's budget
 //! (`cycles`, or `budget_ms`: a wall-time budget gives the replay as many cycles as fit on
 //! its machine, so only `cycles` replays the frames exactly) and `reference = "none"` (the

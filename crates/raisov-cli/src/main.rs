@@ -610,9 +610,10 @@ fn cmd_run(
         progress: Some(&mut progress),
         stop: Some(&stop),
     };
-    // An [interactive] scenario plays its paths frame by frame; any other runs in time.
+    // An [interactive] scenario plays its paths frame by frame (its grasps and pins taken
+    // during the run included); any other runs in time.
     let res = if sc.interactive.is_some() {
-        raisov::scenario::interactive::run_interactive(&sc, stepper.as_mut(), opts).map(|s| {
+        raisov::sim::replay::run_interactive(&sc, stepper, opts).map(|s| {
             let code = if s.interrupted { EXIT_INTERRUPTED } else { 0 };
             (s.to_string(), code)
         })
@@ -831,6 +832,38 @@ fn cmd_check(path: &Path) -> Result<()> {
                 sc.file_node(*a),
                 raisov::numbers::point(sc.mesh.nodes[*a as usize]),
                 check::motion(m)
+            ),
+        );
+    }
+    // (Six significant digits, as points are shown.)
+    let compact = |x: f64| raisov::numbers::compact(format!("{x:.5e}").parse().unwrap_or(x));
+    for g in &sc.grasps {
+        let held = match g.stiffness {
+            Some(k) => format!("pulled by springs of {} N/m", compact(k)),
+            None => "held hard".into(),
+        };
+        let until = g.release.map_or("to the end".into(), |r| {
+            format!("let go at {} s", compact(r))
+        });
+        line(
+            "grasp",
+            &format!(
+                "near {} m, radius {} m, taken at {} s, {held}, {until}; grasp point {}",
+                raisov::numbers::point(g.point),
+                compact(g.radius),
+                compact(g.start),
+                check::motion(&g.motion)
+            ),
+        );
+    }
+    for p in &sc.pins {
+        line(
+            "pin",
+            &format!(
+                "near {} m, radius {} m, taken at {} s",
+                raisov::numbers::point(p.point),
+                compact(p.radius),
+                compact(p.start)
             ),
         );
     }

@@ -391,3 +391,54 @@ fn check_of_a_static_scenario_names_its_solver_and_smoother() {
     );
     assert!(!out.contains("dt =") && !out.contains("stepping"), "{out}");
 }
+
+/// What `raisov serve` records when the same spot is grasped twice: `raisov run` refused
+/// it with status 2 (two `[[displace]]` prescribing the same nodes). Grasps taken and let go
+/// during the run, by springs, and a pin, run to the end with status 0.
+#[test]
+fn a_recording_that_grasps_the_same_spot_twice_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("recorded.toml");
+    let grasp = |start: f64, release: f64| {
+        format!(
+            "[[displace]]\npoint = [0.02, 0.02, 0.04]\nradius = 0.011\nstiffness = 200.0\n\
+             start = {start}\nrelease = {release}\n\
+             table = [[{start}, 0, 0, 0], [{release}, 0.001, 0, 0.003]]\n"
+        )
+    };
+    std::fs::write(
+        &p,
+        format!(
+            "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.04, 0.04]\ndivisions = [4, 4, 4]\n\
+             [material]\nlaw = \"neo-hookean\"\nyoung = 5e3\npoisson = 0.45\n\
+             [damping]\nalpha = 50.0\n\
+             [[fix]]\nplane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}\n\
+             {}{}\
+             [[pin]]\npoint = [0.04, 0.04, 0.04]\nradius = 0.011\nstart = 0.5\n\
+             [run]\nduration = 0.8\n\
+             [interactive]\nfps = 30.0\ncycles = 20\nreference = \"none\"\n",
+            grasp(0.1, 0.3),
+            grasp(0.4, 0.6)
+        ),
+    )
+    .unwrap();
+    let o = run(&p, &dir.path().join("out"));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{text}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(text.contains("frames          24 of 24"), "{text}");
+    let o = raisov().arg("check").arg(&p).output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(text.matches("\ngrasp ").count(), 2, "{text}");
+    assert!(
+        text.contains("pulled by springs of 200 N/m, let go at 0.3 s")
+            && text.contains(
+                "\npin           near (0.04, 0.04, 0.04) m, radius 0.011 m, taken at 0.5 s"
+            ),
+        "{text}"
+    );
+}

@@ -15,6 +15,11 @@
 //! ([`Source::text_for`]), from rest; a method switch then pins the recorded pins again at
 //! their points and grasps again at the held grasp's first point, moved to its target.
 //!
+//! Recording ([`crate::record`]): every command that grasps, lets go or pins is recorded
+//! before the frame it acts on, and every frame stepped with the held grasp's target in it;
+//! a reset or a method switch starts the recording again (with the pins and grasp a switch
+//! takes again).
+//!
 //! Sleep: the thread steps only while somebody needs frames. With no client connected and no
 //! grasp held it waits for a command; so it does once the state is at rest, when for
 //! [`REST_FRAMES`] frames in a row no surface vertex moved more than [`REST_MOTION`] times
@@ -59,7 +64,8 @@ pub const REST_MOTION: f64 = 1e-6;
 /// The scenario the server runs, as a TOML table, and the method it names.
 #[derive(Clone, Debug)]
 pub struct Source {
-    /// The scenario without `[[displace]]` (the clients grasp) and `[interactive]`.
+    /// The scenario without `[[displace]]`, `[[pin]]` (the clients grasp and pin) and
+    /// `[interactive]`.
     pub table: toml::Table,
     /// Relative paths of the scenario are taken from here.
     pub base_dir: PathBuf,
@@ -116,7 +122,9 @@ impl Source {
         let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
             ServeError::Scenario(format!("{}: {}", path.display(), e.message()))
         })?;
+        // What the clients do (and a recording's replay of it) is not served.
         table.remove("displace");
+        table.remove("pin");
         table.remove("interactive");
         let method = match table.get("multigrid").and_then(|m| m.get("scheme")) {
             None if table.contains_key("multigrid") => Method::Fas,
@@ -584,7 +592,9 @@ impl Worker {
                 .held
                 .as_ref()
                 .is_some_and(|h| self.sim.grab_position(h.id).is_ok_and(|p| p != h.target));
+            let target = self.held.as_ref().map(|h| h.target);
             let report = self.sim.step_frame(self.config.budget);
+            self.recorder.frame(target);
             if moving {
                 self.grasp_outcome(&report);
             } else if !report.accepted {
@@ -606,9 +616,6 @@ impl Worker {
                     self.method.label()
                 );
                 self.broadcast(protocol::error_json(&m));
-            }
-            if let Some(h) = &self.held {
-                self.recorder.sample(h.target);
             }
             self.publish(Some(&report));
             self.still = if self.moved <= self.rest_motion && !moving && report.accepted {
@@ -768,7 +775,6 @@ impl Worker {
         }
         if let Some(h) = self.held.take() {
             let _ = self.sim.release(h.id);
-            self.recorder.push(Event::Target(h.target));
             self.recorder.push(Event::Release);
             self.holder_notice();
         }
@@ -798,7 +804,12 @@ impl Worker {
                             radius,
                             target: at,
                         });
-                        self.recorder.push(Event::Grab { point: at, radius });
+                        self.recorder.push(Event::Grab {
+                            point,
+                            at,
+                            radius,
+                            stiffness: self.config.grab_stiffness,
+                        });
                         self.pending = Some((msg.seq, arrived));
                         self.holder_notice();
                     }
@@ -828,15 +839,13 @@ impl Worker {
             Command::Pin { point, radius } => {
                 let (p, r) = (f64p(point), radius as f64);
                 match self.sim.pin(p, r) {
-                    Ok(pid) => {
+                    Ok(_) => {
                         self.pins.push((p, r));
                         let pins = self.pins_json();
                         self.broadcast(pins);
-                        let bounds = self.reference_bounds(self.sim.pin_nodes(pid).unwrap_or(&[]));
                         self.recorder.push(Event::Pin {
                             point: p,
                             radius: r,
-                            bounds,
                         });
                     }
                     Err(e) => self.error(id, format!("pin: {e}")),
@@ -890,26 +899,13 @@ impl Worker {
         }
     }
 
-    /// The reference-position bounds of `nodes` (for the recorded `[[fix]]`).
-    fn reference_bounds(&self, nodes: &[u32]) -> ([f64; 3], [f64; 3]) {
-        let mesh = self.sim.mesh();
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for &a in nodes {
-            let x = mesh.nodes[a as usize];
-            for k in 0..3 {
-                lo[k] = lo[k].min(x[k]);
-                hi[k] = hi[k].max(x[k]);
-            }
-        }
-        (lo, hi)
-    }
-
-    /// Rebuild the simulation with `method`; `keep` re-applies the pins and the grasp.
+    /// Rebuild the simulation with `method`; `keep` re-applies the pins and the grasp. The
+    /// recording starts again with them (the frames before were of another simulation).
     fn rebuild(&mut self, id: u64, method: Method, keep: bool) {
         match self.source.build(method) {
             Ok(sim) => {
                 self.sim = sim;
+                self.recorder = Recorder::new();
                 self.retries = self.sim.max_retries();
                 self.stuck = false;
                 self.method = method;
@@ -919,6 +915,10 @@ impl Worker {
                     for (p, r) in pins {
                         if self.sim.pin(p, r).is_ok() {
                             self.pins.push((p, r));
+                            self.recorder.push(Event::Pin {
+                                point: p,
+                                radius: r,
+                            });
                         }
                     }
                     if let Some(h) = self.held.take() {
@@ -929,6 +929,13 @@ impl Worker {
                             self.config.grab_stiffness,
                         ) {
                             Ok(g) => {
+                                let at = self.sim.grab_position(g).unwrap_or(h.point);
+                                self.recorder.push(Event::Grab {
+                                    point: h.point,
+                                    at,
+                                    radius: h.radius,
+                                    stiffness: self.config.grab_stiffness,
+                                });
                                 let _ = self.sim.move_grab(g, h.target);
                                 self.held = Some(Held { id: g, ..h });
                             }

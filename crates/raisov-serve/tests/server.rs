@@ -112,7 +112,7 @@ async fn a_grasp_moves_the_grasped_nodes() {
         rec.contains("[[displace]]") && rec.contains("radius"),
         "{rec}"
     );
-    // It is a scenario `raisov run` accepts: the grasped node prescribed, interactive mode.
+    // It is a scenario `raisov run` accepts: the grasp taken and let go during the run.
     let body = rec
         .split_once("\"toml\":\"")
         .and_then(|(_, b)| b.strip_suffix("\"}"))
@@ -123,12 +123,14 @@ async fn a_grasp_moves_the_grasped_nodes() {
         .replace("\\\\", "\\");
     let sc = raisov::scenario::Scenario::from_toml(&text, "recorded.toml".as_ref())
         .unwrap_or_else(|e| panic!("{e}\n{text}"));
-    assert_eq!(sc.prescribed.len(), 1, "{text}");
+    assert_eq!((sc.grasps.len(), sc.prescribed.len()), (1, 0), "{text}");
     assert!(sc.interactive.is_some());
-    let d = sc.prescribed[0].1.displacement(1e9);
+    let g = &sc.grasps[0];
+    assert!(g.release.is_some(), "let go: {text}");
+    let d = g.motion.displacement(1e9);
     assert!(
         (d[2] - 0.005).abs() < 1e-6,
-        "held at the last target: {d:?}"
+        "moved to the last target: {d:?}"
     );
 }
 

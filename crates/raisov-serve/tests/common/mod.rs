@@ -73,6 +73,24 @@ pub async fn start_with(
     (addr, task, access)
 }
 
+/// `source` served on loopback at any free port with `config`, default limits: its
+/// `host:port` and the server task.
+pub async fn start_session(
+    source: Source,
+    config: SessionConfig,
+) -> (String, tokio::task::JoinHandle<()>) {
+    let session = Session::spawn(source, config).expect("session");
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let access = Access::for_bound(addr, None).unwrap();
+    let task = tokio::spawn(async move {
+        raisov_serve::server::serve(listener, session, access, Limits::default())
+            .await
+            .unwrap();
+    });
+    (format!("127.0.0.1:{}", addr.port()), task)
+}
+
 pub type Client =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
 

@@ -1,15 +1,20 @@
 //! Interactive mode: a fixed budget per frame while the grasp moves (surgical interaction is
 //! quasi-static: the instrument moves, the tissue follows).
 //!
-//! Frame `k = 1..N` stands for path time `t_k = k / fps`, `N = ⌈duration · fps⌉`. At each frame
+//! Frame `k = 1..N` stands for path time `t_k = k / fps`, `N = ⌈duration · fps − 10⁻⁹⌉` (a
+//! duration written as a whole number of frames over `fps` is that number). At each frame
 //! every `[[displace]]` node is set to its path position `d(t_k)` and held there (the
 //! instrument is sampled once per frame, as a haptic or visual loop does), then the stepper
 //! gets its budget: `cycles` steps (single level) or V-cycles (multigrid), or as many as fit in
 //! `budget_ms` of wall time (at least one; another starts only while the frame's time so far
 //! plus the last one's duration stays within the budget, so a frame overruns only when a
 //! cycle is slower than the one before; the count per frame then depends on the machine's
-//! speed, and `frames.csv` records it: `cycles` is the reproducible choice). The *lag* of the frame is the distance to the static solution
-//! `u*_k` with the same constraints, `R(u*_k) = V` (Newton-Krylov, warm-started from `u*_{k−1}`):
+//! speed, and `frames.csv` records it: `cycles` is the reproducible choice). With grasps or
+//! pins taken during the run (what `raisov serve` records) the frames are stepped as the
+//! viewer steps its own instead ([`super::grasps`], [`FrameStepper`]). The *lag* of the
+//! frame is the distance to the static solution `u*_k` with the same constraints (the
+//! grasps, pins and springs of the frame included), `R(u*_k) = V` (Newton-Krylov,
+//! warm-started from `u*_{k−1}`):
 //!
 //! ```text
 //! lag_max = max_a |u_a − u*_a|,   lag_rms = sqrt(mean_a |u_a − u*_a|²),   a free nodes,
@@ -172,6 +177,11 @@ pub struct InteractiveSummary {
     pub first_failure: Option<String>,
     /// [`RunOptions::stop`] ended the run early.
     pub interrupted: bool,
+    /// With grasps or pins taken during the run ([`super::grasps`]): frames rejected (the
+    /// state before each kept).
+    pub rejected_frames: usize,
+    /// The first rejection, with its frame; `None` if none was rejected.
+    pub first_rejection: Option<String>,
     /// The output directory.
     pub out_dir: PathBuf,
 }
@@ -236,6 +246,14 @@ impl std::fmt::Display for InteractiveSummary {
                 f,
                 "stopped         interrupted (by a signal) after frame {}",
                 self.frames
+            )?;
+        }
+        if self.rejected_frames > 0 {
+            writeln!(
+                f,
+                "rejected        {} frames, each kept at the state before it; first: {}",
+                self.rejected_frames,
+                self.first_rejection.as_deref().unwrap_or("?")
             )?;
         }
         let fps = self.fps();
@@ -304,23 +322,105 @@ fn duration(sc: &Scenario) -> f64 {
     }
 }
 
+/// What steps the frames of an interactive run: the scenario's stepper alone
+/// ([`run_interactive`]), or a replay of the grasps and pins it takes during the run
+/// ([`super::grasps`]; `crate::sim::replay`, which drives a `Simulation`).
+pub trait FrameStepper {
+    /// The stepper: after each frame the run reads its finest level, steps and force
+    /// evaluations.
+    fn stepper(&mut self) -> &mut dyn Stepper;
+    /// Frame `k` at path time `t`: the displacements prescribed from `t = 0` held at
+    /// `values` ([`Stepper::hold_prescribed`]), then the frame's budget. `Ok(None)`: the frame
+    /// was accepted; `Ok(Some(why))`: rejected, the state before it kept, the run goes on;
+    /// `Err`: the run ends ([`Error::Diverged`] is given the frame's time and the node's
+    /// place by the run).
+    fn frame(&mut self, k: usize, t: f64, values: &[[f64; 3]]) -> Result<Option<String>>;
+}
+
+/// The stepper alone, with the budget of the module docs.
+struct Plain<'a> {
+    stepper: &'a mut dyn Stepper,
+    budget: Budget,
+}
+
+impl FrameStepper for Plain<'_> {
+    fn stepper(&mut self) -> &mut dyn Stepper {
+        self.stepper
+    }
+    fn frame(&mut self, _k: usize, _t: f64, values: &[[f64; 3]]) -> Result<Option<String>> {
+        let stepper = &mut *self.stepper;
+        stepper.hold_prescribed(values);
+        let start = Instant::now();
+        let before = stepper.steps();
+        let mut last_end = 0.0;
+        loop {
+            stepper.advance().map_err(Error::Diverged)?;
+            let done = stepper.steps() - before;
+            let more = match self.budget {
+                Budget::Cycles(c) => done < c as u64,
+                Budget::Wall(w) => {
+                    // Start another only if one more like the last still fits.
+                    let now = start.elapsed().as_secs_f64();
+                    let last = now - last_end;
+                    last_end = now;
+                    now + last <= w
+                }
+            };
+            if !more {
+                return Ok(None);
+            }
+        }
+    }
+}
+
 /// Run the scenario interactively with `stepper` (whose finest level is the scenario's mesh).
-/// Errors: the scenario has no `[interactive]` section, a diverging stepper (with step and
-/// element), a reference solve that inverts an element, or an output file that cannot be
-/// written.
+/// A scenario with grasps or pins taken during the run ([`super::grasps`]) is run by
+/// `crate::sim::replay::run_interactive` instead (as `raisov run` does), which takes every
+/// interactive scenario. Errors: the scenario has no `[interactive]` section or has such
+/// grasps or pins, a diverging stepper (with step and element), a reference solve that
+/// inverts an element, or an output file that cannot be written.
 pub fn run_interactive(
     sc: &Scenario,
     stepper: &mut dyn Stepper,
+    opts: RunOptions,
+) -> Result<InteractiveSummary> {
+    let Some(settings) = sc.interactive else {
+        return Err(err(&sc.path, "no [interactive] section"));
+    };
+    if !sc.grasps.is_empty() || !sc.pins.is_empty() {
+        return Err(err(
+            &sc.path,
+            "grasps and pins taken during the run are replayed through a Simulation: \
+             run the scenario with raisov::sim::replay::run_interactive",
+        ));
+    }
+    let mut plain = Plain {
+        stepper,
+        budget: settings.budget,
+    };
+    run_frames(sc, &mut plain, opts)
+}
+
+/// Run the scenario interactively, its frames stepped by `frames` ([`FrameStepper`]; whose
+/// finest level is the scenario's mesh). Errors: the scenario has no `[interactive]`
+/// section, an error of `frames` (a diverging stepper, with step and element; a grasp or
+/// pin that finds no free node), a reference solve that inverts an element, or an output
+/// file that cannot be written.
+pub fn run_frames(
+    sc: &Scenario,
+    frames: &mut dyn FrameStepper,
     mut opts: RunOptions,
 ) -> Result<InteractiveSummary> {
     let Some(settings) = sc.interactive else {
         return Err(err(&sc.path, "no [interactive] section"));
     };
+    let grasps = !sc.grasps.is_empty() || !sc.pins.is_empty();
     let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
     let _lock = OutputLock::acquire(&out)?;
     super::run::prepare_output(&out, &sc.name)?;
     let n = sc.mesh.num_nodes();
-    let frames_n = (duration(sc) * settings.fps).ceil().max(1.0) as usize;
+    // (A duration written as a whole number of frames over fps is that number of frames.)
+    let frames_n = (duration(sc) * settings.fps - 1e-9).ceil().max(1.0) as usize;
     // The reference system, its solver and solution.
     let mut ref_sys = sc.build_system()?;
     let diag = fictitious_mass(&sc.mesh, &ref_sys.mass, 1.0);
@@ -328,12 +428,12 @@ pub fn run_interactive(
     let mut u_star = vec![0.0; 3 * n];
     let mut r = vec![0.0; 3 * n];
     let mut values = vec![[0.0; 3]; sc.prescribed.len()];
-    let free: Vec<bool> = (0..n)
+    let mut free: Vec<bool> = (0..n)
         .map(|a| !ref_sys.constraints.is_constrained(a))
         .collect();
     let mut summary = InteractiveSummary {
         name: sc.name.clone(),
-        stepper: stepper.describe(),
+        stepper: frames.stepper().describe(),
         nodes: n,
         settings,
         frames: 0,
@@ -347,6 +447,8 @@ pub fn run_interactive(
         reference_failures: 0,
         first_failure: None,
         interrupted: false,
+        rejected_frames: 0,
+        first_rejection: None,
         out_dir: out.clone(),
     };
     let mut rows = FrameRows::create(&out.join("frames.csv"))?;
@@ -360,7 +462,6 @@ pub fn run_interactive(
     let mut pvd = PvdWriter::new(out.join(format!("{}.pvd", sc.name)));
     let mut lag = vec![0.0; 3 * n];
     let file_node_id: Option<Vec<i64>> = sc.output_node_ids();
-    let mut diverged = None;
     for k in 1..=frames_n {
         if opts
             .stop
@@ -373,42 +474,45 @@ pub fn run_interactive(
         for (v, (_, m)) in values.iter_mut().zip(&sc.prescribed) {
             *v = m.displacement(t);
         }
-        stepper.hold_prescribed(&values);
+        let before = frames.stepper().steps();
         let start = Instant::now();
-        let before = stepper.steps();
-        let mut last_end = 0.0;
-        loop {
-            if let Err(d) = stepper.advance() {
-                diverged = Some(d);
-                break;
+        match frames.frame(k, t, &values) {
+            Ok(None) => {}
+            Ok(Some(why)) => {
+                summary.rejected_frames += 1;
+                summary
+                    .first_rejection
+                    .get_or_insert_with(|| format!("frame {k} (t = {t:.4} s): {why}"));
             }
-            let done = stepper.steps() - before;
-            let more = match settings.budget {
-                Budget::Cycles(c) => done < c as u64,
-                Budget::Wall(w) => {
-                    // Start another only if one more like the last still fits.
-                    let now = start.elapsed().as_secs_f64();
-                    let last = now - last_end;
-                    last_end = now;
-                    now + last <= w
-                }
-            };
-            if !more {
-                break;
+            Err(e) => {
+                rows.flush()?;
+                return Err(match e {
+                    Error::Diverged(mut d) => {
+                        sc.locate(&mut d);
+                        // The stepper's own clock counts its pseudo-time steps; the user's
+                        // clock is the path time of the frame.
+                        d.time = t;
+                        Error::Diverged(d)
+                    }
+                    e => e,
+                });
             }
         }
         let wall = start.elapsed().as_secs_f64();
-        if let Some(mut d) = diverged {
-            sc.locate(&mut d);
-            rows.flush()?;
-            // The stepper's own clock counts its pseudo-time steps; the user's clock is the
-            // path time of the frame.
-            d.time = t;
-            return Err(Error::Diverged(d));
-        }
+        let stepper = frames.stepper();
         let total_steps = stepper.steps();
         let mut reference_ok = settings.reference;
         if settings.reference {
+            if grasps {
+                // The constraints and springs of the frame, grasps and pins included.
+                let (sys, _) = stepper.finest();
+                ref_sys.constraints.clone_from(&sys.constraints);
+                ref_sys.springs.clone_from(&sys.springs);
+                newton = NewtonSolver::with_diagonal(&ref_sys, &diag);
+                for (a, f) in free.iter_mut().enumerate() {
+                    *f = !ref_sys.constraints.is_constrained(a);
+                }
+            }
             hold(&mut ref_sys.constraints, &values);
             let p = NewtonParams {
                 rel_tol: settings.reference_tol,

@@ -22,6 +22,7 @@
 //! multigrid's power-iteration start vector, the one place where an index chose a value, is
 //! keyed by the file's ids ([`crate::multigrid::Level::node_keys`]), not by the memory order.
 
+pub mod grasps;
 pub mod interactive;
 mod levels;
 pub mod loading;
@@ -219,6 +220,11 @@ pub struct Scenario {
     pub multigrid: Option<Multigrid>,
     /// `[interactive]`: a budget per frame along the displacement paths; `None` for a plain run.
     pub interactive: Option<interactive::Interactive>,
+    /// The grasps the interactive run takes and lets go ([`grasps`]): `[[displace]]` entries
+    /// with `start`, `release` or `stiffness`, in file order (not in [`Scenario::prescribed`]).
+    pub grasps: Vec<grasps::Grasp>,
+    /// `[[pin]]`: the pins the interactive run takes ([`grasps`]), in file order.
+    pub pins: Vec<grasps::Pin>,
     /// `[mesh] surface`: the surface the levels were generated from, written with every
     /// frame ([`surface`]); `None` for other meshes.
     pub surface: Option<surface::VisualSurface>,
@@ -519,9 +525,16 @@ impl Scenario {
             }
         }
         let mut prescribed: Vec<(u32, Motion)> = Vec::new();
+        let mut grasps = Vec::new();
         for (i, d) in spec.displace.iter().enumerate() {
             let key = format!("displace[{i}]");
             far(d.point, &key, &mut warnings);
+            if grasps::is_grasp(d) {
+                // Taken during the run, on the deformed surface (grasps.rs).
+                let interactive = spec.interactive.is_some();
+                grasps.push(grasps::resolve_grasp(d, i, path, interactive)?);
+                continue;
+            }
             let motion = resolve_motion(d, path, &key)?;
             if let Some(r) = d.radius {
                 // A surface patch (patch.rs): the free surface nodes within `r`.
@@ -549,6 +562,11 @@ impl Scenario {
                 return Err(err(path, format!("{key}: node {shown} (nearest to {:?}) is already prescribed by an earlier [[displace]]", d.point)));
             }
             prescribed.push((node, motion));
+        }
+        let mut pins = Vec::with_capacity(spec.pin.len());
+        for (i, p) in spec.pin.iter().enumerate() {
+            far(p.point, &format!("pin[{i}]"), &mut warnings);
+            pins.push(grasps::resolve_pin(p, i, path, spec.interactive.is_some())?);
         }
         let (method, newton) = match spec.integrator.method {
             Some(spec::Solve::Dynamic(m)) => (m, false),
@@ -852,6 +870,8 @@ impl Scenario {
             reference,
             multigrid,
             interactive,
+            grasps,
+            pins,
             surface: surface_levels.map(|sl| sl.visual),
             statics,
         };

@@ -98,6 +98,28 @@
 //!                                 # sim::Simulation::grab selects them; fixed nodes and nodes of
 //!                                 # an earlier [[displace]] are left out. All move together
 //! time = { kind = "sine", frequency = 2.0 } # instead of `mode`: `displacement` times s(t)
+//! start = 1.2                     # s, [interactive] only: a grasp taken during the run, as
+//!                                 # `raisov serve` takes one: from the first frame at or
+//!                                 # after `start` (default 0), the surface patch within
+//!                                 # `radius` (default 0: one node) of the point g of the
+//!                                 # *deformed* surface nearest `point`, free nodes only,
+//!                                 # moved rigidly to g + d(t), d the path above (default:
+//!                                 # held where taken); free before. Any of `start`,
+//!                                 # `release`, `stiffness` makes the entry such a grasp
+//!                                 # (rules: scenario::grasps)
+//! release = 2.5                   # s, after `start`: let go from the first frame at or after
+//!                                 # it, the nodes free again; default: held to the end
+//! stiffness = 200.0               # N/m: pull the patch by zero-length springs of this total
+//!                                 # stiffness (sim::Coupling::Spring) instead of holding it
+//!
+//! [[pin]]                         # [interactive] only: a pin taken during the run, as
+//!                                 # `raisov serve` pins (scenario::grasps): the patch a grasp
+//!                                 # would take near `point` within `radius`, held where it
+//!                                 # stands, on every level, from the first frame at or
+//!                                 # after `start` to the end
+//! point = [0.04, 0.04, 0.04]      # m
+//! radius = 0.01                   # m, default 0
+//! start = 0.8                     # s, default 0
 //!
 //! [[pressure]]                    # follower pressure on surface triangles (crate::fem::loads):
 //! group = "zmax"                  # the boundary triangles (tets) or elements (membranes) whose
@@ -736,6 +758,9 @@ pub struct ScenarioSpec {
     /// `[[displace]]`: prescribed displacements.
     #[serde(default)]
     pub displace: Vec<DisplaceSpec>,
+    /// `[[pin]]`: pins taken during an interactive run (what the viewer records).
+    #[serde(default)]
+    pub pin: Vec<PinSpec>,
     /// `[[pressure]]`: follower pressures on surface triangles.
     #[serde(default)]
     pub pressure: Vec<SurfaceLoadSpec>,
@@ -1078,6 +1103,26 @@ pub struct DisplaceSpec {
     pub table: Option<Vec<[f64; 4]>>,
     /// `displacement` times this time function (instead of `mode`).
     pub time: Option<TimeSpec>,
+    /// A grasp taken at this path time (s), interactive runs only.
+    pub start: Option<f64>,
+    /// A grasp let go at this path time (s).
+    pub release: Option<f64>,
+    /// A spring grasp of this total stiffness (N/m).
+    pub stiffness: Option<f64>,
+}
+
+/// `[[pin]]`: a pin taken during an interactive run.
+#[derive(Clone, Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct PinSpec {
+    /// `point`: the pin takes the surface nearest this point (m), on the deformed surface.
+    pub point: [f64; 3],
+    /// `radius`: and the surface nodes within this distance of it (m); default 0 (the nearest
+    /// node alone).
+    pub radius: Option<f64>,
+    /// `start`: the path time (s) at which the pin is taken, held where the patch stands;
+    /// default 0.
+    pub start: Option<f64>,
 }
 
 /// `[integrator]`: the time integrator, or the static solve.

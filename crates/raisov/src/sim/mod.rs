@@ -113,6 +113,7 @@ pub mod frame;
 mod grab;
 pub mod haptic;
 pub mod overrides;
+pub mod replay;
 pub mod tangent;
 
 pub use builder::{Scheme, SimulationBuilder};
@@ -206,7 +207,8 @@ struct Visual {
 
 impl Simulation {
     /// Load a scenario file (the TOML format of [`crate::scenario::spec`]) and build its
-    /// stepper; the scenario's `[run]`, `[output]` and `[interactive]` sections are not used.
+    /// stepper; the scenario's `[run]`, `[output]` and `[interactive]` sections are not used,
+    /// nor the grasps and pins its interactive run takes ([`crate::scenario::grasps`]).
     pub fn from_file(path: impl AsRef<Path>) -> Result<Simulation> {
         Self::from_scenario(&Scenario::load(path.as_ref())?)
     }
@@ -242,7 +244,11 @@ impl Simulation {
     /// nothing of the work run-time grasps do; a frame is rejected on a non-finite value or an
     /// inverted element instead, as with [`SimulationBuilder`].
     pub fn from_scenario(sc: &Scenario) -> Result<Simulation> {
-        let mut stepper = sc.stepper()?;
+        Self::with_stepper(sc, sc.stepper()?)
+    }
+
+    /// [`Simulation::from_scenario`] with the scenario's `stepper`, built already.
+    pub(crate) fn with_stepper(sc: &Scenario, mut stepper: Box<dyn Stepper>) -> Result<Simulation> {
         stepper.set_kinetic_limit(f64::INFINITY);
         let mut sim = Self::assemble(
             stepper,

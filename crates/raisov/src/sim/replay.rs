@@ -1,0 +1,436 @@
+//! The interactive run of a scenario with grasps and pins taken during the run (what
+//! `raisov serve` records): a [`Simulation`] steps the frames, taking, moving and letting go
+//! of the grasps and taking the pins before the frames the scenario says, by the rules of
+//! [`crate::scenario::grasps`]; [`crate::scenario::interactive::run_frames`] writes the
+//! frames and the summary as for any interactive run.
+
+use super::{Budget, Coupling, GrabId, GrabOptions, Simulation};
+use crate::error::{Error, Result};
+use crate::integrate::Stepper;
+use crate::numbers::compact;
+use crate::scenario::grasps::{frame_of, Grasp, Pin};
+use crate::scenario::interactive::{self, run_frames, FrameStepper, InteractiveSummary};
+use crate::scenario::{RunOptions, Scenario};
+use std::path::PathBuf;
+
+/// Run an interactive scenario with `stepper` (the scenario's, [`Scenario::stepper`]), what
+/// `raisov run` does: with grasps or pins taken during the run, through a [`Replay`]; else
+/// as [`interactive::run_interactive`]. Errors: as [`run_frames`], and a grasp or pin whose
+/// patch is all constrained already (naming its entry and frame).
+pub fn run_interactive(
+    sc: &Scenario,
+    mut stepper: Box<dyn Stepper>,
+    opts: RunOptions,
+) -> Result<InteractiveSummary> {
+    if sc.grasps.is_empty() && sc.pins.is_empty() {
+        return interactive::run_interactive(sc, stepper.as_mut(), opts);
+    }
+    let mut replay = Replay::new(sc, stepper)?;
+    run_frames(sc, &mut replay, opts)
+}
+
+/// The frames of an interactive run with grasps and pins ([`crate::scenario::grasps`]).
+pub struct Replay {
+    sim: Simulation,
+    path: PathBuf,
+    grasps: Vec<Grasp>,
+    pins: Vec<Pin>,
+    fps: f64,
+    budget: Budget,
+    /// Per grasp, while held: its id and grasp point `g`.
+    held: Vec<Option<(GrabId, [f64; 3])>>,
+    /// A frame that moved a grasp was rejected: later ones are tried once.
+    stuck: bool,
+    retries: u32,
+}
+
+impl Replay {
+    /// The replay of `sc`'s grasps and pins on `stepper` (the scenario's); an error for a
+    /// scenario without `[interactive]`.
+    pub fn new(sc: &Scenario, stepper: Box<dyn Stepper>) -> Result<Replay> {
+        let Some(settings) = sc.interactive else {
+            return Err(Error::Scenario {
+                path: sc.path.clone(),
+                line: None,
+                msg: "no [interactive] section".into(),
+            });
+        };
+        let budget = match settings.budget {
+            interactive::Budget::Cycles(c) => Budget::Cycles(c.min(u32::MAX as usize) as u32),
+            interactive::Budget::Wall(w) => Budget::Millis(w * 1e3),
+        };
+        let sim = Simulation::with_stepper(sc, stepper)?;
+        let retries = sim.max_retries();
+        Ok(Replay {
+            sim,
+            path: sc.path.clone(),
+            grasps: sc.grasps.clone(),
+            pins: sc.pins.clone(),
+            fps: settings.fps,
+            budget,
+            held: vec![None; sc.grasps.len()],
+            stuck: false,
+            retries,
+        })
+    }
+
+    /// The simulation (its state after the last frame).
+    pub fn simulation(&self) -> &Simulation {
+        &self.sim
+    }
+
+    fn unstick(&mut self) {
+        if self.stuck {
+            self.stuck = false;
+            self.sim.set_max_retries(self.retries);
+        }
+    }
+}
+
+impl FrameStepper for Replay {
+    fn stepper(&mut self) -> &mut dyn Stepper {
+        &mut *self.sim.stepper
+    }
+
+    fn frame(&mut self, k: usize, t: f64, values: &[[f64; 3]]) -> Result<Option<String>> {
+        self.sim.stepper.hold_prescribed(values);
+        let path = &self.path;
+        let at = |what: String, e: Error| Error::Scenario {
+            path: path.clone(),
+            line: None,
+            msg: format!("{what}: at t = {} s (frame {k}): {e}", compact(t)),
+        };
+        let fps = self.fps;
+        let mut released = false;
+        for (g, held) in self.grasps.iter().zip(&mut self.held) {
+            if g.release.is_some_and(|r| frame_of(r, fps) == k) {
+                if let Some((id, _)) = held.take() {
+                    self.sim
+                        .release(id)
+                        .map_err(|e| at(format!("displace[{}]", g.index), e))?;
+                    released = true;
+                }
+            }
+        }
+        for p in self.pins.iter().filter(|p| frame_of(p.start, fps) == k) {
+            self.sim
+                .pin(p.point, p.radius)
+                .map_err(|e| at(format!("pin[{}]", p.index), e))?;
+        }
+        for (g, held) in self.grasps.iter().zip(&mut self.held) {
+            if frame_of(g.start, fps) == k {
+                let coupling = match g.stiffness {
+                    Some(stiffness) => Coupling::Spring { stiffness },
+                    None => Coupling::Hard,
+                };
+                let options = GrabOptions {
+                    radius: g.radius,
+                    coupling,
+                };
+                let id = self
+                    .sim
+                    .grab_with(g.point, options)
+                    .map_err(|e| at(format!("displace[{}]", g.index), e))?;
+                *held = Some((id, self.sim.grab_position(id)?));
+            }
+        }
+        if released {
+            self.unstick();
+        }
+        let mut moving = false;
+        for (g, held) in self.grasps.iter().zip(&self.held) {
+            if let Some((id, p)) = *held {
+                let d = g.motion.displacement(t);
+                let target = [p[0] + d[0], p[1] + d[1], p[2] + d[2]];
+                self.sim.move_grab(id, target)?;
+                moving |= self.sim.grab_position(id)? != target;
+            }
+        }
+        let report = self.sim.step_frame(self.budget);
+        if moving && report.accepted {
+            self.unstick();
+        } else if moving && !self.stuck {
+            self.stuck = true;
+            self.sim.set_max_retries(0);
+        }
+        Ok(if report.accepted {
+            None
+        } else {
+            Some(report.rejection.unwrap_or_else(|| "rejected".into()))
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    /// A 4 cm cube of soft tissue fixed at its base, damped explicit dynamics, `extra` added
+    /// (grasps, pins), frames at 30 per second of path time with 40 steps each, `reference`
+    /// the `[interactive]` lines of the static reference.
+    fn cube(extra: &str, duration: f64, reference: &str) -> Scenario {
+        let text = format!(
+            r#"
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [4, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[damping]
+alpha = 50.0
+[[fix]]
+plane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}
+[run]
+duration = {duration}
+[interactive]
+fps = 30.0
+cycles = 40
+{reference}
+{extra}
+"#
+        );
+        Scenario::from_toml(&text, Path::new("replay-test.toml")).unwrap()
+    }
+
+    /// Per frame, per grasp entry: the grasped nodes while it is held.
+    type Held = Vec<Vec<Option<Vec<u32>>>>;
+
+    /// Step every frame of `sc`: per frame, the positions and the grasped nodes.
+    fn frames(sc: &Scenario) -> (Replay, Vec<Vec<[f64; 3]>>, Held) {
+        let mut r = Replay::new(sc, sc.stepper().unwrap()).unwrap();
+        let fps = sc.interactive.unwrap().fps;
+        let n = match sc.stop {
+            crate::scenario::StopRule::Duration(d) => (d * fps - 1e-9).ceil() as usize,
+            _ => unreachable!(),
+        };
+        let (mut x, mut nodes) = (Vec::new(), Vec::new());
+        for k in 1..=n {
+            let why = r.frame(k, k as f64 / fps, &[]).unwrap();
+            assert_eq!(why, None, "frame {k}");
+            x.push(r.simulation().positions().to_vec());
+            nodes.push(
+                r.held
+                    .iter()
+                    .map(|h| h.map(|(id, _)| r.sim.grab_nodes(id).unwrap().to_vec()))
+                    .collect(),
+            );
+        }
+        (r, x, nodes)
+    }
+
+    const NONE: &str = "reference = \"none\"";
+
+    /// The node nearest `p` in the reference configuration.
+    fn node(sc: &Scenario, p: [f64; 3]) -> usize {
+        sc.mesh.nearest_node(p).unwrap()
+    }
+
+    /// A grasp let go and taken again at the same spot: `raisov serve` recorded this as two
+    /// `[[displace]]` prescribing the same nodes, which the scenario refused. Grasps taken
+    /// during the run are selected when taken: the second takes the nodes the first let go.
+    #[test]
+    fn grasping_the_same_spot_twice_replays() {
+        let grasp = |start: f64, release: f64| {
+            format!(
+                "[[displace]]\npoint = [0.02, 0.02, 0.04]\nradius = 0.011\nstart = {start}\n\
+                 release = {release}\ntable = [[{start}, 0, 0, 0], [{release}, 0, 0, 0.003]]\n"
+            )
+        };
+        let sc = cube(&(grasp(0.1, 0.4) + &grasp(0.6, 0.9)), 1.0, NONE);
+        let (_, x, nodes) = frames(&sc);
+        // Held in frames 3..=11 and 18..=26 (frame k at k/30 s), the same five nodes.
+        for (k, held) in nodes.iter().enumerate().map(|(i, h)| (i + 1, h)) {
+            assert_eq!(held[0].is_some(), (3..12).contains(&k), "frame {k}");
+            assert_eq!(held[1].is_some(), (18..27).contains(&k), "frame {k}");
+        }
+        assert_eq!(nodes[2][0].as_ref().unwrap().len(), 5);
+        assert_eq!(nodes[2][0], nodes[17][1]);
+        // Each moves the centre along its path from where it stood when taken (frame 11 is
+        // at 11/30 s of the first 0.1 .. 0.4 s ramp, frame 26 of the second's 0.6 .. 0.9 s),
+        // and lets it go: it springs back.
+        let c = node(&sc, [0.02, 0.02, 0.04]);
+        let uz = |k: usize| x[k - 1][c][2] - 0.04;
+        let d = |k: usize, start: f64| 0.003 * (k as f64 / 30.0 - start) / 0.3;
+        assert!((uz(11) - d(11, 0.1)).abs() < 1e-12, "{}", uz(11));
+        assert!(uz(17).abs() > 1e-6 && uz(17) < 0.1 * uz(11), "{}", uz(17));
+        assert!((uz(26) - uz(17) - d(26, 0.6)).abs() < 1e-12, "{}", uz(26));
+        // The whole path through the run's outputs.
+        let dir = tempfile::tempdir().unwrap();
+        let s = run_interactive(
+            &sc,
+            sc.stepper().unwrap(),
+            RunOptions {
+                out_dir: Some(dir.path().to_path_buf()),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!((s.frames, s.rejected_frames), (30, 0));
+        // The scenario runner alone sends such scenarios here.
+        let e = interactive::run_interactive(
+            &sc,
+            sc.stepper().unwrap().as_mut(),
+            RunOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("raisov::sim::replay::run_interactive"), "{e}");
+    }
+
+    /// `raisov serve` grasps by springs by default; its recordings held the patch rigidly,
+    /// and held it at its last place after the release. A spring grasp lags behind its
+    /// target, a hard one sits on it; after the release the patch is free and springs back.
+    #[test]
+    fn a_spring_grasp_replays_as_springs_and_a_release_frees_the_patch() {
+        let run = |stiffness: &str, release: &str| {
+            let sc = cube(
+                &format!(
+                    "[[displace]]\npoint = [0.02, 0.02, 0.04]\nradius = 0.011\n{stiffness}\n\
+                     {release}\ntable = [[0.0, 0, 0, 0], [0.3, 0, 0, 0.004]]\n"
+                ),
+                1.5,
+                NONE,
+            );
+            let (r, x, _) = frames(&sc);
+            let c = node(&sc, [0.02, 0.02, 0.04]);
+            let uz: Vec<f64> = x.iter().map(|x| x[c][2] - 0.04).collect();
+            (sc, r, uz)
+        };
+        // Frame 15 (0.5 s): the target 4 mm up since 0.3 s; released before frame 16.
+        let (_, _, hard) = run("", "release = 0.52");
+        let (_, _, spring) = run("stiffness = 20.0", "release = 0.52");
+        let (_, held, kept) = run("stiffness = 20.0", "");
+        assert!((hard[14] - 0.004).abs() < 1e-12, "{}", hard[14]);
+        assert!(
+            spring[14] > 0.0003 && spring[14] < 0.5 * 0.004,
+            "{}",
+            spring[14]
+        );
+        assert!((kept[14] - spring[14]).abs() < 1e-15);
+        // The springs pull the tool down by k times the lag of the patch (mass-weighted).
+        let id = held.held[0].unwrap().0;
+        let f = held.sim.grab_force(id).unwrap();
+        assert!(f[2] < -20.0 * 0.5 * 0.004 && f[2] > -20.0 * 0.004, "{f:?}");
+        // Released, the patch returns to rest; held, it stays up.
+        for uz in [&hard, &spring] {
+            assert!(uz[44].abs() < 1e-5, "{}", uz[44]);
+        }
+        assert!(kept[44] > 0.9 * kept[14], "{} vs {}", kept[44], kept[14]);
+        // The lag is measured against the static solution with the same grasp: hard, the
+        // grasped node sits on the target in it; by springs, below; released, at rest. (The
+        // path moves in every frame it holds and only the frames up to the first after the
+        // release are checked: a warm-started static solve of a frame that changes nothing
+        // stalls against its own, already tiny, starting residual, as with any interactive
+        // path that holds still without loads.)
+        for stiffness in ["", "stiffness = 20.0"] {
+            let sc = &cube(
+                &format!(
+                    "[[displace]]\npoint = [0.02, 0.02, 0.04]\nradius = 0.011\n{stiffness}\n\
+                     release = 0.52\ntable = [[0.0, 0, 0, 0], [0.52, 0, 0, 0.004]]\n"
+                ),
+                1.5,
+                "reference = \"newton\"",
+            );
+            let dir = tempfile::tempdir().unwrap();
+            let s = run_interactive(
+                sc,
+                sc.stepper().unwrap(),
+                RunOptions {
+                    out_dir: Some(dir.path().to_path_buf()),
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            let rows = interactive::read_frames_csv(&dir.path().join("frames.csv")).unwrap();
+            assert_eq!(rows.len(), 45);
+            assert!(rows[..16].iter().all(|r| r.lag_max.is_finite()), "{s}");
+            let (up, target) = (rows[14].static_max_u, 0.004 * 0.5 / 0.52);
+            if stiffness.is_empty() {
+                assert!((up - target).abs() < 1e-6, "{up}");
+            } else {
+                assert!(up > 1e-4 && up < 0.5 * target, "{up}");
+            }
+            assert!(rows[15].static_max_u < 1e-9, "{:?}", rows[15]);
+        }
+    }
+
+    /// A grasp whose patch is all pinned already is an error naming the entry and frame.
+    #[test]
+    fn a_grasp_of_a_pinned_patch_is_an_error_naming_it() {
+        let sc = cube(
+            "[[pin]]\npoint = [0.02, 0.02, 0.04]\nradius = 0.011\n\
+             [[displace]]\npoint = [0.02, 0.02, 0.04]\nradius = 0.005\nstart = 0.1\n",
+            0.2,
+            NONE,
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let opts = RunOptions {
+            out_dir: Some(dir.path().to_path_buf()),
+            ..Default::default()
+        };
+        let e = run_interactive(&sc, sc.stepper().unwrap(), opts)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            e.contains("displace[0]: at t = 0.1 s (frame 3):") && e.contains("constrained already"),
+            "{e}"
+        );
+    }
+
+    /// A pin holds its patch where it stands when taken (the recordings fixed a box of
+    /// reference positions at zero displacement from the start, nodes beside the patch
+    /// included), on from its start.
+    #[test]
+    fn a_pin_holds_where_it_stands_from_its_start() {
+        let sc = cube(
+            "[[displace]]\npoint = [0.02, 0.02, 0.04]\nradius = 0.011\nrelease = 0.5\n\
+             table = [[0.0, 0, 0, 0], [0.3, 0.002, 0, 0.004]]\n\
+             [[pin]]\npoint = [0.04, 0.02, 0.04]\nstart = 0.4\n",
+            1.0,
+            NONE,
+        );
+        let (_, x, _) = frames(&sc);
+        let a = node(&sc, [0.04, 0.02, 0.04]);
+        let moved = |k: usize| x[k - 1][a][2] - 0.04;
+        // Free before frame 12 (0.4 s): it moves with the grasp; from then on it stays.
+        assert!(moved(11) > 1e-4, "{}", moved(11));
+        assert_ne!(x[9][a], x[10][a]);
+        for k in 12..=30 {
+            assert_eq!(x[k - 1][a], x[10][a], "frame {k}");
+        }
+    }
+
+    /// Bad keys of grasps and pins name the key and what is valid.
+    #[test]
+    fn bad_grasp_and_pin_keys_are_named() {
+        let base = "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.04, 0.04]\ndivisions = [2, 2, 2]\n\
+                    [material]\nlaw = \"neo-hookean\"\nyoung = 5e3\npoisson = 0.45\n\
+                    [run]\nduration = 1.0\n";
+        let g = "[[displace]]\npoint = [0.02, 0.02, 0.04]\n";
+        let p = "[[pin]]\npoint = [0.02, 0.02, 0.04]\n";
+        let i = "[interactive]\ncycles = 2\n";
+        for (extra, want) in [
+            (format!("{g}start = 0.5\n"), "displace[0] (`start`, `release` or `stiffness`: a grasp) is taken during the run and replayed frame by frame: the scenario needs an [interactive] section"),
+            (p.to_string(), "pin[0] is taken during the run"),
+            (format!("{i}{g}start = -1.0\n"), "`displace[0].start` = -1: must be >= 0 (s)"),
+            (format!("{i}{g}start = 0.5\nrelease = 0.5\n"), "`displace[0].release` = 0.5: must come after `start` = 0.5 (s)"),
+            (format!("{i}{g}stiffness = 0.0\n"), "`displace[0].stiffness` = 0: must be a positive number"),
+            (format!("{i}{g}radius = -0.1\nrelease = 1.0\n"), "`displace[0].radius` = -0.1: must be >= 0 (m)"),
+            (format!("{i}{g}start = 0.1\nmode = \"ramp\"\n"), "displace[0]: mode = \"ramp\" needs `displacement`"),
+            (format!("{i}{p}radius = -1.0\n"), "`pin[0].radius` = -1: must be >= 0 (m)"),
+            (format!("{i}{p}start = inf\n"), "pin[0].start"),
+            (format!("{i}{p}stiffness = 3.0\n"), "stiffness"),
+        ] {
+            let e = Scenario::from_toml(&format!("{base}{extra}"), Path::new("bad.toml"))
+                .err()
+                .unwrap_or_else(|| panic!("{extra}: accepted"))
+                .to_string();
+            assert!(e.contains(want), "{extra}: {e}");
+        }
+    }
+}

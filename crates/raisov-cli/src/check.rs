@@ -2,12 +2,12 @@
 //! the scenario's own terms and SI units (a material by its law and moduli, a motion by how
 //! it moves, a stopping rule by when it stops), never as the library's internal structures.
 
-use raisov::time::TimeFunction;
-use raisov::time::Motion;
 use raisov::material::Material;
 use raisov::numbers::{compact, point};
 use raisov::scenario::interactive::{Budget, Interactive};
 use raisov::scenario::StopRule;
+use raisov::time::Motion;
+use raisov::time::TimeFunction;
 
 /// Rounded to 4 significant digits, written compactly (`5000`, `0.45`, `1.552e4`).
 fn num(x: f64) -> String {

@@ -96,10 +96,10 @@ pub const SECTIONS: [&str; 7] = [
 /// full configuration and with `--quick`; then section 7's, on every case and on its quick
 /// cases. Rounded up from runs of `raisov paper` (`report.md`'s stage wall times); a busy or
 /// slower machine takes longer.
-const ESTIMATE_FULL: [f64; 6] = [20.0, 15.0, 120.0, 20.0, 60.0, 300.0];
+const ESTIMATE_FULL: [f64; 6] = [10.0, 5.0, 20.0, 5.0, 10.0, 300.0];
 const ESTIMATE_QUICK: [f64; 6] = [15.0, 10.0, 60.0, 10.0, 5.0, 30.0];
 const ESTIMATE_EQUILIBRIUM_FULL: f64 = 2400.0;
-const ESTIMATE_EQUILIBRIUM_QUICK: f64 = 40.0;
+const ESTIMATE_EQUILIBRIUM_QUICK: f64 = 60.0;
 
 /// Each of [`SECTIONS`] with its estimated wall time (s) in the configuration of `opts`
 /// (tiny: zeros).

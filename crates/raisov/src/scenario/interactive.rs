@@ -722,6 +722,11 @@ mod tests {
 
     /// The paper's membrane, centre node pulled 1 cm along a path over 0.2 s, 6 frames.
     fn scenario(multigrid: &str, interactive: &str) -> Scenario {
+        scenario_for(0.2, multigrid, interactive)
+    }
+
+    /// [`scenario`] run for `duration` (s): the path held after 0.2 s.
+    fn scenario_for(duration: f64, multigrid: &str, interactive: &str) -> Scenario {
         let text = format!(
             r#"
 [mesh]
@@ -742,7 +747,7 @@ point = [0.0, 0.0, 0.0]
 mode = "table"
 table = [[0.0, 0.0, 0.0, 0.0], [0.2, 0.0, 0.0, 0.01]]
 [run]
-duration = 0.2
+duration = {duration}
 {multigrid}
 [interactive]
 fps = 30.0
@@ -759,33 +764,7 @@ fps = 30.0
     #[test]
     fn the_reference_does_not_fail_once_the_path_holds_still() {
         // The membrane's path over 0.2 s (6 frames), then held for 0.3 s more (9 frames).
-        let sc = {
-            let t = r#"
-[mesh]
-generate = "rectangle"
-size = [0.1, 0.1]
-nodes = 120
-[material]
-law = "mooney-rivlin"
-c1 = 1000.0
-c2 = 1000.0
-[damping]
-ratio = 1.0
-omega = 177.7
-[[fix]]
-boundary = true
-[[displace]]
-point = [0.0, 0.0, 0.0]
-mode = "table"
-table = [[0.0, 0.0, 0.0, 0.0], [0.2, 0.0, 0.0, 0.01]]
-[run]
-duration = 0.5
-[interactive]
-fps = 30.0
-cycles = 8
-"#;
-            Scenario::from_toml(t, Path::new("interactive-hold.toml")).unwrap()
-        };
+        let sc = scenario_for(0.5, "", "cycles = 8");
         let dir = tempfile::tempdir().unwrap();
         let mut st = sc.stepper().unwrap();
         let s = run_interactive(

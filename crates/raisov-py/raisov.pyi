@@ -209,3 +209,97 @@ class Simulation:
     @property
     def total_load(self) -> npt.NDArray[np.float64]:
         """Total external load: gravity and nodal loads (N), shape (3,)."""
+
+class Solution:
+    """A scenario run to its end by `solve`: how it ended and its final state, in the
+    scenario's node order. Forces are those the tissue exerts on each thing: at equilibrium
+    reaction + prescribed_reaction + tool_force = total_load (an interactive run's grasps are
+    prescribed nodes)."""
+
+    @property
+    def kind(self) -> str:
+        """"static", "dynamic" or "interactive": what the scenario ran."""
+    @property
+    def success(self) -> bool:
+        """A static solve converged, a run in time reached its duration or steady state, an
+        interactive run played all its frames."""
+    @property
+    def stopped(self) -> str:
+        """How it stopped, in words."""
+    @property
+    def summary(self) -> str:
+        """The closing summary `raisov run` prints."""
+    @property
+    def steps(self) -> int:
+        """Newton steps of a static solve; stepper steps otherwise."""
+    @property
+    def force_evaluations(self) -> float:
+        """Force evaluations of the run, in finest-level units."""
+    @property
+    def wall_s(self) -> float:
+        """Wall-clock time of the run (s)."""
+    @property
+    def time(self) -> float:
+        """Simulated time at the end (s)."""
+    @property
+    def residual(self) -> float:
+        """Residual norm ||V - R(u)||_2 over free nodes at the end (N)."""
+    @property
+    def max_displacement(self) -> float:
+        """Largest nodal displacement at the end (m)."""
+    @property
+    def kinetic_energy(self) -> float:
+        """Kinetic energy at the end (J)."""
+    @property
+    def displacements(self) -> npt.NDArray[np.float64]:
+        """Nodal displacements (m, shape (n, 3))."""
+    @property
+    def rest_positions(self) -> npt.NDArray[np.float64]:
+        """Node positions at rest (m, shape (n, 3))."""
+    @property
+    def positions(self) -> npt.NDArray[np.float64]:
+        """Node positions at the end (m, shape (n, 3))."""
+    @property
+    def surface_triangles(self) -> npt.NDArray[np.int64]:
+        """Boundary triangles, three node indices each (shape (m, 3))."""
+    @property
+    def node_ids(self) -> npt.NDArray[np.int64]:
+        """Each node's id in the mesh file (shape (n,))."""
+    @property
+    def nodal_stress(self) -> npt.NDArray[np.float64]:
+        """Nodal Cauchy stress (Pa, shape (n, 3, 3))."""
+    @property
+    def reaction(self) -> npt.NDArray[np.float64]:
+        """The force the tissue exerts on its fixed supports, summed (N, shape (3,))."""
+    @property
+    def prescribed_reaction(self) -> npt.NDArray[np.float64]:
+        """The force the tissue exerts on its prescribed (moved, grasped) nodes (N)."""
+    @property
+    def tool_force(self) -> npt.NDArray[np.float64]:
+        """The force the tissue exerts on the scenario's tools (N)."""
+    @property
+    def total_load(self) -> npt.NDArray[np.float64]:
+        """Loads and body forces applied (N)."""
+    @property
+    def grasp_forces(self) -> list[Optional[npt.NDArray[np.float64]]]:
+        """Per [[displace]] grasp taken during an interactive run, its force at the end (N),
+        None for one let go; empty for other runs."""
+    @property
+    def out_dir(self) -> Optional[str]:
+        """The output directory written, or None (nothing written)."""
+
+def solve(
+    scenario: Union[str, PathLike[str]],
+    *,
+    out: Optional[Union[str, PathLike[str]]] = None,
+    threads: Optional[int] = None,
+    **keys: Any,
+) -> Solution:
+    """Run a scenario file to its end, as `raisov run` does (a static solve, a run in time,
+    or an interactive run's frames), and return its Solution. Keyword arguments set scenario
+    keys (a dict per table). Nothing is written unless `out` names a directory. `threads`:
+    this solve's threads (default: the process's pool); the bits are the same for any
+    number. Releases the GIL while it computes; Ctrl-C stops a run in time at its next step.
+    A run that does not do what it was asked returns with success False and a
+    RuntimeWarning; a divergence raises RuntimeError, a bad scenario ValueError, a file's
+    error the OSError Python raises for it."""

@@ -9,7 +9,7 @@ use raisov::io::{load_mesh, write_msh22, write_vtu};
 use raisov::mesh::generate::{box_tets, box_tets_target, polygon_membrane, rectangle_membrane};
 use raisov::mesh::Mesh;
 use raisov::scenario::spec::{box_pattern, defaults};
-use raisov::scenario::{run_with, RunOptions, Scenario};
+use raisov::scenario::{RunOptions, Scenario};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
@@ -591,16 +591,16 @@ fn cmd_run(
             out_dir: out,
             ..Default::default()
         };
-        let s = raisov::scenario::run_static(&sc, opts)
+        let s = raisov::sim::solve(&sc, opts)
             .with_context(|| format!("static solve of {} stopped", sc.name))?;
-        println!("{s}");
-        if !s.converged() {
+        println!("{}", s.finished);
+        if !s.finished.success() {
             eprintln!("raisov: {}: the static solve did not converge", sc.name);
             return Ok(EXIT_NOT_CONVERGED);
         }
         return Ok(0);
     }
-    let mut stepper = sc
+    let stepper = sc
         .stepper()
         .map_err(BadInput)
         .with_context(|| format!("{}: building the simulation", sc.path.display()))?;
@@ -609,25 +609,24 @@ fn cmd_run(
         out_dir: out,
         progress: Some(&mut progress),
         stop: Some(&stop),
+        ..Default::default()
     };
     // An [interactive] scenario plays its paths frame by frame (its grasps and pins taken
     // during the run included); any other runs in time.
-    let res = if sc.interactive.is_some() {
-        raisov::sim::replay::run_interactive(&sc, stepper, opts).map(|s| {
-            let code = if s.interrupted { EXIT_INTERRUPTED } else { 0 };
-            (s.to_string(), code)
-        })
-    } else {
-        run_with(&sc, stepper.as_mut(), opts).map(|s| {
-            use raisov::scenario::StopReason as R;
-            let code = match s.reason {
+    let res = raisov::sim::solve_with(&sc, stepper, opts).map(|s| {
+        use raisov::scenario::StopReason as R;
+        use raisov::sim::Finished;
+        let code = match &s.finished {
+            Finished::Interactive(i) if i.interrupted => EXIT_INTERRUPTED,
+            Finished::Dynamic(d) => match d.reason {
                 R::Duration | R::Steady => 0,
                 R::NotSteadyBeforeCap | R::Stagnated(_) => EXIT_NOT_CONVERGED,
                 R::Interrupted => EXIT_INTERRUPTED,
-            };
-            (s.to_string(), code)
-        })
-    };
+            },
+            _ => 0,
+        };
+        (s.finished.to_string(), code)
+    });
     bar.finish_and_clear();
     let (summary, code) = res.with_context(|| format!("run of {} stopped", sc.name))?;
     println!("{summary}");

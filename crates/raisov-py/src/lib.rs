@@ -813,10 +813,324 @@ impl Simulation {
     }
 }
 
+/// A scenario run to its end by `solve`: how it ended and its final state, in the
+/// scenario's node order. Forces follow the module's convention, the force the tissue
+/// exerts on each thing: at equilibrium `reaction + prescribed_reaction + tool_force =
+/// total_load` (the grasps of an interactive run are prescribed nodes: each grasp's force is
+/// its share of `prescribed_reaction`).
+#[pyclass(frozen, module = "raisov")]
+struct Solution {
+    kind: &'static str,
+    success: bool,
+    stopped: String,
+    summary: String,
+    steps: u64,
+    force_evaluations: f64,
+    wall_s: f64,
+    time: f64,
+    residual: f64,
+    max_displacement: f64,
+    kinetic_energy: f64,
+    u: Vec<f64>,
+    stress: Vec<f64>,
+    rest: Vec<f64>,
+    node_ids: Vec<i64>,
+    triangles: Vec<i64>,
+    reaction: [f64; 3],
+    prescribed_reaction: [f64; 3],
+    tool_force: [f64; 3],
+    total_load: [f64; 3],
+    grasp_forces: Vec<Option<[f64; 3]>>,
+    out_dir: Option<PathBuf>,
+}
+
+impl Solution {
+    fn new(sc: &raisov::scenario::Scenario, s: raisov::sim::Solution) -> Solution {
+        let neg = |v: [f64; 3]| v.map(|x| -x);
+        let n = sc.mesh.num_nodes();
+        let out_dir = match &s.finished {
+            raisov::sim::Finished::Static(x) => x.out_dir.clone(),
+            raisov::sim::Finished::Dynamic(x) => x.out_dir.clone(),
+            raisov::sim::Finished::Interactive(x) => x.out_dir.clone(),
+        };
+        Solution {
+            kind: s.finished.kind(),
+            success: s.finished.success(),
+            stopped: s.finished.stopped(),
+            summary: s.finished.to_string(),
+            steps: s.last.step,
+            force_evaluations: s.last.force_evals,
+            wall_s: s.last.wall,
+            time: s.last.time,
+            residual: s.last.residual,
+            max_displacement: s.last.max_u,
+            kinetic_energy: s.last.kinetic,
+            rest: sc.mesh.nodes.as_flattened().to_vec(),
+            node_ids: (0..n as u32).map(|a| sc.file_node(a) as i64).collect(),
+            triangles: sc
+                .mesh
+                .surface_triangles()
+                .as_flattened()
+                .iter()
+                .map(|&a| i64::from(a))
+                .collect(),
+            u: s.u,
+            stress: s.nodal_stress,
+            // The metrics' reactions are the supports' force on the tissue: turned round.
+            reaction: neg(s.last.reaction_fixed),
+            prescribed_reaction: neg(s.last.reaction_prescribed),
+            tool_force: neg(s.last.tool),
+            total_load: s.applied,
+            grasp_forces: s.grasp_forces,
+            out_dir,
+        }
+    }
+
+    fn rows<'py>(py: Python<'py>, flat: &[f64]) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let a = Array2::from_shape_vec((flat.len() / 3, 3), flat.to_vec()).expect("3 per row");
+        read_only(a.into_pyarray(py))
+    }
+}
+
+#[pymethods]
+impl Solution {
+    /// "static", "dynamic" or "interactive": what the scenario ran.
+    #[getter]
+    fn kind(&self) -> &'static str {
+        self.kind
+    }
+    /// Whether the run did what it was asked: a static solve converged, a run in time
+    /// reached its duration or steady state, an interactive run played all its frames.
+    #[getter]
+    fn success(&self) -> bool {
+        self.success
+    }
+    /// How it stopped, in words.
+    #[getter]
+    fn stopped(&self) -> &str {
+        &self.stopped
+    }
+    /// The closing summary `raisov run` prints.
+    #[getter]
+    fn summary(&self) -> &str {
+        &self.summary
+    }
+    /// Newton steps of a static solve; stepper steps of a run in time or interactive run.
+    #[getter]
+    fn steps(&self) -> u64 {
+        self.steps
+    }
+    /// Force evaluations of the run, in finest-level units.
+    #[getter]
+    fn force_evaluations(&self) -> f64 {
+        self.force_evaluations
+    }
+    /// Wall-clock time of the run (s).
+    #[getter]
+    fn wall_s(&self) -> f64 {
+        self.wall_s
+    }
+    /// Simulated time at the end (s; a static solve: the end of its prescribed motions).
+    #[getter]
+    fn time(&self) -> f64 {
+        self.time
+    }
+    /// The residual norm ‖V − R(u)‖₂ over free nodes at the end (N).
+    #[getter]
+    fn residual(&self) -> f64 {
+        self.residual
+    }
+    /// The largest nodal displacement |u_a| at the end (m).
+    #[getter]
+    fn max_displacement(&self) -> f64 {
+        self.max_displacement
+    }
+    /// Kinetic energy at the end (J).
+    #[getter]
+    fn kinetic_energy(&self) -> f64 {
+        self.kinetic_energy
+    }
+    /// Nodal displacements (m, shape (n, 3)); a read-only copy.
+    #[getter]
+    fn displacements<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        Self::rows(py, &self.u)
+    }
+    /// Node positions at rest (m, shape (n, 3)).
+    #[getter]
+    fn rest_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        Self::rows(py, &self.rest)
+    }
+    /// Node positions at the end, rest plus displacement (m, shape (n, 3)).
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let x: Vec<f64> = self.rest.iter().zip(&self.u).map(|(x, u)| x + u).collect();
+        Self::rows(py, &x)
+    }
+    /// The boundary triangles of the mesh, three node indices each (int64, shape (m, 3)).
+    #[getter]
+    fn surface_triangles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        let a = Array2::from_shape_vec((self.triangles.len() / 3, 3), self.triangles.clone())
+            .expect("3 per triangle");
+        read_only(a.into_pyarray(py))
+    }
+    /// Each node's id in the mesh file (int64, shape (n,)).
+    #[getter]
+    fn node_ids<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        read_only(self.node_ids.clone().into_pyarray(py))
+    }
+    /// Nodal Cauchy stress (Pa, shape (n, 3, 3)).
+    #[getter]
+    fn nodal_stress<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let a = Array3::from_shape_vec((self.stress.len() / 9, 3, 3), self.stress.clone())
+            .expect("9 per node");
+        read_only(a.into_pyarray(py))
+    }
+    /// The force the tissue exerts on its fixed supports, summed (N, shape (3,)).
+    #[getter]
+    fn reaction<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        vec3(py, self.reaction)
+    }
+    /// The force the tissue exerts on its prescribed (moved, grasped) nodes, summed (N).
+    #[getter]
+    fn prescribed_reaction<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        vec3(py, self.prescribed_reaction)
+    }
+    /// The force the tissue exerts on the scenario's tools (N, shape (3,)).
+    #[getter]
+    fn tool_force<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        vec3(py, self.tool_force)
+    }
+    /// Loads and body forces applied, Σ V (N, shape (3,)).
+    #[getter]
+    fn total_load<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        vec3(py, self.total_load)
+    }
+    /// Per `[[displace]]` grasp taken during an interactive run (file order), the force the
+    /// tissue exerts on it at the end (N, shape (3,)), None for one let go by then; an
+    /// empty list for other runs.
+    #[getter]
+    fn grasp_forces<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Vec<Option<Bound<'py, PyArray1<f64>>>>> {
+        self.grasp_forces
+            .iter()
+            .map(|g| g.map(|f| vec3(py, f)).transpose())
+            .collect()
+    }
+    /// The output directory written, or None (the default: nothing written).
+    #[getter]
+    fn out_dir(&self) -> Option<PathBuf> {
+        self.out_dir.clone()
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "raisov.Solution({}, {} nodes, {}; {} steps, {:.3} s)",
+            self.kind,
+            self.node_ids.len(),
+            self.stopped,
+            self.steps,
+            self.wall_s
+        )
+    }
+}
+
+/// Run a scenario file to its end and return its `Solution`: a static solve
+/// (`method = "newton"`), a run in time, or an interactive run's frames, as the scenario
+/// says (what `raisov run` does). Keyword arguments set scenario keys on top of the file,
+/// as for `Simulation(path, **keys)`. Nothing is written unless `out` names a directory
+/// (then the files `raisov run --out` writes). `threads`: the worker threads of this solve
+/// (default: the process's pool; the bits are the same for any number). The GIL is
+/// released while it computes, so threads can run solves side by side; Ctrl-C stops a run
+/// in time at its next step (KeyboardInterrupt). A run that ends without doing what it
+/// was asked (no convergence, no steady state) returns with `success` False and a
+/// `RuntimeWarning`; a divergence raises `RuntimeError`, a bad scenario `ValueError`, a
+/// file's error the `OSError` Python raises for it.
+#[pyfunction]
+#[pyo3(signature = (scenario, *, out = None, threads = None, **keys))]
+fn solve(
+    py: Python<'_>,
+    scenario: PathBuf,
+    out: Option<PathBuf>,
+    threads: Option<usize>,
+    keys: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Solution> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let overrides = match keys {
+        Some(k) => to_table(k, "")?,
+        None => toml::Table::new(),
+    };
+    if threads == Some(0) {
+        return Err(PyValueError::new_err(
+            "threads = 0: give a positive number of threads, or None for the process's pool",
+        ));
+    }
+    let pool = threads
+        .map(|n| rayon::ThreadPoolBuilder::new().num_threads(n).build())
+        .transpose()
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot start {threads:?} threads: {e}")))?;
+    let stop = AtomicBool::new(false);
+    let run = || -> raisov::Result<Solution> {
+        let text =
+            std::fs::read_to_string(&scenario).map_err(|e| raisov::Error::io(&scenario, e))?;
+        let text = raisov::sim::overrides::merge(&text, &overrides, &scenario)?;
+        let sc = raisov::scenario::Scenario::from_toml(&text, &scenario)?;
+        let opts = raisov::scenario::RunOptions {
+            in_memory: out.is_none(),
+            out_dir: out.clone(),
+            stop: Some(&stop),
+            progress: None,
+        };
+        let s = raisov::sim::solve(&sc, opts)?;
+        Ok(Solution::new(&sc, s))
+    };
+    let run = || match &pool {
+        Some(p) => p.install(run),
+        None => run(),
+    };
+    // The solve runs on a thread of its own without the GIL; this one waits for it and
+    // looks at Python's signals every 50 ms (Ctrl-C raises the stop flag).
+    let result = std::thread::scope(|scope| {
+        let worker = scope.spawn(run);
+        loop {
+            let done = py.detach(|| {
+                let t = std::time::Instant::now();
+                while !worker.is_finished() && t.elapsed() < std::time::Duration::from_millis(50) {
+                    std::thread::sleep(std::time::Duration::from_millis(2));
+                }
+                worker.is_finished()
+            });
+            if done {
+                break;
+            }
+            if let Err(e) = py.check_signals() {
+                stop.store(true, Ordering::Relaxed);
+                let _ = py.detach(|| worker.join());
+                return Err(e);
+            }
+        }
+        match py.detach(|| worker.join()) {
+            Ok(r) => r.map_err(to_py),
+            Err(_) => Err(PyRuntimeError::new_err(
+                "the solve panicked (a bug: please report it)",
+            )),
+        }
+    })?;
+    if !result.success {
+        let warning = py.get_type::<pyo3::exceptions::PyRuntimeWarning>();
+        let msg = std::ffi::CString::new(format!("{}: {}", scenario.display(), result.stopped))
+            .unwrap_or_default();
+        PyErr::warn(py, &warning, &msg, 1)?;
+    }
+    Ok(result)
+}
+
 /// raisov: nonlinear hyperelastic soft-tissue simulation with multigrid explicit
 /// integration, stepped frame by frame.
 #[pymodule(name = "raisov")]
 fn raisov_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_class::<Solution>()?;
     m.add_class::<Simulation>()?;
     m.add_class::<Grab>()?;
     m.add_class::<Pin>()?;

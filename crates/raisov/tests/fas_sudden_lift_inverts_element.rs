@@ -51,6 +51,7 @@ levels = 4
             out_dir: Some(dir.path().to_path_buf()),
             progress: None,
             stop: None,
+            in_memory: false,
         },
     )
     .unwrap();

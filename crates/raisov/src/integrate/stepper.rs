@@ -440,8 +440,35 @@ impl Stepper for SingleLevel {
 }
 
 /// [`energy_limit`] for a system on `mesh`: the prescribed motions' strain energy is that of
-/// every prescribed node at its largest displacement, all other nodes at rest.
+/// every prescribed node at its largest displacement, all other nodes at rest. The limit is
+/// never below `factor` times the strain energy of the body stretched uniformly by 0.1 %
+/// (`u = 10⁻³ (x − x̄)`): without loads or motions the limit is not zero, and round-off
+/// kinetic energy (1e-35 J) is not taken for a blow-up.
 pub fn energy_limit_for(sys: &System, mesh: &crate::mesh::Mesh, factor: f64) -> f64 {
+    let floor = {
+        let n = mesh.nodes.len().max(1) as f64;
+        let mut c = [0.0; 3];
+        for p in &mesh.nodes {
+            for k in 0..3 {
+                c[k] += p[k] / n;
+            }
+        }
+        let u: Vec<f64> = mesh
+            .nodes
+            .iter()
+            .flat_map(|p| [0, 1, 2].map(|k| 1e-3 * (p[k] - c[k])))
+            .collect();
+        let e = sys.force.strain_energy(&u);
+        if e.is_finite() {
+            factor * e
+        } else {
+            0.0
+        }
+    };
+    energy_limit_without_floor(sys, mesh, factor).max(floor)
+}
+
+fn energy_limit_without_floor(sys: &System, mesh: &crate::mesh::Mesh, factor: f64) -> f64 {
     let n = sys.num_nodes();
     let mut u = vec![0.0; 3 * n];
     for (a, m) in &sys.constraints.prescribed {

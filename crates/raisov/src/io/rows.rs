@@ -32,6 +32,24 @@ impl Sink for File {
     }
 }
 
+/// No file: the rows are counted and dropped ([`RowFile::discard`]).
+struct Discard;
+
+impl Write for Discard {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Sink for Discard {
+    fn set_len(&mut self, _: u64) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
 /// A streamed CSV file (module docs).
 pub struct RowFile {
     path: PathBuf,
@@ -55,6 +73,12 @@ impl RowFile {
     pub fn create(path: &Path, header: &str) -> Result<RowFile> {
         let file = open_for_writing(path, true)?;
         Self::with_sink(path, Box::new(file), header)
+    }
+
+    /// Rows counted and dropped, no file written: a run that keeps its results in memory.
+    /// `path` names what the file would have been, in messages.
+    pub fn discard(path: &Path, header: &str) -> Result<RowFile> {
+        Self::with_sink(path, Box::new(Discard), header)
     }
 
     /// [`RowFile::create`] writing into `file`, `path` naming it.

@@ -248,6 +248,13 @@ impl CsvStream {
             line: Vec::with_capacity(512),
         })
     }
+    /// Rows formatted and dropped, no file written ([`RowFile::discard`]).
+    pub fn discard(path: &Path) -> Result<CsvStream> {
+        Ok(CsvStream {
+            file: RowFile::discard(path, CSV_HEADER)?,
+            line: Vec::with_capacity(512),
+        })
+    }
     /// Append one row.
     pub fn push(&mut self, r: &Sample) -> Result<()> {
         self.line.clear();

@@ -41,12 +41,12 @@
 //! `NAME_surface.pvd` + `frames/NAME_surface_*.vtp` (the surface with its interpolated
 //! `displacement`, see [`super::surface`]), `summary.txt`.
 
-use super::run::RunOptions;
+use super::run::{OutDir, RunOptions};
 use super::spec::{defaults, InteractiveSpec, StaticReference};
 use super::{err, positive, Scenario, StopRule};
 use crate::error::{Error, Result};
 use crate::integrate::{hold, Stepper};
-use crate::io::{write_atomic, write_vtu_as, Field, FieldData, OutputLock, PvdWriter, RowFile};
+use crate::io::{write_vtu_as, Field, FieldData, PvdWriter, RowFile};
 use crate::statics::krylov::{NewtonParams, NewtonSolver};
 use crate::statics::relax::fictitious_mass;
 use std::path::{Path, PathBuf};
@@ -183,8 +183,8 @@ pub struct InteractiveSummary {
     pub rejected_frames: usize,
     /// The first rejection, with its frame; `None` if none was rejected.
     pub first_rejection: Option<String>,
-    /// The output directory.
-    pub out_dir: PathBuf,
+    /// The output directory; `None` for a run in memory ([`RunOptions::in_memory`]).
+    pub out_dir: Option<PathBuf>,
 }
 
 impl InteractiveSummary {
@@ -311,7 +311,7 @@ impl std::fmt::Display for InteractiveSummary {
                 )?;
             }
         }
-        write!(f, "output          {}", self.out_dir.display())
+        super::run::write_output(f, self.out_dir.as_deref())
     }
 }
 
@@ -416,9 +416,8 @@ pub fn run_frames(
         return Err(err(&sc.path, "no [interactive] section"));
     };
     let grasps = !sc.grasps.is_empty() || !sc.pins.is_empty();
-    let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
-    let _lock = OutputLock::acquire(&out)?;
-    super::run::prepare_output(&out, &sc.name)?;
+    let out = OutDir::lock(sc, &opts)?;
+    out.prepare(&sc.name)?;
     let n = sc.mesh.num_nodes();
     // (A duration written as a whole number of frames over fps is that number of frames.)
     let frames_n = (duration(sc) * settings.fps - 1e-9).ceil().max(1.0) as usize;
@@ -452,17 +451,25 @@ pub fn run_frames(
         interrupted: false,
         rejected_frames: 0,
         first_rejection: None,
-        out_dir: out.clone(),
+        out_dir: out.dir().map(Path::to_path_buf),
     };
-    let mut rows = FrameRows::create(&out.join("frames.csv"))?;
-    let frames_dir = out.join("frames");
-    std::fs::create_dir_all(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
-    let mut surface_frames = sc
-        .surface
-        .as_ref()
-        .map(|v| super::surface::SurfaceFrames::new(v, &sc.mesh, &out, &sc.name, sc.vtu))
-        .transpose()?;
-    let mut pvd = PvdWriter::new(out.join(format!("{}.pvd", sc.name)));
+    let mut rows = FrameRows::create(&out.path("frames.csv"), out.dir().is_some())?;
+    // `out/frames`; none for a run in memory, which writes no frame.
+    let frames_dir = match out.dir() {
+        Some(d) => {
+            let f = d.join("frames");
+            std::fs::create_dir_all(&f).map_err(|e| Error::io(&f, e))?;
+            Some(f)
+        }
+        None => None,
+    };
+    let mut surface_frames = match (&sc.surface, out.dir()) {
+        (Some(v), Some(d)) => Some(super::surface::SurfaceFrames::new(
+            v, &sc.mesh, d, &sc.name, sc.vtu,
+        )?),
+        _ => None,
+    };
+    let mut pvd = PvdWriter::new(out.path(&format!("{}.pvd", sc.name)));
     let mut lag = vec![0.0; 3 * n];
     let file_node_id: Option<Vec<i64>> = sc.output_node_ids();
     for k in 1..=frames_n {
@@ -586,38 +593,40 @@ pub fn run_frames(
         };
         rows.push(&row)?;
         summary.add(&row);
-        let file = format!("{}_{:06}.vtu", sc.name, k);
-        let mut fields = vec![Field {
-            name: "displacement",
-            data: FieldData::Vector(&s.u),
-        }];
-        if reference_ok {
-            fields.push(Field {
-                name: "static",
-                data: FieldData::Vector(&u_star),
-            });
-            fields.push(Field {
-                name: "lag",
-                data: FieldData::Vector(&lag),
-            });
-        }
-        if let Some(ids) = &file_node_id {
-            fields.push(Field {
-                name: "file_node_id",
-                data: FieldData::Int(ids),
-            });
-        }
-        write_vtu_as(
-            &frames_dir.join(&file),
-            &sc.mesh,
-            &sc.mesh.nodes,
-            &fields,
-            &[],
-            sc.vtu,
-        )?;
-        pvd.add(t, &format!("frames/{file}"))?;
-        if let Some(sf) = &mut surface_frames {
-            sf.write(t, k, &s.u)?;
+        if let Some(frames_dir) = &frames_dir {
+            let file = format!("{}_{:06}.vtu", sc.name, k);
+            let mut fields = vec![Field {
+                name: "displacement",
+                data: FieldData::Vector(&s.u),
+            }];
+            if reference_ok {
+                fields.push(Field {
+                    name: "static",
+                    data: FieldData::Vector(&u_star),
+                });
+                fields.push(Field {
+                    name: "lag",
+                    data: FieldData::Vector(&lag),
+                });
+            }
+            if let Some(ids) = &file_node_id {
+                fields.push(Field {
+                    name: "file_node_id",
+                    data: FieldData::Int(ids),
+                });
+            }
+            write_vtu_as(
+                &frames_dir.join(&file),
+                &sc.mesh,
+                &sc.mesh.nodes,
+                &fields,
+                &[],
+                sc.vtu,
+            )?;
+            pvd.add(t, &format!("frames/{file}"))?;
+            if let Some(sf) = &mut surface_frames {
+                sf.write(t, k, &s.u)?;
+            }
         }
         rows.flush()?;
         if let Some(p) = opts.progress.as_mut() {
@@ -641,7 +650,7 @@ pub fn run_frames(
     }
     rows.flush()?;
     let text = summary.to_string();
-    write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;
+    out.write("summary.txt", |w| writeln!(w, "{text}"))?;
     Ok(summary)
 }
 
@@ -653,8 +662,13 @@ pub const FRAMES_HEADER: &str =
 struct FrameRows(RowFile);
 
 impl FrameRows {
-    fn create(path: &Path) -> Result<FrameRows> {
-        Ok(FrameRows(RowFile::create(path, FRAMES_HEADER)?))
+    /// `write`: to `path`; else counted and dropped (a run in memory).
+    fn create(path: &Path, write: bool) -> Result<FrameRows> {
+        Ok(FrameRows(if write {
+            RowFile::create(path, FRAMES_HEADER)?
+        } else {
+            RowFile::discard(path, FRAMES_HEADER)?
+        }))
     }
     fn push(&mut self, r: &FrameRow) -> Result<()> {
         let opt = |x: f64| {

@@ -52,7 +52,8 @@ pub use resolve::select;
 pub(crate) use resolve::select_fixed;
 use resolve::{resolve_fixing, resolve_material, resolve_motion, resolve_selector, NodeIds};
 pub use run::{
-    describe_static, run, run_static, run_with, RunOptions, RunSummary, StaticSummary, StopReason,
+    describe_static, run, run_static, run_static_keeping, run_with, RunOptions, RunSummary,
+    StaticSummary, StopReason,
 };
 use spec::{defaults, Named, Stop};
 pub use spec::{NewtonSmoother, ScenarioSpec, StaticSolver};

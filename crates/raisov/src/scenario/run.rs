@@ -64,7 +64,7 @@ use std::time::Instant;
 mod outputs;
 mod statics;
 pub(crate) use outputs::prepare as prepare_output;
-pub use statics::{describe_static, run_static, StaticSummary};
+pub use statics::{describe_static, run_static, run_static_keeping, StaticSummary};
 
 /// Why a run ended normally.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -118,6 +118,78 @@ pub struct RunOptions<'a> {
     /// Raised from outside (a signal handler): the run stops at the next step boundary and
     /// reports [`StopReason::Interrupted`].
     pub stop: Option<&'a std::sync::atomic::AtomicBool>,
+    /// Keep the results in memory only: no file is written, no directory is created,
+    /// locked or cleared, and `out_dir` is not used. The summary (and, through [`solve`],
+    /// the final state) is all the run leaves.
+    pub in_memory: bool,
+}
+
+/// Where a run's results go: its output directory, locked for the run, or nowhere
+/// ([`RunOptions::in_memory`]).
+pub(crate) struct OutDir {
+    dir: Option<PathBuf>,
+    _lock: Option<OutputLock>,
+}
+
+impl OutDir {
+    /// Take the run's directory (`opts.out_dir`, else the scenario's) and its lock; nothing
+    /// for a run in memory.
+    pub(crate) fn lock(sc: &Scenario, opts: &RunOptions) -> Result<OutDir> {
+        if opts.in_memory {
+            return Ok(OutDir {
+                dir: None,
+                _lock: None,
+            });
+        }
+        let dir = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
+        let lock = OutputLock::acquire(&dir)?;
+        Ok(OutDir {
+            dir: Some(dir),
+            _lock: Some(lock),
+        })
+    }
+
+    /// Clear what an earlier run left (`run/outputs.rs`).
+    pub(crate) fn prepare(&self, name: &str) -> Result<()> {
+        match &self.dir {
+            Some(d) => prepare_output(d, name),
+            None => crate::io::check_name(name).map_err(|e| Error::param("name", e)),
+        }
+    }
+
+    /// The directory; `None` for a run in memory.
+    pub(crate) fn dir(&self) -> Option<&Path> {
+        self.dir.as_deref()
+    }
+
+    /// `file` in the directory (for a run in memory, its bare name: what messages call it).
+    pub(crate) fn path(&self, file: &str) -> PathBuf {
+        match &self.dir {
+            Some(d) => d.join(file),
+            None => PathBuf::from(file),
+        }
+    }
+
+    /// `measures.csv`, streamed, or counted and dropped.
+    pub(crate) fn measures(&self) -> Result<CsvStream> {
+        let p = self.path("measures.csv");
+        match self.dir {
+            Some(_) => CsvStream::create(&p),
+            None => CsvStream::discard(&p),
+        }
+    }
+
+    /// Write `file` atomically from `body`; nothing for a run in memory.
+    pub(crate) fn write(
+        &self,
+        file: &str,
+        body: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
+    ) -> Result<()> {
+        match &self.dir {
+            Some(d) => write_atomic(&d.join(file), |w| body(w)),
+            None => Ok(()),
+        }
+    }
 }
 
 /// What a finished run reports.
@@ -145,9 +217,10 @@ pub struct RunSummary {
     pub reason: StopReason,
     /// The last row of `measures.csv`.
     pub last: Sample,
-    /// The output directory.
-    pub out_dir: PathBuf,
-    /// The files written: `measures.csv`, the `.pvd` collection(s) and `nodal_stress.csv`.
+    /// The output directory; `None` for a run in memory ([`RunOptions::in_memory`]).
+    pub out_dir: Option<PathBuf>,
+    /// The files written: `measures.csv`, the `.pvd` collection(s) and `nodal_stress.csv`;
+    /// none for a run in memory.
     pub files: Vec<PathBuf>,
     /// Where T∞ came from (`[output] reference`); `None` without one.
     pub reference_note: Option<String>,
@@ -199,7 +272,19 @@ impl std::fmt::Display for RunSummary {
         if let Some(d) = &self.diagnostics {
             writeln!(f, "multigrid       {d}")?;
         }
-        write!(f, "output          {}", self.out_dir.display())
+        write_output(f, self.out_dir.as_deref())
+    }
+}
+
+/// The summary's last line: the output directory, or that the run kept its results in
+/// memory.
+pub(crate) fn write_output(
+    f: &mut std::fmt::Formatter<'_>,
+    dir: Option<&Path>,
+) -> std::fmt::Result {
+    match dir {
+        Some(d) => write!(f, "output          {}", d.display()),
+        None => write!(f, "output          none (kept in memory)"),
     }
 }
 
@@ -403,7 +488,8 @@ fn write_nodal_stress(path: &Path, sc: &Scenario, u: &[f64], t: &[f64]) -> Resul
 
 /// Writes VTU frames (and the visual surface's VTP frames) and the PVD collections.
 struct Frames<'a> {
-    dir: PathBuf,
+    /// `out/frames`; `None` for a run in memory, which writes no frame.
+    dir: Option<PathBuf>,
     name: String,
     pvd: PvdWriter,
     count: usize,
@@ -421,20 +507,31 @@ struct Frames<'a> {
 }
 
 impl<'a> Frames<'a> {
-    fn new(sc: &'a Scenario, out: &Path) -> Result<Self> {
-        let (name, n, format) = (sc.name.as_str(), sc.mesh.num_nodes(), sc.vtu);
-        let dir = out.join("frames");
-        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-        let surface = sc
-            .surface
-            .as_ref()
-            .map(|v| SurfaceFrames::new(v, &sc.mesh, out, name, format))
-            .transpose()?;
+    fn new(sc: &'a Scenario, out: &OutDir) -> Result<Self> {
+        let (name, format) = (sc.name.as_str(), sc.vtu);
+        let dir = match out.dir() {
+            Some(out) => {
+                let dir = out.join("frames");
+                std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+                Some(dir)
+            }
+            None => None,
+        };
+        let surface = match (&sc.surface, out.dir()) {
+            (Some(v), Some(out)) => Some(SurfaceFrames::new(v, &sc.mesh, out, name, format)?),
+            _ => None,
+        };
+        // A run in memory allocates no frame buffers.
+        let n = if dir.is_some() {
+            sc.mesh.num_nodes()
+        } else {
+            0
+        };
         Ok(Frames {
             surface,
             dir,
             name: name.to_string(),
-            pvd: PvdWriter::new(out.join(format!("{name}.pvd"))),
+            pvd: PvdWriter::new(out.path(&format!("{name}.pvd"))),
             count: 0,
             format,
             stress: vec![0.0; 9 * n],
@@ -445,6 +542,9 @@ impl<'a> Frames<'a> {
         })
     }
     fn write(&mut self, sc: &Scenario, stepper: &mut dyn Stepper) -> Result<()> {
+        let Some(dir) = &self.dir else {
+            return Ok(());
+        };
         let (sys, s) = stepper.finest();
         sys.force.nodal_stress(&s.u, &mut self.stress);
         let contact = sys.force.contact_forces(&s.u, &mut self.contact);
@@ -486,7 +586,7 @@ impl<'a> Frames<'a> {
             });
         }
         write_vtu_as(
-            &self.dir.join(&file),
+            &dir.join(&file),
             &sc.mesh,
             &sc.mesh.nodes,
             &fields,
@@ -515,8 +615,7 @@ pub fn run_with(
     stepper: &mut dyn Stepper,
     mut opts: RunOptions,
 ) -> Result<RunSummary> {
-    let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
-    let _lock = OutputLock::acquire(&out)?;
+    let out = OutDir::lock(sc, &opts)?;
     let n = sc.mesh.num_nodes();
     // Read before the directory is cleared: it may be the last run's `nodal_stress.csv`.
     let (t_inf, reference_note) = match &sc.reference {
@@ -526,7 +625,7 @@ pub fn run_with(
         ),
         _ => (None, None),
     };
-    prepare_output(&out, &sc.name)?;
+    out.prepare(&sc.name)?;
     let (t_inf, reference_note) = match &sc.reference {
         Reference::Auto => {
             let (t, note) = sc.steady_reference()?;
@@ -536,8 +635,7 @@ pub fn run_with(
     };
     let mut meter = Meter::new(n, t_inf);
     let mut frames = Frames::new(sc, &out)?;
-    let csv = out.join("measures.csv");
-    let mut rows = CsvStream::create(&csv)?;
+    let mut rows = out.measures()?;
     let start = Instant::now();
     let dt = stepper.dt();
     let (t_end, steady) = match sc.stop {
@@ -640,12 +738,14 @@ pub fn run_with(
     rows.flush()?;
     let wall = start.elapsed().as_secs_f64();
     result?;
-    let stress_path = out.join("nodal_stress.csv");
+    let stress_path = out.path("nodal_stress.csv");
     let applied = {
         let (sys, s) = stepper.finest();
-        let mut t = vec![0.0; 9 * n];
-        sys.force.nodal_stress(&s.u, &mut t);
-        write_nodal_stress(&stress_path, sc, &s.u, &t)?;
+        if out.dir().is_some() {
+            let mut t = vec![0.0; 9 * n];
+            sys.force.nodal_stress(&s.u, &mut t);
+            write_nodal_stress(&stress_path, sc, &s.u, &t)?;
+        }
         let mut v = sys.force.load_report(&s.u).applied;
         for (i, f) in sys.f_ext.iter().enumerate() {
             v[i % 3] += f;
@@ -664,11 +764,18 @@ pub fn run_with(
         force_evaluations: stepper.force_evaluations(),
         reason,
         last,
-        out_dir: out.clone(),
-        files: {
-            let mut f = vec![csv, frames.pvd.path().to_path_buf(), stress_path];
-            f.extend(frames.surface.as_ref().map(|s| s.pvd_path().to_path_buf()));
-            f
+        out_dir: out.dir().map(Path::to_path_buf),
+        files: match out.dir() {
+            Some(_) => {
+                let mut f = vec![
+                    rows.path().to_path_buf(),
+                    frames.pvd.path().to_path_buf(),
+                    stress_path,
+                ];
+                f.extend(frames.surface.as_ref().map(|s| s.pvd_path().to_path_buf()));
+                f
+            }
+            None => Vec::new(),
         },
         reference_note,
         diagnostics: stepper.diagnostics(),
@@ -676,6 +783,6 @@ pub fn run_with(
         applied,
     };
     let text = summary.to_string();
-    write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;
+    out.write("summary.txt", |w| writeln!(w, "{text}"))?;
     Ok(summary)
 }

@@ -114,12 +114,14 @@ mod grab;
 pub mod haptic;
 pub mod overrides;
 pub mod replay;
+pub mod solve;
 pub mod tangent;
 
 pub use builder::{Scheme, SimulationBuilder};
 pub use frame::{Budget, FrameReport};
 pub use grab::{Coupling, GrabOptions};
 pub use haptic::{HapticForce, HapticFrame, HapticLimits, HapticProxy};
+pub use solve::{solve, solve_with, Finished, Solution};
 pub use tangent::{TangentPreconditioner, TangentStats};
 
 use crate::fem::{FemModel, ForceModel};

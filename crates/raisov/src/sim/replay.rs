@@ -79,6 +79,15 @@ impl Replay {
         &self.sim
     }
 
+    /// Per `[[displace]]` grasp of the scenario (in file order), the force the tissue
+    /// exerts on it now ([`Simulation::grab_force`], N); `None` for one not held.
+    pub fn grasp_forces(&self) -> Vec<Option<[f64; 3]>> {
+        self.held
+            .iter()
+            .map(|h| h.and_then(|(id, _)| self.sim.grab_force(id).ok()))
+            .collect()
+    }
+
     fn unstick(&mut self) {
         if self.stuck {
             self.stuck = false;

@@ -35,11 +35,10 @@
 //! level then in one increment. The stopping rule's starting out-of-balance force
 //! is that of the rest state, as without it.
 
-use super::{write_balance, write_nodal_stress, Frames, RunOptions};
+use super::{write_balance, write_nodal_stress, Frames, OutDir, RunOptions};
 use crate::error::{Error, Result};
 use crate::integrate::{Stepper, System};
-use crate::io::{write_atomic, OutputLock};
-use crate::metrics::{CsvStream, Meter, Sample};
+use crate::metrics::{Meter, Sample};
 use crate::scenario::spec::Named;
 use crate::scenario::{Scenario, StaticSolve, StaticSolver};
 use crate::statics::krylov::Static;
@@ -48,7 +47,7 @@ use crate::statics::newton::{
     axis_of, coarse_level, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic,
     MultigridPcg,
 };
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Absolute floor of the assembled solvers' stopping rule (N).
@@ -92,8 +91,8 @@ pub struct StaticSummary {
     /// The applied loads and body forces, `Σ_a V_a` (N), at the solution: the reactions
     /// balance it at equilibrium ([`crate::metrics`]).
     pub applied: [f64; 3],
-    /// The output directory.
-    pub out_dir: PathBuf,
+    /// The output directory; `None` for a solve in memory ([`RunOptions::in_memory`]).
+    pub out_dir: Option<PathBuf>,
 }
 
 impl StaticSummary {
@@ -180,7 +179,7 @@ impl std::fmt::Display for StaticSummary {
         writeln!(f, "wall time       {:.3} s", self.wall)?;
         writeln!(f, "max |u|         {:.4e} m", self.last.max_u)?;
         write_balance(f, &self.last, self.applied)?;
-        write!(f, "output          {}", self.out_dir.display())
+        super::write_output(f, self.out_dir.as_deref())
     }
 }
 
@@ -192,10 +191,17 @@ impl std::fmt::Display for StaticSummary {
 /// `measures.csv` (the start and the solution), two frames, `nodal_stress.csv` and
 /// `summary.txt` with the solver's convergence report.
 pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
+    run_static_keeping(sc, opts).map(|(summary, _)| summary)
+}
+
+/// [`run_static`], handing back the stepper that holds the solution as well.
+pub fn run_static_keeping(
+    sc: &Scenario,
+    opts: RunOptions,
+) -> Result<(StaticSummary, crate::integrate::SingleLevel)> {
     let settings = static_settings(sc)?;
-    let out = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
-    let _lock = OutputLock::acquire(&out)?;
-    super::prepare_output(&out, &sc.name)?;
+    let out = OutDir::lock(sc, &opts)?;
+    out.prepare(&sc.name)?;
     let n = sc.mesh.num_nodes();
     let mut stepper = crate::integrate::SingleLevel::new(
         sc.build_system()?,
@@ -209,8 +215,7 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
     let increments = settings.increments(plan.solver);
     let mut meter = Meter::new(n, None);
     let mut frames = Frames::new(sc, &out)?;
-    let csv = out.join("measures.csv");
-    let mut rows = CsvStream::create(&csv)?;
+    let mut rows = out.measures()?;
     let start = Instant::now();
     let first = meter.sample(&mut stepper.sys, &stepper.state, 0);
     rows.push(&first)?;
@@ -272,9 +277,11 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
     rows.flush()?;
     let applied = {
         let (sys, s) = stepper.finest();
-        let mut tn = vec![0.0; 9 * n];
-        sys.force.nodal_stress(&s.u, &mut tn);
-        write_nodal_stress(&out.join("nodal_stress.csv"), sc, &s.u, &tn)?;
+        if out.dir().is_some() {
+            let mut tn = vec![0.0; 9 * n];
+            sys.force.nodal_stress(&s.u, &mut tn);
+            write_nodal_stress(&out.path("nodal_stress.csv"), sc, &s.u, &tn)?;
+        }
         let mut v = sys.force.load_report(&s.u).applied;
         for (i, f) in sys.f_ext.iter().enumerate() {
             v[i % 3] += f;
@@ -296,11 +303,11 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
         wall,
         last,
         applied,
-        out_dir: out.clone(),
+        out_dir: out.dir().map(Path::to_path_buf),
     };
     let text = summary.to_string();
-    write_atomic(&out.join("summary.txt"), |w| writeln!(w, "{text}"))?;
-    Ok(summary)
+    out.write("summary.txt", |w| writeln!(w, "{text}"))?;
+    Ok((summary, stepper))
 }
 
 /// What [`run_static`] would run, resolved as it resolves it (`raisov check`): the solver

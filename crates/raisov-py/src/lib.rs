@@ -1091,16 +1091,20 @@ fn solve(
     // The solve runs on a thread of its own without the GIL; this one waits for it and
     // looks at Python's signals every 50 ms (Ctrl-C raises the stop flag).
     let result = std::thread::scope(|scope| {
-        let worker = scope.spawn(run);
+        let (tx, rx) = std::sync::mpsc::channel();
+        // (Behind a mutex: the waiting closure runs without the GIL and must be Sync.)
+        let rx = Mutex::new(rx);
+        let worker = scope.spawn(move || {
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(run));
+            let _ = tx.send(());
+            r
+        });
         loop {
-            let done = py.detach(|| {
-                let t = std::time::Instant::now();
-                while !worker.is_finished() && t.elapsed() < std::time::Duration::from_millis(50) {
-                    std::thread::sleep(std::time::Duration::from_millis(2));
-                }
-                worker.is_finished()
+            let wait = py.detach(|| match rx.lock() {
+                Ok(rx) => rx.recv_timeout(std::time::Duration::from_millis(50)),
+                Err(_) => Err(std::sync::mpsc::RecvTimeoutError::Disconnected),
             });
-            if done {
+            if !matches!(wait, Err(std::sync::mpsc::RecvTimeoutError::Timeout)) {
                 break;
             }
             if let Err(e) = py.check_signals() {
@@ -1110,8 +1114,8 @@ fn solve(
             }
         }
         match py.detach(|| worker.join()) {
-            Ok(r) => r.map_err(to_py),
-            Err(_) => Err(PyRuntimeError::new_err(
+            Ok(Ok(r)) => r.map_err(to_py),
+            _ => Err(PyRuntimeError::new_err(
                 "the solve panicked (a bug: please report it)",
             )),
         }

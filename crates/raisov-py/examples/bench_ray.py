@@ -9,7 +9,8 @@ Ray installed (`pip install "raisov[ray]"`), and run it with nothing else runnin
 
     python crates/raisov-py/examples/bench_ray.py [--cases 32] [--level L3]
 
-Printed: the cases' count, the wall time of each way and its throughput (cases/s), the
+Each way runs `--repeat` times (default 3), the ways taking turns, and the medians are
+compared. Printed: the cases' count, the wall time of each way (median and range) and its throughput (cases/s), the
 speed-up of 2 workers over 1 (threads: 2 over serial), the mean solve time, Ray's overhead
 per task (an empty task's round trip, and Ray's time per case less the serial solve time),
 whether each way gave the serial run's bits, and the estimate of a 10,000-case study of the
@@ -77,6 +78,7 @@ def main():
     ap.add_argument("--level", default="L3", choices=["L0", "L1", "L2", "L3"])
     ap.add_argument("--study-cases", type=int, default=10000)
     ap.add_argument("--machines", type=int, default=100)
+    ap.add_argument("--repeat", type=int, default=3, help="runs of each way (medians)")
     args = ap.parse_args()
     import ray
 
@@ -87,41 +89,56 @@ def main():
           f"{os.cpu_count()} CPUs")
 
     case(path, 0)  # warm the page cache and the module
-    t = time.perf_counter()
-    serial = [case(path, k) for k in range(n)]
-    t_serial = time.perf_counter() - t
-    per_case = t_serial / n
-
-    t = time.perf_counter()
-    with ThreadPoolExecutor(2) as ex:
-        threaded = list(ex.map(lambda k: case(path, k), range(n)))
-    t_threads = time.perf_counter() - t
-
     remote_case = ray.remote(num_cpus=1)(case)
     empty = ray.remote(num_cpus=1)(lambda: None)
-    ray_times, ray_same, overhead = {}, {}, {}
-    for workers in (1, 2):
-        ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
-        ray.get([empty.remote() for _ in range(2 * workers)])  # start the workers
+    walls = {"serial": [], "threads": [], 1: [], 2: []}
+    same = {"threads": True, 1: True, 2: True}
+    overhead = {1: [], 2: []}
+    serial = None
+    # Each way `repeat` times, the ways taking turns: a neighbour's load on the machine
+    # falls on all of them alike; the medians are compared.
+    for _ in range(args.repeat):
         t = time.perf_counter()
-        ray.get([empty.remote() for _ in range(200)])
-        overhead[workers] = (time.perf_counter() - t) / 200 * workers
-        t = time.perf_counter()
-        out = ray.get([remote_case.remote(path, k) for k in range(n)])
-        ray_times[workers] = time.perf_counter() - t
-        ray_same[workers] = all(np.array_equal(a, b) for a, b in zip(out, serial))
-        ray.shutdown()
+        got = [case(path, k) for k in range(n)]
+        walls["serial"].append(time.perf_counter() - t)
+        serial = serial if serial is not None else got
 
-    same_threads = all(np.array_equal(a, b) for a, b in zip(threaded, serial))
+        t = time.perf_counter()
+        with ThreadPoolExecutor(2) as ex:
+            threaded = list(ex.map(lambda k: case(path, k), range(n)))
+        walls["threads"].append(time.perf_counter() - t)
+        same["threads"] &= all(np.array_equal(a, b) for a, b in zip(threaded, serial))
+
+        for workers in (1, 2):
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+            ray.get([empty.remote() for _ in range(2 * workers)])  # start the workers
+            t = time.perf_counter()
+            ray.get([empty.remote() for _ in range(200)])
+            overhead[workers].append((time.perf_counter() - t) / 200 * workers)
+            t = time.perf_counter()
+            out = ray.get([remote_case.remote(path, k) for k in range(n)])
+            walls[workers].append(time.perf_counter() - t)
+            same[workers] &= all(np.array_equal(a, b) for a, b in zip(out, serial))
+            ray.shutdown()
+
+    med = {k: float(np.median(v)) for k, v in walls.items()}
+    t_serial, t_threads, ray_times = med["serial"], med["threads"], {1: med[1], 2: med[2]}
+    per_case = t_serial / n
+    overhead = {k: float(np.median(v)) for k, v in overhead.items()}
+    ray_same = {1: same[1], 2: same[2]}
+    spread = {k: f"{min(v):.2f}-{max(v):.2f}" for k, v in walls.items()}
+    same_threads = same["threads"]
     rows = [
         ("serial, one process", t_serial, "-", True),
         ("2 Python threads", t_threads, f"{t_serial / t_threads:.2f}x serial", same_threads),
         ("Ray, 1 worker", ray_times[1], "-", ray_same[1]),
         ("Ray, 2 workers", ray_times[2], f"{ray_times[1] / ray_times[2]:.2f}x 1 worker", ray_same[2]),
     ]
-    print(f"{'way':<22} {'wall s':>8} {'cases/s':>8}  {'speed-up':<16} same bits as serial")
-    for name, w, up, same in rows:
-        print(f"{name:<22} {w:8.2f} {n / w:8.2f}  {up:<16} {'yes' if same else 'NO'}")
+    keys = ["serial", "threads", 1, 2]
+    print(f"medians of {args.repeat} runs each (the ways taking turns)")
+    print(f"{'way':<22} {'wall s':>8} {'range':>11} {'cases/s':>8}  {'speed-up':<16} same bits as serial")
+    for key, (name, w, up, ok) in zip(keys, rows):
+        print(f"{name:<22} {w:8.2f} {spread[key]:>11} {n / w:8.2f}  {up:<16} {'yes' if ok else 'NO'}")
     print(f"mean solve time {per_case * 1e3:.1f} ms; Ray overhead per task: empty task "
           f"{overhead[1] * 1e3:.2f} ms (1 worker), {overhead[2] * 1e3:.2f} ms (2 workers); "
           f"Ray per case less the solve {1e3 * (ray_times[1] / n - per_case):+.2f} ms "

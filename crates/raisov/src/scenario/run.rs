@@ -197,7 +197,12 @@ impl std::fmt::Display for RunSummary {
             writeln!(f, "reference       {n}")?;
         }
         if let Some(d) = &self.diagnostics {
-            writeln!(f, "multigrid       {d}")?;
+            let label = if d.starts_with("implicit Euler") {
+                "newton"
+            } else {
+                "multigrid"
+            };
+            writeln!(f, "{label:<16}{d}")?;
         }
         write!(f, "output          {}", self.out_dir.display())
     }

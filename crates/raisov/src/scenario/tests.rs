@@ -1238,4 +1238,5 @@ fn triangles_under_tets_name_the_level_file() {
     );
 }
 
+mod implicit;
 mod statics;

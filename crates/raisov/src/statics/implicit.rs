@@ -45,7 +45,9 @@
 //!   largest over the run so far, so that a motion dying out (a free vibration damped by the
 //!   scheme, whose own `r⁰` tends to 0) is not asked for ever smaller residuals than the
 //!   forces of the run can resolve. Default `rel_tol` 1e-6 ([`DEFAULT_REL_TOL`]), `abs_tol`
-//!   1e-12 N.
+//!   1e-12 N. Within 100 times that threshold the line search accepts a step on the
+//!   residual's decrease alone ([`DirectNewtonParams::flat_below`]): Φ's round-off can exceed
+//!   the changes a Newton step makes there.
 //! - A step that does not meet the rule within [`ImplicitParams::max_newton`] iterations, or
 //!   whose solver fails (an element inverted at a state it had to evaluate, a factorisation that
 //!   fails even regularised), stops with a [`Divergence`] and leaves the state at the last step.
@@ -80,6 +82,12 @@ use crate::integrate::{
 pub const DEFAULT_REL_TOL: f64 = 1e-6;
 /// The default absolute floor of each step's stopping rule (N).
 pub const DEFAULT_ABS_TOL: f64 = 1e-12;
+/// Below this many times the stopping threshold, the line search takes a step on the
+/// residual's decrease alone ([`DirectNewtonParams::flat_below`]): where the forces of a run
+/// are small (a load ramped up from zero) Φ's round-off exceeds the changes a Newton step
+/// makes near the solution, and on Φ alone the iteration stalled a few times above the
+/// threshold (the 1 MPa beam of the tests, at 6e-10 N).
+const FLAT_BELOW: f64 = 100.0;
 /// The default most Newton iterations per step.
 pub const DEFAULT_MAX_NEWTON: usize = 30;
 /// Conjugate-gradient iterations at most per Newton system when a kept sparse factorisation
@@ -373,6 +381,7 @@ impl Stepper for ImplicitEuler {
             // The solver's rule is `rel_tol max|V_a| + abs_tol`: all of F_n through abs_tol.
             rel_tol: 0.0,
             abs_tol: self.params.abs_tol + self.params.rel_tol * scale,
+            flat_below: FLAT_BELOW * (self.params.abs_tol + self.params.rel_tol * scale),
             max_newton: self.params.max_newton,
             load_steps: 1,
             pcg_max: if self.params.multigrid.is_some() {

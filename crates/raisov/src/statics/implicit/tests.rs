@@ -92,11 +92,59 @@ fn implicit_euler_dissipates_a_free_vibration_and_is_stable_at_100_explicit_step
     }
 }
 
-/// The state at `t_end` of the beam dropped from rest under gravity, by backward Euler at
-/// `steps` steps.
-fn implicit_drop(mesh: &Mesh, t_end: f64, steps: usize) -> Vec<f64> {
+/// The beam of [`beam_on`] (10 × 2 × 2 cells, undamped) under a nodal load on every node
+/// that rises smoothly from 0 to 4 mN along `3τ² − 2τ³`, τ = t / 30 ms (a table of 61 rows,
+/// linear between them), then stays: a load this smooth excites the high modes little, so that
+/// the steps below are in backward Euler's first-order regime (a load switched on at once
+/// excites every mode, and the order measured over these steps is about 0.86, the stiff modes
+/// still far from it).
+fn smooth_load_system(method: &str) -> System {
+    let rows: Vec<String> = (0..=60)
+        .map(|k| {
+            let tau = k as f64 / 60.0;
+            format!("[{:e}, {:e}]", 0.03 * tau, tau * tau * (3.0 - 2.0 * tau))
+        })
+        .collect();
+    let text = format!(
+        r#"
+[mesh]
+generate = "box"
+size = [0.1, 0.02, 0.02]
+divisions = [10, 2, 2]
+[material]
+law = "neo-hookean"
+young = {YOUNG:e}
+poisson = 0.3
+density = {RHO:e}
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
+[[load]]
+at = {{ box = {{ min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }} }}
+force = [0.0, 0.0, -4e-3]
+time = {{ kind = "table", table = [{}] }}
+[integrator]
+method = "{method}"
+{}
+[run]
+duration = 0.05
+"#,
+        rows.join(", "),
+        if method == "implicit-euler" {
+            "dt = 1e-3"
+        } else {
+            ""
+        }
+    );
+    crate::scenario::Scenario::from_toml(&text, std::path::Path::new("first-order.toml"))
+        .unwrap()
+        .build_system()
+        .unwrap()
+}
+
+/// The displacements at `t_end` by backward Euler at `steps` steps.
+fn implicit_run(t_end: f64, steps: usize) -> Vec<f64> {
     let mut st = ImplicitEuler::new(
-        beam_on(mesh, 0.0, 9.81, vec![]),
+        smooth_load_system("implicit-euler"),
         ImplicitParams::new(t_end / steps as f64),
     )
     .unwrap();
@@ -115,7 +163,7 @@ fn implicit_euler_converges_at_first_order_to_a_fine_rk4_reference() {
     let dt_ref = 0.25 * critical_step_estimate(&mesh, &material(), RHO, Method::Rk4);
     let n_ref = (t_end / dt_ref).ceil() as usize;
     let mut reference = SingleLevel::new(
-        beam_on(&mesh, 0.0, 9.81, vec![]),
+        smooth_load_system("rk4"),
         Method::Rk4,
         StepperParams {
             dt: t_end / n_ref as f64,
@@ -127,11 +175,11 @@ fn implicit_euler_converges_at_first_order_to_a_fine_rk4_reference() {
     }
     let u_ref = reference.state.u.clone();
     let scale = u_ref.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    assert!(scale > 1e-4, "the beam should sag: {scale:.3e} m");
+    assert!(scale > 1e-4, "the beam should bend: {scale:.3e} m");
     let errors: Vec<f64> = [50, 100, 200, 400]
         .into_iter()
         .map(|n| {
-            let u = implicit_drop(&mesh, t_end, n);
+            let u = implicit_run(t_end, n);
             u.iter()
                 .zip(&u_ref)
                 .map(|(a, b)| (a - b).powi(2))
@@ -141,17 +189,17 @@ fn implicit_euler_converges_at_first_order_to_a_fine_rk4_reference() {
         .collect();
     let orders: Vec<f64> = errors.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
     eprintln!("errors at t = {t_end} s: {errors:?} m; measured orders {orders:?}");
-    for (k, &p) in orders.iter().enumerate().skip(1) {
+    for (k, &p) in orders.iter().enumerate() {
         assert!(
             (0.85..=1.15).contains(&p),
             "measured order {p:.3} between refinements {k} and {}: errors {errors:?}",
             k + 1
         );
     }
-    // The finest error is small against the sag itself.
+    // The finest error is small against the deflection itself.
     assert!(
         errors[3] < 0.05 * scale,
-        "errors {errors:?}, sag {scale:.3e}"
+        "errors {errors:?}, deflection {scale:.3e}"
     );
 }
 

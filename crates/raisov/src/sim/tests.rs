@@ -943,7 +943,8 @@ fn implicit_euler_simulation_takes_a_grasp_at_one_large_step_a_frame() {
     );
     let g = sim.grab([0.02, 0.02, SIDE], 0.01).unwrap();
     let p = sim.grab_position(g).unwrap();
-    sim.move_grab(g, [p[0] + 0.005, p[1], p[2] + 0.005]).unwrap();
+    sim.move_grab(g, [p[0] + 0.005, p[1], p[2] + 0.005])
+        .unwrap();
     for _ in 0..10 {
         assert!(sim.step_frame(Budget::Cycles(1)).accepted);
     }

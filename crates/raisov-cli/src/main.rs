@@ -51,6 +51,10 @@ enum BenchSuite {
     /// The closed-surface check (self-intersections) on fans of long thin triangles and the
     /// organ surfaces (`raisov_lab::bench::surface_check`).
     SurfaceCheck,
+    /// Backward Euler on the liver L0 with the multigrid preconditioner at h = 1/60, 1/250
+    /// and 1/1000 s against central differences (`raisov_lab::bench::implicit`; --quick:
+    /// without 1/1000 s).
+    Implicit,
 }
 
 #[derive(Subcommand)]
@@ -75,7 +79,8 @@ enum Cmd {
     /// Performance benchmark of the standard explicit-dynamics work (see `raisov_lab::bench`);
     /// `raisov bench api`: the embedding API's frame overhead and grasp-stiffness solves;
     /// `raisov bench equilibrium`: time to static equilibrium of five solvers;
-    /// `raisov bench surface-check`: the closed-surface check on cones and organ surfaces.
+    /// `raisov bench surface-check`: the closed-surface check on cones and organ surfaces;
+    /// `raisov bench implicit`: backward Euler's cost per step and per simulated second.
     Bench {
         /// `api`: the embedding API's figures instead (`raisov_lab::bench::api`; --quick: a
         /// small cube); `equilibrium`: direct Newton, FAS, adaptive dynamic relaxation,
@@ -110,7 +115,7 @@ enum Cmd {
         /// f32, arithmetic and state in f64). The other rows are f64.
         #[arg(long, default_value = "f64,f32")]
         precision: String,
-        /// `equilibrium`: directory with liver_L*.msh and heart_L*.msh; `surface-check`: with
+        /// `equilibrium` and `implicit`: directory with liver_L*.msh (and heart_L*.msh); `surface-check`: with
         /// liver_surface.obj and heart_surface.obj; default `data` (relative to the working
         /// directory).
         #[arg(long)]
@@ -429,6 +434,18 @@ fn real_main(cli: Cli) -> Result<i32> {
             ..
         } => on_pool(|| cmd_bench_equilibrium(quick, meshes, case)),
         Cmd::Bench {
+            suite: Some(BenchSuite::Implicit),
+            quick,
+            meshes,
+            ..
+        } => on_pool(|| {
+            let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
+            raisov_lab::bench::implicit(&meshes, quick, &mut |line| println!("{line}"))
+                .map_err(BadInput)
+                .with_context(|| format!("the liver meshes from {}", meshes.display()))?;
+            Ok(0)
+        }),
+        Cmd::Bench {
             suite: Some(BenchSuite::SurfaceCheck),
             quick,
             meshes,
@@ -575,7 +592,7 @@ fn cmd_run(
             sc.name,
             sc.mesh.num_nodes(),
             sc.mesh.num_elements(),
-            sc.method.name(),
+            sc.method_name(),
             sc.dt
         );
     }
@@ -871,16 +888,25 @@ fn cmd_check(path: &Path) -> Result<()> {
         let how = raisov::scenario::describe_static(&sc).map_err(BadInput)?;
         line("integrator", &how);
     } else {
-        line(
-            "integrator",
-            &format!(
+        let integrator = match &sc.implicit {
+            Some(imp) => format!(
+                "implicit-euler, dt = {:.4e} s ({} explicit critical steps), Newton to newton_tol = {:e} in at most {} iterations a step, solver \"{}\", precision {}",
+                sc.dt,
+                raisov::numbers::rounded(sc.dt / sc.dt_critical_estimate, 1),
+                imp.rel_tol,
+                imp.max_newton,
+                raisov::scenario::spec::Named::name(imp.solver),
+                sc.precision.name()
+            ),
+            None => format!(
                 "{}, dt = {:.4e} s (estimated critical {:.4e} s), precision {}",
                 sc.method.name(),
                 sc.dt,
                 sc.dt_critical_estimate,
                 sc.precision.name()
             ),
-        );
+        };
+        line("integrator", &integrator);
         line("stop", &check::stop(&sc.stop));
         if let Some(i) = &sc.interactive {
             line("interactive", &check::interactive(i));

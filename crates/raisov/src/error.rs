@@ -112,6 +112,24 @@ pub enum DivergenceCause {
         /// Its speed `|v_a|` (m/s).
         speed: f64,
     },
+    /// An implicit step's Newton iteration did not meet its stopping rule
+    /// ([`crate::statics::implicit`]).
+    #[error(
+        "the implicit step's Newton iteration stopped after {newton} iterations at a largest \
+         nodal residual of {residual:.3e} N, above its target {target:.3e} N (raise \
+         `integrator.max_newton` or lower `integrator.dt`)"
+    )]
+    NotConverged {
+        /// The largest nodal residual over free nodes at the end (N).
+        residual: f64,
+        /// The stopping rule's threshold (N).
+        target: f64,
+        /// Newton iterations taken.
+        newton: usize,
+    },
+    /// An implicit step's linear solver failed ([`crate::statics::implicit`]).
+    #[error("the implicit step's solver failed: {0}")]
+    Solver(String),
 }
 
 /// A node a [`Divergence`] names: its index in the stepper's mesh and, once the scenario has

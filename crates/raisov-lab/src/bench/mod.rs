@@ -54,7 +54,9 @@
 //! roofline bookkeeping, so they stay in one file.
 
 mod api;
+mod implicit;
 pub use api::api;
+pub use implicit::implicit;
 pub mod surface_check;
 
 use raisov::fem::{FemModel, FemParams, FusedState, NodeLoad, Precision};

@@ -683,8 +683,12 @@ impl Scenario {
         Ok((levels, links))
     }
 
-    /// The stepper this scenario asks for: single level, or a multigrid over its levels.
+    /// The stepper this scenario asks for: single level (explicit, or backward Euler with the
+    /// levels as the Newton solver's preconditioner), or a multigrid over its levels.
     pub fn stepper(&self) -> Result<Box<dyn Stepper>> {
+        if self.implicit.is_some() {
+            return Ok(Box::new(self.implicit_euler()?));
+        }
         let sys = self.build_system()?;
         let limit = energy_limit_for(&sys, &self.mesh, self.blowup_factor)
             + self.blowup_factor * self.model_load_work(&self.mesh);

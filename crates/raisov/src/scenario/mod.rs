@@ -23,6 +23,7 @@
 //! keyed by the file's ids ([`crate::multigrid::Level::node_keys`]), not by the memory order.
 
 pub mod grasps;
+mod implicit;
 pub mod interactive;
 mod levels;
 pub mod loading;
@@ -232,6 +233,96 @@ pub struct Scenario {
     /// `[integrator] method = "newton"`: solve for static equilibrium instead of integrating
     /// ([`run::run_static`]); `None` for a dynamic run.
     pub statics: Option<StaticSolve>,
+    /// `[integrator] method = "implicit-euler"`: backward Euler ([`crate::statics::implicit`])
+    /// instead of [`Scenario::method`]; `None` for the explicit integrators and the static
+    /// solve.
+    pub implicit: Option<ImplicitSolve>,
+}
+
+/// The settings of backward Euler (`method = "implicit-euler"`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImplicitSolve {
+    /// `[integrator] newton_tol`: each step's relative tolerance, default 1e-6
+    /// ([`crate::statics::implicit::DEFAULT_REL_TOL`]; the rule in that module's docs).
+    pub rel_tol: f64,
+    /// `[integrator] max_newton`: Newton iterations at most per step, default 30.
+    pub max_newton: usize,
+    /// `[integrator] solver`: [`StaticSolver::Auto`] (default), [`StaticSolver::Multigrid`]
+    /// or [`StaticSolver::Direct`], resolved when the stepper is built
+    /// ([`Scenario::stepper`]).
+    pub solver: StaticSolver,
+    /// `[integrator] smoother`: the V-cycle's smoother, defaults as for `method = "newton"`.
+    pub smoother: Smoother,
+}
+
+/// `[integrator]` of `method = "implicit-euler"` checked (`levels_only` refuses the
+/// `[multigrid]` keys of the explicit schemes).
+fn resolve_implicit(
+    spec: &ScenarioSpec,
+    path: &Path,
+    kind: ElementKind,
+    levels_only: &dyn Fn(&str) -> Result<()>,
+) -> Result<ImplicitSolve> {
+    let i = &spec.integrator;
+    const WHAT: &str = "implicit-euler";
+    if i.dt.is_none() {
+        return Err(err(
+            path,
+            "`integrator.dt` is required with method = \"implicit-euler\": it is stable at any step, so choose the step for accuracy (e.g. 1/60 s for one step a frame at 60 Hz)",
+        ));
+    }
+    if i.safety.is_some() {
+        return Err(err(
+            path,
+            "`integrator.safety` does not apply to method = \"implicit-euler\" (it scales the explicit critical step; give `dt`)",
+        ));
+    }
+    levels_only(WHAT)?;
+    let solver = i.solver.unwrap_or(defaults::STATIC_SOLVER);
+    match solver {
+        StaticSolver::Krylov => {
+            return Err(err(
+                path,
+                "`integrator.solver` = \"krylov\" does not apply to method = \"implicit-euler\" (each step is solved with the assembled tangent): valid are \"auto\", \"multigrid\", \"direct\"",
+            ))
+        }
+        StaticSolver::Multigrid if spec.multigrid.is_none() => {
+            return Err(err(
+                path,
+                "`integrator.solver` = \"multigrid\" needs the coarser levels of a `[multigrid]` section (`levels`, `nodes` or `files`)",
+            ))
+        }
+        StaticSolver::Direct if i.smoother.is_some() => {
+            return Err(err(
+                path,
+                "`integrator.smoother` applies to solver = \"multigrid\" (or \"auto\"), not \"direct\"",
+            ))
+        }
+        _ => {}
+    }
+    let max_newton = i
+        .max_newton
+        .unwrap_or(crate::statics::implicit::DEFAULT_MAX_NEWTON);
+    if max_newton == 0 {
+        return Err(err(path, "`integrator.max_newton` = 0: must be at least 1"));
+    }
+    let rel_tol = positive(
+        path,
+        "integrator.newton_tol",
+        i.newton_tol
+            .unwrap_or(crate::statics::implicit::DEFAULT_REL_TOL),
+    )?;
+    Ok(ImplicitSolve {
+        rel_tol,
+        max_newton,
+        solver,
+        smoother: match i.smoother {
+            Some(NewtonSmoother::BlockJacobi) => Smoother::BlockJacobi,
+            Some(NewtonSmoother::BlockGaussSeidel) => Smoother::ColouredBlock,
+            Some(NewtonSmoother::GaussSeidel) => Smoother::GaussSeidel,
+            None => StaticSolve::default_smoother(kind),
+        },
+    })
 }
 
 /// The settings of a static solve (`method = "newton"`).
@@ -569,42 +660,57 @@ impl Scenario {
             far(p.point, &format!("pin[{i}]"), &mut warnings);
             pins.push(grasps::resolve_pin(p, i, path, spec.interactive.is_some())?);
         }
-        let (method, newton) = match spec.integrator.method {
-            Some(spec::Solve::Dynamic(m)) => (m, false),
-            Some(spec::Solve::Newton) => (defaults::METHOD, true),
-            None => (defaults::METHOD, false),
+        let (method, newton, implicit) = match spec.integrator.method {
+            Some(spec::Solve::Dynamic(m)) => (m, false, false),
+            Some(spec::Solve::Newton) => (defaults::METHOD, true, false),
+            Some(spec::Solve::ImplicitEuler) => (defaults::METHOD, false, true),
+            None => (defaults::METHOD, false, false),
         };
-        for (k, set) in [
-            ("max_newton", spec.integrator.max_newton.is_some()),
-            ("increments", spec.integrator.increments.is_some()),
-            ("solver", spec.integrator.solver.is_some()),
-            ("coarse_start", spec.integrator.coarse_start.is_some()),
-            ("smoother", spec.integrator.smoother.is_some()),
+        for (k, set, applies, to) in [
+            (
+                "max_newton",
+                spec.integrator.max_newton.is_some(),
+                newton || implicit,
+                "method = \"newton\" or \"implicit-euler\"",
+            ),
+            (
+                "increments",
+                spec.integrator.increments.is_some(),
+                newton,
+                "method = \"newton\"",
+            ),
+            (
+                "solver",
+                spec.integrator.solver.is_some(),
+                newton || implicit,
+                "method = \"newton\" or \"implicit-euler\"",
+            ),
+            (
+                "coarse_start",
+                spec.integrator.coarse_start.is_some(),
+                newton,
+                "method = \"newton\"",
+            ),
+            (
+                "smoother",
+                spec.integrator.smoother.is_some(),
+                newton || implicit,
+                "method = \"newton\" or \"implicit-euler\"",
+            ),
+            (
+                "newton_tol",
+                spec.integrator.newton_tol.is_some(),
+                implicit,
+                "method = \"implicit-euler\" (method = \"newton\" takes `run.residual_tol`)",
+            ),
         ] {
-            if set && !newton {
-                return Err(err(
-                    path,
-                    format!("`integrator.{k}` applies to method = \"newton\""),
-                ));
+            if set && !applies {
+                return Err(err(path, format!("`integrator.{k}` applies to {to}")));
             }
         }
-        let statics = if newton {
-            let settles = surface_loads.iter().all(|s| s.time.end().is_finite())
-                && timed_load.iter().all(|(_, _, f)| f.end().is_finite())
-                && tools.iter().all(|t| t.motion.end().is_finite())
-                && prescribed.iter().all(|(_, m)| m.end().is_finite());
-            if !settles {
-                return Err(err(
-                    path,
-                    "method = \"newton\" solves for the loads at their end: a `sine` time function never ends",
-                ));
-            }
-            if spec.interactive.is_some() {
-                return Err(err(
-                    path,
-                    "`[interactive]` does not apply to method = \"newton\" (a static solve)",
-                ));
-            }
+        // `[multigrid]` keys of the explicit schemes, errors where the levels only serve the
+        // Newton solver's preconditioner.
+        let levels_only = |what: &str| -> Result<()> {
             if let Some(m) = &spec.multigrid {
                 for (k, set) in [
                     ("scheme", m.scheme.is_some()),
@@ -625,11 +731,36 @@ impl Scenario {
                     if set {
                         return Err(err(
                             path,
-                            format!("`multigrid.{k}` does not apply to method = \"newton\": a static solve takes only the levels of [multigrid] (`levels`, `ratio`, `level_nodes`, `files`)"),
+                            format!("`multigrid.{k}` does not apply to method = \"{what}\": it takes only the levels of [multigrid] (`levels`, `ratio`, `level_nodes`, `files`)"),
                         ));
                     }
                 }
             }
+            Ok(())
+        };
+        let implicit = if implicit {
+            Some(resolve_implicit(&spec, path, mesh.kind, &levels_only)?)
+        } else {
+            None
+        };
+        let statics = if newton {
+            let settles = surface_loads.iter().all(|s| s.time.end().is_finite())
+                && timed_load.iter().all(|(_, _, f)| f.end().is_finite())
+                && tools.iter().all(|t| t.motion.end().is_finite())
+                && prescribed.iter().all(|(_, m)| m.end().is_finite());
+            if !settles {
+                return Err(err(
+                    path,
+                    "method = \"newton\" solves for the loads at their end: a `sine` time function never ends",
+                ));
+            }
+            if spec.interactive.is_some() {
+                return Err(err(
+                    path,
+                    "`[interactive]` does not apply to method = \"newton\" (a static solve)",
+                ));
+            }
+            levels_only("newton")?;
             let solver = spec.integrator.solver.unwrap_or(defaults::STATIC_SOLVER);
             if solver == StaticSolver::Multigrid && spec.multigrid.is_none() {
                 return Err(err(
@@ -712,6 +843,7 @@ impl Scenario {
         // FAS relaxes rather than integrates: its level-0 step is a smoother's, not bound
         // by the explicit stability limit in the same way.
         let explicit_limit = !newton
+            && implicit.is_none()
             && spec
                 .multigrid
                 .as_ref()
@@ -875,6 +1007,7 @@ impl Scenario {
             pins,
             surface: surface_levels.map(|sl| sl.visual),
             statics,
+            implicit,
         };
         sc.check_model_loads()?;
         // A reference file is read (and its numbers checked) now, not when the run needs it.

@@ -270,7 +270,12 @@ impl std::fmt::Display for RunSummary {
             writeln!(f, "reference       {n}")?;
         }
         if let Some(d) = &self.diagnostics {
-            writeln!(f, "multigrid       {d}")?;
+            let label = if d.starts_with("implicit Euler") {
+                "newton"
+            } else {
+                "multigrid"
+            };
+            writeln!(f, "{label:<16}{d}")?;
         }
         write_output(f, self.out_dir.as_deref())
     }

@@ -150,8 +150,18 @@
 //!
 //! [integrator]
 //! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" |
-//!                                 # "central-difference" | "newton";
-//!                                 # default "symplectic-euler". "newton": no dynamics, the static
+//!                                 # "central-difference" | "implicit-euler" | "newton";
+//!                                 # default "symplectic-euler". "implicit-euler": backward
+//!                                 # Euler (statics::implicit), each step a Newton solve of
+//!                                 # M(v'-v)/h + alpha M v' + R(u') = V by `solver` ("auto":
+//!                                 # "multigrid" where [multigrid] gives a level with >= 1/32
+//!                                 # of the nodes, else "direct"; not "krylov"), at most
+//!                                 # `max_newton` (default 30) iterations a step to
+//!                                 # `newton_tol` (default 1e-6) of the largest nodal load
+//!                                 # plus the step's starting out-of-balance force; stable at
+//!                                 # any step and dissipative, first-order accurate; `dt` is
+//!                                 # required; of [multigrid] only the levels (the V-cycle
+//!                                 # preconditions the Newton systems). "newton": no dynamics, the static
 //!                                 # equilibrium R(u) = V with the motions at their end, by
 //!                                 # Newton's method (`solver`) to `[run] residual_tol`
 //!                                 # (default 1e-7): "krylov" relative to its starting
@@ -166,7 +176,9 @@
 //!                                 # [multigrid] gives a level with >= 1/32 of the nodes, else
 //!                                 # "direct" (pressure, tools and springs are in the
 //!                                 # assembled tangent)
-//! max_newton = 50                 # newton: Newton steps at most per increment, default 50
+//! max_newton = 50                 # newton: Newton steps at most per increment, default 50;
+//!                                 # implicit-euler: per step, default 30
+//! newton_tol = 1e-6               # implicit-euler: each step's relative tolerance
 //! increments = 10                 # newton: loads and prescribed displacements applied in
 //!                                 # this many equal increments, default 10 for "krylov",
 //!                                 # 1 for "direct" and "multigrid" (whose first iteration
@@ -619,6 +631,9 @@ pub enum Solve {
     /// `"newton"`: static equilibrium `R(u) = V` by Newton's method, its linear solver by
     /// `solver` ([`StaticSolver`]).
     Newton,
+    /// `"implicit-euler"`: backward Euler dynamics, each step a Newton solve
+    /// ([`crate::statics::implicit`]), its linear solver by `solver`.
+    ImplicitEuler,
 }
 
 impl Named for Solve {
@@ -628,11 +643,13 @@ impl Named for Solve {
         Solve::Dynamic(Method::Rk4),
         Solve::Dynamic(Method::CentralDifference),
         Solve::Newton,
+        Solve::ImplicitEuler,
     ];
     fn name(self) -> &'static str {
         match self {
             Solve::Dynamic(m) => m.name(),
             Solve::Newton => "newton",
+            Solve::ImplicitEuler => "implicit-euler",
         }
     }
 }
@@ -1129,14 +1146,18 @@ pub struct PinSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {
-    /// `method`: an explicit integrator or `"newton"` (static); default `"symplectic-euler"`.
+    /// `method`: an explicit integrator, `"implicit-euler"` or `"newton"` (static); default
+    /// `"symplectic-euler"`.
     pub method: Option<Solve>,
     /// `solver` (newton): `"auto"` (default), `"multigrid"`, `"direct"` or `"krylov"`.
     pub solver: Option<StaticSolver>,
     /// `dt`: the time step (s); default `safety` × the estimated critical step.
     pub dt: Option<f64>,
-    /// `max_newton` (newton): Newton steps at most per increment, at least 1; default 50.
+    /// `max_newton`: newton, Newton steps at most per increment, at least 1, default 50;
+    /// implicit-euler, per time step, default 30.
     pub max_newton: Option<usize>,
+    /// `newton_tol` (implicit-euler): each step's relative tolerance, default 1e-6.
+    pub newton_tol: Option<f64>,
     /// `increments` (newton): equal load increments, at least 1; default 10 for `"krylov"`,
     /// 1 for `"direct"` and `"multigrid"`.
     pub increments: Option<usize>,

@@ -2,12 +2,14 @@
 
 use super::Simulation;
 use crate::fem::{FemModel, FemParams};
-use crate::hierarchy::Correspondence;
+use crate::hierarchy::{Correspondence, Transfer};
 use crate::integrate::{Constraints, Method, SingleLevel, Stepper, StepperParams, System};
 use crate::material::{Material, StableNeoHookean};
 use crate::mesh::Mesh;
 use crate::multigrid::fas::{Fas, FasParams};
 use crate::multigrid::Level;
+use crate::statics::implicit::{ImplicitEuler, ImplicitParams};
+use crate::statics::newton::{coarse_level, MultigridPcg};
 use crate::{Error, Result};
 
 /// How the builder's simulation advances.
@@ -20,6 +22,12 @@ pub enum Scheme {
     /// Explicit dynamics on level 0 alone with this integrator, one step per cycle (coarser
     /// levels are ignored).
     SingleLevel(Method),
+    /// Backward Euler on level 0 ([`crate::statics::implicit`]), one step per cycle at
+    /// [`SimulationBuilder::dt`] (required: any step is stable; choose it for accuracy). With
+    /// coarser levels each Newton system is solved by conjugate gradients preconditioned by
+    /// the Galerkin V-cycle over level 0 and the coarser level
+    /// [`crate::statics::newton::coarse_level`] picks; without, by sparse Cholesky.
+    ImplicitEuler,
 }
 
 /// A fixed region: a predicate on reference positions (m), selected on every level.
@@ -169,8 +177,14 @@ impl SimulationBuilder {
         params.thickness = self.thickness;
         let method = match &self.scheme {
             Scheme::SingleLevel(m) => *m,
-            Scheme::Fas(_) => Method::SymplecticEuler,
+            Scheme::Fas(_) | Scheme::ImplicitEuler => Method::SymplecticEuler,
         };
+        if self.scheme == Scheme::ImplicitEuler && self.dt.is_none() {
+            return Err(Error::param(
+                "dt",
+                "Scheme::ImplicitEuler needs a step: it is stable at any step, so choose it for accuracy (e.g. 1/60 s)",
+            ));
+        }
         let mut meshes = vec![self.mesh.clone()];
         if matches!(self.scheme, Scheme::Fas(_)) {
             meshes.extend(self.coarse.iter().cloned());
@@ -219,6 +233,26 @@ impl SimulationBuilder {
                         kinetic_limit: f64::INFINITY,
                     },
                 ))
+            }
+            Scheme::ImplicitEuler => {
+                let l = levels.pop().expect("one level");
+                let mut params = ImplicitParams::new(l.dt);
+                let counts: Vec<usize> = std::iter::once(&self.mesh)
+                    .chain(&self.coarse)
+                    .map(|m| m.num_nodes())
+                    .collect();
+                let mut down = Vec::new();
+                if let Some(c) = coarse_level(&counts) {
+                    down.push(Transfer::build(&self.mesh.nodes, &self.coarse[c - 1])?);
+                    params.multigrid = Some(MultigridPcg {
+                        smoother: crate::scenario::StaticSolve::default_smoother(self.mesh.kind),
+                        ..Default::default()
+                    });
+                }
+                Box::new(
+                    ImplicitEuler::with_levels(l.sys, params, down)
+                        .map_err(|e| Error::param("scheme", e.to_string()))?,
+                )
             }
             Scheme::Fas(p) => {
                 let mut links = Vec::with_capacity(levels.len() - 1);

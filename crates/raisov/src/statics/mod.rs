@@ -10,12 +10,15 @@
 //!   start, through levels about four times apart;
 //! - [`krylov`]: matrix-free Newton-Krylov, tangent products by differences of the force
 //!   model, for force models whose tangent is not assembled;
+//! - [`implicit`]: backward Euler time stepping, each step the [`newton`] solve of an
+//!   incremental potential (the static problem plus one inertia spring per node);
 //! - [`relax`]: single-level relaxations (dynamic, adaptive dynamic, Chebyshev), the
 //!   baselines and the T∞ references.
 //!
 //! The linear algebra they share (conjugate gradients, the Galerkin hierarchy, smoothers,
 //! coarse factor) is in [`crate::linalg`].
 
+pub mod implicit;
 pub mod krylov;
 pub mod nested;
 pub mod newton;

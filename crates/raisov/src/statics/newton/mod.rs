@@ -34,7 +34,8 @@
 //! - Backtracking line search, α = 1, ½, ¼ … (at most 12 halvings), on the potential energy
 //!   `Π(u) = E(u) − V_s·u` (Armijo: `Π(u + αδ) ≤ Π(u) − 10⁻⁴ α r·δ`, `r = V_s − R(u)`; δ is a
 //!   descent direction since `K + σ d̄ D` is positive definite once factored), and where Π
-//!   cannot tell (a change within 10⁻⁹ |Π|, its round-off near the solution) on the residual
+//!   cannot tell (a change within 10⁻⁹ |Π|, its round-off near the solution, or a largest
+//!   nodal residual already below [`DirectNewtonParams::flat_below`]) on the residual
 //!   norm `‖r(u + αδ)‖₂`, which must fall. The residual norm alone is a poor merit function on
 //!   large rotations: a linearised rotation shows up as spurious axial forces, and a soft
 //!   cantilever's sag stalled under it. An inverted element counts as no decrease.
@@ -204,6 +205,12 @@ pub struct DirectNewtonParams {
     /// over the levels of [`DirectNewton::with_levels`]; without coarser levels the fine level
     /// is the coarsest and is factored, so CG converges in one iteration. Default `None`.
     pub multigrid: Option<MultigridPcg>,
+    /// Where the largest nodal residual is at most this (N), the line search counts Π as
+    /// unable to tell (as within its round-off) and takes a trial whose residual 2-norm falls:
+    /// near a solution whose Π is small against its round-off (an implicit time step of a
+    /// body barely loaded, [`crate::statics::implicit`]) the changes of Π a Newton step makes
+    /// are below it. Default 0 (Π decides wherever it can).
+    pub flat_below: f64,
 }
 
 /// Settings of the multigrid-preconditioned linear solves ([`DirectNewtonParams::multigrid`]).
@@ -246,6 +253,7 @@ impl Default for DirectNewtonParams {
             sigma_min: 1e-8,
             pcg_max: 0,
             multigrid: None,
+            flat_below: 0.0,
         }
     }
 }
@@ -1061,7 +1069,8 @@ impl DirectNewton {
                     let pi = potential(model, springs, &trial, s, f_ext);
                     out.energy_evaluations += 1;
                     let armijo = pi <= pi0 - 1e-4 * alpha * slope;
-                    let flat = pi.is_finite() && (pi - pi0).abs() <= 1e-9 * pi0.abs();
+                    let flat = pi.is_finite()
+                        && ((pi - pi0).abs() <= 1e-9 * pi0.abs() || max <= params.flat_below);
                     if !(armijo || flat) {
                         alpha *= 0.5;
                         continue;

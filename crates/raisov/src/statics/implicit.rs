@@ -1,0 +1,517 @@
+//! Backward (implicit) Euler time stepping of
+//!
+//! ```text
+//! M ü + α M u̇ + R(u) = V(t)        (M lumped, m_a per node; Rayleigh mass damping D = α M)
+//! ```
+//!
+//! one step of size h from `(u_n, v_n)` at `t_n` to `t_{n+1} = t_n + h`:
+//!
+//! ```text
+//! v_{n+1} = (u_{n+1} − u_n) / h,
+//! M (v_{n+1} − v_n) / h + α M v_{n+1} + R(u_{n+1}) = V(t_{n+1})     on free dofs.
+//! ```
+//!
+//! Substituting `v_{n+1}`, the step is a static solve with one extra zero-length spring per
+//! node: `u_{n+1}` is a stationary point (a minimiser, where the step is small enough for the
+//! tangent to stay positive definite) of the incremental potential
+//!
+//! ```text
+//! Φ(u) = Σ_a ½ k_a |u_a − d_a|² + W(u) − V(t_{n+1})·u,
+//! k_a = m_a (1/h² + α/h),   d_a = u_{n,a} + h v_{n,a} / (1 + α h),
+//! ```
+//!
+//! whose gradient `k_a (u_a − d_a) + R_a(u) − V_a` is the step's residual, since
+//! `k_a (u_a − d_a) = m_a [(v_{n+1} − v_n)/h + α v_{n+1}]`. Its tangent is `K(u) + diag(k_a)`
+//! (free dofs): the inertia adds at least `m_a/h²` to every diagonal, so it is positive definite
+//! wherever K's negative curvature (compression, buckling) stays below that, which a small
+//! enough step always gives; where it does not, the solver's regularisation and line search
+//! apply as in a static solve.
+//!
+//! Each step is solved by [`DirectNewton`] (the assembled analytic tangent, its line search on
+//! Φ, the regularisation, and either sparse Cholesky reused as the CG preconditioner or CG
+//! preconditioned by the Galerkin V-cycle over coarser levels, [`ImplicitParams::multigrid`]),
+//! the inertia springs passed as [`Spring`]s together with the system's own run-time springs
+//! ([`System::springs`]). The solver is kept from step to step, and so is its factorisation or
+//! hierarchy (it preconditions the next step's systems until it stops being good enough).
+//!
+//! - Start: `u = d` (the last solution plus `h v_n / (1 + α h)`, the minimiser of the inertia
+//!   term alone), the constrained dofs at `u_n + h v_n`; the solver's first (lifted) iteration
+//!   moves them to their values at `t_{n+1}`.
+//! - Stopping rule (the static solver's, [`crate::statics::newton`], its scale the run's
+//!   peak): `max_a |r_a| ≤ rel_tol F_n + abs_tol` over free nodes, with
+//!   `F_n = max_{k ≤ n} (max_a |V_a| + max_a |r⁰_{k,a}|)`, `r⁰_k` the residual at step k's start
+//!   (constrained dofs at their values at `t_{k+1}`). At the start `u = d` that is the
+//!   out-of-balance force `V − R(d)`, `M` times the acceleration the step must produce: the
+//!   largest over the run so far, so that a motion dying out (a free vibration damped by the
+//!   scheme, whose own `r⁰` tends to 0) is not asked for ever smaller residuals than the
+//!   forces of the run can resolve. Default `rel_tol` 1e-6 ([`DEFAULT_REL_TOL`]), `abs_tol`
+//!   1e-12 N. Within 100 times that threshold the line search accepts a step on the
+//!   residual's decrease alone ([`DirectNewtonParams::flat_below`]): Φ's round-off can exceed
+//!   the changes a Newton step makes there.
+//! - A step that does not meet the rule within [`ImplicitParams::max_newton`] iterations, or
+//!   whose solver fails (an element inverted at a state it had to evaluate, a factorisation that
+//!   fails even regularised), stops with a [`Divergence`] and leaves the state at the last step.
+//! - Velocities: `v_{n+1} = (u_{n+1} − u_n)/h` on free dofs; constrained dofs get `u = g`,
+//!   `u̇ = ġ` at `t_{n+1}` ([`System::impose`]).
+//!
+//! Energy: with `α = 0` and `V` constant, multiplying the step's equation by `u_{n+1} − u_n`
+//! gives `T_{n+1} − T_n + ½ |v_{n+1} − v_n|²_M = −R(u_{n+1})·(u_{n+1} − u_n) + V·(u_{n+1} − u_n)`,
+//! and where W is convex along the step `R(u_{n+1})·(u_{n+1} − u_n) ≥ W(u_{n+1}) − W(u_n)`: the
+//! discrete energy `T + W − V·u` does not increase (it loses at least `½|Δv|²_M` a step): the
+//! scheme is dissipative, and stable at any step. It is first-order accurate: at small steps
+//! its trajectory converges to the exact one (the explicit integrators' at their small stable
+//! steps) with an error proportional to h.
+//!
+//! Stiffness-proportional (β K) Rayleigh damping is not part of the scheme: the explicit
+//! integrators and [`System`] carry `D = α M` only.
+//!
+//! Counts ([`ImplicitCounts`]): Newton iterations (tangent assemblies), conjugate-gradient
+//! iterations, internal-force evaluations, strain-energy evaluations (the line search's Φ);
+//! [`Stepper::force_evaluations`] counts the force and energy evaluations, each as one
+//! finest-level evaluation (the tangent assemblies and CG iterations are counted apart).
+
+use super::newton::{DirectNewton, DirectNewtonError, DirectNewtonParams, MultigridPcg};
+use crate::error::{Divergence, DivergenceCause};
+use crate::hierarchy::Transfer;
+use crate::integrate::{
+    check_state, hold, Checkpoint, OwnConstraints, RuntimeConstraints, Spring, State, Stepper,
+    System,
+};
+
+/// The default relative tolerance of each step's Newton iteration (module docs).
+pub const DEFAULT_REL_TOL: f64 = 1e-6;
+/// The default absolute floor of each step's stopping rule (N).
+pub const DEFAULT_ABS_TOL: f64 = 1e-12;
+/// Below this many times the stopping threshold, the line search takes a step on the
+/// residual's decrease alone ([`DirectNewtonParams::flat_below`]): where the forces of a run
+/// are small (a load ramped up from zero) Φ's round-off exceeds the changes a Newton step
+/// makes near the solution, and on Φ alone the iteration stalled a few times above the
+/// threshold (the 1 MPa beam of the tests, at 6e-10 N).
+const FLAT_BELOW: f64 = 100.0;
+/// The default most Newton iterations per step.
+pub const DEFAULT_MAX_NEWTON: usize = 30;
+/// Conjugate-gradient iterations at most per Newton system when a kept sparse factorisation
+/// preconditions it (no coarser levels; [`DirectNewtonParams::pcg_max`]).
+const DIRECT_PCG_MAX: usize = 20;
+
+/// Settings of [`ImplicitEuler`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImplicitParams {
+    /// Time step h (s).
+    pub dt: f64,
+    /// Relative part of each step's stopping rule (module docs); default [`DEFAULT_REL_TOL`].
+    pub rel_tol: f64,
+    /// Absolute floor of the stopping rule (N); default [`DEFAULT_ABS_TOL`].
+    pub abs_tol: f64,
+    /// Newton iterations at most per step; default [`DEFAULT_MAX_NEWTON`].
+    pub max_newton: usize,
+    /// CG preconditioned by the Galerkin V-cycle over the levels given to
+    /// [`ImplicitEuler::with_levels`]; `None` (the default): sparse Cholesky, the factor
+    /// reused as the CG preconditioner.
+    pub multigrid: Option<MultigridPcg>,
+    /// Stop when the kinetic energy exceeds this (J); default infinite.
+    pub kinetic_limit: f64,
+}
+
+impl ImplicitParams {
+    /// The defaults at step `dt` (s).
+    pub fn new(dt: f64) -> Self {
+        ImplicitParams {
+            dt,
+            rel_tol: DEFAULT_REL_TOL,
+            abs_tol: DEFAULT_ABS_TOL,
+            max_newton: DEFAULT_MAX_NEWTON,
+            multigrid: None,
+            kinetic_limit: f64::INFINITY,
+        }
+    }
+}
+
+/// What [`ImplicitEuler`]'s steps have cost so far.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ImplicitCounts {
+    /// Newton iterations (tangent assemblies), lifted ones included.
+    pub newton: u64,
+    /// The most Newton iterations of one step.
+    pub max_newton_step: u64,
+    /// Conjugate-gradient iterations.
+    pub cg: u64,
+    /// Internal-force evaluations.
+    pub force_evaluations: u64,
+    /// Strain-energy evaluations (the line search's Φ).
+    pub energy_evaluations: u64,
+    /// Numeric sparse factorisations.
+    pub factorizations: u64,
+    /// Galerkin hierarchies built.
+    pub multigrid_setups: u64,
+}
+
+/// The constrained nodes the solver's pattern was built for.
+#[derive(Clone, Debug, PartialEq)]
+struct PatternKey {
+    fixed: Vec<u32>,
+    prescribed: Vec<u32>,
+    sliding: Vec<(u32, [f64; 3])>,
+}
+
+impl PatternKey {
+    fn of(sys: &System) -> Self {
+        PatternKey {
+            fixed: sys.constraints.fixed.clone(),
+            prescribed: sys.constraints.prescribed.iter().map(|(a, _)| *a).collect(),
+            sliding: sys.constraints.sliding().to_vec(),
+        }
+    }
+}
+
+/// Backward Euler on one mesh, each step a Newton solve of the incremental potential (module
+/// docs).
+pub struct ImplicitEuler {
+    /// The mesh's system.
+    pub sys: System,
+    /// Its state.
+    pub state: State,
+    params: ImplicitParams,
+    solver: DirectNewton,
+    /// The level transfers of the multigrid preconditioner (empty without).
+    down: Vec<Transfer>,
+    key: PatternKey,
+    /// The inertia springs of the current step, then the system's own.
+    springs: Vec<Spring>,
+    u: Vec<f64>,
+    scratch: Vec<f64>,
+    steps: u64,
+    counts: ImplicitCounts,
+    /// The last step's final largest nodal residual and its stopping threshold (N).
+    last: (f64, f64),
+    /// The stopping rule's force scale `F_n` (N, module docs).
+    scale: f64,
+    own: Option<OwnConstraints>,
+}
+
+impl ImplicitEuler {
+    /// A stepper of `sys` from rest (constraints imposed at t = 0), the Newton systems solved
+    /// by sparse Cholesky.
+    pub fn new(sys: System, params: ImplicitParams) -> Result<Self, DirectNewtonError> {
+        Self::with_levels(sys, params, Vec::new())
+    }
+
+    /// As [`ImplicitEuler::new`], with the coarser levels of the multigrid preconditioner
+    /// ([`ImplicitParams::multigrid`]): `down[l]` locates level l's nodes in level l + 1's
+    /// mesh ([`DirectNewton::with_levels`]).
+    pub fn with_levels(
+        sys: System,
+        params: ImplicitParams,
+        down: Vec<Transfer>,
+    ) -> Result<Self, DirectNewtonError> {
+        let solver = build_solver(&sys, &down)?;
+        let n = sys.num_nodes();
+        let mut state = State::at_rest(n);
+        sys.impose(0.0, &mut state.u, &mut state.v);
+        Ok(ImplicitEuler {
+            key: PatternKey::of(&sys),
+            sys,
+            state,
+            params,
+            solver,
+            down,
+            springs: Vec::with_capacity(n),
+            u: vec![0.0; 3 * n],
+            scratch: vec![0.0; 3 * n],
+            steps: 0,
+            counts: ImplicitCounts::default(),
+            last: (0.0, 0.0),
+            scale: 0.0,
+            own: None,
+        })
+    }
+
+    /// The settings.
+    pub fn params(&self) -> &ImplicitParams {
+        &self.params
+    }
+
+    /// What the steps so far have cost.
+    pub fn counts(&self) -> ImplicitCounts {
+        self.counts
+    }
+
+    /// The last step's largest nodal residual over free nodes at its end, and the
+    /// threshold of its stopping rule (N); zeros before the first step.
+    pub fn last_step(&self) -> (f64, f64) {
+        self.last
+    }
+
+    /// The largest nodal residual over free nodes of the backward-Euler equation
+    /// `M (v − v_prev)/h + α M v + R(u) − V(t)` at the current state (`u`, `v`, `t`), `v_prev`
+    /// the velocity of the step before (N). For tests and checks: one force evaluation.
+    pub fn step_residual(&mut self, v_prev: &[f64]) -> f64 {
+        let h = self.params.dt;
+        let (sys, s) = (&mut self.sys, &self.state);
+        sys.force.set_time(s.t);
+        let mut r = vec![0.0; s.u.len()];
+        if sys.internal_forces(&s.u, &mut r).is_err() {
+            return f64::INFINITY;
+        }
+        let mut worst = 0.0f64;
+        for a in 0..sys.num_nodes() {
+            if sys.constraints.is_constrained(a) {
+                continue;
+            }
+            let m = sys.mass[a];
+            let mut norm2 = 0.0;
+            for k in 0..3 {
+                let i = 3 * a + k;
+                let x = m * (s.v[i] - v_prev[i]) / h + sys.alpha * m * s.v[i] + r[i] - sys.f_ext[i];
+                norm2 += x * x;
+            }
+            worst = worst.max(norm2.sqrt());
+        }
+        worst
+    }
+
+    /// Rebuild the solver where the constrained nodes changed since it was built.
+    fn refresh_pattern(&mut self) -> Result<(), DirectNewtonError> {
+        let key = PatternKey::of(&self.sys);
+        if key != self.key {
+            self.solver = build_solver(&self.sys, &self.down)?;
+            self.key = key;
+        }
+        Ok(())
+    }
+
+    /// The largest nodal force over free nodes of the step's residual at `u` (constrained dofs
+    /// imposed at `t`, the inertia springs included): `r⁰` of the stopping rule; 0 where `u`
+    /// inverts an element.
+    fn start_residual(&mut self, t: f64) -> f64 {
+        let n = self.u.len();
+        let mut us = self.u.clone();
+        let mut v = vec![0.0; n];
+        self.sys.impose(t, &mut us, &mut v);
+        let r = &mut self.scratch;
+        if self.sys.force.internal_forces(&us, r).is_err() {
+            return 0.0;
+        }
+        for sp in &self.springs {
+            let i = 3 * sp.node as usize;
+            for k in 0..3 {
+                r[i + k] += sp.k * (us[i + k] - sp.d[k]);
+            }
+        }
+        (0..n / 3)
+            .filter(|&a| !self.sys.constraints.is_constrained(a))
+            .map(|a| node_norm_diff(&self.sys.f_ext, r, a))
+            .fold(0.0, f64::max)
+    }
+}
+
+fn build_solver(sys: &System, down: &[Transfer]) -> Result<DirectNewton, DirectNewtonError> {
+    if down.is_empty() {
+        DirectNewton::new(&*sys.force, &sys.mass, &sys.constraints)
+    } else {
+        DirectNewton::with_levels(&*sys.force, &sys.mass, &sys.constraints, down)
+    }
+}
+
+/// `|f_a − r_a|` (node a's 3-vectors).
+fn node_norm_diff(f: &[f64], r: &[f64], a: usize) -> f64 {
+    (0..3)
+        .map(|k| (f[3 * a + k] - r[3 * a + k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+impl Stepper for ImplicitEuler {
+    fn advance(&mut self) -> Result<(), Divergence> {
+        let h = self.params.dt;
+        let t0 = self.state.t;
+        let t1 = t0 + h;
+        let step = self.steps + 1;
+        let fail = |cause: DivergenceCause, element: Option<usize>| Divergence {
+            time: t0,
+            step,
+            element,
+            cause,
+        };
+        let solver_failure = |e: DirectNewtonError| match e {
+            DirectNewtonError::Inverted(f) => fail(
+                DivergenceCause::Inverted { det_f: f.det_f },
+                Some(f.element),
+            ),
+            e => fail(DivergenceCause::Solver(e.to_string()), None),
+        };
+        self.refresh_pattern().map_err(solver_failure)?;
+        // The inertia springs k_a = m_a (1/h² + α/h) at d_a = u_n + h v_n / (1 + α h), and the
+        // start u = d (constrained dofs at u_n + h v_n).
+        let alpha = self.sys.alpha;
+        let c = 1.0 / (h * h) + alpha / h;
+        let damp = 1.0 / (1.0 + alpha * h);
+        self.springs.clear();
+        let (u0, v0) = (&self.state.u, &self.state.v);
+        for a in 0..self.sys.num_nodes() {
+            let i = 3 * a;
+            if self.sys.constraints.is_constrained(a) {
+                for k in 0..3 {
+                    self.u[i + k] = u0[i + k] + h * v0[i + k];
+                }
+                continue;
+            }
+            let d = [0, 1, 2].map(|k| u0[i + k] + h * damp * v0[i + k]);
+            self.u[i..i + 3].copy_from_slice(&d);
+            let m = self.sys.mass[a];
+            if m > 0.0 {
+                self.springs.push(Spring {
+                    node: a as u32,
+                    k: m * c,
+                    d,
+                });
+            }
+        }
+        self.springs.extend_from_slice(&self.sys.springs);
+        let r0 = self.start_residual(t1);
+        self.counts.force_evaluations += 1;
+        let vmax = self
+            .sys
+            .f_ext
+            .chunks_exact(3)
+            .map(|f| (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt())
+            .fold(0.0, f64::max);
+        let scale = self.scale.max(vmax + r0);
+        let params = DirectNewtonParams {
+            // The solver's rule is `rel_tol max|V_a| + abs_tol`: all of F_n through abs_tol.
+            rel_tol: 0.0,
+            abs_tol: self.params.abs_tol + self.params.rel_tol * scale,
+            flat_below: FLAT_BELOW * (self.params.abs_tol + self.params.rel_tol * scale),
+            max_newton: self.params.max_newton,
+            load_steps: 1,
+            pcg_max: if self.params.multigrid.is_some() {
+                0
+            } else {
+                DIRECT_PCG_MAX
+            },
+            multigrid: self.params.multigrid,
+            ..Default::default()
+        };
+        let System {
+            force,
+            f_ext,
+            constraints,
+            ..
+        } = &mut self.sys;
+        let out = self
+            .solver
+            .solve(
+                &mut **force,
+                &self.springs,
+                constraints,
+                f_ext,
+                t1,
+                &mut self.u,
+                params,
+            )
+            .map_err(solver_failure)?;
+        let c = &mut self.counts;
+        c.newton += out.newton_steps as u64;
+        c.max_newton_step = c.max_newton_step.max(out.newton_steps as u64);
+        c.cg += out.cg_iterations as u64;
+        c.force_evaluations += out.force_evaluations;
+        c.energy_evaluations += out.energy_evaluations;
+        c.factorizations += out.factorizations as u64;
+        c.multigrid_setups += out.multigrid_setups as u64;
+        self.last = (out.residual, out.target);
+        self.scale = scale;
+        if !out.converged {
+            return Err(fail(
+                DivergenceCause::NotConverged {
+                    residual: out.residual,
+                    target: out.target,
+                    newton: out.newton_steps,
+                },
+                None,
+            ));
+        }
+        let s = &mut self.state;
+        for ((u, v), &x) in s.u.iter_mut().zip(s.v.iter_mut()).zip(&self.u) {
+            *v = (x - *u) / h;
+            *u = x;
+        }
+        s.t = t1;
+        self.sys.impose(t1, &mut s.u, &mut s.v);
+        self.steps = step;
+        check_state(&self.sys, &self.state, step, self.params.kinetic_limit)
+    }
+    fn finest(&mut self) -> (&mut System, &State) {
+        (&mut self.sys, &self.state)
+    }
+    fn steps(&self) -> u64 {
+        self.steps
+    }
+    fn force_evaluations(&self) -> f64 {
+        (self.counts.force_evaluations + self.counts.energy_evaluations) as f64
+    }
+    fn dt(&self) -> f64 {
+        self.params.dt
+    }
+    fn describe(&self) -> String {
+        format!(
+            "single level, implicit-euler (Newton, {}), dt = {:.4e} s",
+            match self.down.len() {
+                0 => "sparse Cholesky".to_string(),
+                l => format!("CG with a Galerkin V-cycle over {} levels", l + 1),
+            },
+            self.params.dt
+        )
+    }
+    fn diagnostics(&self) -> Option<String> {
+        let c = &self.counts;
+        let per = |x: u64| x as f64 / self.steps.max(1) as f64;
+        Some(format!(
+            "implicit Euler: {} steps, {:.2} Newton iterations a step (at most {}), {:.1} CG \
+             iterations a step, {:.1} force and {:.1} energy evaluations a step, {} \
+             factorisations, {} multigrid setups",
+            self.steps,
+            per(c.newton),
+            c.max_newton_step,
+            per(c.cg),
+            per(c.force_evaluations),
+            per(c.energy_evaluations),
+            c.factorizations,
+            c.multigrid_setups
+        ))
+    }
+    fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
+        hold(&mut self.sys.constraints, values);
+    }
+    fn state(&self) -> &State {
+        &self.state
+    }
+    fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
+        let own = self
+            .own
+            .get_or_insert_with(|| OwnConstraints::of(&self.sys.constraints));
+        let pinned = c.pinned.first().map_or(&[][..], |p| &p[..]);
+        let n = self.sys.num_nodes();
+        own.apply(&mut self.sys.constraints, &c.held, pinned, &self.state.u, n);
+        self.sys.springs = c.springs_of(0).to_vec();
+        let t = self.state.t;
+        self.sys.impose(t, &mut self.state.u, &mut self.state.v);
+    }
+    fn save(&self, cp: &mut Checkpoint) {
+        let mut w = cp.writer();
+        w.state(&self.state);
+        w.count(self.steps);
+        w.number(self.scale);
+    }
+    fn restore(&mut self, cp: &Checkpoint) {
+        let mut r = cp.reader();
+        r.state(&mut self.state);
+        self.steps = r.count();
+        self.scale = r.number();
+    }
+    fn set_kinetic_limit(&mut self, limit: f64) {
+        self.params.kinetic_limit = limit;
+    }
+}
+
+#[cfg(test)]
+mod tests;

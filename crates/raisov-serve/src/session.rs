@@ -127,6 +127,8 @@ impl Source {
         table.remove("pin");
         table.remove("interactive");
         let method = match table.get("multigrid").and_then(|m| m.get("scheme")) {
+            // Backward Euler on one level, its levels preconditioning the Newton solves.
+            _ if implicit(&table) => Method::Single,
             None if table.contains_key("multigrid") => Method::Fas,
             None => Method::Single,
             Some(s) if s.as_str() == Some("raisov-paper") => Method::Raisov,
@@ -187,13 +189,29 @@ impl Source {
 
     /// The scenario table for `method`: `[multigrid] scheme = "fas"` (keys of raisov-paper
     /// dropped), `"raisov-paper"` (FAS keys dropped), or no `[multigrid]` (single level).
+    ///
+    /// A scenario integrated by backward Euler (`[integrator] method = "implicit-euler"`)
+    /// is served as `Method::Single` with its `[multigrid]` levels kept (they precondition its
+    /// Newton solves); switched to FAS or RaISoV, it drops its integrator keys
+    /// ([`IMPLICIT_ONLY`]) and is stepped explicitly at the scheme's own stable step.
     pub fn table_for(&self, method: Method) -> toml::Table {
         let mut t = self.table.clone();
         match method {
+            // A backward-Euler scenario keeps its levels: they precondition its Newton solves.
+            Method::Single if implicit(&t) => {}
             Method::Single => {
                 t.remove("multigrid");
             }
             Method::Fas | Method::Raisov => {
+                if implicit(&t) {
+                    // The explicit schemes take their own stable step: the keys of backward
+                    // Euler do not apply to them.
+                    if let Some(toml::Value::Table(i)) = t.get_mut("integrator") {
+                        for k in IMPLICIT_ONLY {
+                            i.remove(*k);
+                        }
+                    }
+                }
                 let mg = t
                     .entry("multigrid")
                     .or_insert_with(|| toml::Value::Table(toml::Table::new()));
@@ -1073,4 +1091,76 @@ pub fn von_mises(s: &[f64; 9]) -> f64 {
         }
     }
     (1.5 * q).sqrt()
+}
+
+/// The `[integrator]` keys of backward Euler, dropped when such a scenario is switched to an
+/// explicit scheme in the viewer ([`Source::table_for`]).
+pub const IMPLICIT_ONLY: &[&str] = &[
+    "method",
+    "dt",
+    "newton_tol",
+    "max_newton",
+    "solver",
+    "smoother",
+];
+
+/// Whether the scenario asks for backward Euler (`[integrator] method = "implicit-euler"`).
+fn implicit(t: &toml::Table) -> bool {
+    t.get("integrator")
+        .and_then(|i| i.get("method"))
+        .and_then(|m| m.as_str())
+        == Some("implicit-euler")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use raisov::sim::Budget;
+
+    /// A backward-Euler scenario with `[multigrid]` levels was refused by the viewer: it
+    /// served every scenario with levels as FAS, whose `multigrid.scheme` backward Euler
+    /// refuses. It is served on one level with its levels kept (the preconditioner), and the
+    /// viewer's switch to FAS or RaISoV steps it explicitly.
+    #[test]
+    fn an_implicit_euler_scenario_with_levels_is_served() {
+        let text = r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [6, 6, 6]
+[material]
+law = "stable-neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = { point = [0, 0, 0], normal = [0, 0, 1] }
+[integrator]
+method = "implicit-euler"
+dt = 0.0166666666666667
+solver = "multigrid"
+[multigrid]
+levels = 2
+[run]
+duration = 1.0
+"#;
+        let src = Source::from_text(text, PathBuf::from("."), "cube", Path::new("cube.toml"))
+            .unwrap();
+        assert_eq!(src.method, Method::Single);
+        let t = src.table_for(Method::Single);
+        assert!(t.contains_key("multigrid"), "the levels precondition the solves");
+        let mut sim = src.build(Method::Single).unwrap();
+        assert!(sim.stepper().describe().contains("implicit-euler"));
+        let r = sim.step_frame(Budget::Cycles(1));
+        assert!(r.accepted, "{r:?}");
+        // One step of 1/60 s: the cube sags under gravity.
+        assert!(sim.displacements().chunks(3).any(|u| u[2] < -1e-7));
+        for m in [Method::Fas, Method::Raisov] {
+            let t = src.table_for(m);
+            let i = t.get("integrator").and_then(|i| i.as_table());
+            assert!(i.is_none_or(|i| IMPLICIT_ONLY.iter().all(|k| !i.contains_key(*k))));
+            let sim = src.build(m).unwrap();
+            assert!(!sim.stepper().describe().contains("implicit"), "{m:?}");
+        }
+    }
 }

@@ -211,6 +211,12 @@ pub struct DirectNewtonParams {
     /// body barely loaded, [`crate::statics::implicit`]) the changes of Π a Newton step makes
     /// are below it. Default 0 (Π decides wherever it can).
     pub flat_below: f64,
+    /// The inexact-Newton forcing term of a solve's first iteration, and the largest any
+    /// iteration takes (Eisenstat and Walker's choice 2 after it): the first linear solve
+    /// reduces its residual by this factor. Default 0.5; a time step, whose start is close
+    /// and whose tangent the inertia conditions well, asks for less
+    /// ([`crate::statics::implicit`]).
+    pub first_forcing: f64,
 }
 
 /// Settings of the multigrid-preconditioned linear solves ([`DirectNewtonParams::multigrid`]).
@@ -254,6 +260,7 @@ impl Default for DirectNewtonParams {
             pcg_max: 0,
             multigrid: None,
             flat_below: 0.0,
+            first_forcing: 0.5,
         }
     }
 }
@@ -728,7 +735,8 @@ impl DirectNewton {
         let mut rhs = vec![0.0; self.nfree];
         let mut sigma = self.sigma;
         let mut prev_norm: Option<f64> = None;
-        let mut eta_prev = 0.5f64;
+        let eta0 = params.first_forcing.clamp(f64::MIN_POSITIVE, 0.5);
+        let mut eta_prev = eta0;
         // Residual on the free dofs at load factor s; returns (2-norm, largest nodal norm).
         let residual = |model: &mut dyn ForceModel,
                         u: &[f64],
@@ -815,7 +823,7 @@ impl DirectNewton {
                 let mut solved = false;
                 let mut built_now = false;
                 if let Some(mgp) = params.multigrid {
-                    let eta = forcing_term(prev_norm, norm, eta_prev, tol, max);
+                    let eta = forcing_term(prev_norm, norm, eta_prev, tol, max, eta0);
                     eta_prev = eta;
                     let scatter = self.scatter.get_or_insert_with(|| {
                         SymScatter::new(
@@ -959,7 +967,7 @@ impl DirectNewton {
                         self.mg = None;
                     }
                 } else if params.pcg_max > 0 && self.llt.is_some() {
-                    let eta = forcing_term(prev_norm, norm, eta_prev, tol, max);
+                    let eta = forcing_term(prev_norm, norm, eta_prev, tol, max, eta0);
                     eta_prev = eta;
                     let a = self
                         .matrix(sigma * dbar)
@@ -1132,16 +1140,24 @@ impl DirectNewton {
 }
 
 /// Eisenstat and Walker's choice 2 with its safeguard, not below what the stopping rule
-/// needs (`tol` against the largest nodal residual `max`), at most 0.5.
-fn forcing_term(prev_norm: Option<f64>, norm: f64, eta_prev: f64, tol: f64, max: f64) -> f64 {
+/// needs (`tol` against the largest nodal residual `max`), at most `eta0` (the first
+/// iteration's, [`DirectNewtonParams::first_forcing`]).
+fn forcing_term(
+    prev_norm: Option<f64>,
+    norm: f64,
+    eta_prev: f64,
+    tol: f64,
+    max: f64,
+    eta0: f64,
+) -> f64 {
     let mut eta = match prev_norm {
         Some(p) if p > 0.0 => 0.9 * (norm / p).powi(2),
-        _ => 0.5,
+        _ => eta0,
     };
     if 0.9 * eta_prev * eta_prev > 0.1 {
         eta = eta.max(0.9 * eta_prev * eta_prev);
     }
-    eta.max(0.1 * tol / max.max(f64::MIN_POSITIVE)).min(0.5)
+    eta.max(0.1 * tol / max.max(f64::MIN_POSITIVE)).min(eta0)
 }
 
 /// Where the kept hierarchy stands with respect to the provisional rule (module docs).

@@ -1144,11 +1144,14 @@ levels = 2
 [run]
 duration = 1.0
 "#;
-        let src = Source::from_text(text, PathBuf::from("."), "cube", Path::new("cube.toml"))
-            .unwrap();
+        let src =
+            Source::from_text(text, PathBuf::from("."), "cube", Path::new("cube.toml")).unwrap();
         assert_eq!(src.method, Method::Single);
         let t = src.table_for(Method::Single);
-        assert!(t.contains_key("multigrid"), "the levels precondition the solves");
+        assert!(
+            t.contains_key("multigrid"),
+            "the levels precondition the solves"
+        );
         let mut sim = src.build(Method::Single).unwrap();
         assert!(sim.stepper().describe().contains("implicit-euler"));
         let r = sim.step_frame(Budget::Cycles(1));

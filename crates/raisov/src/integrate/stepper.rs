@@ -244,6 +244,24 @@ pub(crate) struct OwnConstraints {
 }
 
 impl OwnConstraints {
+    /// [`Stepper::set_runtime_constraints`] of a single-level stepper: `sys`'s constraints
+    /// rebuilt from its own ones (remembered in `own` at the first call) and `c`'s grasps and
+    /// pins, level 0's springs of `c`, and the constrained values imposed on `state`.
+    pub(crate) fn apply_runtime(
+        own: &mut Option<OwnConstraints>,
+        sys: &mut System,
+        state: &mut State,
+        c: &RuntimeConstraints,
+    ) {
+        let own = own.get_or_insert_with(|| OwnConstraints::of(&sys.constraints));
+        let pinned = c.pinned.first().map_or(&[][..], |p| &p[..]);
+        let n = sys.num_nodes();
+        own.apply(&mut sys.constraints, &c.held, pinned, &state.u, n);
+        sys.springs = c.springs_of(0).to_vec();
+        let t = state.t;
+        sys.impose(t, &mut state.u, &mut state.v);
+    }
+
     pub(crate) fn of(c: &Constraints) -> Self {
         OwnConstraints {
             fixed: c.fixed.clone(),
@@ -374,15 +392,7 @@ impl Stepper for SingleLevel {
         &self.state
     }
     fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
-        let own = self
-            .own
-            .get_or_insert_with(|| OwnConstraints::of(&self.sys.constraints));
-        let pinned = c.pinned.first().map_or(&[][..], |p| &p[..]);
-        let n = self.sys.num_nodes();
-        own.apply(&mut self.sys.constraints, &c.held, pinned, &self.state.u, n);
-        self.sys.springs = c.springs_of(0).to_vec();
-        let t = self.state.t;
-        self.sys.impose(t, &mut self.state.u, &mut self.state.v);
+        OwnConstraints::apply_runtime(&mut self.own, &mut self.sys, &mut self.state, c);
     }
     fn set_kinetic_limit(&mut self, limit: f64) {
         self.params.kinetic_limit = limit;

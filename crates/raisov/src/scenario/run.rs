@@ -119,7 +119,7 @@ pub struct RunOptions<'a> {
     /// reports [`StopReason::Interrupted`].
     pub stop: Option<&'a std::sync::atomic::AtomicBool>,
     /// Keep the results in memory only: no file is written, no directory is created,
-    /// locked or cleared, and `out_dir` is not used. The summary (and, through [`solve`],
+    /// locked or cleared, and `out_dir` is not used. The summary (and, through [`crate::sim::solve()`],
     /// the final state) is all the run leaves.
     pub in_memory: bool,
 }

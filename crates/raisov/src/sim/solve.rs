@@ -26,7 +26,7 @@
 //! at equilibrium `reaction_fixed + reaction_prescribed + tool + applied = 0`, and a
 //! grasp's force is minus its nodes' share of `reaction_prescribed`. How the run ended is [`Finished::success`]: a static solve converged, a
 //! run in time reached its duration or steady state, an interactive run played every frame.
-//! A run that diverges is an error ([`Error::Diverged`]) as for `raisov run`.
+//! A run that diverges is an error ([`crate::Error::Diverged`]) as for `raisov run`.
 //!
 //! The same scenario gives the same bits whatever the number of threads, except where a
 //! wall-clock budget (`[interactive] ms`) decides how much work a frame does.

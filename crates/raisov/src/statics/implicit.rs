@@ -495,15 +495,7 @@ impl Stepper for ImplicitEuler {
         &self.state
     }
     fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
-        let own = self
-            .own
-            .get_or_insert_with(|| OwnConstraints::of(&self.sys.constraints));
-        let pinned = c.pinned.first().map_or(&[][..], |p| &p[..]);
-        let n = self.sys.num_nodes();
-        own.apply(&mut self.sys.constraints, &c.held, pinned, &self.state.u, n);
-        self.sys.springs = c.springs_of(0).to_vec();
-        let t = self.state.t;
-        self.sys.impose(t, &mut self.state.u, &mut self.state.v);
+        OwnConstraints::apply_runtime(&mut self.own, &mut self.sys, &mut self.state, c);
     }
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();

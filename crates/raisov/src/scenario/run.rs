@@ -64,6 +64,7 @@ use std::time::Instant;
 mod outputs;
 mod statics;
 pub(crate) use outputs::prepare as prepare_output;
+pub(crate) use statics::prescribed_force_scale;
 pub use statics::{describe_static, run_static, run_static_keeping, StaticSummary};
 
 /// Why a run ended normally.

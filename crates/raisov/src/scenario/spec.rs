@@ -272,7 +272,10 @@
 //!                                 # default 4; or instead
 //! budget_ms = 33.0                # wall-time budget per frame (ms): as many as fit
 //! reference = "newton"            # static solution per frame: "newton" (default) | "none"
-//! reference_tol = 1e-6            # its relative residual, default 1e-6
+//! reference_tol = 1e-8            # its largest nodal residual over the frame's force scale
+//!                                 # (the largest load, spring pull or out-of-balance force),
+//!                                 # default 1e-8 (Newton-Krylov, where no tangent is assembled:
+//!                                 # its residual 2-norm over the frame's start)
 //! lag_tol = 0.05                  # "keeps up with real time" needs every frame's lag within
 //!                                 # this fraction of max |u*| (and the frame rate), default 0.05
 //! ```
@@ -365,7 +368,7 @@ pub mod defaults {
     /// `[interactive] cycles` per frame.
     pub const CYCLES: usize = 4;
     /// `[interactive] reference_tol`.
-    pub const REFERENCE_TOL: f64 = 1e-6;
+    pub const REFERENCE_TOL: f64 = 1e-8;
     /// `[interactive] lag_tol`: the relative lag within which a fast run keeps up.
     pub const LAG_TOL: f64 = 0.05;
 }
@@ -868,7 +871,9 @@ pub struct InteractiveSpec {
     pub budget_ms: Option<f64>,
     /// `reference`: the static solution per frame, `"newton"` (default) or `"none"`.
     pub reference: Option<StaticReference>,
-    /// `reference_tol`: the reference solve's relative residual; default 1e-6.
+    /// `reference_tol`: the reference solve's largest nodal residual relative to the frame's
+    /// force scale (the largest nodal load, spring pull, or out-of-balance force from rest or
+    /// at the start); default 1e-8.
     pub reference_tol: Option<f64>,
     /// `lag_tol`: the largest relative lag `lag_max / max|u*|` of a run that keeps up with
     /// real time; default 0.05.

@@ -593,7 +593,7 @@ fn krylov(
 /// prescribed displacement, which the solver's lifted first iteration takes), the motions'
 /// fraction f = ½, ¼, … (at most 20 halvings) that inverts none gives it, times 1/f (its
 /// linear extrapolation); 0 where none does.
-fn prescribed_force_scale(sys: &mut System, t: f64, u: &[f64]) -> f64 {
+pub(crate) fn prescribed_force_scale(sys: &mut System, t: f64, u: &[f64]) -> f64 {
     let n = u.len();
     let (mut ug, mut v, mut f) = (u.to_vec(), vec![0.0; n], vec![0.0f64; n]);
     sys.constraints.impose(t, &mut ug, &mut v);

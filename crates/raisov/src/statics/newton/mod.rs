@@ -1234,7 +1234,7 @@ fn slot_of(pattern: &SymbolicSparseColMat<usize>, i: usize, j: usize) -> Option<
 
 /// Whether dof `i` (3 per node) holds an imposed value. The one place that reads the
 /// constraints per dof.
-fn fixed_dof(constraints: &Constraints, i: usize) -> bool {
+pub fn fixed_dof(constraints: &Constraints, i: usize) -> bool {
     let a = i / 3;
     if constraints.is_constrained(a) {
         return true;

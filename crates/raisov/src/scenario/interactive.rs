@@ -672,7 +672,7 @@ pub fn run_frames(
 enum Reference {
     Assembled {
         /// Built for the constrained dofs `mask`; rebuilt when a grasp or pin changes them.
-        newton: Option<(DirectNewton, Vec<bool>)>,
+        newton: Option<(Box<DirectNewton>, Vec<bool>)>,
         /// Level 0's nodes in the coarse level: the Galerkin V-cycle's; empty: Cholesky.
         down: Vec<crate::hierarchy::Transfer>,
         smoother: crate::statics::newton::Smoother,
@@ -811,7 +811,7 @@ impl Reference {
                         DirectNewton::with_levels(&*sys.force, &sys.mass, &sys.constraints, down)
                     };
                     let built = built.map_err(|e| format!("could not start: {e}"))?;
-                    *newton = Some((built, mask));
+                    *newton = Some((Box::new(built), mask));
                 }
                 let Some((solver, _)) = newton.as_mut() else {
                     unreachable!("built above")

@@ -195,6 +195,9 @@ pub struct InteractiveSummary {
     pub first_rejection: Option<String>,
     /// The output directory; `None` for a run in memory ([`RunOptions::in_memory`]).
     pub out_dir: Option<PathBuf>,
+    /// The reference's solver: `"Newton-multigrid"`, `"direct Newton"` or
+    /// `"Newton-Krylov"` (module docs); empty without a reference.
+    pub reference_solver: &'static str,
 }
 
 impl InteractiveSummary {
@@ -291,6 +294,11 @@ impl std::fmt::Display for InteractiveSummary {
             "frame rate      {fps:.1} fps of stepper wall time ({verdict})"
         )?;
         if s.reference {
+            writeln!(
+                f,
+                "reference       {}, each frame to {:.0e} of its force scale",
+                self.reference_solver, s.reference_tol
+            )?;
             if self.reference_failures > 0 {
                 writeln!(
                     f,
@@ -465,6 +473,7 @@ pub fn run_frames(
         rejected_frames: 0,
         first_rejection: None,
         out_dir: out.dir().map(Path::to_path_buf),
+        reference_solver: reference.as_ref().map_or("", Reference::name),
     };
     let mut rows = FrameRows::create(&out.path("frames.csv"), out.dir().is_some())?;
     // `out/frames`; none for a run in memory, which writes no frame.

@@ -822,7 +822,7 @@ mod tests {
         let mut c = Matrix3::identity();
         c[(0, 1)] = eps;
         c[(1, 0)] = eps;
-        let mats: Vec<(Material, Box<dyn SolidMaterial>)> = vec![
+        let mut mats: Vec<(Material, Box<dyn SolidMaterial>)> = vec![
             (
                 Material::StVenantKirchhoff(StVenantKirchhoff::from_young(1e4, 0.3)),
                 Box::new(StVenantKirchhoff::from_young(1e4, 0.3)),
@@ -840,6 +840,13 @@ mod tests {
                 Box::new(VerondaWestmann::new(300.0, 5.0, 1e5)),
             ),
         ];
+        // The fibre laws, fibres normal to the plane of shear: the matrix's μ.
+        let (ti, hgo) = (
+            TiNeoHookean::new(1e3, 1e5, 5e3, Vector3::z()).unwrap(),
+            HolzapfelGasserOgden::new(1e3, 1e5, 2e3, 3.0, 0.0, Vector3::z()).unwrap(),
+        );
+        mats.push((Material::TiNeoHookean(ti), Box::new(ti)));
+        mats.push((Material::HolzapfelGasserOgden(hgo), Box::new(hgo)));
         for (desc, m) in mats {
             let mu = desc.shear_modulus();
             let s = m.pk2(&c);

@@ -82,7 +82,7 @@ fn fibre_law_errors_name_the_key_and_the_valid_values() {
         (
             BASE.replace(
                 "law = \"mooney-rivlin\"\nc1 = 1000.0\nc2 = 1000.0",
-                &format!("law = \"hgo\"\nmu = 1e3\nkappa = 5e4\nk1 = 1e3\nk2 = 1.0\nfibre = [1, 0, 0]"),
+                "law = \"hgo\"\nmu = 1e3\nkappa = 5e4\nk1 = 1e3\nk2 = 1.0\nfibre = [1, 0, 0]",
             ),
             "law = \"hgo\" is a solid law (tetrahedra) and this mesh is a membrane; membranes take \"stvk\"",
         ),

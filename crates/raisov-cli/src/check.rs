@@ -60,6 +60,24 @@ pub fn material(m: &Material) -> String {
             num(p.gamma),
             bulk(p.kappa)
         ),
+        Material::TiNeoHookean(p) => format!(
+            "{}: mu {} Pa, fibre eta {} Pa along {}, {}",
+            m.name(),
+            num(p.mu),
+            num(p.eta),
+            point(p.fibre.into()),
+            bulk(p.kappa)
+        ),
+        Material::HolzapfelGasserOgden(p) => format!(
+            "{}: mu {} Pa, fibre k1 {} Pa, k2 {}, dispersion {} along {}, {}",
+            m.name(),
+            num(p.mu),
+            num(p.k1),
+            num(p.k2),
+            num(p.dispersion),
+            point(p.fibre.into()),
+            bulk(p.kappa)
+        ),
     }
 }
 

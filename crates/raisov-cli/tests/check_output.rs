@@ -159,6 +159,12 @@ fn check_prints_words_not_debug_structures_for_every_example() {
                     "{text}"
                 );
             }
+            "fibre_block.toml" => {
+                assert_eq!(
+                    field(&text, "material"),
+                    "ti-neo-hookean: mu 1000 Pa, fibre eta 8000 Pa along (1, 0, 0), bulk modulus kappa 50000 Pa"
+                );
+            }
             "membrane_lift.toml" => {
                 assert!(
                     field(&text, "prescribed")

@@ -265,7 +265,8 @@ pub const MODEL_ELEMENT_BYTES: u64 = 192;
 pub const MODEL_NODE_BYTES: u64 = 160;
 
 impl FemModel {
-    /// Precompute reference data. Errors on an element with zero or negative reference
+    /// Precompute reference data. Errors on a law that does not apply to the mesh's elements
+    /// ([`Material::check_for`]), on an element with zero or negative reference
     /// measure, or where the model would need more memory than is available
     /// ([`MODEL_ELEMENT_BYTES`] an element, [`MODEL_NODE_BYTES`] a node).
     pub fn new(mesh: &Mesh, params: FemParams) -> Result<Self> {
@@ -277,6 +278,7 @@ impl FemModel {
                 "must be a positive number (kg/m^3)",
             ));
         }
+        params.material.check_for(mesh.kind)?;
         if mesh.kind == ElementKind::Tri3 && !(params.thickness > 0.0) {
             return Err(Error::param("thickness", "must be a positive number (m)"));
         }
@@ -654,7 +656,35 @@ impl FemModel {
             (Material::MooneyRivlin(m), k) => self.element_forces_with(m, m, k, e, u, out),
             (Material::VerondaWestmann(m), k) => self.element_forces_with(m, m, k, e, u, out),
             (Material::StableNeoHookean(m), k) => self.element_forces_with(m, m, k, e, u, out),
+            (Material::TiNeoHookean(m), ElementKind::Tet4) => self.tet_forces_with(m, e, u, out),
+            (Material::HolzapfelGasserOgden(m), ElementKind::Tet4) => {
+                self.tet_forces_with(m, e, u, out)
+            }
+            (Material::TiNeoHookean(_) | Material::HolzapfelGasserOgden(_), ElementKind::Tri3) => {
+                unreachable!("FemModel::new refuses solid-only laws on membranes")
+            }
         }
+    }
+
+    /// Forces of tetrahedron e.
+    #[inline(always)]
+    fn tet_forces_with<S: SolidMaterial>(
+        &self,
+        solid: &S,
+        e: usize,
+        u: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ElementFailure> {
+        element::tet_forces(
+            solid,
+            &self.cells[e * 4..e * 4 + 4],
+            &self.x0,
+            u,
+            &self.dminv[e * 9..e * 9 + 9],
+            self.measure[e],
+            out,
+        )
+        .map_err(|det_f| ElementFailure { element: e, det_f })
     }
 
     /// Tangent stiffness of element e, `∂R_e/∂u_e` (144 numbers for a tetrahedron, 81 for a
@@ -712,16 +742,7 @@ impl FemModel {
         out: &mut [f64],
     ) -> Result<(), ElementFailure> {
         match kind {
-            ElementKind::Tet4 => element::tet_forces(
-                solid,
-                &self.cells[e * 4..e * 4 + 4],
-                &self.x0,
-                u,
-                &self.dminv[e * 9..e * 9 + 9],
-                self.measure[e],
-                out,
-            )
-            .map_err(|det_f| ElementFailure { element: e, det_f }),
+            ElementKind::Tet4 => self.tet_forces_with(solid, e, u, out),
             ElementKind::Tri3 => element::membrane_forces(
                 membrane,
                 &self.cells[e * 3..e * 3 + 3],
@@ -744,9 +765,13 @@ fn with_solid<T>(m: &Material, f: impl FnOnce(&dyn SolidMaterial) -> T) -> T {
         Material::MooneyRivlin(m) => f(m),
         Material::VerondaWestmann(m) => f(m),
         Material::StableNeoHookean(m) => f(m),
+        Material::TiNeoHookean(m) => f(m),
+        Material::HolzapfelGasserOgden(m) => f(m),
     }
 }
 
+/// The membrane form of the model's law; [`FemModel::new`] refuses the solid-only laws on
+/// membranes ([`Material::check_for`]), so a membrane model never reaches them.
 fn with_membrane<T>(m: &Material, f: impl FnOnce(&dyn MembraneMaterial) -> T) -> T {
     match m {
         Material::StVenantKirchhoff(m) => f(m),
@@ -754,6 +779,9 @@ fn with_membrane<T>(m: &Material, f: impl FnOnce(&dyn MembraneMaterial) -> T) ->
         Material::MooneyRivlin(m) => f(m),
         Material::VerondaWestmann(m) => f(m),
         Material::StableNeoHookean(m) => f(m),
+        Material::TiNeoHookean(_) | Material::HolzapfelGasserOgden(_) => {
+            unreachable!("FemModel::new refuses solid-only laws on membranes")
+        }
     }
 }
 

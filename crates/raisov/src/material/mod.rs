@@ -43,16 +43,22 @@
 use crate::mesh::ElementKind;
 use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector3};
 
+mod hgo;
 mod mooney_rivlin;
 mod neo_hookean;
 mod stable_neo_hookean;
 mod stvk;
+mod ti_neo_hookean;
+#[cfg(test)]
+pub(crate) mod uniaxial_tests;
 mod veronda_westmann;
 
+pub use hgo::HolzapfelGasserOgden;
 pub use mooney_rivlin::MooneyRivlin;
 pub use neo_hookean::NeoHookean;
 pub use stable_neo_hookean::StableNeoHookean;
 pub use stvk::StVenantKirchhoff;
+pub use ti_neo_hookean::TiNeoHookean;
 pub use veronda_westmann::VerondaWestmann;
 
 /// A 3-D hyperelastic law W(C).
@@ -225,6 +231,56 @@ impl Iso3 {
     }
 }
 
+/// The isochoric fibre invariant `b4 = Ī4 = J^(−2/3) I4`, `I4 = a0·C a0` (the squared
+/// stretch of the unit reference direction `a0`, before removing the volume change), its
+/// gradient `g4 = ∂Ī4/∂C` and, along `dc`, its differentials; with `A = a0 ⊗ a0`,
+/// `dI4 = a0·dC a0` and `t`, `C⁻¹dCC⁻¹` of [`Iso3`]:
+///
+/// ```text
+/// g4 = J^(−2/3) (A − I4/3 C⁻¹),    dg4 = −t/3 g4 + J^(−2/3) (−dI4/3 C⁻¹ + I4/3 C⁻¹dCC⁻¹)
+/// ```
+pub(crate) struct Fib4 {
+    pub b4: f64,
+    pub g4: Matrix3<f64>,
+    pub db4: f64,
+    pub dg4: Matrix3<f64>,
+}
+
+impl Fib4 {
+    /// The fibre invariant of `a0` at `c` (and along `dc`), from the `iso` of the same
+    /// `c`, `dc`.
+    pub fn new(iso: &Iso3, c: &Matrix3<f64>, dc: &Matrix3<f64>, a0: &Vector3<f64>) -> Self {
+        let a = a0 * a0.transpose();
+        let i4 = a0.dot(&(c * a0));
+        let j23 = iso.j.powf(-2.0 / 3.0);
+        let g4 = (a - iso.cinv * (i4 / 3.0)) * j23;
+        let di4 = a0.dot(&(dc * a0));
+        let dg4 = g4 * (-iso.t / 3.0) + (iso.cinv * (-di4 / 3.0) + iso.cdc * (i4 / 3.0)) * j23;
+        Fib4 {
+            b4: i4 * j23,
+            db4: g4.component_mul(dc).sum(),
+            g4,
+            dg4,
+        }
+    }
+}
+
+/// `v / |v|`, or an error naming `key` where `v` is zero or not finite.
+pub fn unit_direction(v: Vector3<f64>, key: &str) -> crate::Result<Vector3<f64>> {
+    let n = v.norm();
+    if n > 0.0 && n.is_finite() {
+        Ok(v / n)
+    } else {
+        Err(crate::Error::param(
+            key,
+            format!(
+                "[{}, {}, {}] is not a direction: give a non-zero finite vector",
+                v.x, v.y, v.z
+            ),
+        ))
+    }
+}
+
 /// The plane-stress incompressible invariants of a 2x2 C (`λ3² = 1/det C`),
 /// `I1 = T + 1/D`, `I2 = D + T/D` (`T = tr C`, `D = det C`), their gradients and, along `dc`,
 /// their differentials; with `t = tr(C⁻¹ dC)` (so `dD = D t`) and `dT = tr dC`:
@@ -284,6 +340,10 @@ pub enum Material {
     VerondaWestmann(VerondaWestmann),
     /// `law = "stable-neo-hookean"`: small-strain Lamé λ, μ.
     StableNeoHookean(StableNeoHookean),
+    /// `law = "ti-neo-hookean"`: μ, κ, η and a fibre direction (solids only).
+    TiNeoHookean(TiNeoHookean),
+    /// `law = "hgo"`: μ, κ, k1, k2, dispersion and a fibre direction (solids only).
+    HolzapfelGasserOgden(HolzapfelGasserOgden),
 }
 
 impl Material {
@@ -295,7 +355,46 @@ impl Material {
             Material::MooneyRivlin(_) => "mooney-rivlin",
             Material::VerondaWestmann(_) => "veronda-westmann",
             Material::StableNeoHookean(_) => "stable-neo-hookean",
+            Material::TiNeoHookean(_) => "ti-neo-hookean",
+            Material::HolzapfelGasserOgden(_) => "hgo",
         }
+    }
+
+    /// The fibre direction of an anisotropic law (a unit vector), `None` for the isotropic
+    /// ones.
+    pub fn fibre(&self) -> Option<Vector3<f64>> {
+        match self {
+            Material::TiNeoHookean(m) => Some(m.fibre),
+            Material::HolzapfelGasserOgden(m) => Some(m.fibre),
+            _ => None,
+        }
+    }
+
+    /// Whether the law can be used with elements of `kind`: the fibre laws are solids only,
+    /// and need a unit fibre direction (their constructors normalise it). The error names
+    /// the key and what would be valid.
+    pub fn check_for(&self, kind: ElementKind) -> crate::Result<()> {
+        if let Some(a) = self.fibre() {
+            if kind == ElementKind::Tri3 {
+                return Err(crate::Error::param(
+                    "material.law",
+                    format!(
+                        "\"{}\" is a solid law (tetrahedra); membranes take \"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\" or \"stable-neo-hookean\"",
+                        self.name()
+                    ),
+                ));
+            }
+            if !((a.norm() - 1.0).abs() <= 1e-9) {
+                return Err(crate::Error::param(
+                    "material.fibre",
+                    format!(
+                        "[{}, {}, {}] must be a unit vector (the laws' constructors normalise it)",
+                        a.x, a.y, a.z
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Small-strain shear modulus μ (Pa).
@@ -306,6 +405,8 @@ impl Material {
             Material::MooneyRivlin(m) => 2.0 * (m.c1 + m.c2),
             Material::VerondaWestmann(m) => m.c1 * m.gamma,
             Material::StableNeoHookean(m) => m.lame_mu,
+            Material::TiNeoHookean(m) => m.mu,
+            Material::HolzapfelGasserOgden(m) => m.mu,
         }
     }
 
@@ -314,7 +415,11 @@ impl Material {
     /// density `λ (tr ε)² + 2μ ε:ε` is at most `(dλ + 2μ) |∇u|²` in d dimensions, the bound
     /// reached by an element's dilatation mode. Solids: `3λ + 2μ = 3K` (`3κ` for the laws with
     /// a bulk modulus). Membranes (plane stress, d = 2): `2λ* + 2μ`, `λ* = 2λμ/(λ + 2μ)`;
-    /// `6μ` for the incompressible laws (λ* = 2μ).
+    /// `6μ` for the incompressible laws (λ* = 2μ). The fibre laws add their fibres'
+    /// small-strain stiffness along `a0` to the deviatoric bound: `2η` (ti-neo-hookean, whose
+    /// fibre energy is `η (ε_aa − tr ε/3)²` to second order) and `4 k1 (1 − 3κ_d)²` (hgo,
+    /// `2 k1 (1 − 3κ_d)² (ε_aa − tr ε/3)²` in tension); hgo's exponential stiffening at
+    /// large stretch is not in this bound.
     pub fn stability_modulus(&self, kind: ElementKind) -> f64 {
         let mu = self.shear_modulus();
         match (self, kind) {
@@ -322,6 +427,13 @@ impl Material {
             (Material::NeoHookean(m), ElementKind::Tet4) => 3.0 * m.lambda + 2.0 * m.mu,
             (Material::MooneyRivlin(m), ElementKind::Tet4) => (3.0 * m.kappa).max(2.0 * mu),
             (Material::VerondaWestmann(m), ElementKind::Tet4) => (3.0 * m.kappa).max(2.0 * mu),
+            (Material::TiNeoHookean(m), ElementKind::Tet4) => {
+                (3.0 * m.kappa).max(2.0 * mu) + 2.0 * m.eta
+            }
+            (Material::HolzapfelGasserOgden(m), ElementKind::Tet4) => {
+                let w = 1.0 - 3.0 * m.dispersion;
+                (3.0 * m.kappa).max(2.0 * mu) + 4.0 * m.k1 * w * w
+            }
             (Material::StableNeoHookean(m), ElementKind::Tet4) => {
                 3.0 * m.lame_lambda + 2.0 * m.lame_mu
             }
@@ -710,7 +822,7 @@ mod tests {
         let mut c = Matrix3::identity();
         c[(0, 1)] = eps;
         c[(1, 0)] = eps;
-        let mats: Vec<(Material, Box<dyn SolidMaterial>)> = vec![
+        let mut mats: Vec<(Material, Box<dyn SolidMaterial>)> = vec![
             (
                 Material::StVenantKirchhoff(StVenantKirchhoff::from_young(1e4, 0.3)),
                 Box::new(StVenantKirchhoff::from_young(1e4, 0.3)),
@@ -728,6 +840,13 @@ mod tests {
                 Box::new(VerondaWestmann::new(300.0, 5.0, 1e5)),
             ),
         ];
+        // The fibre laws, fibres normal to the plane of shear: the matrix's μ.
+        let (ti, hgo) = (
+            TiNeoHookean::new(1e3, 1e5, 5e3, Vector3::z()).unwrap(),
+            HolzapfelGasserOgden::new(1e3, 1e5, 2e3, 3.0, 0.0, Vector3::z()).unwrap(),
+        );
+        mats.push((Material::TiNeoHookean(ti), Box::new(ti)));
+        mats.push((Material::HolzapfelGasserOgden(hgo), Box::new(hgo)));
         for (desc, m) in mats {
             let mu = desc.shear_modulus();
             let s = m.pk2(&c);

@@ -7,10 +7,12 @@ use super::{err, loading, positive, spec, Fixing, Selector, Shape};
 use crate::error::Result;
 use crate::geometry::{dot, norm, sub};
 use crate::material::{
-    lame, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff, StableNeoHookean, VerondaWestmann,
+    lame, HolzapfelGasserOgden, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff,
+    StableNeoHookean, TiNeoHookean, VerondaWestmann,
 };
 use crate::mesh::{ElementKind, Mesh};
 use crate::time::Motion;
+use nalgebra::Vector3;
 use spec::{defaults, Law, MotionMode, Named};
 use std::path::Path;
 
@@ -222,7 +224,7 @@ pub(super) fn resolve_material(
         (None, false) => {
             return Err(err(
                 path,
-                "[material]: `law` is required (one of \"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\", \"stable-neo-hookean\"; scenarios with an [interactive] section default to \"stable-neo-hookean\")",
+                "[material]: `law` is required (one of \"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\", \"stable-neo-hookean\", \"ti-neo-hookean\", \"hgo\"; scenarios with an [interactive] section default to \"stable-neo-hookean\")",
             ))
         }
     };
@@ -230,12 +232,32 @@ pub(super) fn resolve_material(
     let need = |key: &str, v: Option<f64>| -> Result<f64> {
         v.ok_or_else(|| err(path, format!("[material]: law = \"{law}\" needs `{key}`")))
     };
-    let forbid = |keys: &[(&str, bool)]| -> Result<()> {
-        for (k, set) in keys {
-            if *set {
+    let given = [
+        ("young", m.young.is_some()),
+        ("poisson", m.poisson.is_some()),
+        ("c1", m.c1.is_some()),
+        ("c2", m.c2.is_some()),
+        ("gamma", m.gamma.is_some()),
+        ("kappa", m.kappa.is_some()),
+        ("mu", m.mu.is_some()),
+        ("eta", m.eta.is_some()),
+        ("k1", m.k1.is_some()),
+        ("k2", m.k2.is_some()),
+        ("dispersion", m.dispersion.is_some()),
+        ("fibre", m.fibre.is_some()),
+    ];
+    // Every key given must be one of `allowed`, the law's parameters.
+    let only = |allowed: &[&str]| -> Result<()> {
+        for (k, set) in given {
+            if set && !allowed.contains(&k) {
+                let list: Vec<String> = allowed.iter().map(|a| format!("`{a}`")).collect();
                 return Err(err(
                     path,
-                    format!("[material]: `{k}` is not a parameter of law = \"{law}\""),
+                    format!(
+                        "[material]: `{k}` is not a parameter of law = \"{law}\" (its parameters: {}, `density`{})",
+                        list.join(", "),
+                        if kind == ElementKind::Tri3 { ", `thickness`" } else { "" }
+                    ),
                 ));
             }
         }
@@ -264,32 +286,18 @@ pub(super) fn resolve_material(
     };
     Ok(match chosen {
         Law::StVenantKirchhoff => {
-            forbid(&[
-                ("c1", m.c1.is_some()),
-                ("c2", m.c2.is_some()),
-                ("gamma", m.gamma.is_some()),
-                ("kappa", m.kappa.is_some()),
-            ])?;
+            only(&["young", "poisson"])?;
             let (e, nu) = young_poisson()?;
             Material::StVenantKirchhoff(StVenantKirchhoff::from_young(e, nu))
         }
         Law::NeoHookean => {
-            forbid(&[
-                ("c1", m.c1.is_some()),
-                ("c2", m.c2.is_some()),
-                ("gamma", m.gamma.is_some()),
-                ("kappa", m.kappa.is_some()),
-            ])?;
+            only(&["young", "poisson"])?;
             let (e, nu) = young_poisson()?;
             let (lambda, mu) = lame(e, nu);
             Material::NeoHookean(NeoHookean { lambda, mu })
         }
         Law::MooneyRivlin => {
-            forbid(&[
-                ("young", m.young.is_some()),
-                ("poisson", m.poisson.is_some()),
-                ("gamma", m.gamma.is_some()),
-            ])?;
+            only(&["c1", "c2", "kappa"])?;
             let c1 = need("c1", m.c1)?;
             let c2 = need("c2", m.c2)?;
             if !(c1 + c2 > 0.0 && c1 >= 0.0 && c2 >= 0.0) {
@@ -303,27 +311,98 @@ pub(super) fn resolve_material(
             Material::MooneyRivlin(MooneyRivlin::new(c1, c2, kappa(m.kappa)?))
         }
         Law::VerondaWestmann => {
-            forbid(&[
-                ("young", m.young.is_some()),
-                ("poisson", m.poisson.is_some()),
-                ("c2", m.c2.is_some()),
-            ])?;
+            only(&["c1", "gamma", "kappa"])?;
             let c1 = positive(path, "material.c1", need("c1", m.c1)?)?;
             let gamma = positive(path, "material.gamma", need("gamma", m.gamma)?)?;
             Material::VerondaWestmann(VerondaWestmann::new(c1, gamma, kappa(m.kappa)?))
         }
         Law::StableNeoHookean => {
-            forbid(&[
-                ("c1", m.c1.is_some()),
-                ("c2", m.c2.is_some()),
-                ("gamma", m.gamma.is_some()),
-                ("kappa", m.kappa.is_some()),
-            ])?;
+            only(&["young", "poisson"])?;
             let (e, nu) = young_poisson()?;
             Material::StableNeoHookean(StableNeoHookean::from_young(e, nu))
         }
+        Law::TiNeoHookean | Law::HolzapfelGasserOgden => {
+            let fibre_keys: &[&str] = if chosen == Law::TiNeoHookean {
+                &["mu", "kappa", "young", "poisson", "eta", "fibre"]
+            } else {
+                &[
+                    "mu",
+                    "kappa",
+                    "young",
+                    "poisson",
+                    "k1",
+                    "k2",
+                    "dispersion",
+                    "fibre",
+                ]
+            };
+            only(fibre_keys)?;
+            if kind == ElementKind::Tri3 {
+                return Err(err(
+                    path,
+                    format!("[material]: law = \"{law}\" is a solid law (tetrahedra) and this mesh is a membrane; membranes take {MEMBRANE_LAWS}"),
+                ));
+            }
+            let (mu, kappa) = match (m.mu.is_some() || m.kappa.is_some(), m.young.is_some() || m.poisson.is_some()) {
+                (true, true) => return Err(err(path, format!("[material]: law = \"{law}\" takes either `mu` and `kappa` or `young` and `poisson`, not both pairs"))),
+                (false, true) => {
+                    let (e, nu) = young_poisson()?;
+                    (e / (2.0 * (1.0 + nu)), e / (3.0 * (1.0 - 2.0 * nu)))
+                }
+                _ => (
+                    positive(path, "material.mu", need("mu", m.mu)?)?,
+                    positive(path, "material.kappa", need("kappa", m.kappa)?)?,
+                ),
+            };
+            let Some(f) = m.fibre else {
+                return Err(err(path, format!("[material]: law = \"{law}\" needs `fibre = [x, y, z]`, the fibre direction")));
+            };
+            let fibre = crate::material::unit_direction(Vector3::from(f), "material.fibre")
+                .map_err(|e| err(path, e.to_string()))?;
+            let non_negative = |key: &str, v: f64| -> Result<f64> {
+                if v >= 0.0 && v.is_finite() {
+                    Ok(v)
+                } else {
+                    Err(err(
+                        path,
+                        format!(
+                            "`material.{key}` = {}: must be a number >= 0",
+                            crate::numbers::compact(v)
+                        ),
+                    ))
+                }
+            };
+            if chosen == Law::TiNeoHookean {
+                let eta = non_negative("eta", need("eta", m.eta)?)?;
+                Material::TiNeoHookean(TiNeoHookean {
+                    mu,
+                    kappa,
+                    eta,
+                    fibre,
+                })
+            } else {
+                let k1 = non_negative("k1", need("k1", m.k1)?)?;
+                let k2 = non_negative("k2", need("k2", m.k2)?)?;
+                let dispersion = m.dispersion.unwrap_or(0.0);
+                if !(0.0..=1.0 / 3.0).contains(&dispersion) {
+                    return Err(err(path, format!("`material.dispersion` = {}: must be in [0, 1/3] (0: aligned fibres, 1/3: isotropic)", crate::numbers::compact(dispersion))));
+                }
+                Material::HolzapfelGasserOgden(HolzapfelGasserOgden {
+                    mu,
+                    kappa,
+                    k1,
+                    k2,
+                    dispersion,
+                    fibre,
+                })
+            }
+        }
     })
 }
+
+/// The laws with a membrane form, as an error message lists them.
+const MEMBRANE_LAWS: &str =
+    "\"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\" or \"stable-neo-hookean\"";
 
 pub(super) fn resolve_motion(d: &spec::DisplaceSpec, path: &Path, key: &str) -> Result<Motion> {
     if let Some(t) = &d.time {

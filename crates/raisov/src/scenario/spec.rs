@@ -40,7 +40,8 @@
 //!
 //! [material]
 //! law = "mooney-rivlin"           # "stvk" (or "st-venant-kirchhoff") | "neo-hookean" |
-//!                                 # "mooney-rivlin" | "veronda-westmann" | "stable-neo-hookean";
+//!                                 # "mooney-rivlin" | "veronda-westmann" | "stable-neo-hookean"
+//!                                 # | "ti-neo-hookean" | "hgo" (or "holzapfel-gasser-ogden");
 //!                                 # required, except with an [interactive] section: there
 //!                                 # default "stable-neo-hookean" (finite energy and forces
 //!                                 # for inverted elements, so a hard grasp recovers)
@@ -49,7 +50,16 @@
 //! c1 = 1e3                        # Pa   (mooney-rivlin, veronda-westmann)
 //! c2 = 1e3                        # Pa   (mooney-rivlin)
 //! gamma = 5.0                     #      (veronda-westmann)
-//! kappa = 1e5                     # Pa, bulk modulus (mooney-rivlin, veronda-westmann solids)
+//! kappa = 1e5                     # Pa, bulk modulus (mooney-rivlin, veronda-westmann solids;
+//!                                 # ti-neo-hookean, hgo with `mu`)
+//! mu = 1e3                        # Pa, matrix shear modulus (ti-neo-hookean, hgo), with
+//!                                 # `kappa`; or `young` and `poisson` instead of both
+//! eta = 5e3                       # Pa, fibre stiffness (ti-neo-hookean)
+//! k1 = 2e3                        # Pa, fibre stiffness (hgo)
+//! k2 = 5.0                        # fibre stiffening exponent (hgo)
+//! dispersion = 0.0                # fibre dispersion κ_d in [0, 1/3] (hgo), default 0
+//! fibre = [1.0, 0.0, 0.0]         # fibre direction (ti-neo-hookean, hgo; solids only),
+//!                                 # normalised, the same in every element
 //! density = 1000.0                # kg/m³, default 1000
 //! thickness = 1e-3                # m, membranes only, default 1e-3
 //!
@@ -514,6 +524,14 @@ named_enum! {
         /// `"stable-neo-hookean"`: from `young` and `poisson`, finite for inverted elements
         /// ([`crate::material::StableNeoHookean`]); the default with `[interactive]`.
         StableNeoHookean = "stable-neo-hookean",
+        /// `"ti-neo-hookean"`: NiftySim's transversely isotropic neo-Hookean, from `mu` and
+        /// `kappa` (or `young` and `poisson`), `eta` and `fibre`; solids only
+        /// ([`crate::material::TiNeoHookean`]).
+        TiNeoHookean = "ti-neo-hookean",
+        /// `"hgo"` or `"holzapfel-gasser-ogden"`: one fibre family, from `mu` and `kappa` (or
+        /// `young` and `poisson`), `k1`, `k2`, `dispersion` (default 0) and `fibre`; solids
+        /// only ([`crate::material::HolzapfelGasserOgden`]).
+        HolzapfelGasserOgden = "hgo" | "holzapfel-gasser-ogden",
     }
 }
 
@@ -957,8 +975,22 @@ pub struct MaterialSpec {
     /// `gamma`: veronda-westmann's γ (dimensionless).
     pub gamma: Option<f64>,
     /// `kappa`: the bulk modulus κ (Pa) of mooney-rivlin and veronda-westmann solids; required
-    /// there, an error for membranes.
+    /// there, an error for membranes. With `mu`, the bulk modulus of the fibre laws.
     pub kappa: Option<f64>,
+    /// `mu`: the matrix shear modulus μ (Pa) of ti-neo-hookean and hgo, with `kappa` (or
+    /// `young` and `poisson` instead of both).
+    pub mu: Option<f64>,
+    /// `eta`: ti-neo-hookean's fibre stiffness η (Pa, ≥ 0).
+    pub eta: Option<f64>,
+    /// `k1`: hgo's fibre stiffness (Pa, ≥ 0).
+    pub k1: Option<f64>,
+    /// `k2`: hgo's fibre stiffening exponent (dimensionless, ≥ 0).
+    pub k2: Option<f64>,
+    /// `dispersion`: hgo's fibre dispersion κ_d in [0, 1/3]; default 0 (aligned fibres).
+    pub dispersion: Option<f64>,
+    /// `fibre = [x, y, z]`: the fibre direction of ti-neo-hookean and hgo in the reference
+    /// configuration, the same in every element; normalised, non-zero.
+    pub fibre: Option<[f64; 3]>,
     /// `density` (kg/m³); default 1000.
     pub density: Option<f64>,
     /// `thickness` of membranes (m); default 1e-3.

@@ -823,7 +823,7 @@ fn documented_defaults_are_the_applied_ones() {
         (
             "interactive",
             "reference_tol",
-            "1e-6",
+            "1e-8",
             defaults::REFERENCE_TOL,
         ),
     ];

@@ -201,7 +201,7 @@ pub fn interactive(i: &Interactive) -> String {
     };
     let reference = if i.reference {
         format!(
-            "each frame compared with its static solution (solved to a relative residual of {}); \
+            "each frame compared with its static solution (solved to {} of the frame's largest force); \
              keeps up while the lag stays under {} % of the static displacement",
             num(i.reference_tol),
             num(100.0 * i.lag_tol)

@@ -964,6 +964,23 @@ mod tests {
         Scenario::from_toml(&text, Path::new("interactive-test.toml")).unwrap()
     }
 
+    /// Run `sc` interactively into a temporary directory: its summary and `frames.csv`.
+    fn played(sc: &Scenario) -> (InteractiveSummary, Vec<FrameRow>) {
+        let dir = tempfile::tempdir().unwrap();
+        let mut st = sc.stepper().unwrap();
+        let s = run_interactive(
+            sc,
+            st.as_mut(),
+            RunOptions {
+                out_dir: Some(dir.path().to_path_buf()),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let rows = read_frames_csv(&dir.path().join("frames.csv")).unwrap();
+        (s, rows)
+    }
+
     /// The text of [`scenario_for`].
     fn scenario_text(duration: f64, multigrid: &str, interactive: &str) -> String {
         format!(
@@ -1005,19 +1022,8 @@ fps = 30.0
     fn the_reference_is_the_static_solve_s_equilibrium() {
         for multigrid in ["", "[multigrid]\nlevels = 3\n"] {
             let sc = scenario_for(0.3, multigrid, "cycles = 2");
-            let dir = tempfile::tempdir().unwrap();
-            let mut st = sc.stepper().unwrap();
-            let s = run_interactive(
-                &sc,
-                st.as_mut(),
-                RunOptions {
-                    out_dir: Some(dir.path().to_path_buf()),
-                    ..Default::default()
-                },
-            )
-            .unwrap();
+            let (s, rows) = played(&sc);
             assert_eq!(s.reference_failures, 0, "{s}");
-            let rows = read_frames_csv(&dir.path().join("frames.csv")).unwrap();
             let last = rows.last().unwrap();
             let text = format!(
                 "{}[integrator]\nmethod = \"newton\"\n[run]\nresidual_tol = 1e-11\n",
@@ -1053,17 +1059,7 @@ fps = 30.0
     fn the_reference_does_not_fail_once_the_path_holds_still() {
         // The membrane's path over 0.2 s (6 frames), then held for 0.3 s more (9 frames).
         let sc = scenario_for(0.5, "", "cycles = 8");
-        let dir = tempfile::tempdir().unwrap();
-        let mut st = sc.stepper().unwrap();
-        let s = run_interactive(
-            &sc,
-            st.as_mut(),
-            RunOptions {
-                out_dir: Some(dir.path().to_path_buf()),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let (s, _) = played(&sc);
         assert_eq!(s.frames, 15);
         assert_eq!(s.reference_failures, 0, "{:?}", s.first_failure);
         assert_eq!(s.lag_frames, s.frames);
@@ -1136,19 +1132,7 @@ fps = 30.0
     fn failed_reference_is_reported_not_measured_against() {
         let run = |extra: &str| {
             let sc = scenario("", &format!("cycles = 2\n{extra}"));
-            let dir = tempfile::tempdir().unwrap();
-            let mut st = sc.stepper().unwrap();
-            let s = run_interactive(
-                &sc,
-                st.as_mut(),
-                RunOptions {
-                    out_dir: Some(dir.path().to_path_buf()),
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-            let rows = read_frames_csv(&dir.path().join("frames.csv")).unwrap();
-            (s, rows)
+            played(&sc)
         };
         let (s, rows) = run("reference_tol = 1e-30");
         assert_eq!(s.reference_failures, 6);

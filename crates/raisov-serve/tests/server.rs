@@ -100,6 +100,13 @@ async fn a_grasp_moves_the_grasped_nodes() {
             break;
         }
     }
+    // A recording ends at the last frame stepped (crate::record): wait for a frame stepped
+    // after the release, or a save that races ahead of it records the grasp still held.
+    for _ in 0..200 {
+        if next_frame(&mut ws).await.stats[STAT_HOLDER] < 0.0 {
+            break;
+        }
+    }
     // The recording comes back as a scenario with the grasp as a [[displace]] with a radius.
     send(&mut ws, 4, Command::Save).await;
     let rec = loop {

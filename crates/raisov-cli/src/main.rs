@@ -55,6 +55,11 @@ enum BenchSuite {
     /// and 1/1000 s against central differences (`raisov_lab::bench::implicit`; --quick:
     /// without 1/1000 s).
     Implicit,
+    /// The frame benchmark of the interactive loop: frames/s, lag to each frame's static
+    /// equilibrium and force evaluations per frame on the liver and heart hierarchies,
+    /// grasped and pulled (`raisov_lab::bench::frames`; --quick: neo-Hookean, patch grasps,
+    /// the slow path, 2 V-cycles).
+    Frames,
 }
 
 #[derive(Subcommand)]
@@ -80,7 +85,8 @@ enum Cmd {
     /// `raisov bench api`: the embedding API's frame overhead and grasp-stiffness solves;
     /// `raisov bench equilibrium`: time to static equilibrium of five solvers;
     /// `raisov bench surface-check`: the closed-surface check on cones and organ surfaces;
-    /// `raisov bench implicit`: backward Euler's cost per step and per simulated second.
+    /// `raisov bench implicit`: backward Euler's cost per step and per simulated second;
+    /// `raisov bench frames`: the interactive loop's frame rate and lag on organs.
     Bench {
         /// `api`: the embedding API's figures instead (`raisov_lab::bench::api`; --quick: a
         /// small cube); `equilibrium`: direct Newton, FAS, adaptive dynamic relaxation,
@@ -124,8 +130,16 @@ enum Cmd {
         /// "liver L0,membrane 100k"); default all but the liver meshed from its surface
         /// ("liver mesher 17k", "liver mesher 70k"), which run only when named;
         /// `surface-check`: e.g. "cone 80k,liver".
+        /// `frames`: only the cases with these words (comma-separated, of NH, SNH,
+        /// rigid, springs, node, slow, fast; each kind given narrows that kind).
         #[arg(long, value_delimiter = ',')]
         case: Vec<String>,
+        /// `frames`: the organs, one of liver, heart, liver50k, all (default: liver and heart).
+        #[arg(long, default_value = "default")]
+        organ: String,
+        /// `frames`: V-cycles per frame (default 1,2,4; --quick 2).
+        #[arg(long, value_delimiter = ',')]
+        cycles: Vec<u32>,
     },
     /// Reproduce the paper's experiments (Wu & Tendick 2004): CSV, PNG/SVG plots, report.md.
     Paper {
@@ -446,6 +460,15 @@ fn real_main(cli: Cli) -> Result<i32> {
             Ok(0)
         }),
         Cmd::Bench {
+            suite: Some(BenchSuite::Frames),
+            quick,
+            meshes,
+            case,
+            organ,
+            cycles,
+            ..
+        } => on_pool(|| cmd_bench_frames(quick, meshes, case, &organ, cycles)),
+        Cmd::Bench {
             suite: Some(BenchSuite::SurfaceCheck),
             quick,
             meshes,
@@ -465,6 +488,8 @@ fn real_main(cli: Cli) -> Result<i32> {
             precision,
             meshes: _,
             case: _,
+            organ: _,
+            cycles: _,
         } => ok(cmd_bench(
             &sizes,
             threads,
@@ -935,6 +960,66 @@ fn write_stdout(text: &str) -> Result<()> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         r => Ok(r.context("writing to standard output")?),
     }
+}
+
+/// `raisov bench frames`: the table of `raisov_lab::bench::frames` on stdout, a line per case
+/// as it finishes.
+fn cmd_bench_frames(
+    quick: bool,
+    meshes: Option<PathBuf>,
+    case: Vec<String>,
+    organ: &str,
+    cycles: Vec<u32>,
+) -> anyhow::Result<i32> {
+    use raisov_lab::bench::frames::{self as fr, Grasp, Law, Organ};
+    let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
+    let mut opts = fr::FramesOptions::new(Organ::parse(organ).map_err(BadInput)?, quick);
+    let words: Vec<String> = case.iter().map(|w| w.trim().to_lowercase()).collect();
+    for w in &words {
+        if !["nh", "snh", "rigid", "springs", "node", "slow", "fast"].contains(&w.as_str()) {
+            return Err(BadInput(raisov::Error::param(
+                "--case",
+                format!("`{w}`: valid words are NH, SNH, rigid, springs, node, slow, fast"),
+            ))
+            .into());
+        }
+    }
+    let has = |w: &str| words.iter().any(|x| x == w);
+    let laws: Vec<Law> = [("nh", Law::NeoHookean), ("snh", Law::StableNeoHookean)]
+        .into_iter()
+        .filter(|(w, _)| has(w))
+        .map(|(_, l)| l)
+        .collect();
+    if !laws.is_empty() {
+        opts.laws = laws;
+    }
+    let grasps: Vec<Grasp> = [
+        ("rigid", Grasp::Rigid),
+        ("springs", Grasp::Springs),
+        ("node", Grasp::Node),
+    ]
+    .into_iter()
+    .filter(|(w, _)| has(w))
+    .map(|(_, g)| g)
+    .collect();
+    if !grasps.is_empty() {
+        opts.grasps = grasps;
+    }
+    let paces: Vec<bool> = [("slow", false), ("fast", true)]
+        .into_iter()
+        .filter(|(w, _)| has(w))
+        .map(|(_, p)| p)
+        .collect();
+    if !paces.is_empty() {
+        opts.paces = paces;
+    }
+    if !cycles.is_empty() {
+        opts.cycles = cycles;
+    }
+    fr::frames(&meshes, &opts, &mut |line| println!("{line}"))
+        .map_err(BadInput)
+        .with_context(|| format!("the organ meshes from {}", meshes.display()))?;
+    Ok(0)
 }
 
 /// `raisov bench equilibrium`: the table of `raisov_lab::equilibrium` on stdout, progress

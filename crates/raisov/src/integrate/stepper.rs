@@ -111,6 +111,14 @@ pub trait Stepper: Send {
     fn restore(&mut self, cp: &Checkpoint);
     /// Replace the kinetic-energy ceiling of divergence detection (J; infinite: none).
     fn set_kinetic_limit(&mut self, limit: f64);
+    /// Add `du` (3 per level-0 node) to level 0's displacements at its free dofs, as the
+    /// start of the next steps (a predictor, [`crate::sim::Simulation::set_predictor`]);
+    /// `false`, and nothing changed, where the stepper's state is not a displacement
+    /// field alone (dynamics, whose velocities would not match). The default: `false`.
+    fn predict(&mut self, du: &[f64]) -> bool {
+        let _ = du;
+        false
+    }
     /// The finest level's `R(u) + Σ_springs k (u_a − d)` (N, 3 per node, every row, as
     /// [`System::internal_forces`] gives it) at the current state, when the last step ended by
     /// evaluating it there; `None` when it did not (the default) or the system has changed

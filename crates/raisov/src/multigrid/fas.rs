@@ -1031,6 +1031,22 @@ impl Stepper for Fas {
         self.fresh.iter_mut().for_each(|f| *f = false);
     }
     /// Level 0 only: coarse levels carry no prescribed points (see the module docs).
+    /// With a static smoother (Chebyshev) only: level 0's displacement is the state.
+    fn predict(&mut self, du: &[f64]) -> bool {
+        if matches!(self.params.smoother, Smoother::Dynamics) {
+            return false;
+        }
+        let l = &mut self.levels[0];
+        let mut d = du.to_vec();
+        l.sys.constraints.zero_constrained(&mut d);
+        for (u, d) in l.state.u.iter_mut().zip(&d) {
+            *u += d;
+        }
+        self.fresh.iter_mut().for_each(|f| *f = false);
+        self.kry_zr = 0.0;
+        self.kry_p.iter_mut().for_each(|x| *x = 0.0);
+        true
+    }
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
         crate::integrate::hold(&mut self.levels[0].sys.constraints, values);
         self.fresh[0] = false;

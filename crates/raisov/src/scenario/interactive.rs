@@ -26,7 +26,9 @@
 //! ```
 //!
 //! The frame rate counts the stepper's own wall time only (not the reference solve nor the
-//! output): `fps = frames / Σ frame wall`. The run *keeps up with real time* when that rate
+//! output): `fps = frames / Σ frame wall`. Each frame's force evaluations are counted in
+//! units of one finest-level evaluation ([`Stepper::force_evaluations`]), a count any
+//! machine reproduces beside the wall time. The run *keeps up with real time* when that rate
 //! is at least `fps` and every frame's relative lag `lag_rel` is within `lag_tol` (default
 //! 5 %): fast frames far from the static solution do not count. A reference solve that fails
 //! (an inverted element, or a residual above `reference_tol` times the larger of the external
@@ -85,6 +87,9 @@ pub struct Interactive {
     /// The largest relative lag (`lag_max / max|u*|`) under which a run that is fast enough
     /// keeps up with real time. Default 0.05.
     pub lag_tol: f64,
+    /// Frames with grasps start from the extrapolated last change
+    /// ([`crate::sim::Simulation::set_predictor`]). Default false.
+    pub predictor: bool,
 }
 
 impl Interactive {
@@ -120,6 +125,7 @@ impl Interactive {
             reference,
             reference_tol,
             lag_tol,
+            predictor: s.predictor.unwrap_or(false),
         })
     }
 }
@@ -145,6 +151,8 @@ pub struct FrameRow {
     pub lag_rms: f64,
     /// Largest |u*| of the static solution (m).
     pub static_max_u: f64,
+    /// Force evaluations of this frame, in finest-level units ([`Stepper::force_evaluations`]).
+    pub force_evals: f64,
 }
 
 impl FrameRow {
@@ -172,6 +180,10 @@ pub struct InteractiveSummary {
     pub frames_planned: usize,
     /// Σ frame wall time of the stepper (s).
     pub wall: f64,
+    /// The longest frame's wall time (s).
+    pub wall_max: f64,
+    /// Σ force evaluations of the frames, in finest-level units.
+    pub force_evals: f64,
     /// Over the frames with a reference: the count, Σ lag_max, max lag_max, max lag_rel.
     pub lag_frames: usize,
     /// Σ lag_max over those frames (m).
@@ -180,6 +192,8 @@ pub struct InteractiveSummary {
     pub lag_max: f64,
     /// The largest lag_rel of those frames (`lag_max / max|u*|`).
     pub lag_rel_max: f64,
+    /// Σ lag_rel over those frames.
+    pub lag_rel_sum: f64,
     /// The last frame.
     pub last: Option<FrameRow>,
     /// Frames whose reference solve failed, and what the first failure was.
@@ -204,6 +218,17 @@ impl InteractiveSummary {
     /// Frames per second of stepper wall time.
     pub fn fps(&self) -> f64 {
         self.frames as f64 / self.wall.max(1e-12)
+    }
+    /// Mean `lag_rel` over the frames with a reference; NaN where no frame has one.
+    pub fn lag_rel_mean(&self) -> f64 {
+        if self.lag_frames == 0 {
+            return f64::NAN;
+        }
+        self.lag_rel_sum / self.lag_frames as f64
+    }
+    /// Mean force evaluations per frame (finest-level units).
+    pub fn evals_per_frame(&self) -> f64 {
+        self.force_evals / self.frames.max(1) as f64
     }
     /// Mean and largest `lag_max` over the frames with a reference (m), and the largest
     /// relative lag; NaN where no frame has one.
@@ -230,11 +255,14 @@ impl InteractiveSummary {
     fn add(&mut self, row: &FrameRow) {
         self.frames += 1;
         self.wall += row.wall;
+        self.wall_max = self.wall_max.max(row.wall);
+        self.force_evals += row.force_evals;
         if row.lag_max.is_finite() {
             self.lag_frames += 1;
             self.lag_sum += row.lag_max;
             self.lag_max = self.lag_max.max(row.lag_max);
             self.lag_rel_max = self.lag_rel_max.max(row.lag_rel());
+            self.lag_rel_sum += row.lag_rel();
         }
         self.last = Some(*row);
     }
@@ -293,6 +321,14 @@ impl std::fmt::Display for InteractiveSummary {
             f,
             "frame rate      {fps:.1} fps of stepper wall time ({verdict})"
         )?;
+        if self.frames > 0 {
+            writeln!(
+                f,
+                "work            {:.1} force evaluations per frame (finest-level units); slowest frame {:.1} ms",
+                self.evals_per_frame(),
+                1e3 * self.wall_max
+            )?;
+        }
         if s.reference {
             writeln!(
                 f,
@@ -312,10 +348,11 @@ impl std::fmt::Display for InteractiveSummary {
                 let (mean, max, rel) = self.lag();
                 writeln!(
                     f,
-                    "lag             mean {:.3e} m, max {:.3e} m over {} frames with a reference; worst {:.2} % of max |u*|",
+                    "lag             mean {:.3e} m, max {:.3e} m over {} frames with a reference; relative to max |u*|: mean {:.2} %, worst {:.2} %",
                     mean,
                     max,
                     self.lag_frames,
+                    100.0 * self.lag_rel_mean(),
                     100.0 * rel
                 )?;
             }
@@ -462,10 +499,13 @@ pub fn run_frames(
         frames: 0,
         frames_planned: frames_n,
         wall: 0.0,
+        wall_max: 0.0,
+        force_evals: 0.0,
         lag_frames: 0,
         lag_sum: 0.0,
         lag_max: 0.0,
         lag_rel_max: 0.0,
+        lag_rel_sum: 0.0,
         last: None,
         reference_failures: 0,
         first_failure: None,
@@ -507,6 +547,7 @@ pub fn run_frames(
             *v = m.displacement(t);
         }
         let before = frames.stepper().steps();
+        let evals_before = frames.stepper().force_evaluations();
         let start = Instant::now();
         match frames.frame(k, t, &values) {
             Ok(None) => {}
@@ -533,6 +574,7 @@ pub fn run_frames(
         let wall = start.elapsed().as_secs_f64();
         let stepper = frames.stepper();
         let total_steps = stepper.steps();
+        let frame_evals = stepper.force_evaluations() - evals_before;
         let mut reference_ok = settings.reference;
         if let Some(reference) = reference.as_mut() {
             if grasps {
@@ -604,6 +646,7 @@ pub fn run_frames(
             lag_max,
             lag_rms,
             static_max_u: if reference_ok { static_max_u } else { f64::NAN },
+            force_evals: frame_evals,
         };
         rows.push(&row)?;
         summary.add(&row);
@@ -875,7 +918,7 @@ impl Reference {
 
 /// `frames.csv`: one row per frame.
 pub const FRAMES_HEADER: &str =
-    "frame,time_s,steps,wall_s,residual_N,max_u_m,lag_max_m,lag_rms_m,static_max_u_m,lag_rel";
+    "frame,time_s,steps,wall_s,residual_N,max_u_m,lag_max_m,lag_rms_m,static_max_u_m,lag_rel,force_evals";
 
 /// `frames.csv` written as the frames come ([`RowFile`]).
 struct FrameRows(RowFile);
@@ -898,7 +941,7 @@ impl FrameRows {
             }
         };
         let line = format!(
-            "{},{:.6},{},{:.6e},{:.9e},{:.9e},{},{},{},{}",
+            "{},{:.6},{},{:.6e},{:.9e},{:.9e},{},{},{},{},{:.6e}",
             r.frame,
             r.time,
             r.steps,
@@ -908,7 +951,8 @@ impl FrameRows {
             opt(r.lag_max),
             opt(r.lag_rms),
             opt(r.static_max_u),
-            opt(r.lag_rel())
+            opt(r.lag_rel()),
+            r.force_evals
         );
         self.0.push(line.as_bytes())
     }
@@ -944,6 +988,7 @@ pub fn read_frames_csv(path: &Path) -> Result<Vec<FrameRow>> {
             lag_max: num(6)?,
             lag_rms: num(7)?,
             static_max_u: num(8)?,
+            force_evals: num(10)?,
         });
     }
     Ok(out)

@@ -288,6 +288,8 @@
 //!                                 # its residual 2-norm over the frame's start)
 //! lag_tol = 0.05                  # "keeps up with real time" needs every frame's lag within
 //!                                 # this fraction of max |u*| (and the frame rate), default 0.05
+//! predictor = true                # start a frame whose grasps move from the last frame's
+//!                                 # change, extrapolated (crate::sim::frame); default false
 //! ```
 
 use super::Reference;
@@ -896,6 +898,9 @@ pub struct InteractiveSpec {
     /// `lag_tol`: the largest relative lag `lag_max / max|u*|` of a run that keeps up with
     /// real time; default 0.05.
     pub lag_tol: Option<f64>,
+    /// `predictor`: start each frame whose grasps move from the last frame's change,
+    /// extrapolated ([`crate::sim::Simulation::set_predictor`]); default false.
+    pub predictor: Option<bool>,
 }
 
 /// `[mesh] size`: one length (`surface`: the lattice spacing) or several (`generate`).

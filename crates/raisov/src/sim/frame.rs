@@ -15,6 +15,13 @@
 //! After the frame, accepted or not, every attached [`crate::sim::HapticProxy`] gets the
 //! grasp's new position, force and stiffness.
 //!
+//! Predictor ([`Simulation::set_predictor`]): a frame whose grasps move starts, on its first
+//! try, from `u + s Δu`, `Δu` the change of level 0's displacements over the last accepted
+//! frame (free nodes only), `s = min(m / m_last, 2)` with `m` and `m_last` the largest grasp
+//! move of this frame and of that one: a grasp pulled at a steady speed has the tissue follow
+//! at the speed it followed (`s = 1`), a held one is not extrapolated. Nothing is predicted
+//! after a rejected frame, or when the grasps differ from the last frame's.
+//!
 //! Only [`Budget::Millis`] makes a frame depend on the machine's speed; [`Budget::Cycles`]
 //! frames give the same bits on any thread count.
 
@@ -61,6 +68,12 @@ impl Simulation {
         let from: Vec<[f64; 3]> = self.grabs.values().map(|g| g.position).collect();
         let to: Vec<[f64; 3]> = self.grabs.values().map(|g| g.target).collect();
         let moving = from != to;
+        let this_move = from
+            .iter()
+            .zip(&to)
+            .map(|(a, b)| crate::mesh::norm(crate::mesh::sub(*b, *a)))
+            .fold(0.0, f64::max);
+        let before: Option<Vec<f64>> = self.predictor.then(|| self.stepper.state().u.clone());
         self.stepper.save(&mut self.checkpoint);
         let tries = if moving { self.max_retries + 1 } else { 1 };
         let mut report = FrameReport {
@@ -74,6 +87,17 @@ impl Simulation {
             wall: Duration::ZERO,
         };
         for attempt in 0..tries {
+            if attempt == 0
+                && moving
+                && self.predictor
+                && self.last_move > 0.0
+                && !self.last_delta.is_empty()
+                && self.last_grabs == ids
+            {
+                let s = (this_move / self.last_move).min(2.0);
+                let du: Vec<f64> = self.last_delta.iter().map(|d| s * d).collect();
+                self.stepper.predict(&du);
+            }
             let subs = 1u32 << attempt.min(16);
             let mut cycles = 0u64;
             let result = self.try_frame(budget, subs, &ids, &from, &to, start, &mut cycles);
@@ -100,6 +124,16 @@ impl Simulation {
                     self.set_positions(&ids, &from);
                     self.apply_constraints();
                 }
+            }
+        }
+        if let Some(before) = before {
+            self.last_delta.clear();
+            if report.accepted {
+                let u = &self.stepper.state().u;
+                self.last_delta
+                    .extend(u.iter().zip(&before).map(|(a, b)| a - b));
+                self.last_move = this_move;
+                self.last_grabs = ids;
             }
         }
         if !report.accepted {

@@ -183,6 +183,13 @@ pub struct Simulation {
     support_forces: Vec<[f64; 3]>,
     stress: Option<Vec<[f64; 9]>>,
     checkpoint: Checkpoint,
+    /// The frame predictor ([`frame`] module docs), and what it extrapolates: the last
+    /// accepted frame's change of level 0's displacements (empty: none), the largest grasp
+    /// move of that frame, and its grasps.
+    predictor: bool,
+    last_delta: Vec<f64>,
+    last_move: f64,
+    last_grabs: Vec<GrabId>,
     /// Retries of a rejected frame (each halving the grasps' sub-moves). Default 4.
     max_retries: u32,
     /// The work of the last `grab_stiffness`.
@@ -332,6 +339,10 @@ impl Simulation {
             support_forces: Vec::new(),
             stress: None,
             checkpoint: Checkpoint::default(),
+            predictor: false,
+            last_delta: Vec::new(),
+            last_move: 0.0,
+            last_grabs: Vec::new(),
             max_retries: 4,
             tangent_stats: TangentStats::default(),
             tangent_preconditioner: TangentPreconditioner::default(),
@@ -358,6 +369,19 @@ impl Simulation {
     /// 16 sub-moves). 0 rejects a failing frame at once.
     pub fn set_max_retries(&mut self, retries: u32) {
         self.max_retries = retries;
+    }
+
+    /// Start each frame whose grasps move from the last frame's change, extrapolated
+    /// ([`frame`] module docs); off by default. A stepper that cannot take a prediction
+    /// ([`crate::integrate::Stepper::predict`]) ignores it.
+    pub fn set_predictor(&mut self, on: bool) {
+        self.predictor = on;
+        self.last_delta.clear();
+    }
+
+    /// Whether frames start from a prediction ([`Simulation::set_predictor`]).
+    pub fn predictor(&self) -> bool {
+        self.predictor
     }
 
     /// Retries of a rejected frame ([`Simulation::set_max_retries`]).

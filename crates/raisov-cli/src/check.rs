@@ -209,7 +209,12 @@ pub fn interactive(i: &Interactive) -> String {
     } else {
         "no static reference".to_string()
     };
-    format!("{} frames/s, {budget}; {reference}", num(i.fps))
+    let predictor = if i.predictor {
+        "; each frame whose path moves starts from the last frame's change, extrapolated"
+    } else {
+        ""
+    };
+    format!("{} frames/s, {budget}; {reference}{predictor}", num(i.fps))
 }
 
 #[cfg(test)]

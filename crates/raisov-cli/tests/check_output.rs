@@ -298,8 +298,10 @@ duration = 2.0
                     "{text}"
                 );
                 assert!(
-                    field(&text, "interactive")
-                        .ends_with("20 ms of wall time per frame; no static reference"),
+                    field(&text, "interactive").ends_with(
+                        "20 ms of wall time per frame; no static reference; each frame whose \
+                             path moves starts from the last frame's change, extrapolated"
+                    ),
                     "{text}"
                 );
                 assert!(

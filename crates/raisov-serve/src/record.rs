@@ -35,7 +35,8 @@
 //! replays with the pin taken first. `[run] duration`
 //! is `F / fps`, `F` the frames stepped; `[interactive]` gets `fps`, the session's budget
 //! (`cycles`, or `budget_ms`: a wall-time budget gives the replay as many cycles as fit on
-//! its machine, so only `cycles` replays the frames exactly) and `reference = "none"` (the
+//! its machine, so only `cycles` replays the frames exactly), the served scenario's
+//! `predictor` where it gives one, and `reference = "none"` (the
 //! session solved no reference either). The scenario's steady-state and static-solve keys
 //! go (a recording runs its frames), and so does `[output] dir` (the replay writes to its own
 //! default, `raisov-out/NAME-recorded`).
@@ -367,8 +368,16 @@ impl Recorder {
         if let Some(toml::Value::Table(o)) = t.get_mut("output") {
             o.remove("dir");
         }
+        // The served scenario's frame predictor, which the session's frames ran with.
+        let predictor = t
+            .get("interactive")
+            .and_then(|i| i.get("predictor"))
+            .cloned();
         let mut i = toml::Table::new();
         i.insert("fps".into(), f(fps));
+        if let Some(p) = predictor {
+            i.insert("predictor".into(), p);
+        }
         match budget {
             Budget::Cycles(c) => {
                 i.insert("cycles".into(), toml::Value::Integer(c as i64));

@@ -31,7 +31,8 @@
 //! free nodes, `u*` the frame's static equilibrium by the project's static Newton solver to
 //! 10⁻⁸ of the frame's force scale (a frame whose reference fails is counted and has no lag),
 //! force evaluations per frame in finest-level units (a count any machine reproduces), the
-//! slowest frame, and the residual after the last frame. A frame's wall time is the solve;
+//! slowest frame, the residual after the last frame, and the frames rejected (every try
+//! inverted an element or diverged, [`raisov::sim::frame`]: the state before it kept). A frame's wall time is the solve;
 //! the viewer's own per-frame work (the surface positions and the colour scalar |u|) is
 //! measured once per organ and printed beside it.
 //!
@@ -189,6 +190,8 @@ pub struct FramesRow {
     pub slowest_ms: f64,
     pub residual: f64,
     pub reference_failures: usize,
+    /// Frames rejected (every try inverted an element or diverged: the state before kept).
+    pub rejected: usize,
     pub target_fps: f64,
 }
 
@@ -196,6 +199,7 @@ impl FramesRow {
     /// Whether the row meets its organ's frame rate with mean lag ≤ 1 % and largest ≤ 3 %.
     pub fn meets(&self) -> bool {
         self.reference_failures == 0
+            && self.rejected == 0
             && self.fps >= self.target_fps
             && self.lag_mean <= 0.01
             && self.lag_max <= 0.03
@@ -280,12 +284,16 @@ method = "symplectic-euler"
 duration = {duration:?}
 [multigrid]
 {multigrid}
+{extra}
 [interactive]
 fps = 30.0
 cycles = {cycles}
 predictor = {predictor}
 "#,
         law = law.key(),
+        extra = std::env::var("RAISOV_BENCH_EXTRA")
+            .unwrap_or_default()
+            .replace(';', "\n"),
         x = point[0],
         y = point[1],
         z = point[2],
@@ -372,7 +380,7 @@ pub fn frames(
                                 viewer_work_ms(&sc)
                             ));
                             out(&format!(
-                                "{:<28} {:>6} {:>7} {:>9} {:>9} {:>11} {:>9} {:>11} {:>5}  {}",
+                                "{:<28} {:>6} {:>7} {:>9} {:>9} {:>11} {:>9} {:>11} {:>5} {:>8}  {}",
                                 "case",
                                 "cycles",
                                 "fps",
@@ -382,6 +390,7 @@ pub fn frames(
                                 "slowest",
                                 "residual N",
                                 "refs",
+                                "rejected",
                                 "goal"
                             ));
                         }
@@ -420,6 +429,7 @@ pub fn frames(
                             slowest_ms: 1e3 * s.wall_max,
                             residual: s.last.map_or(f64::NAN, |l| l.residual),
                             reference_failures: s.reference_failures,
+                            rejected: s.rejected_frames,
                             target_fps: organ.target_fps(),
                         };
                         let goal = if row.meets() {
@@ -434,7 +444,7 @@ pub fn frames(
                             )
                         };
                         out(&format!(
-                            "{:<28} {:>6} {:>7.1} {:>8.2}% {:>8.2}% {:>11.1} {:>7.1}ms {:>11.3e} {:>5}  {goal}",
+                            "{:<28} {:>6} {:>7.1} {:>8.2}% {:>8.2}% {:>11.1} {:>7.1}ms {:>11.3e} {:>5} {:>8}  {goal}",
                             case,
                             cycles,
                             row.fps,
@@ -444,6 +454,7 @@ pub fn frames(
                             row.slowest_ms,
                             row.residual,
                             format!("{}/{}", row.frames - row.reference_failures, row.frames),
+                            row.rejected,
                         ));
                         rows.push(row);
                     }

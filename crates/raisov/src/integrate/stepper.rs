@@ -499,3 +499,19 @@ fn energy_limit_without_floor(sys: &System, mesh: &crate::mesh::Mesh, factor: f6
     let size = crate::mesh::norm(crate::mesh::sub(hi, lo));
     energy_limit(&sys.f_ext, size, e_presc, factor)
 }
+
+/// The frame predictor's start ([`crate::sim::frame`]): `s Δu` with
+/// `s = min(m / m_last, 2, m / max_a |Δu_a|)`, `Δu` the last frame's change of the
+/// displacements (3 per node), `m` and `m_last` the largest move of the path (grasps or
+/// prescribed nodes) over this frame and the last. Zero where nothing moved.
+pub fn prediction(delta: &[f64], this_move: f64, last_move: f64) -> Vec<f64> {
+    let largest = delta
+        .chunks_exact(3)
+        .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+        .fold(0.0, f64::max);
+    if this_move <= 0.0 || last_move <= 0.0 || largest <= 0.0 {
+        return vec![0.0; delta.len()];
+    }
+    let s = (this_move / last_move).min(2.0).min(this_move / largest);
+    delta.iter().map(|d| s * d).collect()
+}

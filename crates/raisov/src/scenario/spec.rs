@@ -289,7 +289,7 @@
 //! lag_tol = 0.05                  # "keeps up with real time" needs every frame's lag within
 //!                                 # this fraction of max |u*| (and the frame rate), default 0.05
 //! predictor = true                # start a frame whose grasps move from the last frame's
-//!                                 # change, extrapolated (crate::sim::frame); default false
+//!                                 # change, extrapolated (crate::sim::frame); default true
 //! ```
 
 use super::Reference;
@@ -383,6 +383,8 @@ pub mod defaults {
     pub const REFERENCE_TOL: f64 = 1e-8;
     /// `[interactive] lag_tol`: the relative lag within which a fast run keeps up.
     pub const LAG_TOL: f64 = 0.05;
+    /// `[interactive] predictor`.
+    pub const PREDICTOR: bool = true;
 }
 
 /// A closed set of values that a scenario key names by string.
@@ -899,7 +901,7 @@ pub struct InteractiveSpec {
     /// real time; default 0.05.
     pub lag_tol: Option<f64>,
     /// `predictor`: start each frame whose grasps move from the last frame's change,
-    /// extrapolated ([`crate::sim::Simulation::set_predictor`]); default false.
+    /// extrapolated ([`crate::sim::Simulation::set_predictor`]); default true.
     pub predictor: Option<bool>,
 }
 

@@ -17,10 +17,13 @@
 //!
 //! Predictor ([`Simulation::set_predictor`]): a frame whose grasps move starts, on its first
 //! try, from `u + s Δu`, `Δu` the change of level 0's displacements over the last accepted
-//! frame (free nodes only), `s = min(m / m_last, 2)` with `m` and `m_last` the largest grasp
-//! move of this frame and of that one: a grasp pulled at a steady speed has the tissue follow
-//! at the speed it followed (`s = 1`), a held one is not extrapolated. Nothing is predicted
-//! after a rejected frame, or when the grasps differ from the last frame's.
+//! frame (free nodes only), `s = min(m / m_last, 2, m / max_a |Δu_a|)` with `m` and `m_last`
+//! the largest grasp move of this frame and of that one: a grasp pulled at a steady speed has
+//! the tissue follow at the speed it followed (`s = 1`), no node is predicted to move further
+//! than the grasp moves (a frame that caught up with a lag does not throw the tissue ahead of
+//! the tool), and a held grasp is not extrapolated. Nothing is predicted after a rejected
+//! frame, or when the grasps differ from the last frame's
+//! ([`crate::integrate::prediction`]).
 //!
 //! Only [`Budget::Millis`] makes a frame depend on the machine's speed; [`Budget::Cycles`]
 //! frames give the same bits on any thread count.
@@ -94,8 +97,7 @@ impl Simulation {
                 && !self.last_delta.is_empty()
                 && self.last_grabs == ids
             {
-                let s = (this_move / self.last_move).min(2.0);
-                let du: Vec<f64> = self.last_delta.iter().map(|d| s * d).collect();
+                let du = crate::integrate::prediction(&self.last_delta, this_move, self.last_move);
                 self.stepper.predict(&du);
             }
             let subs = 1u32 << attempt.min(16);

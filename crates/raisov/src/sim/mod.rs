@@ -265,6 +265,9 @@ impl Simulation {
             sc.file_ids.clone(),
             sc.fem_params(),
         )?;
+        if let Some(i) = &sc.interactive {
+            sim.set_predictor(i.predictor);
+        }
         if sc.has_model_loads() {
             // The stepper's level 0 carries the scenario's pressure, traction, timed loads and
             // tools in its force model; the simulation's own evaluations (frame forces when
@@ -339,7 +342,7 @@ impl Simulation {
             support_forces: Vec::new(),
             stress: None,
             checkpoint: Checkpoint::default(),
-            predictor: false,
+            predictor: true,
             last_delta: Vec::new(),
             last_move: 0.0,
             last_grabs: Vec::new(),
@@ -372,8 +375,9 @@ impl Simulation {
     }
 
     /// Start each frame whose grasps move from the last frame's change, extrapolated
-    /// ([`frame`] module docs); off by default. A stepper that cannot take a prediction
-    /// ([`crate::integrate::Stepper::predict`]) ignores it.
+    /// ([`frame`] module docs); on by default (a scenario's `[interactive] predictor`). A
+    /// stepper that cannot take a prediction ([`crate::integrate::Stepper::predict`])
+    /// ignores it.
     pub fn set_predictor(&mut self, on: bool) {
         self.predictor = on;
         self.last_delta.clear();

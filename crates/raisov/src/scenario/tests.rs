@@ -207,6 +207,7 @@ fn the_builtin_and_example_scenarios_resolve() {
         "liver_interactive.toml",
         "cantilever.toml",
         "liver_grasp.toml",
+        "visco_block.toml",
     ] {
         let p = Path::new(dir).join(f);
         let sc = Scenario::load(&p).unwrap_or_else(|e| panic!("{f}: {e}"));
@@ -1246,6 +1247,7 @@ fn triangles_under_tets_name_the_level_file() {
 mod fibres;
 mod implicit;
 mod statics;
+mod visco;
 
 /// A body with no load, no motion and no gravity stays at rest: its round-off kinetic energy
 /// (1e-35 J) was taken for an energy blow-up, the limit being zero without loads.

@@ -693,7 +693,11 @@ impl FemModel {
                 self.tet_forces_with(m, e, u, out)
             }
             (Material::NeoHookeanVisco(_), ElementKind::Tet4) => {
-                let law = self.visco.as_ref().expect("built with the law").element_law(e);
+                let law = self
+                    .visco
+                    .as_ref()
+                    .expect("built with the law")
+                    .element_law(e);
                 self.tet_forces_with(&law, e, u, out)
             }
             (
@@ -753,18 +757,19 @@ impl FemModel {
     ) -> Result<(), ElementFailure> {
         let fail = |det_f| ElementFailure { element: e, det_f };
         match self.kind {
-            ElementKind::Tet4 => self.with_element_solid(e, |m| {
-                element::tet_stiffness(
-                    m,
-                    &self.cells[e * 4..e * 4 + 4],
-                    &self.x0,
-                    u,
-                    &self.dminv[e * 9..e * 9 + 9],
-                    self.measure[e],
-                    out,
-                )
-            })
-            .map_err(fail),
+            ElementKind::Tet4 => self
+                .with_element_solid(e, |m| {
+                    element::tet_stiffness(
+                        m,
+                        &self.cells[e * 4..e * 4 + 4],
+                        &self.x0,
+                        u,
+                        &self.dminv[e * 9..e * 9 + 9],
+                        self.measure[e],
+                        out,
+                    )
+                })
+                .map_err(fail),
             ElementKind::Tri3 => with_membrane(&self.params.material, |m| {
                 element::membrane_stiffness(
                     m,
@@ -783,7 +788,11 @@ impl FemModel {
 
     /// Forces of element e on its nodes (3 per corner) at `u`: what the force pass scatters.
     #[cfg(test)]
-    pub(crate) fn element_forces_of(&self, e: usize, u: &[f64]) -> Result<Vec<f64>, ElementFailure> {
+    pub(crate) fn element_forces_of(
+        &self,
+        e: usize,
+        u: &[f64],
+    ) -> Result<Vec<f64>, ElementFailure> {
         let mut out = vec![0.0; 3 * self.npe()];
         self.element_forces(e, u, &mut out)?;
         Ok(out)

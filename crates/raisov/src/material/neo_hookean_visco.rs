@@ -291,10 +291,14 @@ mod tests {
             (vec![p(0.1, f64::NAN)], "τ must be a positive number"),
             (vec![p(0.6, 1.0), p(0.4, 2.0)], "need Σ α < 1"),
         ] {
-            let e = NeoHookeanVisco::new(1e3, 5e4, terms).unwrap_err().to_string();
+            let e = NeoHookeanVisco::new(1e3, 5e4, terms)
+                .unwrap_err()
+                .to_string();
             assert!(e.contains("material.prony") && e.contains(what), "{e}");
         }
-        let e = NeoHookeanVisco::new(0.0, 5e4, vec![]).unwrap_err().to_string();
+        let e = NeoHookeanVisco::new(0.0, 5e4, vec![])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("material.mu"), "{e}");
     }
 }

@@ -7,8 +7,8 @@ use super::{err, loading, positive, spec, Fixing, Selector, Shape};
 use crate::error::Result;
 use crate::geometry::{dot, norm, sub};
 use crate::material::{
-    lame, HolzapfelGasserOgden, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff,
-    NeoHookeanVisco, StableNeoHookean, TiNeoHookean, VerondaWestmann,
+    lame, HolzapfelGasserOgden, Material, MooneyRivlin, NeoHookean, NeoHookeanVisco,
+    StVenantKirchhoff, StableNeoHookean, TiNeoHookean, VerondaWestmann,
 };
 use crate::mesh::{ElementKind, Mesh};
 use crate::time::Motion;

@@ -68,6 +68,18 @@ pub fn material(m: &Material) -> String {
             point(p.fibre.into()),
             bulk(p.kappa)
         ),
+        Material::NeoHookeanVisco(p) => format!(
+            "{}: mu {} Pa (long-term {} Pa), Prony [alpha, tau s] {}, {}",
+            m.name(),
+            num(p.mu),
+            num(p.long_term_mu()),
+            p.prony
+                .iter()
+                .map(|t| format!("[{}, {}]", num(t.alpha), num(t.tau)))
+                .collect::<Vec<_>>()
+                .join(" "),
+            bulk(p.kappa)
+        ),
         Material::HolzapfelGasserOgden(p) => format!(
             "{}: mu {} Pa, fibre k1 {} Pa, k2 {}, dispersion {} along {}, {}",
             m.name(),

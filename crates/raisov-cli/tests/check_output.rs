@@ -165,6 +165,12 @@ fn check_prints_words_not_debug_structures_for_every_example() {
                     "ti-neo-hookean: mu 1000 Pa, fibre eta 8000 Pa along (1, 0, 0), bulk modulus kappa 50000 Pa"
                 );
             }
+            "visco_block.toml" => {
+                assert_eq!(
+                    field(&text, "material"),
+                    "neo-hookean-visco: mu 1000 Pa (long-term 500 Pa), Prony [alpha, tau s] [0.3, 0.05] [0.2, 0.5], bulk modulus kappa 20000 Pa"
+                );
+            }
             "membrane_lift.toml" => {
                 assert!(
                     field(&text, "prescribed")

@@ -406,6 +406,14 @@ impl ForceModel for Contact {
         self.inner.set_load_factor(f);
     }
 
+    fn set_step(&mut self, dt: f64) {
+        self.inner.set_step(dt);
+    }
+
+    fn accept_step(&mut self, u: &[f64], dt: f64) {
+        self.inner.accept_step(u, dt);
+    }
+
     fn load_report(&mut self, u: &[f64]) -> LoadReport {
         let mut rep = self.inner.load_report(u);
         let mut f = std::mem::take(&mut self.f);

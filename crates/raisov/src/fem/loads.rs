@@ -352,6 +352,14 @@ impl ForceModel for Loaded {
         self.inner.set_load_factor(f);
     }
 
+    fn set_step(&mut self, dt: f64) {
+        self.inner.set_step(dt);
+    }
+
+    fn accept_step(&mut self, u: &[f64], dt: f64) {
+        self.inner.accept_step(u, dt);
+    }
+
     fn contact_forces(&self, u: &[f64], out: &mut [f64]) -> bool {
         self.inner.contact_forces(u, out)
     }

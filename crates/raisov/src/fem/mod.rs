@@ -24,6 +24,21 @@
 //! (membranes) is an [`ElementFailure`], unless the law says it is defined there
 //! ([`crate::material::SolidMaterial::handles_inversion`]: stable neo-Hookean tetrahedra).
 //!
+//! Rate-dependent laws ([`crate::material::NeoHookeanVisco`], tetrahedra, the generic path):
+//! the model keeps the internal variables per element (`visco.rs`) and evaluates each
+//! element with its law over the step in progress ([`crate::material::ViscoStep`]: the
+//! stress, the step potential as the element's energy, the algorithmic tangent). Who advances
+//! them ([`ForceModel::set_step`], [`ForceModel::accept_step`]):
+//! - explicit integrators ([`crate::integrate::SingleLevel`]): evaluations at `Δt = 0` (the
+//!   history as last accepted, so a step's stages all see `H_i^n`), and after each step the
+//!   new configuration accepted over the step's Δt;
+//! - backward Euler ([`crate::statics::implicit`]): evaluations at the step's `h` (the
+//!   recurrence to the trial configuration, its algorithmic tangent in Newton's iteration),
+//!   the converged configuration accepted over `h`, and `Δt = 0` between steps;
+//! - everything else (static solves, whatever the solver): `Δt = ∞`, the fully relaxed
+//!   (long-term) equilibrium with `μ_∞ = μ (1 − Σ α_i)`, a model's state until it is told
+//!   otherwise.
+//!
 //! Nodal stress T (paper section 3, from its reference \[11\]): element Cauchy stress `σ = F S Fᵀ / J`
 //! (membranes: `J = λ3 √det C`, σ in-plane, 3x3), averaged onto nodes weighted by reference
 //! element measure.
@@ -56,6 +71,7 @@
 mod element;
 pub mod loads;
 pub mod packed;
+mod visco;
 
 use crate::material::{Material, MembraneMaterial, SolidMaterial};
 use crate::mesh::{ElementKind, Mesh};
@@ -170,6 +186,14 @@ pub trait ForceModel: Send + Sync {
     /// Scale the loads and tool motions a model carries by `f` (static load increments);
     /// default: none carried.
     fn set_load_factor(&self, _f: f64) {}
+    /// The step Δt (s) over which the force, energy and tangent evaluations of a
+    /// rate-dependent law advance its internal variables from the last accepted configuration
+    /// (module docs, "Rate-dependent laws"): ∞ (every model's start) is the fully relaxed
+    /// law, 0 the stress with the history as last accepted. Default: no such law.
+    fn set_step(&mut self, _dt: f64) {}
+    /// Accept `u` as the configuration at the end of a step of `dt` (s): a rate-dependent
+    /// law's internal variables advance to it, once per accepted step. Default: no such law.
+    fn accept_step(&mut self, _u: &[f64], _dt: f64) {}
     /// Net forces of the loads and tools a model carries at `u` ([`loads::LoadReport`]);
     /// default: none.
     fn load_report(&mut self, _u: &[f64]) -> loads::LoadReport {
@@ -254,6 +278,8 @@ pub struct FemModel {
     acc: Vec<packed::Row4>,
     /// Generic-path forces of the fused step (3 per node); empty with `pack`.
     acc3: Vec<f64>,
+    /// The internal variables of a rate-dependent law (tetrahedra of neo-hookean-visco).
+    visco: Option<visco::Visco>,
 }
 
 /// Bytes an element of a [`FemModel`] may take: its `Dm⁻¹` and measure, its node slots, its
@@ -283,10 +309,14 @@ impl FemModel {
             return Err(Error::param("thickness", "must be a positive number (m)"));
         }
         let n = mesh.num_nodes();
+        let visco_bytes = match &params.material {
+            Material::NeoHookeanVisco(m) => visco::bytes_per_element(m.prony.len()),
+            _ => 0,
+        };
         crate::memory::check_for(
             &format!("the force model of {n} nodes and {ne} elements"),
             (ne as u64)
-                .saturating_mul(MODEL_ELEMENT_BYTES)
+                .saturating_mul(MODEL_ELEMENT_BYTES.saturating_add(visco_bytes))
                 .saturating_add((n as u64).saturating_mul(MODEL_NODE_BYTES)),
             "use a coarser mesh",
         )
@@ -379,6 +409,10 @@ impl FemModel {
                 vec![0.0; 3 * n]
             },
             pack,
+            visco: match &params.material {
+                Material::NeoHookeanVisco(m) => Some(visco::Visco::new(m.clone(), ne)),
+                _ => None,
+            },
             params,
         })
     }
@@ -494,7 +528,7 @@ impl FemModel {
     fn energy_sum(&self, u: &[f64], refuse: bool) -> f64 {
         let refuse = refuse
             && self.kind == ElementKind::Tet4
-            && !with_solid(&self.params.material, |m| m.handles_inversion());
+            && !self.with_element_solid(0, |m| m.handles_inversion());
         let ne = self.num_elements();
         let blocks: Vec<f64> = (0..ne.div_ceil(ENERGY_BLOCK))
             .into_par_iter()
@@ -506,9 +540,7 @@ impl FemModel {
                             return f64::INFINITY;
                         }
                         let w = match self.kind {
-                            ElementKind::Tet4 => {
-                                with_solid(&self.params.material, |m| m.energy_f(&f3))
-                            }
+                            ElementKind::Tet4 => self.with_element_solid(e, |m| m.energy_f(&f3)),
                             ElementKind::Tri3 => {
                                 let f = f3.fixed_view::<3, 2>(0, 0).into_owned();
                                 let n0 = Vector3::from(self.normal0[e]);
@@ -571,7 +603,7 @@ impl FemModel {
         let (f3, det) = self.deformation(e, u);
         match self.kind {
             ElementKind::Tet4 => {
-                let p = with_solid(&self.params.material, |m| m.pk1(&f3));
+                let p = self.with_element_solid(e, |m| m.pk1(&f3));
                 p * f3.transpose() / det
             }
             ElementKind::Tri3 => {
@@ -660,10 +692,38 @@ impl FemModel {
             (Material::HolzapfelGasserOgden(m), ElementKind::Tet4) => {
                 self.tet_forces_with(m, e, u, out)
             }
-            (Material::TiNeoHookean(_) | Material::HolzapfelGasserOgden(_), ElementKind::Tri3) => {
+            (Material::NeoHookeanVisco(_), ElementKind::Tet4) => {
+                let law = self
+                    .visco
+                    .as_ref()
+                    .expect("built with the law")
+                    .element_law(e);
+                self.tet_forces_with(&law, e, u, out)
+            }
+            (
+                Material::TiNeoHookean(_)
+                | Material::HolzapfelGasserOgden(_)
+                | Material::NeoHookeanVisco(_),
+                ElementKind::Tri3,
+            ) => {
                 unreachable!("FemModel::new refuses solid-only laws on membranes")
             }
         }
+    }
+
+    /// `f` of element e's solid law: the model's law, or for a rate-dependent one its law
+    /// over the step in progress ([`crate::material::ViscoStep`]).
+    fn with_element_solid<T>(&self, e: usize, f: impl FnOnce(&dyn SolidMaterial) -> T) -> T {
+        match &self.visco {
+            Some(v) if e < self.num_elements() => f(&v.element_law(e)),
+            _ => with_solid(&self.params.material, f),
+        }
+    }
+
+    /// The step (s) the force evaluations of a rate-dependent law use ([`ForceModel::set_step`];
+    /// ∞: fully relaxed), `None` for other laws.
+    pub fn visco_step(&self) -> Option<f64> {
+        self.visco.as_ref().map(|v| v.step())
     }
 
     /// Forces of tetrahedron e.
@@ -697,18 +757,19 @@ impl FemModel {
     ) -> Result<(), ElementFailure> {
         let fail = |det_f| ElementFailure { element: e, det_f };
         match self.kind {
-            ElementKind::Tet4 => with_solid(&self.params.material, |m| {
-                element::tet_stiffness(
-                    m,
-                    &self.cells[e * 4..e * 4 + 4],
-                    &self.x0,
-                    u,
-                    &self.dminv[e * 9..e * 9 + 9],
-                    self.measure[e],
-                    out,
-                )
-            })
-            .map_err(fail),
+            ElementKind::Tet4 => self
+                .with_element_solid(e, |m| {
+                    element::tet_stiffness(
+                        m,
+                        &self.cells[e * 4..e * 4 + 4],
+                        &self.x0,
+                        u,
+                        &self.dminv[e * 9..e * 9 + 9],
+                        self.measure[e],
+                        out,
+                    )
+                })
+                .map_err(fail),
             ElementKind::Tri3 => with_membrane(&self.params.material, |m| {
                 element::membrane_stiffness(
                     m,
@@ -723,6 +784,18 @@ impl FemModel {
             })
             .map_err(fail),
         }
+    }
+
+    /// Forces of element e on its nodes (3 per corner) at `u`: what the force pass scatters.
+    #[cfg(test)]
+    pub(crate) fn element_forces_of(
+        &self,
+        e: usize,
+        u: &[f64],
+    ) -> Result<Vec<f64>, ElementFailure> {
+        let mut out = vec![0.0; 3 * self.npe()];
+        self.element_forces(e, u, &mut out)?;
+        Ok(out)
     }
 
     /// The nodes of element e (the mesh's connectivity).
@@ -767,6 +840,7 @@ fn with_solid<T>(m: &Material, f: impl FnOnce(&dyn SolidMaterial) -> T) -> T {
         Material::StableNeoHookean(m) => f(m),
         Material::TiNeoHookean(m) => f(m),
         Material::HolzapfelGasserOgden(m) => f(m),
+        Material::NeoHookeanVisco(m) => f(&m.relaxed()),
     }
 }
 
@@ -779,7 +853,9 @@ fn with_membrane<T>(m: &Material, f: impl FnOnce(&dyn MembraneMaterial) -> T) ->
         Material::MooneyRivlin(m) => f(m),
         Material::VerondaWestmann(m) => f(m),
         Material::StableNeoHookean(m) => f(m),
-        Material::TiNeoHookean(_) | Material::HolzapfelGasserOgden(_) => {
+        Material::TiNeoHookean(_)
+        | Material::HolzapfelGasserOgden(_)
+        | Material::NeoHookeanVisco(_) => {
             unreachable!("FemModel::new refuses solid-only laws on membranes")
         }
     }
@@ -882,6 +958,24 @@ impl ForceModel for FemModel {
 
     fn element_det_f(&self, e: usize, u: &[f64]) -> f64 {
         FemModel::element_det_f(self, e, u)
+    }
+
+    fn set_step(&mut self, dt: f64) {
+        if let Some(v) = &mut self.visco {
+            v.set_step(dt);
+        }
+    }
+
+    fn accept_step(&mut self, u: &[f64], dt: f64) {
+        let Some(mut v) = self.visco.take() else {
+            return;
+        };
+        let this = &*self;
+        v.accept(dt, &|e| {
+            let (f, det) = this.deformation(e, u);
+            (det > 0.0).then(|| f.transpose() * f)
+        });
+        self.visco = Some(v);
     }
 }
 

@@ -418,8 +418,12 @@ impl Stepper for SingleLevel {
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
         hold(&mut self.sys.constraints, values);
     }
+    /// One step of the integrator; a rate-dependent law's forces take its history as last
+    /// accepted (`Δt = 0`) and the step's end is accepted over `dt`
+    /// ([`crate::fem::ForceModel::accept_step`]).
     fn advance(&mut self) -> Result<(), Divergence> {
         let t = self.state.t;
+        self.sys.force.set_step(0.0);
         self.integrator
             .step(&mut self.sys, &mut self.state, self.params.dt)
             .map_err(|f| Divergence {
@@ -428,6 +432,7 @@ impl Stepper for SingleLevel {
                 element: Some(f.element),
                 cause: DivergenceCause::Inverted { det_f: f.det_f },
             })?;
+        self.sys.force.accept_step(&self.state.u, self.params.dt);
         self.steps += 1;
         check_state(
             &self.sys,

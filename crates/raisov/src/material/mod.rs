@@ -46,6 +46,7 @@ use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector3};
 mod hgo;
 mod mooney_rivlin;
 mod neo_hookean;
+mod neo_hookean_visco;
 mod stable_neo_hookean;
 mod stvk;
 mod ti_neo_hookean;
@@ -56,6 +57,7 @@ mod veronda_westmann;
 pub use hgo::HolzapfelGasserOgden;
 pub use mooney_rivlin::MooneyRivlin;
 pub use neo_hookean::NeoHookean;
+pub use neo_hookean_visco::{step_factors, NeoHookeanVisco, Prony, ViscoStep};
 pub use stable_neo_hookean::StableNeoHookean;
 pub use stvk::StVenantKirchhoff;
 pub use ti_neo_hookean::TiNeoHookean;
@@ -344,6 +346,9 @@ pub enum Material {
     TiNeoHookean(TiNeoHookean),
     /// `law = "hgo"`: μ, κ, k1, k2, dispersion and a fibre direction (solids only).
     HolzapfelGasserOgden(HolzapfelGasserOgden),
+    /// `law = "neo-hookean-visco"`: μ, κ and a Prony series (solids only; per-element
+    /// internal variables, [`crate::fem`]).
+    NeoHookeanVisco(NeoHookeanVisco),
 }
 
 impl Material {
@@ -357,6 +362,7 @@ impl Material {
             Material::StableNeoHookean(_) => "stable-neo-hookean",
             Material::TiNeoHookean(_) => "ti-neo-hookean",
             Material::HolzapfelGasserOgden(_) => "hgo",
+            Material::NeoHookeanVisco(_) => "neo-hookean-visco",
         }
     }
 
@@ -374,6 +380,12 @@ impl Material {
     /// and need a unit fibre direction (their constructors normalise it). The error names
     /// the key and what would be valid.
     pub fn check_for(&self, kind: ElementKind) -> crate::Result<()> {
+        if matches!(self, Material::NeoHookeanVisco(_)) && kind == ElementKind::Tri3 {
+            return Err(crate::Error::param(
+                "material.law",
+                "\"neo-hookean-visco\" is a solid law (tetrahedra); membranes take \"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\" or \"stable-neo-hookean\"",
+            ));
+        }
         if let Some(a) = self.fibre() {
             if kind == ElementKind::Tri3 {
                 return Err(crate::Error::param(
@@ -397,7 +409,7 @@ impl Material {
         Ok(())
     }
 
-    /// Small-strain shear modulus μ (Pa).
+    /// Small-strain shear modulus μ (Pa); the instantaneous one of neo-hookean-visco.
     pub fn shear_modulus(&self) -> f64 {
         match self {
             Material::StVenantKirchhoff(m) => m.mu,
@@ -407,6 +419,7 @@ impl Material {
             Material::StableNeoHookean(m) => m.lame_mu,
             Material::TiNeoHookean(m) => m.mu,
             Material::HolzapfelGasserOgden(m) => m.mu,
+            Material::NeoHookeanVisco(m) => m.mu,
         }
     }
 
@@ -419,7 +432,8 @@ impl Material {
     /// small-strain stiffness along `a0` to the deviatoric bound: `2η` (ti-neo-hookean, whose
     /// fibre energy is `η (ε_aa − tr ε/3)²` to second order) and `4 k1 (1 − 3κ_d)²` (hgo,
     /// `2 k1 (1 − 3κ_d)² (ε_aa − tr ε/3)²` in tension); hgo's exponential stiffening at
-    /// large stretch is not in this bound.
+    /// large stretch is not in this bound. neo-hookean-visco: its instantaneous (unrelaxed)
+    /// μ, the stiffest its elements get.
     pub fn stability_modulus(&self, kind: ElementKind) -> f64 {
         let mu = self.shear_modulus();
         match (self, kind) {
@@ -434,6 +448,7 @@ impl Material {
                 let w = 1.0 - 3.0 * m.dispersion;
                 (3.0 * m.kappa).max(2.0 * mu) + 4.0 * m.k1 * w * w
             }
+            (Material::NeoHookeanVisco(m), ElementKind::Tet4) => (3.0 * m.kappa).max(2.0 * mu),
             (Material::StableNeoHookean(m), ElementKind::Tet4) => {
                 3.0 * m.lame_lambda + 2.0 * m.lame_mu
             }

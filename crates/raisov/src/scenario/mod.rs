@@ -743,6 +743,24 @@ impl Scenario {
         } else {
             None
         };
+        // A rate-dependent law advances its internal variables with the single-level
+        // steppers (explicit and backward Euler) and is fully relaxed in a static solve; the
+        // explicit multigrid schemes and the interactive frames (which restore checkpoints
+        // without them) do not carry them.
+        if matches!(material, Material::NeoHookeanVisco(_)) {
+            if spec.interactive.is_some() {
+                return Err(err(
+                    path,
+                    "`[interactive]` does not apply to law = \"neo-hookean-visco\": its frames restore checkpoints that do not hold the law's internal variables (use a plain run: method = \"symplectic-euler\" or another explicit method, or \"implicit-euler\")",
+                ));
+            }
+            if spec.multigrid.is_some() && !newton && implicit.is_none() {
+                return Err(err(
+                    path,
+                    format!("`[multigrid]` with method = \"{}\" does not apply to law = \"neo-hookean-visco\": the explicit multigrid schemes do not advance the law's internal variables (remove [multigrid], or use method = \"implicit-euler\", whose Newton solver takes the levels, or \"newton\" for the fully relaxed equilibrium)", method.name()),
+                ));
+            }
+        }
         let statics = if newton {
             let settles = surface_loads.iter().all(|s| s.time.end().is_finite())
                 && timed_load.iter().all(|(_, _, f)| f.end().is_finite())

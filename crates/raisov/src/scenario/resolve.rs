@@ -7,8 +7,8 @@ use super::{err, loading, positive, spec, Fixing, Selector, Shape};
 use crate::error::Result;
 use crate::geometry::{dot, norm, sub};
 use crate::material::{
-    lame, HolzapfelGasserOgden, Material, MooneyRivlin, NeoHookean, StVenantKirchhoff,
-    StableNeoHookean, TiNeoHookean, VerondaWestmann,
+    lame, HolzapfelGasserOgden, Material, MooneyRivlin, NeoHookean, NeoHookeanVisco,
+    StVenantKirchhoff, StableNeoHookean, TiNeoHookean, VerondaWestmann,
 };
 use crate::mesh::{ElementKind, Mesh};
 use crate::time::Motion;
@@ -224,7 +224,7 @@ pub(super) fn resolve_material(
         (None, false) => {
             return Err(err(
                 path,
-                "[material]: `law` is required (one of \"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\", \"stable-neo-hookean\", \"ti-neo-hookean\", \"hgo\"; scenarios with an [interactive] section default to \"stable-neo-hookean\")",
+                "[material]: `law` is required (one of \"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\", \"stable-neo-hookean\", \"ti-neo-hookean\", \"hgo\", \"neo-hookean-visco\"; scenarios with an [interactive] section default to \"stable-neo-hookean\")",
             ))
         }
     };
@@ -245,6 +245,7 @@ pub(super) fn resolve_material(
         ("k2", m.k2.is_some()),
         ("dispersion", m.dispersion.is_some()),
         ("fibre", m.fibre.is_some()),
+        ("prony", m.prony.is_some()),
     ];
     // Every key given must be one of `allowed`, the law's parameters.
     let only = |allowed: &[&str]| -> Result<()> {
@@ -321,8 +322,10 @@ pub(super) fn resolve_material(
             let (e, nu) = young_poisson()?;
             Material::StableNeoHookean(StableNeoHookean::from_young(e, nu))
         }
-        Law::TiNeoHookean | Law::HolzapfelGasserOgden => {
-            let fibre_keys: &[&str] = if chosen == Law::TiNeoHookean {
+        Law::TiNeoHookean | Law::HolzapfelGasserOgden | Law::NeoHookeanVisco => {
+            let fibre_keys: &[&str] = if chosen == Law::NeoHookeanVisco {
+                &["mu", "kappa", "young", "poisson", "prony"]
+            } else if chosen == Law::TiNeoHookean {
                 &["mu", "kappa", "young", "poisson", "eta", "fibre"]
             } else {
                 &[
@@ -354,6 +357,21 @@ pub(super) fn resolve_material(
                     positive(path, "material.kappa", need("kappa", m.kappa)?)?,
                 ),
             };
+            if chosen == Law::NeoHookeanVisco {
+                let Some(terms) = &m.prony else {
+                    return Err(err(path, format!("[material]: law = \"{law}\" needs `prony = [[alpha, tau], ...]`, the Prony terms (relative modulus alpha >= 0, relaxation time tau > 0 s)")));
+                };
+                let mut prony = Vec::with_capacity(terms.len());
+                for (i, t) in terms.iter().enumerate() {
+                    let &[alpha, tau] = t.as_slice() else {
+                        return Err(err(path, format!("`material.prony`: term {} has {} numbers: each term is [alpha, tau] (relative modulus, relaxation time in s)", i + 1, t.len())));
+                    };
+                    prony.push(crate::material::Prony { alpha, tau });
+                }
+                return NeoHookeanVisco::new(mu, kappa, prony)
+                    .map(Material::NeoHookeanVisco)
+                    .map_err(|e| err(path, e.to_string()));
+            }
             let Some(f) = m.fibre else {
                 return Err(err(path, format!("[material]: law = \"{law}\" needs `fibre = [x, y, z]`, the fibre direction")));
             };

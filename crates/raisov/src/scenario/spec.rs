@@ -41,7 +41,8 @@
 //! [material]
 //! law = "mooney-rivlin"           # "stvk" (or "st-venant-kirchhoff") | "neo-hookean" |
 //!                                 # "mooney-rivlin" | "veronda-westmann" | "stable-neo-hookean"
-//!                                 # | "ti-neo-hookean" | "hgo" (or "holzapfel-gasser-ogden");
+//!                                 # | "ti-neo-hookean" | "hgo" (or "holzapfel-gasser-ogden")
+//!                                 # | "neo-hookean-visco";
 //!                                 # required, except with an [interactive] section: there
 //!                                 # default "stable-neo-hookean" (finite energy and forces
 //!                                 # for inverted elements, so a hard grasp recovers)
@@ -51,8 +52,8 @@
 //! c2 = 1e3                        # Pa   (mooney-rivlin)
 //! gamma = 5.0                     #      (veronda-westmann)
 //! kappa = 1e5                     # Pa, bulk modulus (mooney-rivlin, veronda-westmann solids;
-//!                                 # ti-neo-hookean, hgo with `mu`)
-//! mu = 1e3                        # Pa, matrix shear modulus (ti-neo-hookean, hgo), with
+//!                                 # ti-neo-hookean, hgo, neo-hookean-visco with `mu`)
+//! mu = 1e3                        # Pa, shear modulus (ti-neo-hookean, hgo, neo-hookean-visco), with
 //!                                 # `kappa`; or `young` and `poisson` instead of both
 //! eta = 5e3                       # Pa, fibre stiffness (ti-neo-hookean)
 //! k1 = 2e3                        # Pa, fibre stiffness (hgo)
@@ -60,6 +61,12 @@
 //! dispersion = 0.0                # fibre dispersion κ_d in [0, 1/3] (hgo), default 0
 //! fibre = [1.0, 0.0, 0.0]         # fibre direction (ti-neo-hookean, hgo; solids only),
 //!                                 # normalised, the same in every element
+//! prony = [[0.5, 0.1]]            # neo-hookean-visco (solids only, with `mu` and `kappa` or
+//!                                 # `young` and `poisson`, the instantaneous moduli): Prony
+//!                                 # terms [α, τ], α >= 0 with Σ α < 1, τ > 0 s; the shear
+//!                                 # modulus relaxes to μ (1 − Σ α). Static solves (newton)
+//!                                 # find the fully relaxed equilibrium; not with
+//!                                 # [interactive], nor with [multigrid] on an explicit method
 //! density = 1000.0                # kg/m³, default 1000
 //! thickness = 1e-3                # m, membranes only, default 1e-3
 //!
@@ -536,6 +543,10 @@ named_enum! {
         /// `young` and `poisson`), `k1`, `k2`, `dispersion` (default 0) and `fibre`; solids
         /// only ([`crate::material::HolzapfelGasserOgden`]).
         HolzapfelGasserOgden = "hgo" | "holzapfel-gasser-ogden",
+        /// `"neo-hookean-visco"`: NiftySim's visco-hyperelastic neo-Hookean, from `mu` and
+        /// `kappa` (or `young` and `poisson`, the instantaneous moduli) and `prony`; solids
+        /// only ([`crate::material::NeoHookeanVisco`]).
+        NeoHookeanVisco = "neo-hookean-visco",
     }
 }
 
@@ -998,6 +1009,9 @@ pub struct MaterialSpec {
     /// `fibre = [x, y, z]`: the fibre direction of ti-neo-hookean and hgo in the reference
     /// configuration, the same in every element; normalised, non-zero.
     pub fibre: Option<[f64; 3]>,
+    /// `prony = [[α, τ], ...]`: neo-hookean-visco's Prony terms, relative modulus α ≥ 0 (with
+    /// Σ α < 1) and relaxation time τ > 0 (s) each.
+    pub prony: Option<Vec<Vec<f64>>>,
     /// `density` (kg/m³); default 1000.
     pub density: Option<f64>,
     /// `thickness` of membranes (m); default 1e-3.

@@ -207,6 +207,7 @@ fn the_builtin_and_example_scenarios_resolve() {
         "liver_interactive.toml",
         "cantilever.toml",
         "liver_grasp.toml",
+        "visco_block.toml",
     ] {
         let p = Path::new(dir).join(f);
         let sc = Scenario::load(&p).unwrap_or_else(|e| panic!("{f}: {e}"));
@@ -578,7 +579,7 @@ fn every_enumerated_key_rejects_an_unknown_value_naming_key_line_and_valid_value
     let paper = "[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\n";
     let cases: Vec<(String, &str, &str)> = vec![
         (BASE.replace("generate = \"rectangle\"", "generate = \"bogus\""), "mesh.generate", "\"rectangle\", \"polygon\", \"box\""),
-        (BASE.replace("law = \"mooney-rivlin\"", "law = \"bogus\""), "material.law", "\"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\", \"stable-neo-hookean\", \"ti-neo-hookean\", \"hgo\""),
+        (BASE.replace("law = \"mooney-rivlin\"", "law = \"bogus\""), "material.law", "\"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\", \"stable-neo-hookean\", \"ti-neo-hookean\", \"hgo\", \"neo-hookean-visco\""),
         (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ndisplacement = [0.0, 0.0, 0.01]\nmode = \"bogus\""), "displace[0].mode", "\"held\", \"ramp\", \"table\""),
         (format!("{BASE}\n[integrator]\nmethod = \"bogus\""), "integrator.method", "\"forward-euler\", \"symplectic-euler\", \"rk4\", \"central-difference\", \"newton\", \"implicit-euler\""),
         (format!("{BASE}\n[integrator]\nprecision = \"bogus\""), "integrator.precision", "\"f64\", \"f32-storage\""),
@@ -1246,6 +1247,7 @@ fn triangles_under_tets_name_the_level_file() {
 mod fibres;
 mod implicit;
 mod statics;
+mod visco;
 
 /// A body with no load, no motion and no gravity stays at rest: its round-off kinetic energy
 /// (1e-35 J) was taken for an energy blow-up, the limit being zero without loads.

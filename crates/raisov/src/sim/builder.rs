@@ -172,6 +172,12 @@ impl SimulationBuilder {
                 format!("{}: must be >= 0 (1/s)", self.alpha),
             ));
         }
+        if matches!(self.material, Material::NeoHookeanVisco(_)) {
+            return Err(Error::param(
+                "material",
+                "neo-hookean-visco is not supported by the interactive simulation: its frames restore checkpoints that do not hold the law's internal variables (run it as a scenario with a single-level or implicit-euler method)",
+            ));
+        }
         let mut params = FemParams::new(self.material.clone());
         params.density = self.density;
         params.thickness = self.thickness;

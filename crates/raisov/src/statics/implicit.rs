@@ -53,6 +53,11 @@
 //!   fails even regularised), stops with a [`Divergence`] and leaves the state at the last step.
 //! - Velocities: `v_{n+1} = (u_{n+1} − u_n)/h` on free dofs; constrained dofs get `u = g`,
 //!   `u̇ = ġ` at `t_{n+1}` ([`System::impose`]).
+//! - A rate-dependent law ([`crate::material::NeoHookeanVisco`]): the step's evaluations
+//!   advance its internal variables over `h` to the trial configuration (its stress and
+//!   algorithmic tangent, [`crate::fem::ForceModel::set_step`]); the converged `u_{n+1}` is
+//!   accepted ([`crate::fem::ForceModel::accept_step`]), a failed step is not; between steps
+//!   the evaluations take the history as accepted (`Δt = 0`).
 //!
 //! Energy: with `α = 0` and `V` constant, multiplying the step's equation by `u_{n+1} − u_n`
 //! gives `T_{n+1} − T_n + ½ |v_{n+1} − v_n|²_M = −R(u_{n+1})·(u_{n+1} − u_n) + V·(u_{n+1} − u_n)`,
@@ -349,6 +354,8 @@ impl Stepper for ImplicitEuler {
             e => fail(DivergenceCause::Solver(e.to_string()), None),
         };
         self.refresh_pattern().map_err(solver_failure)?;
+        // A rate-dependent law's evaluations advance its history over the step.
+        self.sys.force.set_step(h);
         // The inertia springs k_a = m_a (1/h² + α/h) at d_a = u_n + h v_n / (1 + α h), and the
         // start u = d (constrained dofs at u_n + h v_n).
         let alpha = self.sys.alpha;
@@ -446,6 +453,9 @@ impl Stepper for ImplicitEuler {
         }
         s.t = t1;
         self.sys.impose(t1, &mut s.u, &mut s.v);
+        self.sys.force.accept_step(&s.u, h);
+        // Between steps (measures, frames) the stress is that of the accepted state.
+        self.sys.force.set_step(0.0);
         self.steps = step;
         check_state(&self.sys, &self.state, step, self.params.kinetic_limit)
     }

@@ -180,6 +180,29 @@ pub trait ForceModel: Send + Sync {
     fn contact_forces(&self, _u: &[f64], _out: &mut [f64]) -> bool {
         false
     }
+    /// The tools' friction force on each node at `u` into `out` (3 per node, N), part of
+    /// [`ForceModel::contact_forces`]; `false` (and `out` untouched) where no tool has
+    /// friction ([`crate::contact`]).
+    fn friction_forces(&self, _u: &[f64], _out: &mut [f64]) -> bool {
+        false
+    }
+    /// Accept `u` as the state at the end of a step, at the time last set
+    /// ([`ForceModel::set_time`]): path-dependent state (the friction anchors of
+    /// [`crate::contact`]) moves on to it, and the forces until the next call are those of
+    /// the state committed here. Every stepper calls it once per accepted step, on each level
+    /// with that level's state. Returns whether the model has such state (its forces at `u`
+    /// may differ after the call: cached residuals are stale). Default: no such state.
+    fn commit_step(&mut self, _u: &[f64]) -> bool {
+        false
+    }
+    /// Append the path-dependent state to `out` (checkpoints; a fixed length per model).
+    /// Default: none.
+    fn save_history(&self, _out: &mut Vec<f64>) {}
+    /// Restore the path-dependent state from the front of `h`, as
+    /// [`ForceModel::save_history`] wrote it; returns how many values it read. Default: none.
+    fn load_history(&mut self, _h: &[f64]) -> usize {
+        0
+    }
 }
 
 /// Parameters of an FE model.

@@ -202,6 +202,12 @@ impl CheckpointWriter<'_> {
         self.vector(&s.v);
         self.number(s.t);
     }
+    /// The path-dependent state of `sys`'s force model ([`crate::fem::ForceModel::save_history`]).
+    pub(crate) fn history(&mut self, sys: &super::System) {
+        let mut h = Vec::new();
+        sys.force.save_history(&mut h);
+        self.vector(&h);
+    }
 }
 
 /// Reads a [`Checkpoint`] in the order it was written.
@@ -229,6 +235,11 @@ impl CheckpointReader<'_> {
         self.vector(&mut s.u);
         self.vector(&mut s.v);
         s.t = self.number();
+    }
+    /// Restore what [`CheckpointWriter::history`] wrote into `sys`'s force model.
+    pub(crate) fn history(&mut self, sys: &mut super::System) {
+        sys.force.load_history(&self.cp.vectors[self.v]);
+        self.v += 1;
     }
 }
 
@@ -400,11 +411,13 @@ impl Stepper for SingleLevel {
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();
         w.state(&self.state);
+        w.history(&self.sys);
         w.count(self.steps);
     }
     fn restore(&mut self, cp: &Checkpoint) {
         let mut r = cp.reader();
         r.state(&mut self.state);
+        r.history(&mut self.sys);
         self.steps = r.count();
     }
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
@@ -421,6 +434,7 @@ impl Stepper for SingleLevel {
                 cause: DivergenceCause::Inverted { det_f: f.det_f },
             })?;
         self.steps += 1;
+        let _ = self.sys.force.commit_step(&self.state.u);
         check_state(
             &self.sys,
             &self.state,

@@ -760,6 +760,18 @@ impl Scenario {
                     "`[interactive]` does not apply to method = \"newton\" (a static solve)",
                 ));
             }
+            if let Some(i) = tools.iter().position(|t| t.friction.is_some()) {
+                return Err(err(
+                    path,
+                    format!(
+                        "`tool[{i}]` has friction, which is path dependent (the tool's path \
+                         decides where nodes stick and slip), and method = \"newton\" solves \
+                         for the end state alone: step it in time with an explicit method or \
+                         method = \"implicit-euler\", or remove `friction` / \
+                         `static_friction` from tool[{i}]"
+                    ),
+                ));
+            }
             levels_only("newton")?;
             let solver = spec.integrator.solver.unwrap_or(defaults::STATIC_SOLVER);
             if solver == StaticSolver::Multigrid && spec.multigrid.is_none() {

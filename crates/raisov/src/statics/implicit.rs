@@ -446,6 +446,7 @@ impl Stepper for ImplicitEuler {
         }
         s.t = t1;
         self.sys.impose(t1, &mut s.u, &mut s.v);
+        let _ = self.sys.force.commit_step(&s.u);
         self.steps = step;
         check_state(&self.sys, &self.state, step, self.params.kinetic_limit)
     }
@@ -500,12 +501,14 @@ impl Stepper for ImplicitEuler {
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();
         w.state(&self.state);
+        w.history(&self.sys);
         w.count(self.steps);
         w.number(self.scale);
     }
     fn restore(&mut self, cp: &Checkpoint) {
         let mut r = cp.reader();
         r.state(&mut self.state);
+        r.history(&mut self.sys);
         self.steps = r.count();
         self.scale = r.number();
     }

@@ -2,9 +2,9 @@
 //! anchor and a return map (the equations are in the [`super`] module documentation).
 //!
 //! Each node in contact with a tool carries a state: its anchor `z` (the point of the tool's
-//! frame where it stuck, `x − d(t)` when it stuck) and whether it slipped in the last
-//! committed step. For a node at `x`, a tool at offset `d`, normal `n` and normal force
-//! magnitude `N = k |φ|`:
+//! frame where it stuck, `x − d(t)` when it stuck), whether it slipped in the last committed
+//! step, and its normal force magnitude at that commit, `N = k |φ|`. For a node at `x`, a
+//! tool at offset `d` and normal `n`:
 //!
 //! ```text
 //! s   = x − (z + d),   s_t = s − (s·n) n              (slip vector, tangent plane)
@@ -14,12 +14,16 @@
 //!                            s* = μ N / k_t
 //! ```
 //!
-//! The forces at any `u` between two commits use the committed anchors, so every stage of an
-//! integrator and every Newton iterate sees the same law. Committing a step
+//! The forces at any `u` between two commits use the committed anchors and normal forces
+//! (`N` lags one step), so every stage of an integrator and every Newton iterate sees the same
+//! law, and within a step it is the gradient of its energy (exactly for a plane, whose `n` is
+//! constant): a Huber potential of `s_t`, convex, which the implicit solvers' line searches
+//! need. Committing a step
 //! ([`commit`]) moves a slipping node's anchor along `s_t` until the spring carries the kinetic
-//! force, `z ← z + (1 − μ_k N / (k_t |s_t|)) s_t`, and adds `μ_k N |Δz| ≥ 0` to the
-//! dissipated energy; a node that enters contact is anchored where it stands (`s = 0`: no
-//! friction force until the step after), one that leaves it loses its anchor.
+//! force, `z ← z + (1 − μ_k N / (k_t |s_t|)) s_t`, adds `μ_k N |Δz| ≥ 0` to the dissipated
+//! energy and stores the node's new `N`; a node that enters contact is anchored where it
+//! stands (`s = 0`: no friction force until the step after), one that leaves it loses its
+//! anchor.
 
 use crate::geometry::{dot, sub};
 
@@ -35,9 +39,13 @@ pub struct Friction {
     pub stiffness: f64,
 }
 
-/// Values per node of a tool's friction state: the anchor (3; NaN without one) and the slip
-/// flag (1.0 slipped in the last committed step, 0.0 stuck).
-pub const STATE: usize = 4;
+/// Values per node of a tool's friction state: the anchor (3; NaN without one), the slip
+/// flag (1.0 slipped in the last committed step, 0.0 stuck) and the committed normal force
+/// magnitude `N` (N).
+pub const STATE: usize = 5;
+
+/// The state of a node without an anchor.
+pub const FREE: [f64; STATE] = [f64::NAN, f64::NAN, f64::NAN, 0.0, 0.0];
 
 /// The friction law evaluated at one node with the committed state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,20 +58,16 @@ pub struct Trial {
     pub slip: [f64; 3],
     /// Whether the trial force exceeds the threshold (the node slips).
     pub slipping: bool,
+    /// The committed normal force magnitude the law used (N).
+    pub normal: f64,
 }
 
 impl Friction {
-    /// The friction on a node at `x` against a tool at offset `d` with normal `n` and normal
-    /// force magnitude `normal` (N), from its committed `state` (4 values); `None` without an
+    /// The friction on a node at `x` against a tool at offset `d` with normal `n`, from its
+    /// committed `state` ([`STATE`] values, the normal force among them); `None` without an
     /// anchor.
-    pub fn trial(
-        &self,
-        x: [f64; 3],
-        d: [f64; 3],
-        n: [f64; 3],
-        normal: f64,
-        state: &[f64],
-    ) -> Option<Trial> {
+    pub fn trial(&self, x: [f64; 3], d: [f64; 3], n: [f64; 3], state: &[f64]) -> Option<Trial> {
+        let normal = state[4];
         let z = [state[0], state[1], state[2]];
         if z[0].is_nan() {
             return None;
@@ -85,6 +89,7 @@ impl Friction {
                 energy: 0.5 * kt * l * l,
                 slip: st,
                 slipping: false,
+                normal,
             });
         }
         let fk = self.kinetic_coefficient * normal;
@@ -94,13 +99,15 @@ impl Friction {
             energy: 0.5 * kt * star * star + fk * (l - star),
             slip: st,
             slipping: true,
+            normal,
         })
     }
 
     /// The tangent block of the friction force's negative derivative at a node (3 × 3,
-    /// row-major, symmetric), the normal force held: `k_t (I − n nᵀ)` in stick,
+    /// row-major, symmetric; exact for a plane): `k_t (I − n nᵀ)` in stick,
     /// `μ_k N / |s_t| (I − n nᵀ − ŝ ŝᵀ)` in slip.
-    pub fn tangent(&self, n: [f64; 3], normal: f64, trial: &Trial) -> [f64; 9] {
+    pub fn tangent(&self, n: [f64; 3], trial: &Trial) -> [f64; 9] {
+        let normal = trial.normal;
         let mut b = [0.0; 9];
         let l = dot(trial.slip, trial.slip).sqrt();
         let (c, e) = if trial.slipping {
@@ -121,29 +128,30 @@ impl Friction {
     }
 }
 
-/// Commit one node's `state` (4 values) after an accepted step: `contact` is `Some((x − d,
-/// trial))` for a node in contact (its position in the tool's frame and the law evaluated
-/// there), `None` for one out of contact. Returns the energy dissipated by its slip (J, ≥ 0).
+/// Commit one node's `state` ([`STATE`] values) after an accepted step: `contact` is
+/// `Some((x − d, N, trial))` for a node in contact (its position in the tool's frame, its
+/// normal force magnitude now and the law evaluated there), `None` for one out of contact.
+/// Returns the energy dissipated by its slip (J, ≥ 0).
 pub fn commit(
     fr: &Friction,
     state: &mut [f64],
-    normal: f64,
-    contact: Option<([f64; 3], Option<Trial>)>,
+    contact: Option<([f64; 3], f64, Option<Trial>)>,
 ) -> f64 {
-    let Some((p, trial)) = contact else {
-        state.copy_from_slice(&[f64::NAN, f64::NAN, f64::NAN, 0.0]);
+    let Some((p, normal, trial)) = contact else {
+        state.copy_from_slice(&FREE);
         return 0.0;
     };
     let Some(trial) = trial else {
-        state.copy_from_slice(&[p[0], p[1], p[2], 0.0]);
+        state.copy_from_slice(&[p[0], p[1], p[2], 0.0, normal]);
         return 0.0;
     };
+    state[4] = normal;
     if !trial.slipping {
         state[3] = 0.0;
         return 0.0;
     }
     let l = dot(trial.slip, trial.slip).sqrt();
-    let fk = fr.kinetic_coefficient * normal;
+    let fk = fr.kinetic_coefficient * trial.normal;
     let r = 1.0 - fk / (fr.stiffness * l);
     for c in 0..3 {
         state[c] += r * trial.slip[c];

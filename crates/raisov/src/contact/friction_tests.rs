@@ -201,19 +201,18 @@ fn friction_tangent_is_the_force_derivative_in_stick_and_slip() {
         stiffness: KT,
     };
     let n = [0.0, 0.0, 1.0];
-    let normal = 1.0;
     for (x, slipping) in [([2e-4, -1e-4, 0.0], false), ([2e-3, 1e-3, 0.0], true)] {
-        let state = [0.0, 0.0, 0.0, 0.0];
-        let tr = fr.trial(x, [0.0; 3], n, normal, &state).unwrap();
+        let state = [0.0, 0.0, 0.0, 0.0, 1.0];
+        let tr = fr.trial(x, [0.0; 3], n, &state).unwrap();
         assert_eq!(tr.slipping, slipping);
-        let b = fr.tangent(n, normal, &tr);
+        let b = fr.tangent(n, &tr);
         let h = 1e-9;
         for j in 0..2 {
             let (mut xp, mut xm) = (x, x);
             xp[j] += h;
             xm[j] -= h;
-            let fp = fr.trial(xp, [0.0; 3], n, normal, &state).unwrap().force;
-            let fm = fr.trial(xm, [0.0; 3], n, normal, &state).unwrap().force;
+            let fp = fr.trial(xp, [0.0; 3], n, &state).unwrap().force;
+            let fm = fr.trial(xm, [0.0; 3], n, &state).unwrap().force;
             for i in 0..3 {
                 let fd = -(fp[i] - fm[i]) / (2.0 * h);
                 assert!(

@@ -31,7 +31,7 @@
 //! with a return map (regularised Coulomb law, details in [`friction`]):
 //!
 //! ```text
-//! s_t = (I − n nᵀ)(x − z − d(t))                     slip vector
+//! s_t = (I − n nᵀ)(x − z − d(t))                     slip vector (N as last committed)
 //! stick  k_t |s_t| ≤ μ N:   f_t = −k_t s_t           (μ = μ_s, or μ_k while slipping)
 //! slip   k_t |s_t| > μ N:   f_t = −μ_k N s_t/|s_t|,   and on commit z moves along s_t until
 //!                           k_t |s_t| = μ_k N; the energy μ_k N |Δz| is dissipated
@@ -321,13 +321,7 @@ impl Tool {
             if let Some((phi, n)) = self.shape.penetration(x, d) {
                 let normal = -self.stiffness * phi;
                 let trial = self.friction.and_then(|fr| {
-                    fr.trial(
-                        x,
-                        d,
-                        n,
-                        normal,
-                        &state[friction::STATE * a..][..friction::STATE],
-                    )
+                    fr.trial(x, d, n, &state[friction::STATE * a..][..friction::STATE])
                 });
                 visit(a, sub(x, d), n, normal, trial);
             }
@@ -380,10 +374,7 @@ impl Tool {
         });
         let mut w = 0.0;
         for (st, c) in state.chunks_exact_mut(friction::STATE).zip(touched) {
-            w += match c {
-                Some((p, normal, trial)) => friction::commit(&fr, st, normal, Some((p, trial))),
-                None => friction::commit(&fr, st, 0.0, None),
-            };
+            w += friction::commit(&fr, st, c);
         }
         w
     }
@@ -423,7 +414,7 @@ impl Contact {
         let state = tools
             .iter()
             .map(|t| match t.friction {
-                Some(_) => [f64::NAN, f64::NAN, f64::NAN, 0.0].repeat(n),
+                Some(_) => friction::FREE.repeat(n),
                 None => Vec::new(),
             })
             .collect();
@@ -526,9 +517,9 @@ impl ForceModel for Contact {
         for (tool, state) in self.tools.iter().zip(&self.state) {
             tool.add_tangent(&self.x0, u, t, g, add);
             if let Some(fr) = tool.friction {
-                tool.each_contact(&self.x0, u, t, g, state, |a, _, n, normal, trial| {
+                tool.each_contact(&self.x0, u, t, g, state, |a, _, n, _, trial| {
                     if let Some(tr) = trial {
-                        add(&[a as u32], &fr.tangent(n, normal, &tr));
+                        add(&[a as u32], &fr.tangent(n, &tr));
                     }
                 });
             }

@@ -577,7 +577,8 @@ impl Scenario {
                 shape: t.shape.clone(),
                 motion: t.motion.clone(),
                 stiffness: tool_stiffness(self, mesh, t),
-                friction: t.friction.map(|f| {
+                // Friction is a fine-level feature: coarse levels' tools are frictionless.
+                friction: t.friction.filter(|_| !coarse).map(|f| {
                     let k = tool_stiffness(self, mesh, t);
                     Friction {
                         static_coefficient: f.static_coefficient,
@@ -600,5 +601,7 @@ impl Scenario {
     }
 }
 
+#[cfg(test)]
+mod friction_tests;
 #[cfg(test)]
 mod tests;

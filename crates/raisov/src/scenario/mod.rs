@@ -743,6 +743,20 @@ impl Scenario {
         } else {
             None
         };
+        if let (false, None, Some(_)) = (newton, &implicit, &spec.multigrid) {
+            if let Some(i) = tools.iter().position(|t| t.friction.is_some()) {
+                return Err(err(
+                    path,
+                    format!(
+                        "`tool[{i}]` has friction, which the explicit multigrid schemes of \
+                         `[multigrid]` do not carry (a cycle is not a step of the tool's path \
+                         on every level): run it on one level (remove `[multigrid]`), or with \
+                         method = \"implicit-euler\" (whose levels only precondition its \
+                         Newton solve), or remove `friction` / `static_friction` from tool[{i}]"
+                    ),
+                ));
+            }
+        }
         let statics = if newton {
             let settles = surface_loads.iter().all(|s| s.time.end().is_finite())
                 && timed_load.iter().all(|(_, _, f)| f.end().is_finite())

@@ -38,9 +38,12 @@
 //! ```
 //!
 //! The anchors are path dependent: they are committed once per accepted step
-//! ([`ForceModel::commit_step`]: explicit steps, backward Euler steps, each multigrid level
-//! with its own state), saved in checkpoints ([`ForceModel::save_history`]), and between two
-//! commits every force evaluation uses the same committed anchors. A node entering contact is
+//! ([`ForceModel::commit_step`]: explicit steps, backward Euler steps; the multigrid steppers
+//! commit every level), saved in checkpoints ([`ForceModel::save_history`]), and between two
+//! commits every force evaluation uses the same committed anchors. Scenarios give friction to
+//! the finest level only (coarse levels' tools are frictionless: backward Euler's levels only
+//! precondition its Newton solve) and refuse it for static solves and the explicit multigrid
+//! schemes, whose iterations are not steps of the tool's path. A node entering contact is
 //! anchored where it stands at the commit (it carries no friction force before); one leaving
 //! contact loses its anchor. `F_tool` includes the friction force; `F_friction = Σ_a f_t` is
 //! reported on its own. The friction spring's energy (`½ k_t |s_t|²`, continued linearly in

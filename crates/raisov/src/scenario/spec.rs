@@ -161,8 +161,9 @@
 //!                                 # frictionless. Or static_friction = 0.5 with
 //!                                 # kinetic_friction = 0.3 (<= static; default static)
 //! friction_stiffness = 2000.0     # N/m, the tangential stick spring; default `stiffness`.
-//!                                 # Friction is path dependent: time steppers only, not
-//!                                 # `stop = "static"` solves
+//!                                 # Friction is path dependent: single-level explicit
+//!                                 # methods and "implicit-euler" only; an error with
+//!                                 # "newton" and with [multigrid] explicit schemes
 //!
 //! [integrator]
 //! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" |

@@ -284,7 +284,6 @@ method = "symplectic-euler"
 duration = {duration:?}
 [multigrid]
 {multigrid}
-{extra}
 [interactive]
 fps = 30.0
 cycles = {cycles}

@@ -1,5 +1,5 @@
-//! Rigid analytic tools (sphere, plane, capsule) moving along a path, in frictionless penalty
-//! contact with the nodes of the body.
+//! Rigid analytic tools (sphere, plane, capsule) moving along a path, in penalty contact with
+//! the nodes of the body, frictionless or with regularised Coulomb friction.
 //!
 //! A tool is a rigid shape translated by `d(t)` (a [`Motion`]: held, ramp, table or a time
 //! function times a vector). For a node at `x = X + u` its signed distance `φ(x)` (positive
@@ -18,12 +18,37 @@
 //! f_a = −k φ n,        energy ½ k φ²
 //! ```
 //!
-//! (frictionless: normal only). The penalty is part of the force model ([`Contact`] wraps
+//! (normal only without friction). The penalty is part of the force model ([`Contact`] wraps
 //! one: its internal force is `R(u) − F_tools(u, t)`, its energy `E(u) + Σ ½ k φ²`), so
 //! explicit integrators, the FAS multigrid (each level with its own nodes in contact) and the
 //! static Newton solve (its finite-difference tangent includes the penalty stiffness) all see
 //! it. The contact force reported is `F_tool = Σ_a f_a`, the force the tool exerts on the body;
 //! at equilibrium `F_fixed + F_prescribed + F_tool + Σ V = 0` ([`crate::metrics`]).
+//!
+//! Friction ([`Friction`]: static and kinetic coefficients `μ_s ≥ μ_k`, tangential stiffness
+//! `k_t`; the scenario's default `k_t = k`) adds to a penetrating node's normal force
+//! `N = k |φ|` a tangential force from a stick spring to an anchor `z` in the tool's frame,
+//! with a return map (regularised Coulomb law, details in [`friction`]):
+//!
+//! ```text
+//! s_t = (I − n nᵀ)(x − z − d(t))                     slip vector (N as last committed)
+//! stick  k_t |s_t| ≤ μ N:   f_t = −k_t s_t           (μ = μ_s, or μ_k while slipping)
+//! slip   k_t |s_t| > μ N:   f_t = −μ_k N s_t/|s_t|,   and on commit z moves along s_t until
+//!                           k_t |s_t| = μ_k N; the energy μ_k N |Δz| is dissipated
+//! ```
+//!
+//! The anchors are path dependent: they are committed once per accepted step
+//! ([`ForceModel::accept_step`]: explicit steps, backward Euler steps; the multigrid steppers
+//! commit every level), saved in checkpoints ([`ForceModel::save_history`]), and between two
+//! commits every force evaluation uses the same committed anchors. Scenarios give friction to
+//! the finest level only (coarse levels' tools are frictionless: backward Euler's levels only
+//! precondition its Newton solve) and refuse it for static solves and the explicit multigrid
+//! schemes, whose iterations are not steps of the tool's path. A node entering contact is
+//! anchored where it stands at the commit (it carries no friction force before); one leaving
+//! contact loses its anchor. `F_tool` includes the friction force; `F_friction = Σ_a f_t` is
+//! reported on its own. The friction spring's energy (`½ k_t |s_t|²`, continued linearly in
+//! slip) is part of the model's energy with the normal force held; the tangent adds
+//! `k_t (I − n nᵀ)` per stuck node, `μ_k N/|s_t| (I − n nᵀ − ŝ ŝᵀ)` per slipping one.
 //!
 //! Penalty stiffness: default `k = 4 M ℓ̄`, `M` the material's stability modulus
 //! ([`crate::material::Material::stability_modulus`], 3K for solids: the stiffest small-strain
@@ -40,6 +65,10 @@
 //! pressure `p_a = |f_a| / A_a` (Pa), `A_a` the node's tributary area on the reference
 //! boundary: a third of every boundary triangle (tetrahedral meshes) or element (membranes)
 //! it is a corner of.
+
+pub mod friction;
+
+pub use friction::Friction;
 
 use crate::fem::loads::LoadReport;
 use crate::fem::{ElementFailure, ForceModel};
@@ -113,6 +142,8 @@ pub struct Tool {
     pub motion: Motion,
     /// Penalty stiffness k (N/m): a node penetrating by `−φ` feels `−k φ n`.
     pub stiffness: f64,
+    /// Coulomb friction; `None`: frictionless.
+    pub friction: Option<Friction>,
 }
 
 /// Distance and normal from the nearest point `q` of a core (point or segment) of radius `r`.
@@ -273,6 +304,83 @@ impl Tool {
     pub fn nodal_forces(&self, x0: &[f64], u: &[f64], t: f64, f: &mut [f64]) {
         self.add_forces(x0, u, t, 1.0, f);
     }
+
+    /// For each node of `x0 + u` inside the tool at time `t` (nodes ascending):
+    /// `visit(node, x − d, n, N, trial)` with the normal force magnitude `N = k |φ|` and the
+    /// friction law at the committed `state` ([`friction::STATE`] per node; `trial` `None`
+    /// without friction or an anchor).
+    fn each_contact(
+        &self,
+        x0: &[f64],
+        u: &[f64],
+        t: f64,
+        factor: f64,
+        state: &[f64],
+        mut visit: impl FnMut(usize, [f64; 3], [f64; 3], f64, Option<friction::Trial>),
+    ) {
+        let d = self.offset(t, factor);
+        for (a, (p, w)) in x0.chunks_exact(3).zip(u.chunks_exact(3)).enumerate() {
+            let x = [p[0] + w[0], p[1] + w[1], p[2] + w[2]];
+            if let Some((phi, n)) = self.shape.penetration(x, d) {
+                let normal = -self.stiffness * phi;
+                let trial = self.friction.and_then(|fr| {
+                    fr.trial(x, d, n, &state[friction::STATE * a..][..friction::STATE])
+                });
+                visit(a, sub(x, d), n, normal, trial);
+            }
+        }
+    }
+
+    /// Add the friction forces at `u` and time `t` from the committed `state` into `f`
+    /// (3 per node); returns the friction springs' energy (J) and the net friction force (N).
+    pub fn add_friction_forces(
+        &self,
+        x0: &[f64],
+        u: &[f64],
+        t: f64,
+        factor: f64,
+        state: &[f64],
+        f: &mut [f64],
+    ) -> (f64, [f64; 3]) {
+        let (mut e, mut net) = (0.0, [0.0; 3]);
+        if self.friction.is_none() {
+            return (e, net);
+        }
+        self.each_contact(x0, u, t, factor, state, |a, _, _, _, trial| {
+            if let Some(tr) = trial {
+                for c in 0..3 {
+                    f[3 * a + c] += tr.force[c];
+                    net[c] += tr.force[c];
+                }
+                e += tr.energy;
+            }
+        });
+        (e, net)
+    }
+
+    /// Commit the friction `state` at `u` and time `t` (module documentation); returns the
+    /// energy dissipated by slip (J).
+    pub fn commit_friction(
+        &self,
+        x0: &[f64],
+        u: &[f64],
+        t: f64,
+        factor: f64,
+        state: &mut [f64],
+    ) -> f64 {
+        let Some(fr) = self.friction else {
+            return 0.0;
+        };
+        let mut touched = vec![None; x0.len() / 3];
+        self.each_contact(x0, u, t, factor, state, |a, p, _, normal, trial| {
+            touched[a] = Some((p, normal, trial));
+        });
+        let mut w = 0.0;
+        for (st, c) in state.chunks_exact_mut(friction::STATE).zip(touched) {
+            w += friction::commit(&fr, st, c);
+        }
+        w
+    }
 }
 
 /// Default penalty stiffness `k = 4 · modulus · ℓ̄` (N/m) for a mesh of mean edge length
@@ -289,6 +397,10 @@ pub struct Contact {
     /// Reference positions, 3 per node.
     x0: Vec<f64>,
     tools: Vec<Tool>,
+    /// Per tool, its friction state ([`friction::STATE`] per node; empty without friction).
+    state: Vec<Vec<f64>>,
+    /// Energy dissipated by friction so far (J).
+    dissipated: f64,
     /// Time (f64 bits).
     time: AtomicU64,
     /// Factor of the tools' translations (f64 bits; static increments).
@@ -302,10 +414,19 @@ impl Contact {
     pub fn new(inner: Box<dyn ForceModel>, x0: Vec<f64>, tools: Vec<Tool>) -> Self {
         let n = inner.num_nodes();
         assert_eq!(x0.len(), 3 * n);
+        let state = tools
+            .iter()
+            .map(|t| match t.friction {
+                Some(_) => friction::FREE.repeat(n),
+                None => Vec::new(),
+            })
+            .collect();
         Contact {
             inner,
             x0,
             tools,
+            state,
+            dissipated: 0.0,
             time: AtomicU64::new(0f64.to_bits()),
             factor: AtomicU64::new(1f64.to_bits()),
             f: vec![0.0; 3 * n],
@@ -322,21 +443,34 @@ impl Contact {
         f64::from_bits(self.time.load(Ordering::Relaxed))
     }
 
-    /// The tools' forces on the body added into `f` (3 per node); returns the penalty energy
-    /// (J), the net force (N) and the deepest penetration (m).
-    pub fn add_tool_forces(&self, u: &[f64], f: &mut [f64]) -> (f64, [f64; 3], f64) {
+    /// The energy dissipated by friction over the committed steps so far (J, ≥ 0).
+    pub fn dissipated(&self) -> f64 {
+        self.dissipated
+    }
+
+    /// Whether a tool has friction.
+    pub fn has_friction(&self) -> bool {
+        self.tools.iter().any(|t| t.friction.is_some())
+    }
+
+    /// The tools' forces on the body (normal and friction) added into `f` (3 per node);
+    /// returns the penalty and friction energy (J), the net force (N), the deepest penetration
+    /// (m) and the net friction force (N).
+    pub fn add_tool_forces(&self, u: &[f64], f: &mut [f64]) -> (f64, [f64; 3], f64, [f64; 3]) {
         let t = self.time();
         let g = f64::from_bits(self.factor.load(Ordering::Relaxed));
-        let (mut e, mut net, mut pen) = (0.0, [0.0; 3], 0.0f64);
-        for tool in &self.tools {
+        let (mut e, mut net, mut pen, mut fric) = (0.0, [0.0; 3], 0.0f64, [0.0; 3]);
+        for (tool, state) in self.tools.iter().zip(&self.state) {
             let (te, tf, tp) = tool.add_forces(&self.x0, u, t, g, f);
-            e += te;
+            let (fe, ff) = tool.add_friction_forces(&self.x0, u, t, g, state, f);
+            e += te + fe;
             for d in 0..3 {
-                net[d] += tf[d];
+                net[d] += tf[d] + ff[d];
+                fric[d] += ff[d];
             }
             pen = pen.max(tp);
         }
-        (e, net, pen)
+        (e, net, pen, fric)
     }
 }
 
@@ -358,7 +492,7 @@ impl ForceModel for Contact {
     }
 
     fn strain_energy(&self, u: &[f64]) -> f64 {
-        let (e, _, _) = self.add_tool_forces(u, &mut vec![0.0; u.len()]);
+        let (e, ..) = self.add_tool_forces(u, &mut vec![0.0; u.len()]);
         self.inner.strain_energy(u) + e
     }
 
@@ -367,7 +501,7 @@ impl ForceModel for Contact {
         if !inner.is_finite() {
             return f64::INFINITY;
         }
-        let (e, _, _) = self.add_tool_forces(u, &mut vec![0.0; u.len()]);
+        let (e, ..) = self.add_tool_forces(u, &mut vec![0.0; u.len()]);
         inner + e
     }
 
@@ -383,8 +517,15 @@ impl ForceModel for Contact {
         self.inner.add_extra_tangent(u, add);
         let t = self.time();
         let g = f64::from_bits(self.factor.load(Ordering::Relaxed));
-        for tool in &self.tools {
+        for (tool, state) in self.tools.iter().zip(&self.state) {
             tool.add_tangent(&self.x0, u, t, g, add);
+            if let Some(fr) = tool.friction {
+                tool.each_contact(&self.x0, u, t, g, state, |a, _, n, _, trial| {
+                    if let Some(tr) = trial {
+                        add(&[a as u32], &fr.tangent(n, &tr));
+                    }
+                });
+            }
         }
     }
 
@@ -410,18 +551,15 @@ impl ForceModel for Contact {
         self.inner.set_step(dt);
     }
 
-    fn accept_step(&mut self, u: &[f64], dt: f64) {
-        self.inner.accept_step(u, dt);
-    }
-
     fn load_report(&mut self, u: &[f64]) -> LoadReport {
         let mut rep = self.inner.load_report(u);
         let mut f = std::mem::take(&mut self.f);
         f.iter_mut().for_each(|x| *x = 0.0);
-        let (_, net, pen) = self.add_tool_forces(u, &mut f);
+        let (_, net, pen, fric) = self.add_tool_forces(u, &mut f);
         self.f = f;
         for d in 0..3 {
             rep.tool[d] += net[d];
+            rep.friction[d] += fric[d];
         }
         rep.max_penetration = rep.max_penetration.max(pen);
         rep
@@ -432,7 +570,56 @@ impl ForceModel for Contact {
         self.add_tool_forces(u, out);
         true
     }
+
+    fn friction_forces(&self, u: &[f64], out: &mut [f64]) -> bool {
+        if !self.has_friction() {
+            return self.inner.friction_forces(u, out);
+        }
+        out.iter_mut().for_each(|x| *x = 0.0);
+        let t = self.time();
+        let g = f64::from_bits(self.factor.load(Ordering::Relaxed));
+        for (tool, state) in self.tools.iter().zip(&self.state) {
+            tool.add_friction_forces(&self.x0, u, t, g, state, out);
+        }
+        true
+    }
+
+    fn accept_step(&mut self, u: &[f64], dt: f64) -> bool {
+        let inner = self.inner.accept_step(u, dt);
+        let t = self.time();
+        let g = f64::from_bits(self.factor.load(Ordering::Relaxed));
+        for (tool, state) in self.tools.iter().zip(&mut self.state) {
+            self.dissipated += tool.commit_friction(&self.x0, u, t, g, state);
+        }
+        inner || self.has_friction()
+    }
+
+    fn save_history(&self, out: &mut Vec<f64>) {
+        self.inner.save_history(out);
+        if self.has_friction() {
+            for s in &self.state {
+                out.extend_from_slice(s);
+            }
+            out.push(self.dissipated);
+        }
+    }
+
+    fn load_history(&mut self, h: &[f64]) -> usize {
+        let mut k = self.inner.load_history(h);
+        if self.has_friction() {
+            for s in &mut self.state {
+                let len = s.len();
+                s.copy_from_slice(&h[k..k + len]);
+                k += len;
+            }
+            self.dissipated = h[k];
+            k += 1;
+        }
+        k
+    }
 }
 
+#[cfg(test)]
+mod friction_tests;
 #[cfg(test)]
 mod tests;

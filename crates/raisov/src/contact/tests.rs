@@ -50,6 +50,7 @@ fn penalty_force_is_the_energy_gradient() {
             d: [0.05, 0.0, 0.0],
         },
         stiffness: 1e3,
+        friction: None,
     };
     let x0 = vec![0.2, 0.1, 0.5, -0.1, 0.2, 1.1, 1.0, 1.0, 1.0];
     let u = vec![0.01, -0.02, 0.0, 0.0, 0.0, 0.05, 0.0, 0.0, 0.0];
@@ -116,6 +117,7 @@ fn tool_tangent_is_the_force_derivative_for_each_shape() {
                 duration: 1.0,
             },
             stiffness: 5e3,
+            friction: None,
         };
         let mut c = Contact::new(Box::new(fem), x0, vec![tool]);
         c.set_time(0.5);

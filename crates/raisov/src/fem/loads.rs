@@ -83,6 +83,8 @@ pub struct LoadReport {
     pub tool: [f64; 3],
     /// The largest penetration of a node into a tool (m; 0 without contact).
     pub max_penetration: f64,
+    /// The tangential (friction) part of `tool` ([`crate::contact`]; zero without friction).
+    pub friction: [f64; 3],
 }
 
 /// A force model with surface loads and timed nodal loads on top (see the module
@@ -356,12 +358,24 @@ impl ForceModel for Loaded {
         self.inner.set_step(dt);
     }
 
-    fn accept_step(&mut self, u: &[f64], dt: f64) {
-        self.inner.accept_step(u, dt);
+    fn accept_step(&mut self, u: &[f64], dt: f64) -> bool {
+        self.inner.accept_step(u, dt)
     }
 
     fn contact_forces(&self, u: &[f64], out: &mut [f64]) -> bool {
         self.inner.contact_forces(u, out)
+    }
+
+    fn friction_forces(&self, u: &[f64], out: &mut [f64]) -> bool {
+        self.inner.friction_forces(u, out)
+    }
+
+    fn save_history(&self, out: &mut Vec<f64>) {
+        self.inner.save_history(out)
+    }
+
+    fn load_history(&mut self, h: &[f64]) -> usize {
+        self.inner.load_history(h)
     }
 
     fn load_report(&mut self, u: &[f64]) -> LoadReport {

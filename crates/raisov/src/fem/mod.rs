@@ -191,9 +191,17 @@ pub trait ForceModel: Send + Sync {
     /// (module docs, "Rate-dependent laws"): ∞ (every model's start) is the fully relaxed
     /// law, 0 the stress with the history as last accepted. Default: no such law.
     fn set_step(&mut self, _dt: f64) {}
-    /// Accept `u` as the configuration at the end of a step of `dt` (s): a rate-dependent
-    /// law's internal variables advance to it, once per accepted step. Default: no such law.
-    fn accept_step(&mut self, _u: &[f64], _dt: f64) {}
+    /// Accept `u` as the configuration at the end of a step of `dt` (s), at the time last set
+    /// ([`ForceModel::set_time`]): the one end-of-step hook. A rate-dependent law's internal
+    /// variables advance to it (module docs, "Rate-dependent laws"), and path-dependent
+    /// contact state (the friction anchors of [`crate::contact`]) moves on to it; the forces
+    /// until the next call are those of the state accepted here. Every stepper calls it once
+    /// per accepted step, on each level with that level's state. Returns whether the model
+    /// has such state (its forces at `u` may differ after the call: cached residuals are
+    /// stale). Default: none.
+    fn accept_step(&mut self, _u: &[f64], _dt: f64) -> bool {
+        false
+    }
     /// Net forces of the loads and tools a model carries at `u` ([`loads::LoadReport`]);
     /// default: none.
     fn load_report(&mut self, _u: &[f64]) -> loads::LoadReport {
@@ -203,6 +211,20 @@ pub trait ForceModel: Send + Sync {
     /// field of the frames; `false` (and `out` untouched) where the model carries no tools.
     fn contact_forces(&self, _u: &[f64], _out: &mut [f64]) -> bool {
         false
+    }
+    /// The tools' friction force on each node at `u` into `out` (3 per node, N), part of
+    /// [`ForceModel::contact_forces`]; `false` (and `out` untouched) where no tool has
+    /// friction ([`crate::contact`]).
+    fn friction_forces(&self, _u: &[f64], _out: &mut [f64]) -> bool {
+        false
+    }
+    /// Append the path-dependent state to `out` (checkpoints; a fixed length per model).
+    /// Default: none.
+    fn save_history(&self, _out: &mut Vec<f64>) {}
+    /// Restore the path-dependent state from the front of `h`, as
+    /// [`ForceModel::save_history`] wrote it; returns how many values it read. Default: none.
+    fn load_history(&mut self, _h: &[f64]) -> usize {
+        0
     }
 }
 
@@ -966,9 +988,9 @@ impl ForceModel for FemModel {
         }
     }
 
-    fn accept_step(&mut self, u: &[f64], dt: f64) {
+    fn accept_step(&mut self, u: &[f64], dt: f64) -> bool {
         let Some(mut v) = self.visco.take() else {
-            return;
+            return false;
         };
         let this = &*self;
         v.accept(dt, &|e| {
@@ -976,6 +998,7 @@ impl ForceModel for FemModel {
             (det > 0.0).then(|| f.transpose() * f)
         });
         self.visco = Some(v);
+        true
     }
 }
 

@@ -210,6 +210,12 @@ impl CheckpointWriter<'_> {
         self.vector(&s.v);
         self.number(s.t);
     }
+    /// The path-dependent state of `sys`'s force model ([`crate::fem::ForceModel::save_history`]).
+    pub(crate) fn history(&mut self, sys: &super::System) {
+        let mut h = Vec::new();
+        sys.force.save_history(&mut h);
+        self.vector(&h);
+    }
 }
 
 /// Reads a [`Checkpoint`] in the order it was written.
@@ -237,6 +243,11 @@ impl CheckpointReader<'_> {
         self.vector(&mut s.u);
         self.vector(&mut s.v);
         s.t = self.number();
+    }
+    /// Restore what [`CheckpointWriter::history`] wrote into `sys`'s force model.
+    pub(crate) fn history(&mut self, sys: &mut super::System) {
+        sys.force.load_history(&self.cp.vectors[self.v]);
+        self.v += 1;
     }
 }
 
@@ -408,11 +419,13 @@ impl Stepper for SingleLevel {
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();
         w.state(&self.state);
+        w.history(&self.sys);
         w.count(self.steps);
     }
     fn restore(&mut self, cp: &Checkpoint) {
         let mut r = cp.reader();
         r.state(&mut self.state);
+        r.history(&mut self.sys);
         self.steps = r.count();
     }
     fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
@@ -432,7 +445,7 @@ impl Stepper for SingleLevel {
                 element: Some(f.element),
                 cause: DivergenceCause::Inverted { det_f: f.det_f },
             })?;
-        self.sys.force.accept_step(&self.state.u, self.params.dt);
+        let _ = self.sys.force.accept_step(&self.state.u, self.params.dt);
         self.steps += 1;
         check_state(
             &self.sys,

@@ -54,6 +54,8 @@ pub struct Sample {
     pub tool: [f64; 3],
     /// The deepest penetration of a node into a tool (m).
     pub penetration: f64,
+    /// The tangential (friction) part of `tool`, `F_friction` (N); zero without friction.
+    pub friction: [f64; 3],
 }
 
 /// `max |T − T∞|` and mean over nodes where `mask` is false (free nodes).
@@ -129,6 +131,7 @@ impl Meter {
             reaction_prescribed,
             tool: lr.tool,
             penetration: lr.max_penetration,
+            friction: lr.friction,
         }
     }
 
@@ -183,8 +186,21 @@ reaction_fixed_x_N,reaction_fixed_y_N,reaction_fixed_z_N,\
 reaction_prescribed_x_N,reaction_prescribed_y_N,reaction_prescribed_z_N,\
 tool_fx_N,tool_fy_N,tool_fz_N,penetration_m";
 
-/// One CSV row of `r` (no newline). Missing stress errors are empty fields.
-fn csv_row(w: &mut dyn Write, r: &Sample) -> std::io::Result<()> {
+/// The columns [`CSV_HEADER`] ends with for scenarios with friction: `F_friction` (N).
+pub const CSV_FRICTION: &str = ",friction_x_N,friction_y_N,friction_z_N";
+
+/// The measures CSV's header, with the friction columns where `friction`.
+pub fn csv_header(friction: bool) -> String {
+    if friction {
+        format!("{CSV_HEADER}{CSV_FRICTION}")
+    } else {
+        CSV_HEADER.to_string()
+    }
+}
+
+/// One CSV row of `r` (no newline), with the friction columns where `friction`. Missing
+/// stress errors are empty fields.
+fn csv_row(w: &mut dyn Write, r: &Sample, friction: bool) -> std::io::Result<()> {
     let opt = |x: f64| {
         if x.is_finite() {
             format!("{x:.9e}")
@@ -214,15 +230,20 @@ fn csv_row(w: &mut dyn Write, r: &Sample) -> std::io::Result<()> {
     {
         write!(w, ",{}", opt(*x))?;
     }
+    if friction {
+        for x in r.friction {
+            write!(w, ",{}", opt(x))?;
+        }
+    }
     Ok(())
 }
 
-/// Write samples as CSV, atomically.
-pub fn write_csv(path: &Path, rows: &[Sample]) -> Result<()> {
+/// Write samples as CSV, atomically, with the friction columns where `friction`.
+pub fn write_csv(path: &Path, rows: &[Sample], friction: bool) -> Result<()> {
     write_atomic(path, |w| {
-        writeln!(w, "{CSV_HEADER}")?;
+        writeln!(w, "{}", csv_header(friction))?;
         for r in rows {
-            csv_row(w, r)?;
+            csv_row(w, r, friction)?;
             writeln!(w)?;
         }
         Ok(())
@@ -238,27 +259,32 @@ pub struct CsvStream {
     file: RowFile,
     /// The row being formatted.
     line: Vec<u8>,
+    /// Whether the rows have the friction columns.
+    friction: bool,
 }
 
 impl CsvStream {
-    /// Create (truncate) `path` and write the header; never through a symbolic link.
-    pub fn create(path: &Path) -> Result<CsvStream> {
+    /// Create (truncate) `path` and write the header (with the friction columns where
+    /// `friction`); never through a symbolic link.
+    pub fn create(path: &Path, friction: bool) -> Result<CsvStream> {
         Ok(CsvStream {
-            file: RowFile::create(path, CSV_HEADER)?,
+            file: RowFile::create(path, &csv_header(friction))?,
             line: Vec::with_capacity(512),
+            friction,
         })
     }
     /// Rows formatted and dropped, no file written ([`RowFile::discard`]).
-    pub fn discard(path: &Path) -> Result<CsvStream> {
+    pub fn discard(path: &Path, friction: bool) -> Result<CsvStream> {
         Ok(CsvStream {
-            file: RowFile::discard(path, CSV_HEADER)?,
+            file: RowFile::discard(path, &csv_header(friction))?,
             line: Vec::with_capacity(512),
+            friction,
         })
     }
     /// Append one row.
     pub fn push(&mut self, r: &Sample) -> Result<()> {
         self.line.clear();
-        csv_row(&mut self.line, r).map_err(|e| Error::io(self.file.path(), e))?;
+        csv_row(&mut self.line, r, self.friction).map_err(|e| Error::io(self.file.path(), e))?;
         self.file.push(&self.line)
     }
     /// Write the buffered rows to the file.

@@ -991,6 +991,7 @@ impl Stepper for Fas {
         let mut w = cp.writer();
         for l in &self.levels {
             w.state(&l.state);
+            w.history(&l.sys);
         }
         for e in &self.eig {
             w.vector(e);
@@ -1009,6 +1010,7 @@ impl Stepper for Fas {
         let mut r = cp.reader();
         for l in &mut self.levels {
             r.state(&mut l.state);
+            r.history(&mut l.sys);
         }
         for e in &mut self.eig {
             r.vector(e);
@@ -1083,6 +1085,12 @@ impl Stepper for Fas {
         }
         self.levels[0].state.t = t1;
         self.steps += 1;
+        for (l, fresh) in self.levels.iter_mut().zip(&mut self.fresh) {
+            if l.sys.force.accept_step(&l.state.u, t1 - t0) {
+                // The committed state changed the forces: the cached residual is stale.
+                *fresh = false;
+            }
+        }
         let l = &self.levels[0];
         check_state(&l.sys, &l.state, self.steps, self.params.kinetic_limit)
     }

@@ -566,6 +566,7 @@ impl Stepper for Raisov {
         let mut w = cp.writer();
         for (l, (pu, pv)) in self.levels.iter().zip(self.prev_u.iter().zip(&self.prev_v)) {
             w.state(&l.state);
+            w.history(&l.sys);
             w.vector(pu);
             w.vector(pv);
         }
@@ -579,6 +580,7 @@ impl Stepper for Raisov {
             .zip(self.prev_u.iter_mut().zip(self.prev_v.iter_mut()))
         {
             r.state(&mut l.state);
+            r.history(&mut l.sys);
             r.vector(pu);
             r.vector(pv);
         }
@@ -590,6 +592,10 @@ impl Stepper for Raisov {
     fn advance(&mut self) -> Result<(), Divergence> {
         self.cycle()?;
         self.steps += 1;
+        let dt = self.dt();
+        for l in &mut self.levels {
+            let _ = l.sys.force.accept_step(&l.state.u, dt);
+        }
         let l = &self.levels[0];
         check_state(&l.sys, &l.state, self.steps, self.params.kinetic_limit)
     }

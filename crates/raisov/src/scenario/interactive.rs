@@ -746,6 +746,7 @@ pub fn run_frames(
                 reaction_prescribed: [f64::NAN; 3],
                 tool: [f64::NAN; 3],
                 penetration: f64::NAN,
+                friction: [f64::NAN; 3],
             };
             p(k as f64 / frames_n as f64, &sample);
         }

@@ -12,7 +12,7 @@
 
 use super::spec::{self, Named, TimeKind, ToolKind};
 use super::{err, positive, select, Scenario, Selector};
-use crate::contact::{default_stiffness, Contact, Tool, ToolShape};
+use crate::contact::{default_stiffness, Contact, Friction, Tool, ToolShape};
 use crate::error::Result;
 use crate::fem::loads::{
     nodes_within, triangles_within, Loaded, SurfaceLoad, SurfaceLoadKind, TimeFunction,
@@ -61,6 +61,91 @@ pub struct ToolDef {
     /// `stiffness` (N/m); `None`: 4 × the material's stability modulus × the level's mean
     /// edge length ([`tool_stiffness`]).
     pub stiffness: Option<f64>,
+    /// Coulomb friction; `None` frictionless (also for a zero coefficient).
+    pub friction: Option<FrictionDef>,
+}
+
+/// A tool's resolved friction keys.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrictionDef {
+    /// μ_s (`friction` or `static_friction`).
+    pub static_coefficient: f64,
+    /// μ_k ≤ μ_s (`friction` or `kinetic_friction`, default μ_s).
+    pub kinetic_coefficient: f64,
+    /// `friction_stiffness` (N/m); `None`: the tool's penalty stiffness.
+    pub stiffness: Option<f64>,
+}
+
+/// The friction keys of `[[tool]]` entry `key` checked: `friction`, or `static_friction`
+/// with an optional `kinetic_friction`, and `friction_stiffness`. A zero coefficient is
+/// frictionless contact (`None`).
+fn resolve_friction(t: &spec::ToolSpec, path: &Path, key: &str) -> Result<Option<FrictionDef>> {
+    let coefficient = |k: &str, v: f64| -> Result<f64> {
+        if v >= 0.0 && v.is_finite() {
+            Ok(v)
+        } else {
+            Err(err(
+                path,
+                format!("`{key}.{k}` = {v}: must be a friction coefficient, a finite number >= 0"),
+            ))
+        }
+    };
+    let (mu_s, mu_k) = match (t.friction, t.static_friction, t.kinetic_friction) {
+        (None, None, None) => {
+            if t.friction_stiffness.is_some() {
+                return Err(err(
+                    path,
+                    format!("{key}: `friction_stiffness` needs `friction` (or `static_friction`)"),
+                ));
+            }
+            return Ok(None);
+        }
+        (Some(m), None, None) => {
+            let m = coefficient("friction", m)?;
+            (m, m)
+        }
+        (Some(_), _, _) => {
+            return Err(err(
+                path,
+                format!(
+                    "{key}: give `friction` (static = kinetic) or `static_friction` with \
+                     `kinetic_friction`, not both"
+                ),
+            ))
+        }
+        (None, None, Some(_)) => {
+            return Err(err(
+                path,
+                format!("{key}: `kinetic_friction` needs `static_friction` (μ_s >= μ_k)"),
+            ))
+        }
+        (None, Some(s), k) => {
+            let s = coefficient("static_friction", s)?;
+            let k = match k {
+                Some(k) => coefficient("kinetic_friction", k)?,
+                None => s,
+            };
+            if k > s {
+                return Err(err(
+                    path,
+                    format!(
+                        "{key}: `kinetic_friction` = {k} exceeds `static_friction` = {s}; \
+                         the kinetic coefficient must be at most the static one"
+                    ),
+                ));
+            }
+            (s, k)
+        }
+    };
+    let stiffness = match t.friction_stiffness {
+        Some(k) => Some(positive(path, &format!("{key}.friction_stiffness"), k)?),
+        None => None,
+    };
+    Ok((mu_s > 0.0).then_some(FrictionDef {
+        static_coefficient: mu_s,
+        kinetic_coefficient: mu_k,
+        stiffness,
+    }))
 }
 
 /// `time = {..}` checked: the keys its kind needs and no others.
@@ -312,6 +397,7 @@ pub fn resolve_tool(t: &spec::ToolSpec, path: &Path, i: usize) -> Result<ToolDef
         shape,
         motion,
         stiffness,
+        friction: resolve_friction(t, path, &key)?,
     })
 }
 
@@ -352,6 +438,12 @@ pub fn tool_stiffness(sc: &Scenario, mesh: &Mesh, t: &ToolDef) -> f64 {
 }
 
 impl Scenario {
+    /// Whether a tool has friction (path-dependent contact: `measures.csv` has the friction
+    /// columns, the frames the `friction_force` field).
+    pub fn has_friction(&self) -> bool {
+        self.tools.iter().any(|t| t.friction.is_some())
+    }
+
     /// Whether the scenario has loads or tools that a [`Loaded`] or [`Contact`] force model
     /// carries.
     pub fn has_model_loads(&self) -> bool {
@@ -485,6 +577,15 @@ impl Scenario {
                 shape: t.shape.clone(),
                 motion: t.motion.clone(),
                 stiffness: tool_stiffness(self, mesh, t),
+                // Friction is a fine-level feature: coarse levels' tools are frictionless.
+                friction: t.friction.filter(|_| !coarse).map(|f| {
+                    let k = tool_stiffness(self, mesh, t);
+                    Friction {
+                        static_coefficient: f.static_coefficient,
+                        kinetic_coefficient: f.kinetic_coefficient,
+                        stiffness: f.stiffness.unwrap_or(k),
+                    }
+                }),
             })
             .collect();
         let loaded: Box<dyn ForceModel> = if surface.is_empty() && nodal.is_empty() {
@@ -500,5 +601,7 @@ impl Scenario {
     }
 }
 
+#[cfg(test)]
+mod friction_tests;
 #[cfg(test)]
 mod tests;

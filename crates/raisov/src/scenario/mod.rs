@@ -761,6 +761,20 @@ impl Scenario {
                 ));
             }
         }
+        if let (false, None, Some(_)) = (newton, &implicit, &spec.multigrid) {
+            if let Some(i) = tools.iter().position(|t| t.friction.is_some()) {
+                return Err(err(
+                    path,
+                    format!(
+                        "`tool[{i}]` has friction, which the explicit multigrid schemes of \
+                         `[multigrid]` do not carry (a cycle is not a step of the tool's path \
+                         on every level): run it on one level (remove `[multigrid]`), or with \
+                         method = \"implicit-euler\" (whose levels only precondition its \
+                         Newton solve), or remove `friction` / `static_friction` from tool[{i}]"
+                    ),
+                ));
+            }
+        }
         let statics = if newton {
             let settles = surface_loads.iter().all(|s| s.time.end().is_finite())
                 && timed_load.iter().all(|(_, _, f)| f.end().is_finite())
@@ -776,6 +790,18 @@ impl Scenario {
                 return Err(err(
                     path,
                     "`[interactive]` does not apply to method = \"newton\" (a static solve)",
+                ));
+            }
+            if let Some(i) = tools.iter().position(|t| t.friction.is_some()) {
+                return Err(err(
+                    path,
+                    format!(
+                        "`tool[{i}]` has friction, which is path dependent (the tool's path \
+                         decides where nodes stick and slip), and method = \"newton\" solves \
+                         for the end state alone: step it in time with an explicit method or \
+                         method = \"implicit-euler\", or remove `friction` / \
+                         `static_friction` from tool[{i}]"
+                    ),
                 ));
             }
             levels_only("newton")?;

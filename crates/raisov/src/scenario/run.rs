@@ -3,14 +3,16 @@
 //! The output directory is locked for the run ([`crate::io::OutputLock`], `.raisov.lock`):
 //! a second run on the same directory stops with an error naming it. Files written under it:
 //! - `measures.csv`: one row per `csv_every` steps ([`crate::metrics::CSV_HEADER`]), the
-//!   reactions and the tools' contact force and penetration included ([`crate::metrics`]), streamed as the rows come and flushed with every
+//!   reactions and the tools' contact force and penetration included, and with friction the
+//!   friction force (`friction_x_N..`, [`crate::metrics::CSV_FRICTION`]) ([`crate::metrics`]), streamed as the rows come and flushed with every
 //!   frame: a killed run leaves the rows up to its last frame. Nothing of it is kept in memory;
 //!   the steady-state test keeps the peaks and the best value so far;
 //! - `NAME.pvd` + `frames/NAME_NNNNNN.vtu`: ParaView time series, points in the reference
 //!   configuration with point fields `displacement` (m; the active vectors, so *Warp By
 //!   Vector* shows the deformed body), `velocity` (m/s), `stress` (nodal Cauchy T, Pa),
 //!   `contact_force` (N per node, the force the `[[tool]]`s exert; scenarios with tools) and
-//!   `contact_pressure` (Pa, its magnitude over the node's tributary boundary area), and
+//!   `contact_pressure` (Pa, its magnitude over the node's tributary boundary area), with
+//!   friction `friction_force` (N per node, the tangential part of `contact_force`), and
 //!   `file_node_id` (`Int64`, each point's node id in the mesh file) where that differs from
 //!   its position (`[mesh] renumber` reordered the nodes, or the file numbers from 1); binary appended zlib or ASCII per `[output] vtu`
 //!   ([`crate::io::vtu`]);
@@ -171,12 +173,13 @@ impl OutDir {
         }
     }
 
-    /// `measures.csv`, streamed, or counted and dropped.
-    pub(crate) fn measures(&self) -> Result<CsvStream> {
+    /// `measures.csv`, streamed, or counted and dropped; with the friction columns where
+    /// `friction`.
+    pub(crate) fn measures(&self, friction: bool) -> Result<CsvStream> {
         let p = self.path("measures.csv");
         match self.dir {
-            Some(_) => CsvStream::create(&p),
-            None => CsvStream::discard(&p),
+            Some(_) => CsvStream::create(&p, friction),
+            None => CsvStream::discard(&p, friction),
         }
     }
 
@@ -503,6 +506,8 @@ struct Frames<'a> {
     stress: Vec<f64>,
     /// The tools' force on each node (N), the `contact_force` field of scenarios with tools.
     contact: Vec<f64>,
+    /// Its friction part (N), the `friction_force` field of scenarios with friction.
+    friction: Vec<f64>,
     /// The nominal contact pressure per node (Pa), the `contact_pressure` field, and the
     /// tributary boundary areas it divides by (computed at the first frame with tools).
     pressure: Vec<f64>,
@@ -542,6 +547,7 @@ impl<'a> Frames<'a> {
             format,
             stress: vec![0.0; 9 * n],
             contact: vec![0.0; 3 * n],
+            friction: vec![0.0; if sc.has_friction() { 3 * n } else { 0 }],
             pressure: vec![0.0; n],
             areas: None,
             file_ids: sc.output_node_ids(),
@@ -554,6 +560,8 @@ impl<'a> Frames<'a> {
         let (sys, s) = stepper.finest();
         sys.force.nodal_stress(&s.u, &mut self.stress);
         let contact = sys.force.contact_forces(&s.u, &mut self.contact);
+        let friction =
+            !self.friction.is_empty() && sys.force.friction_forces(&s.u, &mut self.friction);
         if contact {
             let areas = self
                 .areas
@@ -583,6 +591,12 @@ impl<'a> Frames<'a> {
             fields.push(Field {
                 name: "contact_pressure",
                 data: FieldData::Scalar(&self.pressure),
+            });
+        }
+        if friction {
+            fields.push(Field {
+                name: "friction_force",
+                data: FieldData::Vector(&self.friction),
             });
         }
         if let Some(ids) = self.file_ids.as_deref() {
@@ -641,7 +655,7 @@ pub fn run_with(
     };
     let mut meter = Meter::new(n, t_inf);
     let mut frames = Frames::new(sc, &out)?;
-    let mut rows = out.measures()?;
+    let mut rows = out.measures(sc.has_friction())?;
     let start = Instant::now();
     let dt = stepper.dt();
     let (t_end, steady) = match sc.stop {

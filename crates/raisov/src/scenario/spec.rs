@@ -154,7 +154,7 @@
 //! traction = [0.0, 0.0, -100.0]   # Pa
 //! time = { .. }                   # optional
 //!
-//! [[tool]]                        # rigid tool, frictionless penalty contact (crate::contact)
+//! [[tool]]                        # rigid tool, penalty contact (crate::contact)
 //! shape = "sphere"                # "sphere" (center, radius) | "plane" (point, normal pointing
 //!                                 # out of the tool) | "capsule" (a, b: the axis ends; radius)
 //! center = [0.01, 0.01, 0.025]    # m
@@ -164,6 +164,13 @@
 //! path = [[0.0, 0,0,0], [1.0, 0,0,-0.002]]   # rows [t, dx, dy, dz], piecewise linear
 //! stiffness = 2000.0              # N/m; default 4 × the material's stability modulus × the
 //!                                 # mean edge length of the level it acts on
+//! friction = 0.3                  # Coulomb coefficient (static = kinetic); default 0,
+//!                                 # frictionless. Or static_friction = 0.5 with
+//!                                 # kinetic_friction = 0.3 (<= static; default static)
+//! friction_stiffness = 2000.0     # N/m, the tangential stick spring; default `stiffness`.
+//!                                 # Friction is path dependent: single-level explicit
+//!                                 # methods and "implicit-euler" only; an error with
+//!                                 # "newton" and with [multigrid] explicit schemes
 //!
 //! [integrator]
 //! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" |
@@ -820,7 +827,7 @@ pub struct ScenarioSpec {
     /// `[[traction]]`: fixed tractions per reference area.
     #[serde(default)]
     pub traction: Vec<SurfaceLoadSpec>,
-    /// `[[tool]]`: rigid tools in frictionless penalty contact.
+    /// `[[tool]]`: rigid tools in penalty contact, frictionless or with Coulomb friction.
     #[serde(default)]
     pub tool: Vec<ToolSpec>,
     /// `[integrator]`: the time integrator, or the static solve.
@@ -1154,6 +1161,15 @@ pub struct ToolSpec {
     /// `stiffness`: the penalty stiffness (N/m); default 4 × the material's stability modulus
     /// × the mean edge length of the level it acts on.
     pub stiffness: Option<f64>,
+    /// `friction`: one Coulomb coefficient μ ≥ 0, static and kinetic; default frictionless.
+    pub friction: Option<f64>,
+    /// `static_friction`: μ_s ≥ 0 (instead of `friction`).
+    pub static_friction: Option<f64>,
+    /// `kinetic_friction`: μ_k, `0 ≤ μ_k ≤ μ_s`; default μ_s. Needs `static_friction`.
+    pub kinetic_friction: Option<f64>,
+    /// `friction_stiffness`: the tangential stick stiffness k_t (N/m); default the penalty
+    /// stiffness.
+    pub friction_stiffness: Option<f64>,
 }
 
 /// `[[displace]]`: a prescribed displacement of the node nearest `point`, or of a

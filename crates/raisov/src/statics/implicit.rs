@@ -453,7 +453,7 @@ impl Stepper for ImplicitEuler {
         }
         s.t = t1;
         self.sys.impose(t1, &mut s.u, &mut s.v);
-        self.sys.force.accept_step(&s.u, h);
+        let _ = self.sys.force.accept_step(&s.u, h);
         // Between steps (measures, frames) the stress is that of the accepted state.
         self.sys.force.set_step(0.0);
         self.steps = step;
@@ -510,12 +510,14 @@ impl Stepper for ImplicitEuler {
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();
         w.state(&self.state);
+        w.history(&self.sys);
         w.count(self.steps);
         w.number(self.scale);
     }
     fn restore(&mut self, cp: &Checkpoint) {
         let mut r = cp.reader();
         r.state(&mut self.state);
+        r.history(&mut self.sys);
         self.steps = r.count();
         self.scale = r.number();
     }

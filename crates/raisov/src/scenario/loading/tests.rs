@@ -333,7 +333,7 @@ fn sphere_probe_runs_under_the_raisov_paper_cycle() {
 }
 
 /// The values of the point field `name` in an ASCII VTU file.
-fn ascii_point_field(path: &Path, name: &str) -> Vec<f64> {
+pub(super) fn ascii_point_field(path: &Path, name: &str) -> Vec<f64> {
     let text = std::fs::read_to_string(path).unwrap();
     let start = text
         .find(&format!("Name=\"{name}\""))

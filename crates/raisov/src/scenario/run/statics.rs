@@ -215,7 +215,7 @@ pub fn run_static_keeping(
     let increments = settings.increments(plan.solver);
     let mut meter = Meter::new(n, None);
     let mut frames = Frames::new(sc, &out)?;
-    let mut rows = out.measures()?;
+    let mut rows = out.measures(sc.has_friction())?;
     let start = Instant::now();
     let first = meter.sample(&mut stepper.sys, &stepper.state, 0);
     rows.push(&first)?;

@@ -290,9 +290,6 @@ cycles = {cycles}
 predictor = {predictor}
 "#,
         law = law.key(),
-        extra = std::env::var("RAISOV_BENCH_EXTRA")
-            .unwrap_or_default()
-            .replace(';', "\n"),
         x = point[0],
         y = point[1],
         z = point[2],

@@ -2,6 +2,7 @@
 """The library's imports against ARCHITECTURE.md.
 
 Reads the `use crate::…`, `crate::…` paths and `super::…` paths of every non-test source file
+(test files: `tests.rs`, `test.rs`, files under a `tests` folder, `*_tests.rs`)
 of crates/raisov/src (comments and deprecated re-export modules stripped) and fails, naming
 the files, where
   1. two or more files import each other, directly or around a cycle, or
@@ -34,7 +35,10 @@ def modules():
 
 
 def is_test(m):
-    return m.split("::")[-1] in ("tests", "test") or "::tests::" in m + "::"
+    # `tests`, `test`, anything under `tests`, and `*_tests` files (test modules of one
+    # concern, compiled only under #[cfg(test)]).
+    last = m.split("::")[-1]
+    return last in ("tests", "test") or last.endswith("_tests") or "::tests::" in m + "::"
 
 
 def edges_of(files):

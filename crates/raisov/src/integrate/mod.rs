@@ -75,8 +75,8 @@ pub mod coarse_factor {
 pub use constraints::{Constraints, Motion};
 pub(crate) use stepper::OwnConstraints;
 pub use stepper::{
-    check_state, energy_limit, energy_limit_for, hold, prediction, Checkpoint, RuntimeConstraints,
-    SingleLevel, Stepper, StepperParams, SwitchCounts,
+    check_state, energy_limit, energy_limit_for, hold, moves, prediction, Checkpoint,
+    RuntimeConstraints, SingleLevel, Stepper, StepperParams, SwitchCounts,
 };
 
 use crate::fem::{ElementFailure, ForceModel};

@@ -519,17 +519,40 @@ fn energy_limit_without_floor(sys: &System, mesh: &crate::mesh::Mesh, factor: f6
 }
 
 /// The frame predictor's start ([`crate::sim::frame`]): `s Δu` with
-/// `s = min(m / m_last, 2, m / max_a |Δu_a|)`, `Δu` the last frame's change of the
-/// displacements (3 per node), `m` and `m_last` the largest move of the path (grasps or
-/// prescribed nodes) over this frame and the last. Zero where nothing moved.
-pub fn prediction(delta: &[f64], this_move: f64, last_move: f64) -> Vec<f64> {
+///
+/// ```text
+/// s = min( max(0, Σ_j g_j·g'_j / Σ_j |g'_j|²), 2, m / max_a |Δu_a| ),
+/// ```
+///
+/// `Δu` the last frame's change of the displacements (3 per node), `g_j` and `g'_j` the move of
+/// path point `j` (a grasp, a prescribed node) over this frame and over the last, `m` the
+/// largest `|g_j|`: the last change scaled by how much of the last move this frame repeats (a
+/// steady pull 1, a reversed or turned one 0), no node further than the path moves. `None`
+/// (nothing to predict: the stepper is left alone) where `s` would be 0, or where the two
+/// frames' moves do not pair up.
+pub fn prediction(delta: &[f64], moves: &[[f64; 3]], last_moves: &[[f64; 3]]) -> Option<Vec<f64>> {
+    if moves.len() != last_moves.len() {
+        return None;
+    }
+    let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let along: f64 = moves.iter().zip(last_moves).map(|(a, b)| dot(a, b)).sum();
+    let last: f64 = last_moves.iter().map(|b| dot(b, b)).sum();
+    let m = moves.iter().map(|a| dot(a, a).sqrt()).fold(0.0, f64::max);
     let largest = delta
         .chunks_exact(3)
         .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
         .fold(0.0, f64::max);
-    if this_move <= 0.0 || last_move <= 0.0 || largest <= 0.0 {
-        return vec![0.0; delta.len()];
+    if !(last > 0.0 && largest > 0.0 && m > 0.0 && along > 0.0) {
+        return None;
     }
-    let s = (this_move / last_move).min(2.0).min(this_move / largest);
-    delta.iter().map(|d| s * d).collect()
+    let s = (along / last).min(2.0).min(m / largest);
+    Some(delta.iter().map(|d| s * d).collect())
+}
+
+/// Each path point's move from `from` to `to` (m).
+pub fn moves(from: &[[f64; 3]], to: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    from.iter()
+        .zip(to)
+        .map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]])
+        .collect()
 }

@@ -38,8 +38,8 @@
 //!
 //! With `predictor = true` a frame whose prescribed displacements (or, through
 //! [`crate::sim::replay`], grasps) move starts from `u + s Δu`, `Δu` the last frame's change
-//! of level 0's displacements at the free nodes, `s = min(m / m_last, 2, m / max_a |Δu_a|)`
-//! with `m` and `m_last` the path's largest nodal move over this frame and the last
+//! of level 0's displacements at the free nodes, `s` how much of the last frame's path move
+//! this frame repeats, at most the path's largest move over `max_a |Δu_a|`
 //! ([`crate::sim::frame`], [`crate::integrate::prediction`]); only FAS
 //! with its static smoother takes a prediction ([`Stepper::predict`]), other steppers run as
 //! without it.
@@ -403,15 +403,15 @@ pub trait FrameStepper {
 
 /// The stepper alone, with the budget of the module docs, and the frame predictor
 /// (`[interactive] predictor`; the rule of [`crate::sim::frame`] with the prescribed
-/// displacements' largest move in place of the grasps'): the last frame's change of level
-/// 0's displacements, the prescribed values and the largest move of that frame.
+/// displacements' moves in place of the grasps'): the last frame's change of level 0's
+/// displacements, the prescribed values and their moves over that frame.
 struct Plain<'a> {
     stepper: &'a mut dyn Stepper,
     budget: Budget,
     predictor: bool,
     last_delta: Vec<f64>,
     last_values: Option<Vec<[f64; 3]>>,
-    last_move: f64,
+    last_moves: Vec<[f64; 3]>,
 }
 
 impl FrameStepper for Plain<'_> {
@@ -420,17 +420,16 @@ impl FrameStepper for Plain<'_> {
     }
     fn frame(&mut self, _k: usize, _t: f64, values: &[[f64; 3]]) -> Result<Option<String>> {
         let stepper = &mut *self.stepper;
-        let this_move = self.last_values.as_ref().map_or(0.0, |last| {
-            last.iter()
-                .zip(values)
-                .map(|(a, b)| crate::mesh::norm(crate::mesh::sub(*b, *a)))
-                .fold(0.0, f64::max)
-        });
+        let this_moves = self
+            .last_values
+            .as_ref()
+            .map_or_else(Vec::new, |last| crate::integrate::moves(last, values));
         let u_before = self.predictor.then(|| stepper.state().u.clone());
-        if self.predictor && this_move > 0.0 && self.last_move > 0.0 && !self.last_delta.is_empty()
-        {
-            let du = crate::integrate::prediction(&self.last_delta, this_move, self.last_move);
-            stepper.predict(&du);
+        if self.predictor && !self.last_delta.is_empty() {
+            let du = crate::integrate::prediction(&self.last_delta, &this_moves, &self.last_moves);
+            if let Some(du) = du {
+                stepper.predict(&du);
+            }
         }
         self.last_values = Some(values.to_vec());
         stepper.hold_prescribed(values);
@@ -456,7 +455,7 @@ impl FrameStepper for Plain<'_> {
                     self.last_delta.clear();
                     self.last_delta
                         .extend(u.iter().zip(u_before).map(|(a, b)| a - b));
-                    self.last_move = this_move;
+                    self.last_moves = this_moves;
                 }
                 return Ok(None);
             }
@@ -497,7 +496,7 @@ pub fn run_interactive(
                 .map(|(_, m)| m.displacement(0.0))
                 .collect(),
         ),
-        last_move: 0.0,
+        last_moves: Vec::new(),
     };
     run_frames(sc, &mut plain, opts)
 }

@@ -17,13 +17,14 @@
 //!
 //! Predictor ([`Simulation::set_predictor`]): a frame whose grasps move starts, on its first
 //! try, from `u + s Δu`, `Δu` the change of level 0's displacements over the last accepted
-//! frame (free nodes only), `s = min(m / m_last, 2, m / max_a |Δu_a|)` with `m` and `m_last`
-//! the largest grasp move of this frame and of that one: a grasp pulled at a steady speed has
-//! the tissue follow at the speed it followed (`s = 1`), no node is predicted to move further
-//! than the grasp moves (a frame that caught up with a lag does not throw the tissue ahead of
-//! the tool), and a held grasp is not extrapolated. Nothing is predicted after a rejected
-//! frame, or when the grasps differ from the last frame's
-//! ([`crate::integrate::prediction`]).
+//! frame (free nodes only), `s` how much of the last frame's grasp moves this frame repeats
+//! (`Σ g·g' / Σ |g'|²` over the grasps, clamped to [0, 2]) and at most `m / max_a |Δu_a|`
+//! ([`crate::integrate::prediction`]): a grasp pulled at a steady speed has the tissue follow
+//! at the speed it followed (`s = 1`), a reversed or turned one is not extrapolated, no node
+//! is predicted to move further than the grasps move (`m` their largest move), and a held
+//! grasp is not extrapolated. Nothing is predicted after a rejected frame, when the grasps
+//! differ from the last frame's, or in a frame of zero steps (`Budget::Cycles(0)`: the tissue
+//! does not answer).
 //!
 //! Only [`Budget::Millis`] makes a frame depend on the machine's speed; [`Budget::Cycles`]
 //! frames give the same bits on any thread count.
@@ -71,11 +72,8 @@ impl Simulation {
         let from: Vec<[f64; 3]> = self.grabs.values().map(|g| g.position).collect();
         let to: Vec<[f64; 3]> = self.grabs.values().map(|g| g.target).collect();
         let moving = from != to;
-        let this_move = from
-            .iter()
-            .zip(&to)
-            .map(|(a, b)| crate::mesh::norm(crate::mesh::sub(*b, *a)))
-            .fold(0.0, f64::max);
+        let this_moves = crate::integrate::moves(&from, &to);
+        let steps_any = !matches!(budget, Budget::Cycles(0));
         let before: Option<Vec<f64>> = self.predictor.then(|| self.stepper.state().u.clone());
         self.stepper.save(&mut self.checkpoint);
         let tries = if moving { self.max_retries + 1 } else { 1 };
@@ -92,13 +90,16 @@ impl Simulation {
         for attempt in 0..tries {
             if attempt == 0
                 && moving
+                && steps_any
                 && self.predictor
-                && self.last_move > 0.0
                 && !self.last_delta.is_empty()
                 && self.last_grabs == ids
             {
-                let du = crate::integrate::prediction(&self.last_delta, this_move, self.last_move);
-                self.stepper.predict(&du);
+                let du =
+                    crate::integrate::prediction(&self.last_delta, &this_moves, &self.last_moves);
+                if let Some(du) = du {
+                    self.stepper.predict(&du);
+                }
             }
             let subs = 1u32 << attempt.min(16);
             let mut cycles = 0u64;
@@ -134,7 +135,7 @@ impl Simulation {
                 let u = &self.stepper.state().u;
                 self.last_delta
                     .extend(u.iter().zip(&before).map(|(a, b)| a - b));
-                self.last_move = this_move;
+                self.last_moves = this_moves;
                 self.last_grabs = ids;
             }
         }

@@ -184,11 +184,11 @@ pub struct Simulation {
     stress: Option<Vec<[f64; 9]>>,
     checkpoint: Checkpoint,
     /// The frame predictor ([`frame`] module docs), and what it extrapolates: the last
-    /// accepted frame's change of level 0's displacements (empty: none), the largest grasp
-    /// move of that frame, and its grasps.
+    /// accepted frame's change of level 0's displacements (empty: none), each grasp's move
+    /// in that frame, and its grasps.
     predictor: bool,
     last_delta: Vec<f64>,
-    last_move: f64,
+    last_moves: Vec<[f64; 3]>,
     last_grabs: Vec<GrabId>,
     /// Retries of a rejected frame (each halving the grasps' sub-moves). Default 4.
     max_retries: u32,
@@ -344,7 +344,7 @@ impl Simulation {
             checkpoint: Checkpoint::default(),
             predictor: true,
             last_delta: Vec::new(),
-            last_move: 0.0,
+            last_moves: Vec::new(),
             last_grabs: Vec::new(),
             max_retries: 4,
             tangent_stats: TangentStats::default(),

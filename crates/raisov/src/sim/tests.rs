@@ -1020,3 +1020,42 @@ fn the_predictor_leaves_a_held_grasp_alone() {
     };
     assert_eq!(run(false), run(true));
 }
+
+/// The Python tests caught two predictor mistakes: a frame of zero steps was predicted (the
+/// tissue moved though it must not answer), and a grasp moved back the way it came was
+/// extrapolated forward (the last change, not the move's direction, set the start).
+#[test]
+fn a_zero_step_frame_and_a_reversed_grasp_are_not_predicted() {
+    let mut sim = static_cube(4);
+    let g = sim.grab([0.02, 0.02, 0.04], 0.011).unwrap();
+    let p = sim.grab_position(g).unwrap();
+    sim.move_grab(g, [p[0], p[1], p[2] + 1e-3]).unwrap();
+    assert!(sim.step_frame(Budget::Cycles(1)).accepted);
+    // Zero steps: the grasped nodes go to the target, the rest of the tissue does not move.
+    let u = sim.displacements().to_vec();
+    sim.move_grab(g, [p[0], p[1], p[2] + 2e-3]).unwrap();
+    assert!(sim.step_frame(Budget::Cycles(0)).accepted);
+    let held = sim.grab_nodes(g).unwrap().to_vec();
+    let after = sim.displacements();
+    for a in (0..u.len() / 3).filter(|a| !held.contains(&(*a as u32))) {
+        assert_eq!(after[3 * a..3 * a + 3], u[3 * a..3 * a + 3], "node {a}");
+    }
+    // The rule itself: a steady move repeats the last change, a reversed or turned one
+    // predicts nothing, and no node is predicted further than the path moves.
+    let delta = [0.0, 0.0, 1e-3, 0.0, 0.0, 5e-4];
+    let up = [[0.0, 0.0, 1e-3]];
+    assert_eq!(
+        crate::integrate::prediction(&delta, &up, &up),
+        Some(delta.to_vec())
+    );
+    assert_eq!(
+        crate::integrate::prediction(&delta, &[[0.0, 0.0, -2e-3]], &up),
+        None
+    );
+    assert_eq!(
+        crate::integrate::prediction(&delta, &[[1e-3, 0.0, 0.0]], &up),
+        None
+    );
+    let far = crate::integrate::prediction(&[0.0, 0.0, 4e-3], &up, &up).unwrap();
+    assert!((far[2] - 1e-3).abs() < 1e-18, "{far:?}");
+}

@@ -37,7 +37,12 @@
 //!   the converged configuration accepted over `h`, and `Δt = 0` between steps;
 //! - everything else (static solves, whatever the solver): `Δt = ∞`, the fully relaxed
 //!   (long-term) equilibrium with `μ_∞ = μ (1 − Σ α_i)`, a model's state until it is told
-//!   otherwise.
+//!   otherwise; the reference of an interactive frame takes the stepper's history at `Δt = 0`
+//!   (the equilibrium of the frame's internal state, [`crate::scenario::interactive`]).
+//!
+//! The internal variables are the model's history ([`ForceModel::save_history`]): every
+//! stepper's checkpoint keeps them, so a frame restored after a rejected try (the frame loop
+//! of [`crate::sim`]) resumes from the history it started with.
 //!
 //! Nodal stress T (paper section 3, from its reference \[11\]): element Cauchy stress `σ = F S Fᵀ / J`
 //! (membranes: `J = λ3 √det C`, σ in-plane, 3x3), averaged onto nodes weighted by reference
@@ -999,6 +1004,16 @@ impl ForceModel for FemModel {
         });
         self.visco = Some(v);
         true
+    }
+
+    fn save_history(&self, out: &mut Vec<f64>) {
+        if let Some(v) = &self.visco {
+            v.save(out);
+        }
+    }
+
+    fn load_history(&mut self, h: &[f64]) -> usize {
+        self.visco.as_mut().map_or(0, |v| v.load(h))
     }
 }
 

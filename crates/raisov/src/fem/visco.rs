@@ -121,6 +121,39 @@ impl Visco {
             });
     }
 
+    /// Append the history (every `H_i`, then every `S_iso^n`, 6 components each) to `out`: a
+    /// fixed length per model, what a checkpoint keeps. `h^n` is not saved: it follows from
+    /// them and the step of the force evaluations.
+    pub fn save(&self, out: &mut Vec<f64>) {
+        out.reserve(6 * (self.h.len() + self.s.len()));
+        for x in self.h.iter().chain(&self.s) {
+            out.extend_from_slice(x);
+        }
+    }
+
+    /// Restore what [`Visco::save`] wrote at the front of `src`, and form `h^n` for the step
+    /// of the force evaluations; returns how many values it read.
+    pub fn load(&mut self, src: &[f64]) -> usize {
+        let n = 6 * (self.h.len() + self.s.len());
+        let Some(src) = src.get(..n) else {
+            // Not a history this model wrote: keep the variables.
+            return 0;
+        };
+        for (x, c) in self
+            .h
+            .iter_mut()
+            .chain(self.s.iter_mut())
+            .zip(src.chunks_exact(6))
+        {
+            x.copy_from_slice(c);
+        }
+        let dt = self.dt;
+        // Force `set_step` to recompute h^n from the restored history.
+        self.dt = f64::NAN;
+        self.set_step(dt);
+        n
+    }
+
     /// Advance the internal variables over a step `dt` (s) to the configuration whose
     /// isochoric deformation `c_of(e)` gives each element's `C` (`None`: an element that
     /// cannot be evaluated keeps its variables), then form `h^n` for the step of the force

@@ -18,7 +18,9 @@
 //! Newton; Newton-Krylov where the model has no element tangent), warm-started from
 //! `u*_{k−1}`, to `max_a |r_a| ≤ reference_tol · F` (default 1e-8; `F` the frame's force
 //! scale: the largest nodal load, spring pull, or out-of-balance force from rest or at the
-//! start):
+//! start). With a rate-dependent law the reference holds the stepper's internal variables at
+//! the frame's end (the equilibrium of the tissue's current relaxation, not the fully relaxed
+//! one):
 //!
 //! ```text
 //! lag_max = max_a |u_a − u*_a|,   lag_rms = sqrt(mean_a |u_a − u*_a|²),   a free nodes,
@@ -527,6 +529,9 @@ pub fn run_frames(
     } else {
         None
     };
+    // A rate-dependent law's reference takes the stepper's internal variables each frame.
+    let rate_dependent = matches!(sc.material, crate::material::Material::NeoHookeanVisco(_));
+    let mut history = Vec::new();
     // The largest starting residual of the run's reference solves (N; the solver's norm).
     let mut ref_scale = 0.0f64;
     let mut u_star = vec![0.0; 3 * n];
@@ -621,6 +626,15 @@ pub fn run_frames(
         let frame_evals = stepper.force_evaluations() - evals_before;
         let mut reference_ok = settings.reference;
         if let Some(reference) = reference.as_mut() {
+            if rate_dependent {
+                // The equilibrium of the frame's internal state: the stepper's history, held
+                // (Δt = 0: the viscous stresses as accepted at the frame's end).
+                let (sys, _) = stepper.finest();
+                history.clear();
+                sys.force.save_history(&mut history);
+                ref_sys.force.load_history(&history);
+                ref_sys.force.set_step(0.0);
+            }
             if grasps {
                 // The constraints and springs of the frame, grasps and pins included.
                 let (sys, _) = stepper.finest();

@@ -744,16 +744,10 @@ impl Scenario {
             None
         };
         // A rate-dependent law advances its internal variables with the single-level
-        // steppers (explicit and backward Euler) and is fully relaxed in a static solve; the
-        // explicit multigrid schemes and the interactive frames (which restore checkpoints
-        // without them) do not carry them.
+        // steppers (explicit and backward Euler, in plain and interactive runs, whose
+        // checkpoints keep them) and is fully relaxed in a static solve; the explicit
+        // multigrid schemes do not carry them.
         if matches!(material, Material::NeoHookeanVisco(_)) {
-            if spec.interactive.is_some() {
-                return Err(err(
-                    path,
-                    "`[interactive]` does not apply to law = \"neo-hookean-visco\": its frames restore checkpoints that do not hold the law's internal variables (use a plain run: method = \"symplectic-euler\" or another explicit method, or \"implicit-euler\")",
-                ));
-            }
             if spec.multigrid.is_some() && !newton && implicit.is_none() {
                 return Err(err(
                     path,

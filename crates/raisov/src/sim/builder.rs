@@ -172,10 +172,12 @@ impl SimulationBuilder {
                 format!("{}: must be >= 0 (1/s)", self.alpha),
             ));
         }
-        if matches!(self.material, Material::NeoHookeanVisco(_)) {
+        if matches!(self.material, Material::NeoHookeanVisco(_))
+            && matches!(self.scheme, Scheme::Fas(_))
+        {
             return Err(Error::param(
                 "material",
-                "neo-hookean-visco is not supported by the interactive simulation: its frames restore checkpoints that do not hold the law's internal variables (run it as a scenario with a single-level or implicit-euler method)",
+                "neo-hookean-visco does not run on Scheme::Fas: the multigrid cycles do not advance the law's internal variables (use Scheme::ImplicitEuler, which takes the levels as its preconditioner, or Scheme::SingleLevel)",
             ));
         }
         let mut params = FemParams::new(self.material.clone());

@@ -1059,3 +1059,71 @@ fn a_zero_step_frame_and_a_reversed_grasp_are_not_predicted() {
     let far = crate::integrate::prediction(&[0.0, 0.0, 4e-3], &up, &up).unwrap();
     assert!((far[2] - 1e-3).abs() < 1e-18, "{far:?}");
 }
+
+/// A rate-dependent law in the frame loop: a grasp on top of a cube fixed at its base,
+/// moved 3 mm sideways in one frame and held for 3 s (15 times the longest relaxation time)
+/// at one backward-Euler step of 1/60 s a frame. The force holding it relaxes: the first
+/// held frame's is well above the last's, and the last equals, to 1e-4, that of the same
+/// frames on the elastic law of the long-term modulus `μ∞ = μ (1 − Σ α)` (mooney-rivlin with
+/// `c1 = μ∞/2`, `c2 = 0`, the same κ), whose equilibrium the relaxed tissue must reach.
+/// Fas refuses the law (its cycles do not advance the internal variables).
+#[test]
+fn a_held_grasp_relaxes_to_the_long_term_law_in_the_frame_loop() {
+    use crate::material::{MooneyRivlin, NeoHookeanVisco, Prony};
+    let visco = NeoHookeanVisco {
+        mu: 1e3,
+        kappa: 2e4,
+        prony: vec![
+            Prony {
+                alpha: 0.3,
+                tau: 0.05,
+            },
+            Prony {
+                alpha: 0.2,
+                tau: 0.2,
+            },
+        ],
+    };
+    let relaxed = Material::MooneyRivlin(MooneyRivlin {
+        c1: 0.5 * visco.long_term_mu(),
+        c2: 0.0,
+        kappa: visco.kappa,
+    });
+    let fas = SimulationBuilder::new(cube(3))
+        .material(Material::NeoHookeanVisco(visco.clone()))
+        .levels(vec![cube(2)])
+        .scheme(Scheme::Fas(FasParams::default()))
+        .fix(|p| p[2] <= 0.0)
+        .build()
+        .err()
+        .expect("Fas refuses the visco law");
+    assert!(fas.to_string().contains("Scheme::ImplicitEuler"), "{fas}");
+    let forces = |m: Material| {
+        let mut sim = SimulationBuilder::new(cube(4))
+            .material(m)
+            .scheme(Scheme::ImplicitEuler)
+            .damping(10.0)
+            .dt(1.0 / 60.0)
+            .fix(|p| p[2] <= 0.0)
+            .build()
+            .unwrap();
+        let g = sim.grab([0.02, 0.02, SIDE], 0.01).unwrap();
+        let p = sim.grab_position(g).unwrap();
+        sim.move_grab(g, [p[0] + 0.003, p[1], p[2]]).unwrap();
+        (0..180)
+            .map(|_| {
+                let r = sim.step_frame(Budget::Cycles(1));
+                assert!(r.accepted, "{r:?}");
+                norm(sim.grab_force(g).unwrap())
+            })
+            .collect::<Vec<_>>()
+    };
+    let v = forces(Material::NeoHookeanVisco(visco));
+    let e = forces(relaxed);
+    let (first, last, elastic) = (v[0], v[179], e[179]);
+    assert!(first > 1.4 * last, "{first} vs {last}");
+    assert!(
+        (last - elastic).abs() <= 1e-4 * elastic,
+        "relaxed {last} vs long-term law {elastic}"
+    );
+}

@@ -141,11 +141,20 @@ class Simulation:
     ) -> FrameReport:
         """One frame of `cycles` steps or `ms` milliseconds of wall time (exactly one)."""
     def grab(
-        self, point: Point, radius: float, stiffness: Optional[float] = None
+        self,
+        point: Point,
+        radius: float,
+        stiffness: Optional[float] = None,
+        friction: Optional[float] = None,
+        clamp: Optional[float] = None,
     ) -> Grab:
         """Grasp the surface patch within `radius` (m) of the surface point nearest `point`:
         held rigidly (stiffness=None) or pulled by springs of total stiffness `stiffness`
-        (N/m, spread over the nodes by mass), which leave the nodes free to lag behind."""
+        (N/m, spread over the nodes by mass), which leave the nodes free to lag behind. With
+        `friction` (mu) and `clamp` (N) too, a friction grasp: the springs slide where they
+        would pull harder than their share of mu x clamp."""
+    def grab_dissipation(self, g: Grab) -> float:
+        """The work (J) friction grasp g's sliding has dissipated so far (0 otherwise)."""
     def set_grab_stiffness(self, g: Grab, stiffness: float) -> None:
         """Make g a spring grasp of total stiffness `stiffness` (N/m) from now on."""
     def grab_spring_stiffness(self, g: Grab) -> Optional[float]:

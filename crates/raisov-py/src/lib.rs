@@ -569,17 +569,25 @@ impl Simulation {
     /// surface point nearest `point` (at least the nearest node), from the next frame on held
     /// rigidly (`stiffness=None`, a hard grasp) or pulled by springs of total stiffness
     /// `stiffness` (N/m) spread over the nodes by mass, which leave them free to lag behind.
-    #[pyo3(signature = (point, radius, stiffness = None))]
+    /// With `friction` (μ) and `clamp` (N) as well, a friction grasp: the springs slide where
+    /// they would pull harder than their share of μ × clamp (Coulomb's law on the jaws).
+    #[pyo3(signature = (point, radius, stiffness = None, friction = None, clamp = None))]
     fn grab(
         &self,
         point: &Bound<'_, PyAny>,
         radius: f64,
         stiffness: Option<f64>,
+        friction: Option<f64>,
+        clamp: Option<f64>,
     ) -> PyResult<Grab> {
         let p = point3(point, "point")?;
-        let options = match stiffness {
-            None => GrabOptions::hard(radius),
-            Some(k) => GrabOptions::spring(radius, k),
+        let options = match (stiffness, friction, clamp) {
+            (None, None, None) => GrabOptions::hard(radius),
+            (Some(k), None, None) => GrabOptions::spring(radius, k),
+            (Some(k), Some(mu), Some(n)) => GrabOptions::friction(radius, k, mu, n),
+            _ => return Err(PyValueError::new_err(
+                "grab: a friction grasp needs stiffness (N/m), friction (μ) and clamp (N) together",
+            )),
         };
         let id = self.sim()?.grab_with(p, options).map_err(to_py)?;
         Ok(Grab { id })
@@ -598,6 +606,11 @@ impl Simulation {
             raisov::sim::Coupling::Hard => None,
             raisov::sim::Coupling::Spring { stiffness } => Some(stiffness),
         })
+    }
+
+    /// The work (J) friction grasp `g`'s sliding has dissipated so far (0 for other grasps).
+    fn grab_dissipation(&self, g: &Grab) -> PyResult<f64> {
+        self.sim()?.grab_dissipation(g.id).map_err(to_py)
     }
 
     /// Move grasp `g` to `target` (m); its nodes follow rigidly over the next frame.

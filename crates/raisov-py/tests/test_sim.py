@@ -108,6 +108,21 @@ def test_grab_force_and_reactions_balance_the_load_at_equilibrium():
     assert np.linalg.norm(imbalance) < 1e-8 * scale, (imbalance, load, f, react.sum)
 
 
+def test_a_friction_grasp_pulls_no_harder_than_mu_n():
+    # Stick stiffness 100 N/m, mu = 0.5, clamp 0.1 N: the pull is bounded by 0.05 N.
+    sim = static_cube()
+    g = sim.grab([0.02, 0.02, 0.06], 0.011, stiffness=100.0, friction=0.5, clamp=0.1)
+    p = sim.grab_position(g)
+    sim.move_grab(g, p + [0.005, 0.0, 0.0])
+    converge(sim)
+    f = sim.grab_force(g)
+    assert np.linalg.norm(f) <= 0.05 * (1 + 1e-9), f
+    assert np.linalg.norm(f) > 0.045, f
+    assert sim.grab_dissipation(g) > 0.0
+    with pytest.raises(ValueError, match="friction grasp needs stiffness"):
+        sim.grab([0.02, 0.02, 0.0], 0.005, friction=0.5, clamp=0.1)
+
+
 def test_grab_stiffness_matches_finite_differences_of_the_grab_force():
     sim = static_cube()
     g = sim.grab([0.02, 0.02, 0.06], 0.01)

@@ -234,8 +234,20 @@ pub struct System {
 }
 
 /// A zero-length spring of stiffness `k` (N/m) pulling node `node` towards the displacement
-/// `d` (m): it adds `k (u_node − d)` to the node's internal force and `½ k |u_node − d|²` to the
-/// potential energy.
+/// `d` (m), that slides beyond the force `limit` (N; ∞: a linear spring). With the stretch
+/// `s = u_node − d`, `l = |s|`, `l₀ = limit / k`, it adds to the node's internal force and to
+/// the potential energy
+///
+/// ```text
+/// f = k s,               W = ½ k l²                  (l ≤ l₀: it sticks)
+/// f = limit s / l,       W = limit l − ½ limit l₀    (l > l₀: it slides at its limit)
+/// ```
+///
+/// (a convex energy, Huber's), with the tangent `k I` while it sticks and
+/// `(limit / l)(I − ŝŝᵀ)` while it slides: the grip of a friction grasp (Coulomb's law on the
+/// grasped node, `limit = μ N` its share of the clamp; [`crate::sim::GrabOptions::friction`]),
+/// whose anchor the frame loop moves after each accepted frame so that a sliding spring
+/// restarts at `l = l₀` with the same force.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Spring {
     /// The node.
@@ -244,14 +256,99 @@ pub struct Spring {
     pub k: f64,
     /// The anchor's displacement (m): the spring is relaxed at `u_node = d`.
     pub d: [f64; 3],
+    /// The largest force it transmits (N, > 0); `f64::INFINITY` for a linear spring.
+    pub limit: f64,
 }
 
-/// `r += k (u_a − d)` for every spring.
+impl Spring {
+    /// A linear spring (no limit).
+    pub fn linear(node: u32, k: f64, d: [f64; 3]) -> Spring {
+        Spring {
+            node,
+            k,
+            d,
+            limit: f64::INFINITY,
+        }
+    }
+
+    /// Whether it slides at `u` (its force would exceed `limit`).
+    fn sliding(&self, s: &[f64; 3]) -> Option<f64> {
+        if self.limit.is_finite() {
+            let l = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+            (self.k * l > self.limit).then_some(l)
+        } else {
+            None
+        }
+    }
+
+    fn stretch(&self, u: &[f64]) -> [f64; 3] {
+        let i = 3 * self.node as usize;
+        [u[i] - self.d[0], u[i + 1] - self.d[1], u[i + 2] - self.d[2]]
+    }
+
+    /// Its force on the node at `u` (N, the internal-force sign: `k (u_node − d)` while it
+    /// sticks).
+    #[inline]
+    pub fn force(&self, u: &[f64]) -> [f64; 3] {
+        let s = self.stretch(u);
+        match self.sliding(&s) {
+            None => [self.k * s[0], self.k * s[1], self.k * s[2]],
+            Some(l) => {
+                let c = self.limit / l;
+                [c * s[0], c * s[1], c * s[2]]
+            }
+        }
+    }
+
+    /// Its energy at `u` (J).
+    pub fn energy(&self, u: &[f64]) -> f64 {
+        let s = self.stretch(u);
+        match self.sliding(&s) {
+            None => (0..3).map(|k| (s[k]).powi(2)).sum::<f64>() * 0.5 * self.k,
+            Some(l) => self.limit * l - 0.5 * self.limit * self.limit / self.k,
+        }
+    }
+
+    /// Its tangent at `u` (3x3, row-major, N/m).
+    pub fn tangent(&self, u: &[f64]) -> [f64; 9] {
+        let s = self.stretch(u);
+        match self.sliding(&s) {
+            None => {
+                let k = self.k;
+                [k, 0.0, 0.0, 0.0, k, 0.0, 0.0, 0.0, k]
+            }
+            Some(l) => {
+                let c = self.limit / l;
+                let n = s.map(|x| x / l);
+                let mut t = [0.0; 9];
+                for r in 0..3 {
+                    for q in 0..3 {
+                        t[3 * r + q] = c * (f64::from(u8::from(r == q)) - n[r] * n[q]);
+                    }
+                }
+                t
+            }
+        }
+    }
+
+    /// `K w` for the node's 3 entries of `w`, at `u`.
+    pub fn tangent_times(&self, u: &[f64], w: &[f64]) -> [f64; 3] {
+        let i = 3 * self.node as usize;
+        if !self.limit.is_finite() {
+            return [self.k * w[i], self.k * w[i + 1], self.k * w[i + 2]];
+        }
+        let t = self.tangent(u);
+        [0, 1, 2].map(|r| (0..3).map(|q| t[3 * r + q] * w[i + q]).sum())
+    }
+}
+
+/// `r += f_s(u)` for every spring ([`Spring::force`]).
 fn add_springs(springs: &[Spring], u: &[f64], r: &mut [f64]) {
     for s in springs {
         let i = 3 * s.node as usize;
+        let f = s.force(u);
         for k in 0..3 {
-            r[i + k] += s.k * (u[i + k] - s.d[k]);
+            r[i + k] += f[k];
         }
     }
 }
@@ -361,16 +458,10 @@ impl System {
         Ok(())
     }
 
-    /// Strain energy plus the springs' energy `½ Σ k |u_a − d|²` (J).
+    /// Strain energy plus the springs' energy ([`Spring::energy`]: `½ Σ k |u_a − d|²` while they
+    /// stick) (J).
     pub fn stored_energy(&self, u: &[f64]) -> f64 {
-        let springs: f64 = self
-            .springs
-            .iter()
-            .map(|s| {
-                let i = 3 * s.node as usize;
-                (0..3).map(|k| (u[i + k] - s.d[k]).powi(2)).sum::<f64>() * 0.5 * s.k
-            })
-            .sum();
+        let springs: f64 = self.springs.iter().map(|s| s.energy(u)).sum();
         self.force.strain_energy(u) + springs
     }
 

@@ -191,3 +191,63 @@ fn constrained_nodes_follow_their_motion() {
     }
     s.t = 0.0;
 }
+
+/// A spring with a force limit (the grip of a friction grasp): its force is the central
+/// difference of its energy and its tangent the central difference of its force, both while
+/// it sticks and while it slides; its force is continuous where it starts to slide; without
+/// a limit it is the linear spring.
+#[test]
+fn sliding_spring_force_and_tangent_are_derivatives_of_its_energy() {
+    let s = Spring {
+        node: 1,
+        k: 10.0,
+        d: [0.01, -0.02, 0.005],
+        limit: 0.5,
+    };
+    let h = 1e-7;
+    for stretch in [[0.02, 0.01, -0.01], [0.1, -0.04, 0.03]] {
+        let mut u = vec![0.3; 6];
+        for k in 0..3 {
+            u[3 + k] = s.d[k] + stretch[k];
+        }
+        let f = s.force(&u);
+        let t = s.tangent(&u);
+        for j in 0..3 {
+            let (mut up, mut um) = (u.clone(), u.clone());
+            up[3 + j] += h;
+            um[3 + j] -= h;
+            let fd = (s.energy(&up) - s.energy(&um)) / (2.0 * h);
+            assert!((fd - f[j]).abs() <= 1e-7, "force {j}: {fd} vs {}", f[j]);
+            let (fp, fm) = (s.force(&up), s.force(&um));
+            for i in 0..3 {
+                let kd = (fp[i] - fm[i]) / (2.0 * h);
+                assert!(
+                    (kd - t[3 * i + j]).abs() <= 1e-6,
+                    "tangent {i}{j}: {kd} vs {}",
+                    t[3 * i + j]
+                );
+            }
+            let w: Vec<f64> = (0..6).map(|q| f64::from(u8::from(q == 3 + j))).collect();
+            let kw = s.tangent_times(&u, &w);
+            for i in 0..3 {
+                assert_eq!(kw[i], t[3 * i + j]);
+            }
+        }
+        let l = stretch.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let norm_f = f.iter().map(|x| x * x).sum::<f64>().sqrt();
+        assert!((norm_f - (s.k * l).min(s.limit)).abs() <= 1e-15, "{norm_f}");
+    }
+    // Continuous where it starts to slide: at l = limit / k both branches give `limit`.
+    let l0 = s.limit / s.k;
+    let mut u = vec![0.0; 6];
+    for (k, e) in [0.6f64, 0.8, 0.0].iter().enumerate() {
+        u[3 + k] = s.d[k] + e * l0 * (1.0 + 1e-12);
+    }
+    let f = s.force(&u);
+    assert!((f.iter().map(|x| x * x).sum::<f64>().sqrt() - s.limit).abs() <= 1e-12);
+    let linear = Spring::linear(1, 10.0, s.d);
+    assert_eq!(
+        linear.force(&u),
+        [0, 1, 2].map(|k| 10.0 * (u[3 + k] - s.d[k]))
+    );
+}

@@ -40,7 +40,8 @@ use crate::numbers::compact;
 use crate::Result;
 use std::path::Path;
 
-/// A grasp taken during the run (`[[displace]]` with `start`, `release` or `stiffness`).
+/// A grasp taken during the run (`[[displace]]` with `start`, `release`, `stiffness`,
+/// `friction` or `clamp_force`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grasp {
     /// Its index in `[[displace]]`.
@@ -58,6 +59,8 @@ pub struct Grasp {
     /// `Some(k)`: pulled by zero-length springs of total stiffness `k` (N/m, spread over the
     /// patch by mass: `crate::sim::Coupling::Spring`); `None`: held hard.
     pub stiffness: Option<f64>,
+    /// A friction grasp's grip (`friction`, `clamp_force`; with `stiffness`).
+    pub grip: Option<crate::sim::Grip>,
 }
 
 /// A pin taken during the run (`[[pin]]`).
@@ -75,7 +78,11 @@ pub struct Pin {
 
 /// Whether a `[[displace]]` entry is a grasp taken during the run.
 pub(super) fn is_grasp(d: &DisplaceSpec) -> bool {
-    d.start.is_some() || d.release.is_some() || d.stiffness.is_some()
+    d.start.is_some()
+        || d.release.is_some()
+        || d.stiffness.is_some()
+        || d.friction.is_some()
+        || d.clamp_force.is_some()
 }
 
 fn time(path: &Path, key: &str, v: Option<f64>) -> Result<f64> {
@@ -122,7 +129,9 @@ pub(super) fn resolve_grasp(
     if !interactive {
         return Err(needs_interactive(
             path,
-            &format!("{key} (`start`, `release` or `stiffness`: a grasp)"),
+            &format!(
+                "{key} (`start`, `release`, `stiffness`, `friction` or `clamp_force`: a grasp)"
+            ),
         ));
     }
     let start = time(path, &format!("{key}.start"), d.start)?;
@@ -144,6 +153,33 @@ pub(super) fn resolve_grasp(
         .stiffness
         .map(|k| positive(path, &format!("{key}.stiffness"), k))
         .transpose()?;
+    let grip = match (d.friction, d.clamp_force) {
+        (None, None) => None,
+        (Some(mu), Some(n)) => {
+            if stiffness.is_none() {
+                return Err(err(
+                    path,
+                    format!("`{key}.friction` needs `{key}.stiffness` (N/m, the stiffness of the jaws' grip while it sticks): a friction grasp is a spring grasp that slides"),
+                ));
+            }
+            Some(crate::sim::Grip {
+                friction: positive(path, &format!("{key}.friction"), mu)?,
+                clamp: positive(path, &format!("{key}.clamp_force"), n)?,
+            })
+        }
+        (Some(_), None) => {
+            return Err(err(
+                path,
+                format!("`{key}.friction` needs `{key}.clamp_force` (N): the grasp slides beyond friction × clamp_force"),
+            ))
+        }
+        (None, Some(_)) => {
+            return Err(err(
+                path,
+                format!("`{key}.clamp_force` needs `{key}.friction`: the grasp slides beyond friction × clamp_force"),
+            ))
+        }
+    };
     let still = d.displacement.is_none() && d.table.is_none() && d.time.is_none();
     let motion = if still && d.mode.is_none() && d.duration.is_none() {
         Motion::Held { d: [0.0; 3] }
@@ -158,6 +194,7 @@ pub(super) fn resolve_grasp(
         start,
         release,
         stiffness,
+        grip,
     })
 }
 

@@ -818,7 +818,7 @@ fn problem_scale(sys: &mut System, t: f64, u: &[f64]) -> f64 {
     let springs = sys
         .springs
         .iter()
-        .map(|s| s.k * (s.d[0].powi(2) + s.d[1].powi(2) + s.d[2].powi(2)).sqrt())
+        .map(|s| (s.k * (s.d[0].powi(2) + s.d[1].powi(2) + s.d[2].powi(2)).sqrt()).min(s.limit))
         .fold(0.0, f64::max);
     let (mut g, mut v, mut r) = (u.to_vec(), vec![0.0; n], vec![0.0; n]);
     sys.constraints.impose(t, &mut g, &mut v);

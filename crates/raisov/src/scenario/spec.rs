@@ -128,6 +128,10 @@
 //!                                 # it, the nodes free again; default: held to the end
 //! stiffness = 200.0               # N/m: pull the patch by zero-length springs of this total
 //!                                 # stiffness (sim::Coupling::Spring) instead of holding it
+//! friction = 0.4                  # with `stiffness` and `clamp_force`: a friction grasp
+//! clamp_force = 2.0               # (sim::GrabOptions::friction): the jaws' friction
+//!                                 # coefficient μ and clamp force N (N); the patch slides
+//!                                 # where it pulls harder than μ N
 //!
 //! [[pin]]                         # [interactive] only: a pin taken during the run, as
 //!                                 # `raisov serve` pins (scenario::grasps): the patch a grasp
@@ -1200,6 +1204,10 @@ pub struct DisplaceSpec {
     pub release: Option<f64>,
     /// A spring grasp of this total stiffness (N/m).
     pub stiffness: Option<f64>,
+    /// A friction grasp's friction coefficient μ (with `stiffness` and `clamp_force`).
+    pub friction: Option<f64>,
+    /// A friction grasp's clamp force N (N).
+    pub clamp_force: Option<f64>,
 }
 
 /// `[[pin]]`: a pin taken during an interactive run.

@@ -139,6 +139,10 @@ impl Simulation {
                 self.last_grabs = ids;
             }
         }
+        if report.accepted {
+            // Friction grasps slide where their springs pull beyond their grip.
+            self.slide_grips();
+        }
         if !report.accepted {
             report.target_reached = !moving;
             // The state before the frame, which was accepted: the observation succeeds.

@@ -28,6 +28,10 @@ pub(super) struct Grab {
     /// Per coarser level `l + 1`, its nodes nearest the grasped nodes: each coarse node with
     /// the indices (into `nodes`) of the level-0 nodes carried to it.
     pub(super) coarse: Vec<Vec<(u32, Vec<usize>)>>,
+    /// A friction grasp's grip ([`GrabOptions::friction`]); `None`: the springs never slide.
+    pub(super) grip: Option<Grip>,
+    /// The work the grip's sliding dissipated so far (J).
+    pub(super) dissipated: f64,
 }
 
 /// How a grasp holds its patch of the surface.
@@ -47,6 +51,24 @@ pub enum Coupling {
     },
 }
 
+/// Coulomb friction between a grasper's jaws and the tissue ([`GrabOptions::friction`]): the
+/// grasp transmits at most `μ N` (N) before its patch slides, node `a` its mass share
+/// `w_a μ N`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Grip {
+    /// The friction coefficient μ (> 0).
+    pub friction: f64,
+    /// The clamp force N (N, > 0): the jaws' total normal force on the patch.
+    pub clamp: f64,
+}
+
+impl Grip {
+    /// `μ N` (N).
+    pub fn limit(&self) -> f64 {
+        self.friction * self.clamp
+    }
+}
+
 /// The options of [`Simulation::grab_with`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GrabOptions {
@@ -54,6 +76,8 @@ pub struct GrabOptions {
     pub radius: f64,
     /// How the patch is held.
     pub coupling: Coupling,
+    /// A friction grasp's grip (with [`Coupling::Spring`] only); `None`: no sliding.
+    pub grip: Option<Grip>,
 }
 
 impl GrabOptions {
@@ -62,6 +86,7 @@ impl GrabOptions {
         GrabOptions {
             radius,
             coupling: Coupling::Hard,
+            grip: None,
         }
     }
     /// A spring grasp of the patch within `radius` (m), of total stiffness `stiffness` (N/m).
@@ -69,8 +94,44 @@ impl GrabOptions {
         GrabOptions {
             radius,
             coupling: Coupling::Spring { stiffness },
+            grip: None,
         }
     }
+    /// A friction grasp: the spring grasp of `stiffness` (N/m, the stick stiffness of the
+    /// jaws on the tissue) whose springs slide where they would pull harder than their share
+    /// of `friction × clamp` (μ N, N): Coulomb's law per grasped node, the grasp's force
+    /// bounded by `μ N` ([`crate::integrate::Spring`]; module docs of [`crate::sim`]).
+    pub fn friction(radius: f64, stiffness: f64, friction: f64, clamp: f64) -> Self {
+        GrabOptions {
+            radius,
+            coupling: Coupling::Spring { stiffness },
+            grip: Some(Grip { friction, clamp }),
+        }
+    }
+}
+
+fn check_grip(options: &GrabOptions) -> Result<()> {
+    let Some(grip) = options.grip else {
+        return Ok(());
+    };
+    if !matches!(options.coupling, Coupling::Spring { .. }) {
+        return Err(Error::param(
+            "grip",
+            "a friction grasp needs a spring coupling (the jaws' stick stiffness): use GrabOptions::friction(radius, stiffness, friction, clamp)",
+        ));
+    }
+    for (name, v, unit) in [
+        ("friction", grip.friction, ""),
+        ("clamp", grip.clamp, " (N)"),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(Error::param(
+                name,
+                format!("{v}: must be finite and > 0{unit}"),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn check_stiffness(k: f64) -> Result<()> {
@@ -105,6 +166,13 @@ impl Grab {
         }
     }
 
+    /// The force (N) node `i`'s spring transmits before it slides: `w_i μ N` for a friction
+    /// grasp, ∞ otherwise.
+    fn node_limit(&self, i: usize) -> f64 {
+        self.grip
+            .map_or(f64::INFINITY, |g| g.limit() * self.weights[i])
+    }
+
     /// A spring grasp's springs with the grasp at `p`: level 0's (one per grasped node,
     /// anchored at its held displacement) into `out[0]`, and each coarser level's, one per
     /// carried coarse node with the summed stiffness `k_c = Σ k_a` and the stiffness-weighted
@@ -120,15 +188,18 @@ impl Grab {
                 node: a,
                 k: self.node_stiffness(i),
                 d,
+                limit: self.node_limit(i),
             });
         }
         for (l, level) in self.coarse.iter().enumerate() {
             for (c, fine) in level {
                 let mut k = 0.0;
+                let mut limit = 0.0;
                 let mut d = [0.0; 3];
                 for &i in fine {
                     let ki = self.node_stiffness(i);
                     k += ki;
+                    limit += self.node_limit(i);
                     for j in 0..3 {
                         d[j] += ki * held[i].1[j];
                     }
@@ -138,6 +209,7 @@ impl Grab {
                         node: *c,
                         k,
                         d: d.map(|x| x / k),
+                        limit,
                     });
                 }
             }
@@ -225,6 +297,7 @@ impl Simulation {
         if let Coupling::Spring { stiffness } = options.coupling {
             check_stiffness(stiffness)?;
         }
+        check_grip(&options)?;
         let (g, nodes) = self.patch(point, options.radius, "grab")?;
         let offsets = nodes
             .iter()
@@ -267,6 +340,8 @@ impl Simulation {
                 coupling: options.coupling,
                 weights,
                 coarse,
+                grip: options.grip,
+                dissipated: 0.0,
             },
         );
         self.constraints_changed();
@@ -335,8 +410,13 @@ impl Simulation {
             Coupling::Spring { .. } => {
                 for (i, (&a, o)) in g.nodes.iter().zip(&g.offsets).enumerate() {
                     let (ka, x) = (g.node_stiffness(i), self.positions[a as usize]);
+                    let s = [0, 1, 2].map(|k| x[k] - g.position[k] - o[k]);
+                    // A friction grasp's sliding spring pulls with its limit.
+                    let l = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+                    let limit = g.node_limit(i);
+                    let c = if ka * l > limit { limit / l } else { ka };
                     for k in 0..3 {
-                        f[k] += ka * (x[k] - g.position[k] - o[k]);
+                        f[k] += c * s[k];
                     }
                 }
             }
@@ -442,6 +522,54 @@ impl Simulation {
 }
 
 impl Simulation {
+    /// After an accepted frame: each friction grasp's sliding springs (stretch `l` beyond
+    /// `l₀ = limit / k`) have their anchors moved along the stretch to `l₀` behind their node,
+    /// so the next frame starts from the same forces with the slide taken (the return map of
+    /// Coulomb's law); the work `limit (l − l₀)` is dissipated. Returns whether any moved.
+    pub(super) fn slide_grips(&mut self) -> bool {
+        let u = &self.stepper.state().u;
+        let reference = &self.mesh.nodes;
+        let mut moved = false;
+        for g in self.grabs.values_mut() {
+            if g.grip.is_none() || g.coupling == Coupling::Hard {
+                continue;
+            }
+            let p = g.position;
+            for i in 0..g.nodes.len() {
+                let (ka, limit) = (g.node_stiffness(i), g.node_limit(i));
+                let a = g.nodes[i] as usize;
+                let x = reference[a];
+                let o = g.offsets[i];
+                // Stretch s = u_a − d_a, d_a = p + o − X_a.
+                let s = [0, 1, 2].map(|k| u[3 * a + k] - (p[k] + o[k] - x[k]));
+                let l = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+                if ka * l <= limit {
+                    continue;
+                }
+                let l0 = limit / ka;
+                // New anchor d' = u_a − l₀ ŝ, offset o' = d' − p + X_a.
+                g.offsets[i] = [0, 1, 2].map(|k| u[3 * a + k] - l0 * s[k] / l - p[k] + x[k]);
+                g.dissipated += limit * (l - l0);
+                moved = true;
+            }
+        }
+        if moved {
+            self.apply_constraints();
+        }
+        moved
+    }
+
+    /// The work (J) friction grasp `id`'s sliding has dissipated so far
+    /// ([`GrabOptions::friction`]); 0 for other grasps.
+    pub fn grab_dissipation(&self, id: GrabId) -> Result<f64> {
+        Ok(self.grab_ref(id)?.dissipated)
+    }
+
+    /// Grasp `id`'s grip, if it is a friction grasp.
+    pub fn grab_grip(&self, id: GrabId) -> Result<Option<Grip>> {
+        Ok(self.grab_ref(id)?.grip)
+    }
+
     /// Level-0 nodes held by a spring grasp.
     pub(super) fn sprung(&self) -> Vec<bool> {
         let mut s = vec![false; self.mesh.num_nodes()];

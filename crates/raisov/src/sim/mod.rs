@@ -85,7 +85,14 @@
 //! weighted means over the patch), which at equilibrium is `Σ_{a ∈ g} (V_a − R_a(u))` as for
 //! a hard grasp, and the balance above holds unchanged. Under explicit dynamics a node spring
 //! adds `k_a / m_a` to the squared frequencies: a spring stiffer than the time step allows
-//! makes frames diverge (and be rejected), so keep `k_a Δt² / m_a` well below 4. A pin holds its patch where it stands. Grasps are
+//! makes frames diverge (and be rejected), so keep `k_a Δt² / m_a` well below 4. A friction
+//! grasp ([`GrabOptions::friction`], [`Grip`]: friction coefficient μ, clamp force N) is a
+//! spring grasp whose node springs transmit at most `w_a μ N` (`w_a` the node's mass share):
+//! beyond it a spring slides at its limit ([`crate::integrate::Spring`], in the force, energy
+//! and tangent every solver sees), and after each accepted frame its anchor moves along the
+//! stretch to `l₀ = w_a μ N / k_a` behind the node (the return map of Coulomb's law: the same
+//! force, the slide taken), dissipating `w_a μ N (l − l₀)` ([`Simulation::grab_dissipation`]).
+//! So `|grab_force| ≤ μ N`, with equality while every node slides the same way. A pin holds its patch where it stands. Grasps are
 //! prescribed points of level 0 and pins are fixed regions (each level-0 pinned node carried
 //! to the nearest node of every coarser level), taken to the levels by the scheme as it takes
 //! the scenario's ([`crate::integrate::RuntimeConstraints`]). A new grasp position takes
@@ -119,7 +126,7 @@ pub mod tangent;
 
 pub use builder::{Scheme, SimulationBuilder};
 pub use frame::{Budget, FrameReport};
-pub use grab::{Coupling, GrabOptions};
+pub use grab::{Coupling, GrabOptions, Grip};
 pub use haptic::{HapticForce, HapticFrame, HapticLimits, HapticProxy};
 pub use solve::{solve, solve_with, Finished, Solution};
 pub use tangent::{TangentPreconditioner, TangentStats};
@@ -512,8 +519,9 @@ impl Simulation {
                 self.model.internal_forces(u, &mut self.r)?;
                 for s in &self.springs {
                     let i = 3 * s.node as usize;
+                    let f = s.force(u);
                     for k in 0..3 {
-                        self.r[i + k] += s.k * (u[i + k] - s.d[k]);
+                        self.r[i + k] += f[k];
                     }
                 }
             }

@@ -136,6 +136,7 @@ impl FrameStepper for Replay {
                 let options = GrabOptions {
                     radius: g.radius,
                     coupling,
+                    grip: g.grip,
                 };
                 let id = self
                     .sim
@@ -415,6 +416,37 @@ cycles = 40
         }
     }
 
+    /// A friction grasp in a scenario (`friction` and `clamp_force` with `stiffness`): pulled
+    /// 4 mm up over 0.3 s, the spring grasp of the same stiffness pulls the tool down by more
+    /// than μN = 5 mN; the friction grasp's pull is bounded by μN (to rounding), its patch
+    /// rises less, and its sliding dissipated work.
+    #[test]
+    fn a_friction_grasp_replays_and_slides_at_mu_n() {
+        let run = |grip: &str| {
+            let sc = cube(
+                &format!(
+                    "[[displace]]\npoint = [0.02, 0.02, 0.04]\nradius = 0.011\nstiffness = 20.0\n\
+                     {grip}\ntable = [[0.0, 0, 0, 0], [0.3, 0, 0, 0.004]]\n"
+                ),
+                0.5,
+                NONE,
+            );
+            let (r, x, _) = frames(&sc);
+            let c = node(&sc, [0.02, 0.02, 0.04]);
+            let id = r.held[0].unwrap().0;
+            let f = r.sim.grab_force(id).unwrap();
+            let f = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+            let d = r.sim.grab_dissipation(id).unwrap();
+            (f, x.last().unwrap()[c][2] - 0.04, d)
+        };
+        let (fs, us, ds) = run("");
+        let (ff, uf, df) = run("friction = 0.5\nclamp_force = 0.01");
+        assert!(fs > 0.005, "{fs}");
+        assert!(ff <= 0.005 * (1.0 + 1e-9) && ff > 0.9 * 0.005, "{ff}");
+        assert!(uf < us, "{uf} vs {us}");
+        assert!(ds == 0.0 && df > 0.0, "{ds} {df}");
+    }
+
     /// Bad keys of grasps and pins name the key and what is valid.
     #[test]
     fn bad_grasp_and_pin_keys_are_named() {
@@ -425,7 +457,7 @@ cycles = 40
         let p = "[[pin]]\npoint = [0.02, 0.02, 0.04]\n";
         let i = "[interactive]\ncycles = 2\n";
         for (extra, want) in [
-            (format!("{g}start = 0.5\n"), "displace[0] (`start`, `release` or `stiffness`: a grasp) is taken during the run and replayed frame by frame: the scenario needs an [interactive] section"),
+            (format!("{g}start = 0.5\n"), "displace[0] (`start`, `release`, `stiffness`, `friction` or `clamp_force`: a grasp) is taken during the run and replayed frame by frame: the scenario needs an [interactive] section"),
             (p.to_string(), "pin[0] is taken during the run"),
             (format!("{i}{g}start = -1.0\n"), "`displace[0].start` = -1: must be >= 0 (s)"),
             (format!("{i}{g}start = 0.5\nrelease = 0.5\n"), "`displace[0].release` = 0.5: must come after `start` = 0.5 (s)"),
@@ -435,6 +467,11 @@ cycles = 40
             (format!("{i}{p}radius = -1.0\n"), "`pin[0].radius` = -1: must be >= 0 (m)"),
             (format!("{i}{p}start = inf\n"), "pin[0].start"),
             (format!("{i}{p}stiffness = 3.0\n"), "stiffness"),
+            (format!("{i}{g}friction = 0.4\nclamp_force = 2.0\n"), "`displace[0].friction` needs `displace[0].stiffness` (N/m"),
+            (format!("{i}{g}stiffness = 100.0\nfriction = 0.4\n"), "`displace[0].friction` needs `displace[0].clamp_force` (N)"),
+            (format!("{i}{g}stiffness = 100.0\nclamp_force = 2.0\n"), "`displace[0].clamp_force` needs `displace[0].friction`"),
+            (format!("{i}{g}stiffness = 100.0\nfriction = -0.4\nclamp_force = 2.0\n"), "`displace[0].friction` = -0.4: must be a positive number"),
+            (format!("{i}{g}stiffness = 100.0\nfriction = 0.4\nclamp_force = 0.0\n"), "`displace[0].clamp_force` = 0: must be a positive number"),
         ] {
             let e = Scenario::from_toml(&format!("{base}{extra}"), Path::new("bad.toml"))
                 .err()

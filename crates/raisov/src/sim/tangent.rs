@@ -177,8 +177,9 @@ impl Simulation {
                 for s in &self.springs {
                     for axis in 0..3 {
                         let i = 3 * s.node as usize;
+                        let kwa = s.tangent_times(&u, &w[axis]);
                         for k in 0..3 {
-                            kw[axis][i + k] += s.k * w[axis][i + k];
+                            kw[axis][i + k] += kwa[k];
                         }
                     }
                 }

@@ -1127,3 +1127,88 @@ fn a_held_grasp_relaxes_to_the_long_term_law_in_the_frame_loop() {
         "relaxed {last} vs long-term law {elastic}"
     );
 }
+
+/// A friction grasp (`GrabOptions::friction`: stick stiffness 100 N/m, μ = 0.5, clamp force
+/// 0.1 N, so μN = 0.05 N) on top of a cube fixed at its base, every frame converged (a Newton
+/// solve):
+/// - pulled 0.1 mm sideways it sticks: the spring grasp's equilibrium (1e-9) and no work
+///   dissipated;
+/// - dragged 10 mm in 0.5 mm frames it slides: the force on the tool never exceeds μN and,
+///   once sliding, stays within 2 % of it (the nodes' pulls nearly parallel); the patch
+///   moves far less than the tool; and the work the tool did equals the energy stored in the
+///   tissue and the grip's springs plus the work the sliding dissipated, within 0.5 % (the
+///   tool's work by the trapezoid rule over the frames).
+#[test]
+fn a_friction_grasp_sticks_below_mu_n_and_slides_at_it() {
+    let (k, mu, clamp) = (100.0, 0.5, 0.1);
+    let limit = mu * clamp;
+    let point = [0.02, 0.02, SIDE];
+    let pull = |options: GrabOptions, steps: usize, step: f64| {
+        let mut sim = static_cube_under(4, [0.0; 3]);
+        let g = sim.grab_with(point, options).unwrap();
+        let p = sim.grab_position(g).unwrap();
+        let mut f_last = [0.0; 3];
+        let mut work = 0.0;
+        let mut forces = Vec::new();
+        for j in 1..=steps {
+            sim.move_grab(g, [p[0] + step * j as f64, p[1], p[2]])
+                .unwrap();
+            converge(&mut sim);
+            let f = sim.grab_force(g).unwrap();
+            // The tool pulls with −f; trapezoid over the frame's move along x.
+            work += -0.5 * (f_last[0] + f[0]) * step;
+            f_last = f;
+            forces.push(norm(f));
+        }
+        (sim, g, work, forces)
+    };
+    // Sticking.
+    let (stick, gs, _, fs) = pull(GrabOptions::friction(0.011, k, mu, clamp), 1, 1e-4);
+    let (spring, _, _, fk) = pull(GrabOptions::spring(0.011, k), 1, 1e-4);
+    assert!(fs[0] < limit, "{} vs μN {limit}", fs[0]);
+    assert!((fs[0] - fk[0]).abs() <= 1e-9 * fk[0], "{fs:?} {fk:?}");
+    let du = stick
+        .displacements()
+        .iter()
+        .zip(spring.displacements())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(du <= 1e-9 * 1e-4, "{du}");
+    assert_eq!(stick.grab_dissipation(gs).unwrap(), 0.0);
+    // Sliding.
+    let (sim, g, work, forces) = pull(GrabOptions::friction(0.011, k, mu, clamp), 20, 5e-4);
+    assert!(
+        forces.iter().all(|&f| f <= limit * (1.0 + 1e-9)),
+        "{forces:?}"
+    );
+    assert!(forces[5..].iter().all(|&f| f >= 0.98 * limit), "{forces:?}");
+    let patch: f64 = sim
+        .grab_nodes(g)
+        .unwrap()
+        .iter()
+        .map(|&a| sim.displacements()[3 * a as usize])
+        .fold(0.0, f64::max);
+    assert!(
+        patch < 0.2 * 0.01,
+        "the patch moved {patch} m of the tool's 0.01 m"
+    );
+    let model = FemModel::new(
+        sim.mesh(),
+        FemParams::new(Material::StableNeoHookean(StableNeoHookean::from_young(
+            5e3, 0.45,
+        ))),
+    )
+    .unwrap();
+    let u = sim.displacements();
+    let stored = model.strain_energy(u) + sim.springs.iter().map(|s| s.energy(u)).sum::<f64>();
+    let dissipated = sim.grab_dissipation(g).unwrap();
+    eprintln!(
+        "friction grasp: forces {:.5?} N (μN {limit}), patch {patch:.3e} m, tool work {work:.5e} J, stored {stored:.5e} J, dissipated {dissipated:.5e} J",
+        forces
+    );
+    assert!(dissipated > 0.5 * work, "{dissipated} of {work}");
+    assert!(
+        (work - stored - dissipated).abs() <= 0.005 * work,
+        "tool work {work} J, stored {stored} J, dissipated {dissipated} J"
+    );
+}

@@ -307,8 +307,9 @@ impl ImplicitEuler {
         }
         for sp in &self.springs {
             let i = 3 * sp.node as usize;
+            let f = sp.force(&us);
             for k in 0..3 {
-                r[i + k] += sp.k * (us[i + k] - sp.d[k]);
+                r[i + k] += f[k];
             }
         }
         (0..n / 3)
@@ -375,11 +376,7 @@ impl Stepper for ImplicitEuler {
             self.u[i..i + 3].copy_from_slice(&d);
             let m = self.sys.mass[a];
             if m > 0.0 {
-                self.springs.push(Spring {
-                    node: a as u32,
-                    k: m * c,
-                    d,
-                });
+                self.springs.push(Spring::linear(a as u32, m * c, d));
             }
         }
         self.springs.extend_from_slice(&self.sys.springs);

@@ -593,8 +593,7 @@ impl DirectNewton {
         };
         model.add_extra_tangent(u, &mut extra);
         for sp in springs.iter().filter(|sp| sp.k > 0.0) {
-            let k = sp.k;
-            extra(&[sp.node], &[k, 0.0, 0.0, 0.0, k, 0.0, 0.0, 0.0, k]);
+            extra(&[sp.node], &sp.tangent(u));
         }
         Ok(diag / self.nfree.max(1) as f64)
     }
@@ -1201,21 +1200,25 @@ fn potential(model: &dyn ForceModel, springs: &[Spring], u: &[f64], s: f64, f_ex
     }
 }
 
-/// `fint += k (u_a − d)` for every spring.
+/// `fint += f_s(u)` for every spring ([`Spring::force`]: `k (u_a − d)` while it sticks).
 fn add_springs(springs: &[Spring], u: &[f64], fint: &mut [f64]) {
     for sp in springs {
         let i = 3 * sp.node as usize;
+        let f = sp.force(u);
         for k in 0..3 {
-            fint[i + k] += sp.k * (u[i + k] - sp.d[k]);
+            fint[i + k] += f[k];
         }
     }
 }
 
-/// `Σ ½ k |u_a − d|²` (J).
+/// `Σ ½ k |u_a − d|²` (J), a sliding spring's [`Spring::energy`].
 fn spring_energy(springs: &[Spring], u: &[f64]) -> f64 {
     springs
         .iter()
         .map(|sp| {
+            if sp.limit.is_finite() {
+                return sp.energy(u);
+            }
             let i = 3 * sp.node as usize;
             (0..3)
                 .map(|k| 0.5 * sp.k * (u[i + k] - sp.d[k]).powi(2))

@@ -114,7 +114,8 @@ def test_a_friction_grasp_pulls_no_harder_than_mu_n():
     g = sim.grab([0.02, 0.02, 0.06], 0.011, stiffness=100.0, friction=0.5, clamp=0.1)
     p = sim.grab_position(g)
     sim.move_grab(g, p + [0.005, 0.0, 0.0])
-    converge(sim)
+    # This cube's coarsest solve is Newton-Krylov (finite-difference products): 1e-8 N.
+    converge(sim, tol=1e-8)
     f = sim.grab_force(g)
     assert np.linalg.norm(f) <= 0.05 * (1 + 1e-9), f
     assert np.linalg.norm(f) > 0.045, f

@@ -747,13 +747,15 @@ impl Scenario {
         // steppers (explicit and backward Euler, in plain and interactive runs, whose
         // checkpoints keep them) and is fully relaxed in a static solve; the explicit
         // multigrid schemes do not carry them.
-        if matches!(material, Material::NeoHookeanVisco(_)) {
-            if spec.multigrid.is_some() && !newton && implicit.is_none() {
-                return Err(err(
-                    path,
-                    format!("`[multigrid]` with method = \"{}\" does not apply to law = \"neo-hookean-visco\": the explicit multigrid schemes do not advance the law's internal variables (remove [multigrid], or use method = \"implicit-euler\", whose Newton solver takes the levels, or \"newton\" for the fully relaxed equilibrium)", method.name()),
-                ));
-            }
+        if matches!(material, Material::NeoHookeanVisco(_))
+            && spec.multigrid.is_some()
+            && !newton
+            && implicit.is_none()
+        {
+            return Err(err(
+                path,
+                format!("`[multigrid]` with method = \"{}\" does not apply to law = \"neo-hookean-visco\": the explicit multigrid schemes do not advance the law's internal variables (remove [multigrid], or use method = \"implicit-euler\", whose Newton solver takes the levels, or \"newton\" for the fully relaxed equilibrium)", method.name()),
+            ));
         }
         if let (false, None, Some(_)) = (newton, &implicit, &spec.multigrid) {
             if let Some(i) = tools.iter().position(|t| t.friction.is_some()) {

@@ -293,6 +293,33 @@ fn read_cell_data(file: &Path, array: &str, mesh: &Mesh, path: &Path) -> Result<
     ElementFibres::normalised(&dirs, KEY).map_err(|e| err(path, e.to_string()))
 }
 
+impl std::fmt::Display for FibreField {
+    /// In words, e.g. "the helix rule about the axis (0, 0, 1) through (-0.03, 0.01, 0) m,
+    /// 60 deg at r = 0.03 m to -60 deg at r = 0.04 m, one direction per element".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let c = crate::numbers::compact;
+        let v = |x: &Vector3<f64>| format!("({}, {}, {})", c(x.x), c(x.y), c(x.z));
+        match &self.rule {
+            FibreRule::Helix(h) => write!(
+                f,
+                "the helix rule about the axis {} through {} m, {} deg at r = {} m to {} deg at r = {} m",
+                v(&h.axis),
+                v(&h.centre),
+                c(h.endo),
+                c(h.inner_radius),
+                c(h.epi),
+                c(h.outer_radius)
+            )?,
+            FibreRule::CellData { file, array } => write!(
+                f,
+                "the cell data \"{array}\" of {}",
+                file.file_name().map_or(file.display().to_string(), |n| n.to_string_lossy().into_owned())
+            )?,
+        }
+        write!(f, ", one direction per element")
+    }
+}
+
 impl FibreField {
     /// The field on `mesh`: level 0's where `mesh` is `level0_mesh` (same nodes and
     /// elements), else the rule of the module docs for a coarser level.

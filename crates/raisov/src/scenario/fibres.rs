@@ -357,11 +357,10 @@ pub fn coarsen(fine: &Mesh, field: &ElementFibres, coarse: &Mesh) -> Result<Elem
         Some(Transfer::build(&pts, fine)?)
     };
     let mut dirs = Vec::with_capacity(nc);
-    let mut k = 0;
+    let mut fallback_hosts = fallback.iter().flat_map(|t| t.host.iter());
     for c in 0..nc {
         let Some(a1) = first[c] else {
-            let host = fallback.as_ref().expect("built where some are empty").host[k] as usize;
-            k += 1;
+            let host = *fallback_hosts.next().expect("one per empty element") as usize;
             dirs.push(field.0[host]);
             continue;
         };

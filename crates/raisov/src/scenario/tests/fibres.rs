@@ -677,7 +677,7 @@ fn hierarchies_with_a_fibre_field_reach_the_single_level_equilibrium() {
             .enumerate()
             .map(|(a, x)| (x.map(f64::to_bits), [u[3 * a], u[3 * a + 1], u[3 * a + 2]]))
             .collect();
-        rows.sort_by(|a, b| a.0.cmp(&b.0));
+        rows.sort_by_key(|a| a.0);
         rows.into_iter().flat_map(|r| r.1).collect::<Vec<f64>>()
     };
     close(
@@ -711,12 +711,17 @@ fn coarsening_a_uniform_field_keeps_its_direction() {
         })
         .collect();
     let field = crate::fem::ElementFibres::normalised(&dirs, "fibre").unwrap();
-    let c = crate::scenario::fibres::coarsen(&fine, &field, &coarse).unwrap();
-    assert_eq!(c.len(), coarse.num_elements());
-    for d in c.0.iter() {
-        let d = Vector3::from(*d);
-        assert!((d.norm() - 1.0).abs() < 1e-14);
-        assert!(1.0 - d.dot(&a).abs() < 1e-14, "{d:?}");
+    // A level finer than the field's has elements hosting no centroid: they take the
+    // direction of the element hosting their own centroid.
+    let finer = box_tets([0.02, 0.01, 0.01], [12, 6, 6], BoxPattern::Five).unwrap();
+    for coarse in [coarse, finer] {
+        let c = crate::scenario::fibres::coarsen(&fine, &field, &coarse).unwrap();
+        assert_eq!(c.len(), coarse.num_elements());
+        for d in c.0.iter() {
+            let d = Vector3::from(*d);
+            assert!((d.norm() - 1.0).abs() < 1e-14);
+            assert!(1.0 - d.dot(&a).abs() < 1e-14, "{d:?}");
+        }
     }
 }
 

@@ -34,6 +34,9 @@
 //!   element hosting no centroid takes the direction of the level-0 element hosting its own
 //!   centroid. A uniform field stays uniform on every level (to rounding).
 //!
+//! With a field, the law's own direction ([`crate::material::Material::fibre`]) is a
+//! placeholder (`e_1`) that no element uses.
+//!
 //! Coarse fields only build the coarse levels' force models: they precondition or accelerate
 //! the solve of level 0, whose field is the one given.
 

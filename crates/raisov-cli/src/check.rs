@@ -93,6 +93,23 @@ pub fn material(m: &Material) -> String {
     }
 }
 
+/// [`material`] with the scenario's fibre field, where it has one, in place of the law's
+/// single direction ("along the helix rule ...").
+pub fn material_with(
+    m: &Material,
+    fibres: Option<&raisov::scenario::fibres::FibreField>,
+) -> String {
+    let text = material(m);
+    match (fibres, m.fibre()) {
+        (Some(f), Some(a)) => text.replacen(
+            &format!("along {}", point(a.into())),
+            &format!("along {f}"),
+            1,
+        ),
+        _ => text,
+    }
+}
+
 /// A vector `(x, y, z)` with its unit, or "none" when zero.
 pub fn vector_or_none(v: [f64; 3], unit: &str) -> String {
     if v == [0.0; 3] {

@@ -845,7 +845,10 @@ fn cmd_check(path: &Path) -> Result<()> {
             sc.mesh.kind.name()
         ),
     );
-    line("material", &check::material(&sc.material));
+    line(
+        "material",
+        &check::material_with(&sc.material, sc.fibres.as_ref()),
+    );
     line(
         "density",
         &format!(

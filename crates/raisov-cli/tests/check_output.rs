@@ -165,6 +165,12 @@ fn check_prints_words_not_debug_structures_for_every_example() {
                     "ti-neo-hookean: mu 1000 Pa, fibre eta 8000 Pa along (1, 0, 0), bulk modulus kappa 50000 Pa"
                 );
             }
+            "fibre_wall.toml" => {
+                assert_eq!(
+                    field(&text, "material"),
+                    "hgo: mu 1000 Pa, fibre k1 2000 Pa, k2 5, dispersion 0 along the helix rule about the axis (0, 0, 1) through (-0.03, 0.01, 0) m, 60 deg at r = 0.03 m to -60 deg at r = 0.04 m, one direction per element, bulk modulus kappa 50000 Pa"
+                );
+            }
             "visco_block.toml" => {
                 assert_eq!(
                     field(&text, "material"),

@@ -44,6 +44,15 @@
 //! stepper's checkpoint keeps them, so a frame restored after a rejected try (the frame loop
 //! of [`crate::sim`]) resumes from the history it started with.
 //!
+//! Fibre fields ([`FemParams::fibres`], tetrahedra of the fibre laws, the generic path): a
+//! unit reference direction `a0_e` per element. Element e is evaluated with its law's `a0`
+//! replaced by `a0_e` (a copy of the law's constants with that direction), in every
+//! evaluation: forces, energy, tangent, Cauchy stress. The laws are written in
+//! `C = FᵀF` and `a0`, so a rigid rotation `Q` of the reference mesh together with its field
+//! (`X → QX`, `a0_e → Q a0_e`) leaves every element's energy unchanged. Without a field
+//! every element has the law's own `a0`; the isotropic laws and the packed path have no
+//! fibre and are untouched.
+//!
 //! Nodal stress T (paper section 3, from its reference \[11\]): element Cauchy stress `σ = F S Fᵀ / J`
 //! (membranes: `J = λ3 √det C`, σ in-plane, 3x3), averaged onto nodes weighted by reference
 //! element measure.
@@ -78,7 +87,9 @@ pub mod loads;
 pub mod packed;
 mod visco;
 
-use crate::material::{Material, MembraneMaterial, SolidMaterial};
+use crate::material::{
+    HolzapfelGasserOgden, Material, MembraneMaterial, SolidMaterial, TiNeoHookean,
+};
 use crate::mesh::{ElementKind, Mesh};
 use crate::{Error, Result};
 pub use element::{membrane_frame, membrane_stiffness, tet_dm_inverse, tet_stiffness};
@@ -256,6 +267,54 @@ pub struct FemParams {
     /// materials and membranes, the masses, the strain energy and the stresses are f64
     /// whatever this says. Default [`Precision::F64`].
     pub precision: Precision,
+    /// A fibre direction per element for the fibre laws (ti-neo-hookean, hgo): element `e`
+    /// is evaluated with its law's `a0` replaced by `fibres[e]` (module docs, "Fibre
+    /// fields"). `None` (the default): every element has the law's own direction.
+    pub fibres: Option<ElementFibres>,
+}
+
+/// One unit fibre direction per element, in the reference configuration (shared, cheap to
+/// clone: every level's parameters carry their own).
+#[derive(Clone, PartialEq)]
+pub struct ElementFibres(pub std::sync::Arc<[[f64; 3]]>);
+
+impl ElementFibres {
+    /// The directions, normalised: an error naming `key` and the element where one is zero
+    /// or not finite.
+    pub fn normalised(dirs: &[[f64; 3]], key: &str) -> Result<ElementFibres> {
+        let mut out = Vec::with_capacity(dirs.len());
+        for (e, d) in dirs.iter().enumerate() {
+            let a = crate::material::unit_direction(Vector3::from(*d), key).map_err(|_| {
+                Error::param(
+                    key,
+                    format!(
+                        "element {e} has fibre [{}, {}, {}], not a direction: every element needs a non-zero finite vector",
+                        d[0], d[1], d[2]
+                    ),
+                )
+            })?;
+            out.push([a.x, a.y, a.z]);
+        }
+        Ok(ElementFibres(out.into()))
+    }
+    /// Number of elements.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+    /// Whether there is no element.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+    /// The directions, 3 numbers per element (a cell field of the outputs).
+    pub fn flat(&self) -> &[f64] {
+        self.0.as_flattened()
+    }
+}
+
+impl std::fmt::Debug for ElementFibres {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "ElementFibres({} elements)", self.0.len())
+    }
 }
 
 impl FemParams {
@@ -268,6 +327,7 @@ impl FemParams {
             chunk: 2048,
             slab: 16384,
             precision: Precision::F64,
+            fibres: None,
         }
     }
 }
@@ -332,6 +392,39 @@ impl FemModel {
             ));
         }
         params.material.check_for(mesh.kind)?;
+        if let Some(f) = &params.fibres {
+            if params.material.fibre().is_none() {
+                return Err(Error::param(
+                    "material.fibre",
+                    format!(
+                        "a fibre field is given, but law \"{}\" has no fibres (the fibre laws: \"ti-neo-hookean\", \"hgo\")",
+                        params.material.name()
+                    ),
+                ));
+            }
+            if f.len() != ne {
+                return Err(Error::param(
+                    "material.fibre",
+                    format!(
+                        "the fibre field has {} directions for {ne} elements: one per element",
+                        f.len()
+                    ),
+                ));
+            }
+            if let Some(e) =
+                f.0.iter()
+                    .position(|a| !((Vector3::from(*a).norm() - 1.0).abs() <= 1e-9))
+            {
+                let a = f.0[e];
+                return Err(Error::param(
+                    "material.fibre",
+                    format!(
+                        "element {e}'s fibre [{}, {}, {}] must be a unit vector",
+                        a[0], a[1], a[2]
+                    ),
+                ));
+            }
+        }
         if mesh.kind == ElementKind::Tri3 && !(params.thickness > 0.0) {
             return Err(Error::param("thickness", "must be a positive number (m)"));
         }
@@ -715,10 +808,16 @@ impl FemModel {
             (Material::MooneyRivlin(m), k) => self.element_forces_with(m, m, k, e, u, out),
             (Material::VerondaWestmann(m), k) => self.element_forces_with(m, m, k, e, u, out),
             (Material::StableNeoHookean(m), k) => self.element_forces_with(m, m, k, e, u, out),
-            (Material::TiNeoHookean(m), ElementKind::Tet4) => self.tet_forces_with(m, e, u, out),
-            (Material::HolzapfelGasserOgden(m), ElementKind::Tet4) => {
-                self.tet_forces_with(m, e, u, out)
-            }
+            (Material::TiNeoHookean(m), ElementKind::Tet4) => match self.element_fibre(e) {
+                Some(fibre) => self.tet_forces_with(&TiNeoHookean { fibre, ..*m }, e, u, out),
+                None => self.tet_forces_with(m, e, u, out),
+            },
+            (Material::HolzapfelGasserOgden(m), ElementKind::Tet4) => match self.element_fibre(e) {
+                Some(fibre) => {
+                    self.tet_forces_with(&HolzapfelGasserOgden { fibre, ..*m }, e, u, out)
+                }
+                None => self.tet_forces_with(m, e, u, out),
+            },
             (Material::NeoHookeanVisco(_), ElementKind::Tet4) => {
                 let law = self
                     .visco
@@ -738,13 +837,41 @@ impl FemModel {
         }
     }
 
-    /// `f` of element e's solid law: the model's law, or for a rate-dependent one its law
-    /// over the step in progress ([`crate::material::ViscoStep`]).
+    /// Element e's fibre direction where the model has a per-element field
+    /// ([`FemParams::fibres`]); `None` where every element has the law's own.
+    #[inline(always)]
+    fn element_fibre(&self, e: usize) -> Option<Vector3<f64>> {
+        self.params
+            .fibres
+            .as_ref()
+            .and_then(|f| f.0.get(e))
+            .map(|a| Vector3::from(*a))
+    }
+
+    /// `f` of element e's solid law: the model's law (a fibre law with element e's fibre,
+    /// [`FemParams::fibres`]), or for a rate-dependent one its law over the step in
+    /// progress ([`crate::material::ViscoStep`]).
     fn with_element_solid<T>(&self, e: usize, f: impl FnOnce(&dyn SolidMaterial) -> T) -> T {
-        match &self.visco {
-            Some(v) if e < self.num_elements() => f(&v.element_law(e)),
-            _ => with_solid(&self.params.material, f),
+        if let Some(v) = &self.visco {
+            if e < self.num_elements() {
+                return f(&v.element_law(e));
+            }
         }
+        if let Some(fibre) = self.element_fibre(e) {
+            match &self.params.material {
+                Material::TiNeoHookean(m) => return f(&TiNeoHookean { fibre, ..*m }),
+                Material::HolzapfelGasserOgden(m) => {
+                    return f(&HolzapfelGasserOgden { fibre, ..*m })
+                }
+                _ => {}
+            }
+        }
+        with_solid(&self.params.material, f)
+    }
+
+    /// The per-element fibre field the model was built with ([`FemParams::fibres`]).
+    pub fn fibres(&self) -> Option<&ElementFibres> {
+        self.params.fibres.as_ref()
     }
 
     /// The step (s) the force evaluations of a rate-dependent law use ([`ForceModel::set_step`];

@@ -58,7 +58,7 @@ pub use rows::RowFile;
 pub use surface::{is_surface_path, load_surface, parse_surface, SURFACE_EXTENSIONS};
 pub use vtp::write_vtp;
 pub use vtu::{write_vtu, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
-pub use vtu_read::{read_vtp, read_vtu, read_vtu_array};
+pub use vtu_read::{read_vtp, read_vtu, read_vtu_array, read_vtu_cell_array};
 
 use crate::mesh::{ElementKind, Mesh};
 use crate::{Error, Result};
@@ -80,6 +80,10 @@ pub struct LoadedMesh {
     /// The id the file gives each node of [`LoadedMesh::mesh`] (Gmsh, Triangle and TetGen
     /// files number their nodes themselves, often from 1; VTK formats by position from 0).
     pub node_ids: Vec<u64>,
+    /// The id the file gives each element of [`LoadedMesh::mesh`], in the mesh's element
+    /// order (VTK formats: the cell's position from 0 among all cells, lower-dimensional
+    /// ones included, so the index of its cell data; Gmsh: the element tag).
+    pub element_ids: Vec<u64>,
 }
 
 /// Read a mesh, choosing the reader by extension (see the module docs).
@@ -352,6 +356,7 @@ pub(crate) fn finish(raw: RawMesh, path: &Path, format: &'static str) -> Result<
         .collect();
     Ok(LoadedMesh {
         node_ids,
+        element_ids: elem_ids,
         unused_nodes_dropped: n - mesh.nodes.len(),
         mesh,
         format,

@@ -87,6 +87,18 @@ fn parse_xml<'x>(path: &Path, xml: &'x str) -> Result<Document<'x>> {
 /// (components per item, values as `f64`, integers converted). Any storage the module docs
 /// list; errors as for [`read_vtu`], and when there is no such array.
 pub fn read_vtu_array(path: &Path, name: &str) -> Result<(usize, Vec<f64>)> {
+    read_data_array(path, name, &["PointData", "CellData"])
+}
+
+/// [`read_vtu_array`] of the cell data only (`<CellData>`; a point array of the same name is
+/// not taken): (components per cell, values), one item per cell of the first `<Piece>`.
+pub fn read_vtu_cell_array(path: &Path, name: &str) -> Result<(usize, Vec<f64>)> {
+    read_data_array(path, name, &["CellData"])
+}
+
+/// The array `name` of the first of `groups` (`"PointData"`, `"CellData"`) of the first
+/// `<Piece>` that has one.
+fn read_data_array(path: &Path, name: &str, groups: &[&str]) -> Result<(usize, Vec<f64>)> {
     let bytes = read_bytes(path)?;
     let (xml, appended) = split_appended(path, &bytes)?;
     let doc = parse_xml(path, &xml)?;
@@ -109,6 +121,9 @@ pub fn read_vtu_array(path: &Path, name: &str) -> Result<(usize, Vec<f64>)> {
         },
     )?;
     for (group, items) in [("PointData", np), ("CellData", nc)] {
+        if !groups.contains(&group) {
+            continue;
+        }
         let Some(g) = piece.children().find(|n| n.has_tag_name(group)) else {
             continue;
         };
@@ -136,7 +151,15 @@ pub fn read_vtu_array(path: &Path, name: &str) -> Result<(usize, Vec<f64>)> {
     }
     Err(cx.err(
         piece,
-        format!("no point or cell data array named {}", show(name)),
+        format!(
+            "no {} data array named {}",
+            if groups.len() == 1 {
+                "cell"
+            } else {
+                "point or cell"
+            },
+            show(name)
+        ),
     ))
 }
 

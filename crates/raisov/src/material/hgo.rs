@@ -1,5 +1,6 @@
 //! Holzapfel–Gasser–Ogden: a neo-Hookean matrix with one family of collagen fibres along the
-//! unit reference direction `a0` (the same in every element), stiffening exponentially in
+//! unit reference direction `a0` (one per law; a per-element field gives each element a copy
+//! with its own: [`crate::fem`], "Fibre fields"), stiffening exponentially in
 //! tension (Holzapfel, Gasser & Ogden, J. Elasticity 61, 2000), with the fibre dispersion
 //! κ_d of Gasser, Ogden & Holzapfel (J. R. Soc. Interface 3, 2006), as FEBio's
 //! "Holzapfel-Gasser-Ogden" material writes it for one family.

@@ -2,7 +2,8 @@
 //! of anisotropic viscoelasticity for soft tissue simulation: numerical solution and GPU
 //! execution", Medical Image Analysis 13, 2009; NiftySim `tledMaterialTI`), a neo-Hookean
 //! matrix reinforced along one fibre direction `a0` (a unit vector of the reference
-//! configuration, the same in every element).
+//! configuration; a per-element field gives each element a copy of the law with its own
+//! `a0`: [`crate::fem`], "Fibre fields").
 //!
 //! Solids only. With `J = √det C`, `Ī1 = J^(−2/3) tr C`, `Ī4 = J^(−2/3) a0·C a0`,
 //! `A = a0 ⊗ a0`:

@@ -735,7 +735,7 @@ pub fn run_frames(
                 &sc.mesh,
                 &sc.mesh.nodes,
                 &fields,
-                &[],
+                &sc.cell_fields(),
                 sc.vtu,
             )?;
             pvd.add(t, &format!("frames/{file}"))?;

@@ -22,6 +22,7 @@
 //! multigrid's power-iteration start vector, the one place where an index chose a value, is
 //! keyed by the file's ids ([`crate::multigrid::Level::node_keys`]), not by the memory order.
 
+pub mod fibres;
 pub mod grasps;
 mod implicit;
 pub mod interactive;
@@ -150,6 +151,9 @@ pub struct Scenario {
     pub warnings: Vec<String>,
     /// `[material]`: the law and its constants.
     pub material: Material,
+    /// `[material] fibre` as a field, one direction per element ([`fibres`]); `None` for
+    /// one direction (the law's own) or a law without fibres.
+    pub fibres: Option<fibres::FibreField>,
     /// `[material] density` (kg/m³), default 1000.
     pub density: f64,
     /// `[material] thickness` of membranes (m), default 1e-3.
@@ -580,6 +584,12 @@ impl Scenario {
         }
         let material =
             resolve_material(&spec.material, mesh.kind, spec.interactive.is_some(), path)?;
+        let fibres = fibres::resolve(
+            spec.material.fibre.as_ref(),
+            &mesh,
+            &mesh_source.shape,
+            path,
+        )?;
         let density = positive(
             path,
             "material.density",
@@ -1014,6 +1024,7 @@ impl Scenario {
             notes,
             warnings,
             material,
+            fibres,
             density,
             thickness,
             alpha,
@@ -1074,13 +1085,36 @@ impl Scenario {
         (ids.iter().enumerate().any(|(a, &id)| id != a as i64)).then_some(ids)
     }
 
-    /// FE parameters of this scenario.
+    /// FE parameters of this scenario on [`Scenario::mesh`] (its fibre field included).
     pub fn fem_params(&self) -> FemParams {
         let mut p = FemParams::new(self.material.clone());
         p.density = self.density;
         p.thickness = self.thickness;
         p.precision = self.precision;
+        p.fibres = self.fibres.as_ref().map(|f| f.level0.clone());
         p
+    }
+
+    /// The cell fields every frame of [`Scenario::mesh`] carries: `fibre` (3 per element)
+    /// where the material has a fibre field.
+    pub fn cell_fields(&self) -> Vec<crate::io::Field<'_>> {
+        self.fibres
+            .iter()
+            .map(|f| crate::io::Field {
+                name: "fibre",
+                data: crate::io::FieldData::Vector(f.level0.flat()),
+            })
+            .collect()
+    }
+
+    /// FE parameters of this scenario on `mesh`, level 0 or a coarser level: the fibre field
+    /// on that mesh ([`fibres::FibreField::on`]).
+    pub fn fem_params_on(&self, mesh: &Mesh) -> Result<FemParams> {
+        let mut p = self.fem_params();
+        if let Some(f) = &self.fibres {
+            p.fibres = Some(f.on(&self.mesh, mesh, &self.path)?);
+        }
+        Ok(p)
     }
 
     /// Assemble the system M ü + α M u̇ + R(u) = V of the finest mesh.
@@ -1117,7 +1151,7 @@ pub fn build_system(
     prescribed: &[(u32, Motion)],
     loads: &[(u32, [f64; 3])],
 ) -> Result<System> {
-    let fem = FemModel::new(mesh, sc.fem_params())?;
+    let fem = FemModel::new(mesh, sc.fem_params_on(mesh)?)?;
     let mass = fem.lumped_mass();
     let n = mesh.num_nodes();
     let x0 = fem.reference_positions().to_vec();

@@ -372,11 +372,16 @@ pub(super) fn resolve_material(
                     .map(Material::NeoHookeanVisco)
                     .map_err(|e| err(path, e.to_string()));
             }
-            let Some(f) = m.fibre else {
-                return Err(err(path, format!("[material]: law = \"{law}\" needs `fibre = [x, y, z]`, the fibre direction")));
+            let fibre = match &m.fibre {
+                None => return Err(err(path, format!("[material]: law = \"{law}\" needs `fibre = [x, y, z]`, the fibre direction (or a field: `{{ cell_data = \"NAME\" }}`, `{{ helix = {{ .. }} }}`)"))),
+                Some(spec::FibreSpec::Direction(f)) => {
+                    crate::material::unit_direction(Vector3::from(*f), "material.fibre")
+                        .map_err(|e| err(path, e.to_string()))?
+                }
+                // A field (scenario::fibres) gives each element its own direction; the law's
+                // own is never used.
+                Some(_) => Vector3::x(),
             };
-            let fibre = crate::material::unit_direction(Vector3::from(f), "material.fibre")
-                .map_err(|e| err(path, e.to_string()))?;
             let non_negative = |key: &str, v: f64| -> Result<f64> {
                 if v >= 0.0 && v.is_finite() {
                     Ok(v)

@@ -610,7 +610,7 @@ impl<'a> Frames<'a> {
             &sc.mesh,
             &sc.mesh.nodes,
             &fields,
-            &[],
+            &sc.cell_fields(),
             self.format,
         )?;
         self.pvd.add(s.t, &format!("frames/{file}"))?;

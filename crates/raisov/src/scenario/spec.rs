@@ -60,7 +60,17 @@
 //! k2 = 5.0                        # fibre stiffening exponent (hgo)
 //! dispersion = 0.0                # fibre dispersion κ_d in [0, 1/3] (hgo), default 0
 //! fibre = [1.0, 0.0, 0.0]         # fibre direction (ti-neo-hookean, hgo; solids only),
-//!                                 # normalised, the same in every element
+//!                                 # normalised, the same in every element; or a field, one
+//!                                 # direction per element (rules: crate::scenario::fibres):
+//! fibre = { cell_data = "fibre" } # the 3-component cell data array of this name of a .vtu
+//!                                 # `[mesh] file`, one per cell, each normalised; or
+//! fibre = { helix = { axis = [0, 0, 1], centre = [0, 0, 0], inner_radius = 0.02,
+//!           outer_radius = 0.03, endo = 60.0, epi = -60.0 } }
+//!                                 # the helix-angle rule through a wall about `axis` (m,
+//!                                 # degrees): at depth t = clamp((r − inner)/(outer − inner),
+//!                                 # 0, 1), θ = endo + t (epi − endo), fibre = cos θ e_circ +
+//!                                 # sin θ e_axis at each element's centroid. Coarser
+//!                                 # [multigrid] levels get their own field (same module)
 //! prony = [[0.5, 0.1]]            # neo-hookean-visco (solids only, with `mu` and `kappa` or
 //!                                 # `young` and `poisson`, the instantaneous moduli): Prony
 //!                                 # terms [α, τ], α >= 0 with Σ α < 1, τ > 0 s; the shear
@@ -987,6 +997,75 @@ pub struct MeshSpec {
     pub renumber: Option<bool>,
 }
 
+/// `[material] fibre`: one direction, or a direction per element (rules:
+/// `crate::scenario::fibres`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum FibreSpec {
+    /// `fibre = [x, y, z]`: the same direction in every element (normalised, non-zero).
+    Direction([f64; 3]),
+    /// `fibre = { cell_data = "fibre" }`: a 3-component cell data array of the `.vtu` mesh
+    /// file, one direction per cell (normalised, non-zero).
+    CellData(String),
+    /// `fibre = { helix = { .. } }`: the helix-angle rule through a wall about an axis.
+    Helix(HelixSpec),
+}
+
+/// `fibre = { helix = { axis, centre, inner_radius, outer_radius, endo, epi } }`; every key
+/// required (checked when resolved, naming the missing one).
+#[derive(Clone, Debug, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct HelixSpec {
+    /// `axis = [x, y, z]`: the wall's axis direction (normalised, non-zero).
+    pub axis: Option<[f64; 3]>,
+    /// `centre = [x, y, z]` (m, after `[mesh] scale`): a point on the axis.
+    pub centre: Option<[f64; 3]>,
+    /// `inner_radius` (m, ≥ 0): the distance from the axis where the depth is 0 (endocardium).
+    pub inner_radius: Option<f64>,
+    /// `outer_radius` (m, > `inner_radius`): where the depth is 1 (epicardium).
+    pub outer_radius: Option<f64>,
+    /// `endo` (degrees): the helix angle at depth 0.
+    pub endo: Option<f64>,
+    /// `epi` (degrees): the helix angle at depth 1.
+    pub epi: Option<f64>,
+}
+
+impl<'de> Deserialize<'de> for FibreSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Table {
+            cell_data: Option<String>,
+            helix: Option<HelixSpec>,
+        }
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Direction([f64; 3]),
+            Table(Table),
+        }
+        const VALID: &str = "valid are [x, y, z] (one direction), { cell_data = \"NAME\" } (a \
+             3-component cell array of the .vtu mesh file) or { helix = { axis = [..], centre = \
+             [..], inner_radius = .., outer_radius = .., endo = .., epi = .. } } (degrees)";
+        match Raw::deserialize(d) {
+            Ok(Raw::Direction(a)) => Ok(FibreSpec::Direction(a)),
+            Ok(Raw::Table(Table {
+                cell_data: Some(name),
+                helix: None,
+            })) => Ok(FibreSpec::CellData(name)),
+            Ok(Raw::Table(Table {
+                cell_data: None,
+                helix: Some(h),
+            })) => Ok(FibreSpec::Helix(h)),
+            Ok(Raw::Table(_)) => Err(D::Error::custom(format!(
+                "{VALUE_ERROR}a table with one of `cell_data` or `helix`: {VALID}"
+            ))),
+            Err(_) => Err(D::Error::custom(format!(
+                "{VALUE_ERROR}not a fibre direction or field: {VALID}"
+            ))),
+        }
+    }
+}
+
 /// `[material]`: the law and its parameters.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -1017,9 +1096,9 @@ pub struct MaterialSpec {
     pub k2: Option<f64>,
     /// `dispersion`: hgo's fibre dispersion κ_d in [0, 1/3]; default 0 (aligned fibres).
     pub dispersion: Option<f64>,
-    /// `fibre = [x, y, z]`: the fibre direction of ti-neo-hookean and hgo in the reference
-    /// configuration, the same in every element; normalised, non-zero.
-    pub fibre: Option<[f64; 3]>,
+    /// `fibre`: the fibre direction of ti-neo-hookean and hgo in the reference
+    /// configuration: `[x, y, z]` in every element, or a field ([`FibreSpec`]).
+    pub fibre: Option<FibreSpec>,
     /// `prony = [[α, τ], ...]`: neo-hookean-visco's Prony terms, relative modulus α ≥ 0 (with
     /// Σ α < 1) and relaxation time τ > 0 (s) each.
     pub prony: Option<Vec<Vec<f64>>>,

@@ -190,10 +190,11 @@ impl Source {
     /// The scenario table for `method`: `[multigrid] scheme = "fas"` (keys of raisov-paper
     /// dropped), `"raisov-paper"` (FAS keys dropped), or no `[multigrid]` (single level).
     ///
-    /// A scenario integrated by backward Euler (`[integrator] method = "implicit-euler"`)
-    /// is served as `Method::Single` with its `[multigrid]` levels kept (they precondition its
-    /// Newton solves); switched to FAS or RaISoV, it drops its integrator keys
-    /// ([`IMPLICIT_ONLY`]) and is stepped explicitly at the scheme's own stable step.
+    /// A scenario integrated by backward Euler or BDF2 (`[integrator] method =
+    /// "implicit-euler"` or `"bdf2"`) is served as `Method::Single` with its `[multigrid]`
+    /// levels kept (they precondition its Newton solves); switched to FAS or RaISoV, it drops
+    /// its integrator keys ([`IMPLICIT_ONLY`]) and `[damping] beta`, and is stepped
+    /// explicitly at the scheme's own stable step.
     pub fn table_for(&self, method: Method) -> toml::Table {
         let mut t = self.table.clone();
         match method {
@@ -210,6 +211,10 @@ impl Source {
                         for k in IMPLICIT_ONLY {
                             i.remove(*k);
                         }
+                    }
+                    // Stiffness-proportional damping is the implicit schemes' only.
+                    if let Some(toml::Value::Table(d)) = t.get_mut("damping") {
+                        d.remove("beta");
                     }
                 }
                 let mg = t
@@ -1104,12 +1109,15 @@ pub const IMPLICIT_ONLY: &[&str] = &[
     "smoother",
 ];
 
-/// Whether the scenario asks for backward Euler (`[integrator] method = "implicit-euler"`).
+/// Whether the scenario asks for backward Euler or BDF2 (`[integrator] method =
+/// "implicit-euler"` or `"bdf2"`).
 fn implicit(t: &toml::Table) -> bool {
-    t.get("integrator")
-        .and_then(|i| i.get("method"))
-        .and_then(|m| m.as_str())
-        == Some("implicit-euler")
+    matches!(
+        t.get("integrator")
+            .and_then(|i| i.get("method"))
+            .and_then(|m| m.as_str()),
+        Some("implicit-euler" | "bdf2")
+    )
 }
 
 #[cfg(test)]

@@ -918,13 +918,19 @@ fn cmd_check(path: &Path) -> Result<()> {
     } else {
         let integrator = match &sc.implicit {
             Some(imp) => format!(
-                "implicit-euler, dt = {:.4e} s ({} explicit critical steps), Newton to newton_tol = {:e} in at most {} iterations a step, solver \"{}\", precision {}",
+                "{}, dt = {:.4e} s ({} explicit critical steps), Newton to newton_tol = {:e} in at most {} iterations a step, solver \"{}\", precision {}{}",
+                imp.scheme.name(),
                 sc.dt,
                 raisov::numbers::rounded(sc.dt / sc.dt_critical_estimate, 1),
                 imp.rel_tol,
                 imp.max_newton,
                 raisov::scenario::spec::Named::name(imp.solver),
-                sc.precision.name()
+                sc.precision.name(),
+                if imp.beta > 0.0 {
+                    format!(", stiffness damping beta = {:e} s (K frozen at each step's start)", imp.beta)
+                } else {
+                    String::new()
+                }
             ),
             None => format!(
                 "{}, dt = {:.4e} s (estimated critical {:.4e} s), precision {}",

@@ -190,10 +190,11 @@ impl Source {
     /// The scenario table for `method`: `[multigrid] scheme = "fas"` (keys of raisov-paper
     /// dropped), `"raisov-paper"` (FAS keys dropped), or no `[multigrid]` (single level).
     ///
-    /// A scenario integrated by backward Euler (`[integrator] method = "implicit-euler"`)
-    /// is served as `Method::Single` with its `[multigrid]` levels kept (they precondition its
-    /// Newton solves); switched to FAS or RaISoV, it drops its integrator keys
-    /// ([`IMPLICIT_ONLY`]) and is stepped explicitly at the scheme's own stable step.
+    /// A scenario integrated by backward Euler or BDF2 (`[integrator] method =
+    /// "implicit-euler"` or `"bdf2"`) is served as `Method::Single` with its `[multigrid]`
+    /// levels kept (they precondition its Newton solves); switched to FAS or RaISoV, it drops
+    /// its integrator keys ([`IMPLICIT_ONLY`]) and `[damping] beta`, and is stepped
+    /// explicitly at the scheme's own stable step.
     pub fn table_for(&self, method: Method) -> toml::Table {
         let mut t = self.table.clone();
         match method {
@@ -210,6 +211,10 @@ impl Source {
                         for k in IMPLICIT_ONLY {
                             i.remove(*k);
                         }
+                    }
+                    // Stiffness-proportional damping is the implicit schemes' only.
+                    if let Some(toml::Value::Table(d)) = t.get_mut("damping") {
+                        d.remove("beta");
                     }
                 }
                 let mg = t
@@ -1104,18 +1109,65 @@ pub const IMPLICIT_ONLY: &[&str] = &[
     "smoother",
 ];
 
-/// Whether the scenario asks for backward Euler (`[integrator] method = "implicit-euler"`).
+/// Whether the scenario asks for backward Euler or BDF2 (`[integrator] method =
+/// "implicit-euler"` or `"bdf2"`).
 fn implicit(t: &toml::Table) -> bool {
-    t.get("integrator")
-        .and_then(|i| i.get("method"))
-        .and_then(|m| m.as_str())
-        == Some("implicit-euler")
+    matches!(
+        t.get("integrator")
+            .and_then(|i| i.get("method"))
+            .and_then(|m| m.as_str()),
+        Some("implicit-euler" | "bdf2")
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use raisov::sim::Budget;
+
+    /// A BDF2 scenario with stiffness-proportional damping is served as backward Euler's
+    /// (one level, its levels the preconditioner); switched to FAS it drops `damping.beta`,
+    /// which the explicit schemes refuse.
+    #[test]
+    fn a_bdf2_scenario_with_stiffness_damping_is_served_and_switches_without_beta() {
+        let text = r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [4, 4, 4]
+[material]
+law = "stable-neo-hookean"
+young = 5e3
+poisson = 0.45
+[damping]
+alpha = 5.0
+beta = 1e-3
+[[fix]]
+plane = { point = [0, 0, 0], normal = [0, 0, 1] }
+[integrator]
+method = "bdf2"
+dt = 0.0166666666666667
+[multigrid]
+levels = 2
+[run]
+duration = 1.0
+"#;
+        let src =
+            Source::from_text(text, PathBuf::from("."), "cube", Path::new("cube.toml")).unwrap();
+        assert_eq!(src.method, Method::Single);
+        let mut sim = src.build(Method::Single).unwrap();
+        assert!(sim.stepper().describe().contains("bdf2"));
+        for _ in 0..2 {
+            let r = sim.step_frame(Budget::Cycles(1));
+            assert!(r.accepted, "{r:?}");
+        }
+        let t = src.table_for(Method::Fas);
+        let d = t.get("damping").and_then(|d| d.as_table()).unwrap();
+        assert!(!d.contains_key("beta") && d.contains_key("alpha"));
+        let sim = src.build(Method::Fas).unwrap();
+        assert!(!sim.stepper().describe().contains("bdf2"));
+    }
 
     /// A backward-Euler scenario with `[multigrid]` levels was refused by the viewer: it
     /// served every scenario with levels as FAS, whose `multigrid.scheme` backward Euler

@@ -1,5 +1,5 @@
-//! `method = "implicit-euler"`: [`Scenario::implicit`]'s solver resolved against the built
-//! system into an [`ImplicitEuler`] stepper. `solver = "auto"` takes the Galerkin V-cycle over
+//! `method = "implicit-euler"` and `"bdf2"`: [`Scenario::implicit`]'s solver resolved against
+//! the built system into an [`ImplicitEuler`] stepper (its scheme, and `[damping] beta`). `solver = "auto"` takes the Galerkin V-cycle over
 //! level 0 and the coarser level [`coarse_level`] picks (the same choice as the static
 //! solve's) where `[multigrid]` gives one, else sparse Cholesky; `"multigrid"` without such a
 //! level, a force model without an element tangent, or a node sliding along a direction other
@@ -12,11 +12,11 @@ use crate::statics::implicit::{ImplicitEuler, ImplicitParams};
 use crate::statics::newton::{axis_of, coarse_level, MultigridPcg, COARSEN_LIMIT};
 
 impl Scenario {
-    /// The `[integrator] method` name as the scenario gives it (`"implicit-euler"` and
-    /// `"newton"` included).
+    /// The `[integrator] method` name as the scenario gives it (`"implicit-euler"`, `"bdf2"`
+    /// and `"newton"` included).
     pub fn method_name(&self) -> &'static str {
-        if self.implicit.is_some() {
-            "implicit-euler"
+        if let Some(imp) = &self.implicit {
+            imp.scheme.name()
         } else if self.statics.is_some() {
             "newton"
         } else {
@@ -24,7 +24,8 @@ impl Scenario {
         }
     }
 
-    /// The backward-Euler stepper of `method = "implicit-euler"` (module docs), with the
+    /// The backward-Euler or BDF2 stepper of `method = "implicit-euler"` or `"bdf2"` (module
+    /// docs), with the
     /// kinetic-energy ceiling of [`Scenario::stepper`]; an error naming the key where the
     /// scenario asks for another method or the solver does not apply.
     pub fn implicit_euler(&self) -> Result<ImplicitEuler> {
@@ -33,7 +34,7 @@ impl Scenario {
                 path: self.path.clone(),
                 line: None,
                 msg: format!(
-                    "`integrator.method` = \"{}\": backward Euler needs method = \"implicit-euler\"",
+                    "`integrator.method` = \"{}\": backward Euler needs method = \"implicit-euler\" (or \"bdf2\")",
                     self.method_name()
                 ),
             });
@@ -62,13 +63,16 @@ impl Scenario {
         };
         if let Some(b) = blocker {
             return Err(scenario_err(format!(
-                "`integrator.method` = \"implicit-euler\" does not apply: {b} (each step is solved with the assembled tangent)"
+                "`integrator.method` = \"{}\" does not apply: {b} (each step is solved with the assembled tangent)",
+                imp.scheme.name()
             )));
         }
         let mut params = ImplicitParams::new(self.dt);
         params.rel_tol = imp.rel_tol;
         params.max_newton = imp.max_newton;
         params.kinetic_limit = limit;
+        params.scheme = imp.scheme;
+        params.beta = imp.beta;
         let mut down = Vec::new();
         if imp.solver != StaticSolver::Direct && self.multigrid.is_some() {
             let picked = self.pick_level(coarse_level)?;
@@ -93,7 +97,11 @@ impl Scenario {
                 None => {}
             }
         }
-        ImplicitEuler::with_levels(sys, params, down)
-            .map_err(|e| scenario_err(format!("`integrator.method` = \"implicit-euler\": {e}")))
+        ImplicitEuler::with_levels(sys, params, down).map_err(|e| {
+            scenario_err(format!(
+                "`integrator.method` = \"{}\": {e}",
+                imp.scheme.name()
+            ))
+        })
     }
 }

@@ -45,6 +45,7 @@ use crate::linalg::smoother::Smoother;
 use crate::material::Material;
 use crate::mesh::{ElementKind, Mesh};
 use crate::numbers::{compact, rounded};
+use crate::statics::implicit::ImplicitScheme;
 use crate::time::Motion;
 use crate::time::TimeFunction;
 pub use levels::{LevelConstraints, LevelMeshes, Multigrid, MultigridScheme, PickedLevel};
@@ -237,15 +238,19 @@ pub struct Scenario {
     /// `[integrator] method = "newton"`: solve for static equilibrium instead of integrating
     /// ([`run::run_static`]); `None` for a dynamic run.
     pub statics: Option<StaticSolve>,
-    /// `[integrator] method = "implicit-euler"`: backward Euler ([`crate::statics::implicit`])
-    /// instead of [`Scenario::method`]; `None` for the explicit integrators and the static
-    /// solve.
+    /// `[integrator] method = "implicit-euler"` or `"bdf2"`: backward Euler or BDF2
+    /// ([`crate::statics::implicit`]) instead of [`Scenario::method`]; `None` for the explicit
+    /// integrators and the static solve.
     pub implicit: Option<ImplicitSolve>,
 }
 
-/// The settings of backward Euler (`method = "implicit-euler"`).
+/// The settings of backward Euler and BDF2 (`method = "implicit-euler"`, `"bdf2"`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImplicitSolve {
+    /// `[integrator] method`: backward Euler or BDF2.
+    pub scheme: ImplicitScheme,
+    /// `[damping] beta` (s): stiffness-proportional damping, default 0.
+    pub beta: f64,
     /// `[integrator] newton_tol`: each step's relative tolerance, default 1e-6
     /// ([`crate::statics::implicit::DEFAULT_REL_TOL`]; the rule in that module's docs).
     pub rel_tol: f64,
@@ -259,35 +264,38 @@ pub struct ImplicitSolve {
     pub smoother: Smoother,
 }
 
-/// `[integrator]` of `method = "implicit-euler"` checked (`levels_only` refuses the
-/// `[multigrid]` keys of the explicit schemes).
+/// `[integrator]` of `method = "implicit-euler"` or `"bdf2"` (`scheme`) checked
+/// (`levels_only` refuses the `[multigrid]` keys of the explicit schemes); `beta` the
+/// resolved `[damping] beta`.
 fn resolve_implicit(
     spec: &ScenarioSpec,
     path: &Path,
     kind: ElementKind,
     levels_only: &dyn Fn(&str) -> Result<()>,
+    scheme: ImplicitScheme,
+    beta: f64,
 ) -> Result<ImplicitSolve> {
     let i = &spec.integrator;
-    const WHAT: &str = "implicit-euler";
+    let what = scheme.name();
     if i.dt.is_none() {
         return Err(err(
             path,
-            "`integrator.dt` is required with method = \"implicit-euler\": it is stable at any step, so choose the step for accuracy (e.g. 1/60 s for one step a frame at 60 Hz)",
+            format!("`integrator.dt` is required with method = \"{what}\": it is stable at any step, so choose the step for accuracy (e.g. 1/60 s for one step a frame at 60 Hz)"),
         ));
     }
     if i.safety.is_some() {
         return Err(err(
             path,
-            "`integrator.safety` does not apply to method = \"implicit-euler\" (it scales the explicit critical step; give `dt`)",
+            format!("`integrator.safety` does not apply to method = \"{what}\" (it scales the explicit critical step; give `dt`)"),
         ));
     }
-    levels_only(WHAT)?;
+    levels_only(what)?;
     let solver = i.solver.unwrap_or(defaults::STATIC_SOLVER);
     match solver {
         StaticSolver::Krylov => {
             return Err(err(
                 path,
-                "`integrator.solver` = \"krylov\" does not apply to method = \"implicit-euler\" (each step is solved with the assembled tangent): valid are \"auto\", \"multigrid\", \"direct\"",
+                format!("`integrator.solver` = \"krylov\" does not apply to method = \"{what}\" (each step is solved with the assembled tangent): valid are \"auto\", \"multigrid\", \"direct\""),
             ))
         }
         StaticSolver::Multigrid if spec.multigrid.is_none() => {
@@ -317,6 +325,8 @@ fn resolve_implicit(
             .unwrap_or(crate::statics::implicit::DEFAULT_REL_TOL),
     )?;
     Ok(ImplicitSolve {
+        scheme,
+        beta,
         rel_tol,
         max_newton,
         solver,
@@ -670,18 +680,41 @@ impl Scenario {
             far(p.point, &format!("pin[{i}]"), &mut warnings);
             pins.push(grasps::resolve_pin(p, i, path, spec.interactive.is_some())?);
         }
-        let (method, newton, implicit) = match spec.integrator.method {
-            Some(spec::Solve::Dynamic(m)) => (m, false, false),
-            Some(spec::Solve::Newton) => (defaults::METHOD, true, false),
-            Some(spec::Solve::ImplicitEuler) => (defaults::METHOD, false, true),
-            None => (defaults::METHOD, false, false),
+        let (method, newton, scheme) = match spec.integrator.method {
+            Some(spec::Solve::Dynamic(m)) => (m, false, None),
+            Some(spec::Solve::Newton) => (defaults::METHOD, true, None),
+            Some(spec::Solve::ImplicitEuler) => {
+                (defaults::METHOD, false, Some(ImplicitScheme::BackwardEuler))
+            }
+            Some(spec::Solve::Bdf2) => (defaults::METHOD, false, Some(ImplicitScheme::Bdf2)),
+            None => (defaults::METHOD, false, None),
+        };
+        let implicit = scheme.is_some();
+        let beta = match spec.damping.beta {
+            None => 0.0,
+            Some(b) if !(b >= 0.0 && b.is_finite()) => {
+                return Err(err(
+                    path,
+                    format!("`damping.beta` = {}: must be >= 0 (s)", compact(b)),
+                ))
+            }
+            Some(b) if b > 0.0 && !implicit => {
+                return Err(err(
+                    path,
+                    format!(
+                        "`damping.beta` (stiffness-proportional damping) applies to method = \"implicit-euler\" or \"bdf2\", not \"{}\": the explicit integrators take `damping.alpha` (D = alpha M) only, and a static solve (\"newton\") has no damping",
+                        if newton { "newton" } else { method.name() }
+                    ),
+                ))
+            }
+            Some(b) => b,
         };
         for (k, set, applies, to) in [
             (
                 "max_newton",
                 spec.integrator.max_newton.is_some(),
                 newton || implicit,
-                "method = \"newton\" or \"implicit-euler\"",
+                "method = \"newton\", \"implicit-euler\" or \"bdf2\"",
             ),
             (
                 "increments",
@@ -693,7 +726,7 @@ impl Scenario {
                 "solver",
                 spec.integrator.solver.is_some(),
                 newton || implicit,
-                "method = \"newton\" or \"implicit-euler\"",
+                "method = \"newton\", \"implicit-euler\" or \"bdf2\"",
             ),
             (
                 "coarse_start",
@@ -705,13 +738,13 @@ impl Scenario {
                 "smoother",
                 spec.integrator.smoother.is_some(),
                 newton || implicit,
-                "method = \"newton\" or \"implicit-euler\"",
+                "method = \"newton\", \"implicit-euler\" or \"bdf2\"",
             ),
             (
                 "newton_tol",
                 spec.integrator.newton_tol.is_some(),
                 implicit,
-                "method = \"implicit-euler\" (method = \"newton\" takes `run.residual_tol`)",
+                "method = \"implicit-euler\" or \"bdf2\" (method = \"newton\" takes `run.residual_tol`)",
             ),
         ] {
             if set && !applies {
@@ -748,10 +781,16 @@ impl Scenario {
             }
             Ok(())
         };
-        let implicit = if implicit {
-            Some(resolve_implicit(&spec, path, mesh.kind, &levels_only)?)
-        } else {
-            None
+        let implicit = match scheme {
+            Some(scheme) => Some(resolve_implicit(
+                &spec,
+                path,
+                mesh.kind,
+                &levels_only,
+                scheme,
+                beta,
+            )?),
+            None => None,
         };
         // A rate-dependent law advances its internal variables with the single-level
         // steppers (explicit and backward Euler, in plain and interactive runs, whose

@@ -80,10 +80,14 @@
 //! density = 1000.0                # kg/m³, default 1000
 //! thickness = 1e-3                # m, membranes only, default 1e-3
 //!
-//! [damping]                       # D = alpha M; default alpha = 0
+//! [damping]                       # D = alpha M + beta K; default alpha = beta = 0
 //! alpha = 10.0                    # 1/s, or
 //! ratio = 1.0                     # ζ, with
 //! omega = 20.0                    # rad/s reference frequency: alpha = 2 ζ ω
+//! beta = 1e-3                     # s, stiffness-proportional: "implicit-euler" and "bdf2"
+//!                                 # only (K frozen at each step's start, statics::implicit);
+//!                                 # an error with the explicit methods and "newton". A mode
+//!                                 # of frequency ω gets ζ = alpha/(2ω) + beta ω/2
 //!
 //! [[fix]]                         # fixed nodes; exactly one selector per entry, and what
 //!                                 # is held (default: all three components):
@@ -188,7 +192,8 @@
 //!
 //! [integrator]
 //! method = "symplectic-euler"     # "forward-euler" | "symplectic-euler" | "rk4" |
-//!                                 # "central-difference" | "implicit-euler" | "newton";
+//!                                 # "central-difference" | "implicit-euler" | "bdf2" |
+//!                                 # "newton";
 //!                                 # default "symplectic-euler". "implicit-euler": backward
 //!                                 # Euler (statics::implicit), each step a Newton solve of
 //!                                 # M(v'-v)/h + alpha M v' + R(u') = V by `solver` ("auto":
@@ -199,7 +204,11 @@
 //!                                 # plus the step's starting out-of-balance force; stable at
 //!                                 # any step and dissipative, first-order accurate; `dt` is
 //!                                 # required; of [multigrid] only the levels (the V-cycle
-//!                                 # preconditions the Newton systems). "newton": no dynamics, the static
+//!                                 # preconditions the Newton systems). "bdf2": the same
+//!                                 # with the two-step backward differentiation formula,
+//!                                 # second-order accurate, far less numerical damping (its
+//!                                 # first step by backward Euler; `dt` constant); the same
+//!                                 # keys as "implicit-euler". "newton": no dynamics, the static
 //!                                 # equilibrium R(u) = V with the motions at their end, by
 //!                                 # Newton's method (`solver`) to `[run] residual_tol`
 //!                                 # (default 1e-7): "krylov" relative to its starting
@@ -215,8 +224,8 @@
 //!                                 # "direct" (pressure, tools and springs are in the
 //!                                 # assembled tangent)
 //! max_newton = 50                 # newton: Newton steps at most per increment, default 50;
-//!                                 # implicit-euler: per step, default 30
-//! newton_tol = 1e-6               # implicit-euler: each step's relative tolerance
+//!                                 # implicit-euler, bdf2: per step, default 30
+//! newton_tol = 1e-6               # implicit-euler, bdf2: each step's relative tolerance
 //! increments = 10                 # newton: loads and prescribed displacements applied in
 //!                                 # this many equal increments, default 10 for "krylov",
 //!                                 # 1 for "direct" and "multigrid" (whose first iteration
@@ -691,6 +700,9 @@ pub enum Solve {
     /// `"implicit-euler"`: backward Euler dynamics, each step a Newton solve
     /// ([`crate::statics::implicit`]), its linear solver by `solver`.
     ImplicitEuler,
+    /// `"bdf2"`: the two-step backward differentiation formula, each step a Newton solve as
+    /// `"implicit-euler"`'s ([`crate::statics::implicit::ImplicitScheme::Bdf2`]).
+    Bdf2,
 }
 
 impl Named for Solve {
@@ -701,12 +713,14 @@ impl Named for Solve {
         Solve::Dynamic(Method::CentralDifference),
         Solve::Newton,
         Solve::ImplicitEuler,
+        Solve::Bdf2,
     ];
     fn name(self) -> &'static str {
         match self {
             Solve::Dynamic(m) => m.name(),
             Solve::Newton => "newton",
             Solve::ImplicitEuler => "implicit-euler",
+            Solve::Bdf2 => "bdf2",
         }
     }
 }
@@ -1108,7 +1122,7 @@ pub struct MaterialSpec {
     pub thickness: Option<f64>,
 }
 
-/// `[damping]`: mass-proportional damping `D = α M`; default α = 0.
+/// `[damping]`: Rayleigh damping `D = α M + β K`; default α = β = 0.
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct DampingSpec {
@@ -1118,6 +1132,8 @@ pub struct DampingSpec {
     pub ratio: Option<f64>,
     /// `omega`: the reference angular frequency ω (rad/s) of `ratio`.
     pub omega: Option<f64>,
+    /// `beta` (s): stiffness-proportional damping, implicit methods only.
+    pub beta: Option<f64>,
 }
 
 /// `box = { min = [..], max = [..] }`: an axis-aligned box.
@@ -1307,7 +1323,7 @@ pub struct PinSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {
-    /// `method`: an explicit integrator, `"implicit-euler"` or `"newton"` (static); default
+    /// `method`: an explicit integrator, `"implicit-euler"`, `"bdf2"` or `"newton"` (static); default
     /// `"symplectic-euler"`.
     pub method: Option<Solve>,
     /// `solver` (newton): `"auto"` (default), `"multigrid"`, `"direct"` or `"krylov"`.

@@ -581,7 +581,7 @@ fn every_enumerated_key_rejects_an_unknown_value_naming_key_line_and_valid_value
         (BASE.replace("generate = \"rectangle\"", "generate = \"bogus\""), "mesh.generate", "\"rectangle\", \"polygon\", \"box\""),
         (BASE.replace("law = \"mooney-rivlin\"", "law = \"bogus\""), "material.law", "\"stvk\", \"neo-hookean\", \"mooney-rivlin\", \"veronda-westmann\", \"stable-neo-hookean\", \"ti-neo-hookean\", \"hgo\", \"neo-hookean-visco\""),
         (format!("{BASE}\n[[displace]]\npoint = [0.0, 0.0, 0.0]\ndisplacement = [0.0, 0.0, 0.01]\nmode = \"bogus\""), "displace[0].mode", "\"held\", \"ramp\", \"table\""),
-        (format!("{BASE}\n[integrator]\nmethod = \"bogus\""), "integrator.method", "\"forward-euler\", \"symplectic-euler\", \"rk4\", \"central-difference\", \"newton\", \"implicit-euler\""),
+        (format!("{BASE}\n[integrator]\nmethod = \"bogus\""), "integrator.method", "\"forward-euler\", \"symplectic-euler\", \"rk4\", \"central-difference\", \"newton\", \"implicit-euler\", \"bdf2\""),
         (format!("{BASE}\n[integrator]\nprecision = \"bogus\""), "integrator.precision", "\"f64\", \"f32-storage\""),
         (BASE.replace("duration = 0.01", "duration = 0.01\nstop = \"bogus\""), "run.stop", "\"duration\", \"steady\""),
         (format!("{BASE}\n[multigrid]\nscheme = \"bogus\"\nlevels = 2"), "multigrid.scheme", "\"fas\", \"raisov-paper\""),

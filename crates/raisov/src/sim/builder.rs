@@ -8,7 +8,7 @@ use crate::material::{Material, StableNeoHookean};
 use crate::mesh::Mesh;
 use crate::multigrid::fas::{Fas, FasParams};
 use crate::multigrid::Level;
-use crate::statics::implicit::{ImplicitEuler, ImplicitParams};
+use crate::statics::implicit::{ImplicitEuler, ImplicitParams, ImplicitScheme};
 use crate::statics::newton::{coarse_level, MultigridPcg};
 use crate::{Error, Result};
 
@@ -28,6 +28,20 @@ pub enum Scheme {
     /// the Galerkin V-cycle over level 0 and the coarser level
     /// [`crate::statics::newton::coarse_level`] picks; without, by sparse Cholesky.
     ImplicitEuler,
+    /// BDF2 on level 0 ([`crate::statics::implicit::ImplicitScheme::Bdf2`]), otherwise as
+    /// [`Scheme::ImplicitEuler`]: second order, far less numerical damping.
+    Bdf2,
+}
+
+impl Scheme {
+    /// The implicit scheme, where this is one.
+    fn implicit(&self) -> Option<ImplicitScheme> {
+        match self {
+            Scheme::ImplicitEuler => Some(ImplicitScheme::BackwardEuler),
+            Scheme::Bdf2 => Some(ImplicitScheme::Bdf2),
+            _ => None,
+        }
+    }
 }
 
 /// A fixed region: a predicate on reference positions (m), selected on every level.
@@ -78,6 +92,7 @@ pub struct SimulationBuilder {
     thickness: f64,
     gravity: [f64; 3],
     alpha: f64,
+    beta: f64,
     fixed: Vec<Region>,
     scheme: Scheme,
     dt: Option<f64>,
@@ -94,6 +109,7 @@ impl SimulationBuilder {
             thickness: 1e-3,
             gravity: [0.0; 3],
             alpha: 0.0,
+            beta: 0.0,
             fixed: Vec::new(),
             scheme: Scheme::Fas(FasParams::default()),
             dt: None,
@@ -135,6 +151,12 @@ impl SimulationBuilder {
     /// Mass-proportional damping α (1/s): `D = α M`.
     pub fn damping(mut self, alpha: f64) -> Self {
         self.alpha = alpha;
+        self
+    }
+    /// Stiffness-proportional damping β (s): `D = α M + β K`, `K` frozen at each step's start
+    /// ([`crate::statics::implicit`]); [`Scheme::ImplicitEuler`] and [`Scheme::Bdf2`] only.
+    pub fn stiffness_damping(mut self, beta: f64) -> Self {
+        self.beta = beta;
         self
     }
     /// Fix the nodes whose reference position satisfies `region` (u = 0), on every level.
@@ -185,12 +207,24 @@ impl SimulationBuilder {
         params.thickness = self.thickness;
         let method = match &self.scheme {
             Scheme::SingleLevel(m) => *m,
-            Scheme::Fas(_) | Scheme::ImplicitEuler => Method::SymplecticEuler,
+            Scheme::Fas(_) | Scheme::ImplicitEuler | Scheme::Bdf2 => Method::SymplecticEuler,
         };
-        if self.scheme == Scheme::ImplicitEuler && self.dt.is_none() {
+        if self.scheme.implicit().is_some() && self.dt.is_none() {
             return Err(Error::param(
                 "dt",
-                "Scheme::ImplicitEuler needs a step: it is stable at any step, so choose it for accuracy (e.g. 1/60 s)",
+                format!("Scheme::{:?} needs a step: it is stable at any step, so choose it for accuracy (e.g. 1/60 s)", self.scheme),
+            ));
+        }
+        if !(self.beta >= 0.0 && self.beta.is_finite()) {
+            return Err(Error::param(
+                "stiffness_damping",
+                format!("{}: must be >= 0 (s)", self.beta),
+            ));
+        }
+        if self.beta > 0.0 && self.scheme.implicit().is_none() {
+            return Err(Error::param(
+                "stiffness_damping",
+                format!("β = {} s applies to Scheme::ImplicitEuler and Scheme::Bdf2 only (the explicit integrators and FAS take `damping`, D = α M)", self.beta),
             ));
         }
         let mut meshes = vec![self.mesh.clone()];
@@ -242,9 +276,11 @@ impl SimulationBuilder {
                     },
                 ))
             }
-            Scheme::ImplicitEuler => {
+            Scheme::ImplicitEuler | Scheme::Bdf2 => {
                 let l = levels.pop().expect("one level");
                 let mut params = ImplicitParams::new(l.dt);
+                params.scheme = self.scheme.implicit().unwrap_or_default();
+                params.beta = self.beta;
                 let counts: Vec<usize> = std::iter::once(&self.mesh)
                     .chain(&self.coarse)
                     .map(|m| m.num_nodes())

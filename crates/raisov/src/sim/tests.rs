@@ -955,6 +955,47 @@ fn implicit_euler_simulation_takes_a_grasp_at_one_large_step_a_frame() {
     assert!(sim.displacements().iter().all(|x| x.is_finite()));
 }
 
+/// `Scheme::Bdf2` with stiffness-proportional damping: as `Scheme::ImplicitEuler`, a grasp
+/// held through frames of one 60 Hz step each; β is refused with the explicit schemes.
+#[test]
+fn bdf2_simulation_with_stiffness_damping_takes_a_grasp_at_one_large_step_a_frame() {
+    let refused = SimulationBuilder::new(cube(4))
+        .stiffness_damping(1e-3)
+        .build()
+        .err()
+        .expect("β with FAS");
+    assert!(
+        refused.to_string().contains("stiffness_damping")
+            && refused.to_string().contains("Scheme::Bdf2"),
+        "{refused}"
+    );
+    let mut sim = SimulationBuilder::new(cube(6))
+        .levels(vec![cube(2)])
+        .scheme(Scheme::Bdf2)
+        .gravity(G)
+        .damping(5.0)
+        .stiffness_damping(2e-3)
+        .dt(1.0 / 60.0)
+        .fix(|p| p[2] <= 0.0)
+        .build()
+        .unwrap();
+    let describe = sim.stepper().describe();
+    assert!(
+        describe.contains("bdf2") && describe.contains("Galerkin V-cycle over 2 levels"),
+        "{describe}"
+    );
+    let g = sim.grab([0.02, 0.02, SIDE], 0.01).unwrap();
+    let p = sim.grab_position(g).unwrap();
+    sim.move_grab(g, [p[0] + 0.005, p[1], p[2] + 0.005])
+        .unwrap();
+    for _ in 0..10 {
+        assert!(sim.step_frame(Budget::Cycles(1)).accepted);
+    }
+    let q = sim.grab_position(g).unwrap();
+    assert!((q[0] - p[0] - 0.005).abs() < 1e-9 && (q[2] - p[2] - 0.005).abs() < 1e-9);
+    assert!(sim.displacements().iter().all(|x| x.is_finite()));
+}
+
 /// A grasp on top of a 6-cell cube (FAS over the cube and a 3-cell level) pulled up 0.4 mm a
 /// frame for 8 frames at one V-cycle a frame: the largest residual after each frame, with
 /// the frame predictor off and on.

@@ -145,3 +145,119 @@ fn implicit_euler_combinations_that_do_not_apply_name_the_key() {
         assert!(msg.contains(want), "want {want:?} in: {msg}");
     }
 }
+
+/// [`implicit_cube`] by BDF2, with `[damping] beta` = `beta` (none where 0).
+fn bdf2_cube(beta: f64, extra: &str, tail: &str) -> String {
+    let text = implicit_cube(extra, tail).replace("\"implicit-euler\"", "\"bdf2\"");
+    if beta > 0.0 {
+        text.replace("alpha = 30.0", &format!("alpha = 30.0\nbeta = {beta:e}"))
+    } else {
+        text
+    }
+}
+
+#[test]
+fn bdf2_scenario_with_stiffness_damping_settles_at_the_static_solution() {
+    let sc = parse(&bdf2_cube(2e-3, "", "")).unwrap();
+    assert_eq!(sc.method_name(), "bdf2");
+    let imp = sc.implicit.expect("implicit settings");
+    assert_eq!(imp.scheme, crate::statics::implicit::ImplicitScheme::Bdf2);
+    assert_eq!(imp.beta, 2e-3);
+    let st = sc.stepper().unwrap();
+    assert!(st.describe().contains("bdf2"), "{}", st.describe());
+    let dir = tempfile::tempdir().unwrap();
+    let d = run(
+        &sc,
+        RunOptions {
+            out_dir: Some(dir.path().join("d")),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(d.reason, StopReason::Steady, "{d}");
+    assert!(
+        d.diagnostics
+            .as_deref()
+            .is_some_and(|x| x.starts_with("BDF2")),
+        "{d}"
+    );
+    let statics = format!(
+        "gravity = [0.0, -9.81, 0.0]\n{}",
+        cube("[integrator]\nmethod = \"newton\"\n[run]\nresidual_tol = 1e-10\n")
+    );
+    let s = super::run::run_static(
+        &parse(&statics).unwrap(),
+        RunOptions {
+            out_dir: Some(dir.path().join("s")),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(s.converged(), "{s}");
+    let ud = nodal_stress(&dir.path().join("d"), 3);
+    let us = nodal_stress(&dir.path().join("s"), 3);
+    let scale = us.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let diff = ud
+        .iter()
+        .zip(&us)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(diff <= 1e-4 * scale, "{diff:.3e} of {scale:.3e}");
+    // With the levels, as backward Euler.
+    let mg = parse(&bdf2_cube(0.0, "", "[multigrid]\nlevels = 2\n")).unwrap();
+    let mut st = mg.stepper().unwrap();
+    assert!(st.describe().contains("bdf2") && st.describe().contains("Galerkin V-cycle"));
+    for _ in 0..3 {
+        st.advance().unwrap();
+    }
+}
+
+#[test]
+fn bdf2_and_damping_beta_combinations_that_do_not_apply_name_the_key() {
+    let cases = [
+        (
+            cube("[integrator]\nmethod = \"bdf2\"\n[run]\nduration = 0.1\n"),
+            "`integrator.dt` is required with method = \"bdf2\"",
+        ),
+        (
+            bdf2_cube(0.0, "solver = \"krylov\"", ""),
+            "`integrator.solver` = \"krylov\" does not apply to method = \"bdf2\"",
+        ),
+        (
+            bdf2_cube(0.0, "safety = 0.5", ""),
+            "`integrator.safety` does not apply to method = \"bdf2\"",
+        ),
+        (
+            bdf2_cube(0.0, "", "[multigrid]\nlevels = 2\nscheme = \"fas\"\n"),
+            "`multigrid.scheme` does not apply to method = \"bdf2\"",
+        ),
+        (
+            cube("[damping]\nbeta = 1e-3\n[integrator]\nmethod = \"rk4\"\n[run]\nduration = 0.1\n"),
+            "`damping.beta` (stiffness-proportional damping) applies to method = \"implicit-euler\" or \"bdf2\", not \"rk4\"",
+        ),
+        (
+            cube("[damping]\nbeta = 1e-3\n[integrator]\nmethod = \"newton\"\n"),
+            "not \"newton\"",
+        ),
+        (
+            cube("[damping]\nbeta = 1e-3\n[run]\nduration = 0.1\n"),
+            "not \"symplectic-euler\"",
+        ),
+        (
+            bdf2_cube(-1.0, "", "").replace("alpha = 30.0", "alpha = 30.0\nbeta = -1.0"),
+            "`damping.beta` = -1: must be >= 0 (s)",
+        ),
+        (
+            cube("[integrator]\nmethod = \"rk4\"\nmax_newton = 3\n[run]\nduration = 0.1\n"),
+            "\"implicit-euler\" or \"bdf2\"",
+        ),
+    ];
+    for (text, want) in cases {
+        let msg = parse(&text).unwrap_err().to_string();
+        assert!(msg.contains(want), "want {want:?} in: {msg}");
+    }
+    // β = 0 is no damping, accepted with every method.
+    parse(&cube(
+        "[damping]\nbeta = 0.0\n[integrator]\nmethod = \"rk4\"\n[run]\nduration = 0.1\n",
+    ))
+    .unwrap();
+}

@@ -274,7 +274,7 @@ fn pulled(material: &str, integrator: &str, divisions: [usize; 3]) -> String {
 }
 
 /// With every α = 0 the law is the elastic neo-Hookean (mooney-rivlin with c1 = μ/2, c2 = 0):
-/// the same displacements, to the bit, after explicit and backward-Euler steps.
+/// the same displacements, to the bit, after explicit, backward-Euler and BDF2 steps.
 #[test]
 fn zero_alpha_runs_are_the_elastic_neo_hookean_to_the_bit() {
     let visco =
@@ -283,6 +283,7 @@ fn zero_alpha_runs_are_the_elastic_neo_hookean_to_the_bit() {
     for (integrator, steps) in [
         ("method = \"symplectic-euler\"\ndt = 2e-4", 300),
         ("method = \"implicit-euler\"\ndt = 0.01", 8),
+        ("method = \"bdf2\"\ndt = 0.01", 8),
     ] {
         let a = run_steps(&pulled(visco, integrator, [4, 2, 2]), steps);
         let b = run_steps(&pulled(elastic, integrator, [4, 2, 2]), steps);

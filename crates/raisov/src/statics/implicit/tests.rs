@@ -11,16 +11,16 @@ use crate::mesh::Mesh;
 use crate::statics::newton::{solve_system, DirectNewtonParams};
 use crate::time::Motion;
 
-const YOUNG: f64 = 1e6;
-const RHO: f64 = 1000.0;
+pub(super) const YOUNG: f64 = 1e6;
+pub(super) const RHO: f64 = 1000.0;
 
-fn material() -> Material {
+pub(super) fn material() -> Material {
     Material::NeoHookean(NeoHookean::from_young(YOUNG, 0.3))
 }
 
 /// A 0.1 × 0.02 × 0.02 m neo-Hookean cantilever (E = 1 MPa, ν = 0.3, ρ = 1000 kg/m³) on
 /// `div` cells, clamped at x = 0, with damping `alpha` and gravity `g` along −z.
-fn beam_on(mesh: &Mesh, alpha: f64, g: f64, prescribed: Vec<(u32, Motion)>) -> System {
+pub(super) fn beam_on(mesh: &Mesh, alpha: f64, g: f64, prescribed: Vec<(u32, Motion)>) -> System {
     let mut p = FemParams::new(material());
     p.density = RHO;
     let model = FemModel::new(mesh, p).unwrap();
@@ -40,23 +40,23 @@ fn beam_on(mesh: &Mesh, alpha: f64, g: f64, prescribed: Vec<(u32, Motion)>) -> S
     sys
 }
 
-fn beam_mesh(div: [usize; 3]) -> Mesh {
+pub(super) fn beam_mesh(div: [usize; 3]) -> Mesh {
     box_tets([0.1, 0.02, 0.02], div, BoxPattern::Six).unwrap()
 }
 
 /// The explicit (symplectic Euler) critical step estimate of the beam.
-fn explicit_step(mesh: &Mesh) -> f64 {
+pub(super) fn explicit_step(mesh: &Mesh) -> f64 {
     critical_step_estimate(mesh, &material(), RHO, Method::SymplecticEuler)
 }
 
 /// `T + W − V·u` (J).
-fn energy(sys: &System, s: &State) -> f64 {
+pub(super) fn energy(sys: &System, s: &State) -> f64 {
     let work: f64 = sys.f_ext.iter().zip(&s.u).map(|(f, u)| f * u).sum();
     sys.kinetic_energy(&s.v) + sys.force.strain_energy(&s.u) - work
 }
 
 /// A bending velocity field, zero at the clamp.
-fn kick(mesh: &Mesh, s: &mut State) {
+pub(super) fn kick(mesh: &Mesh, s: &mut State) {
     for (a, x) in mesh.nodes.iter().enumerate() {
         s.v[3 * a + 2] = 0.5 * (x[0] / 0.1).powi(2);
         s.v[3 * a + 1] = 0.2 * x[0] / 0.1;
@@ -98,7 +98,7 @@ fn implicit_euler_dissipates_a_free_vibration_and_is_stable_at_100_explicit_step
 /// the steps below are in backward Euler's first-order regime (a load switched on at once
 /// excites every mode, and the order measured over these steps is about 0.86, the stiff modes
 /// still far from it).
-fn smooth_load_system(method: &str) -> System {
+pub(super) fn smooth_load_system(method: &str) -> System {
     let rows: Vec<String> = (0..=60)
         .map(|k| {
             let tau = k as f64 / 60.0;
@@ -141,13 +141,18 @@ duration = 0.05
         .unwrap()
 }
 
-/// The displacements at `t_end` by backward Euler at `steps` steps.
-fn implicit_run(t_end: f64, steps: usize) -> Vec<f64> {
-    let mut st = ImplicitEuler::new(
-        smooth_load_system("implicit-euler"),
-        ImplicitParams::new(t_end / steps as f64),
-    )
-    .unwrap();
+/// The displacements at `t_end` by `scheme` at `steps` steps, each step's Newton iteration
+/// to `rel_tol`.
+pub(super) fn implicit_run(
+    scheme: ImplicitScheme,
+    t_end: f64,
+    steps: usize,
+    rel_tol: f64,
+) -> Vec<f64> {
+    let mut p = ImplicitParams::new(t_end / steps as f64);
+    p.scheme = scheme;
+    p.rel_tol = rel_tol;
+    let mut st = ImplicitEuler::new(smooth_load_system("implicit-euler"), p).unwrap();
     for _ in 0..steps {
         st.advance().unwrap();
     }
@@ -155,11 +160,10 @@ fn implicit_run(t_end: f64, steps: usize) -> Vec<f64> {
     st.state.u.clone()
 }
 
-#[test]
-fn implicit_euler_converges_at_first_order_to_a_fine_rk4_reference() {
+/// The displacements at `t_end` of [`smooth_load_system`] by RK4 at a quarter of its
+/// critical step estimate.
+pub(super) fn rk4_reference(t_end: f64) -> Vec<f64> {
     let mesh = beam_mesh([10, 2, 2]);
-    let t_end = 0.05; // about half the first bending period
-                      // The reference: RK4 at a quarter of its critical step estimate.
     let dt_ref = 0.25 * critical_step_estimate(&mesh, &material(), RHO, Method::Rk4);
     let n_ref = (t_end / dt_ref).ceil() as usize;
     let mut reference = SingleLevel::new(
@@ -173,13 +177,19 @@ fn implicit_euler_converges_at_first_order_to_a_fine_rk4_reference() {
     for _ in 0..n_ref {
         reference.advance().unwrap();
     }
-    let u_ref = reference.state.u.clone();
+    reference.state.u.clone()
+}
+
+#[test]
+fn implicit_euler_converges_at_first_order_to_a_fine_rk4_reference() {
+    let t_end = 0.05; // about half the first bending period
+    let u_ref = rk4_reference(t_end);
     let scale = u_ref.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     assert!(scale > 1e-4, "the beam should bend: {scale:.3e} m");
     let errors: Vec<f64> = [50, 100, 200, 400]
         .into_iter()
         .map(|n| {
-            let u = implicit_run(t_end, n);
+            let u = implicit_run(ImplicitScheme::BackwardEuler, t_end, n, DEFAULT_REL_TOL);
             u.iter()
                 .zip(&u_ref)
                 .map(|(a, b)| (a - b).powi(2))

@@ -83,6 +83,11 @@ pub trait Stepper: Send {
     fn diagnostics(&self) -> Option<String> {
         None
     }
+    /// The run summary's label of [`Stepper::diagnostics`]: what the counters count
+    /// (`"multigrid"`, `"newton"`).
+    fn diagnostics_label(&self) -> &'static str {
+        "multigrid"
+    }
     /// RaISoV's transfer switches (eqs. 10 and 12) summed over the steps so far; `None` for
     /// schemes without them.
     fn switch_counts(&self) -> Option<SwitchCounts> {

@@ -228,8 +228,9 @@ pub struct RunSummary {
     pub files: Vec<PathBuf>,
     /// Where T∞ came from (`[output] reference`); `None` without one.
     pub reference_note: Option<String>,
-    /// The stepper's closing counters ([`Stepper::diagnostics`]).
-    pub diagnostics: Option<String>,
+    /// The stepper's closing counters ([`Stepper::diagnostics`]) under their label
+    /// ([`Stepper::diagnostics_label`]).
+    pub diagnostics: Option<(&'static str, String)>,
     /// Rows written to `measures.csv`.
     pub rows: u64,
     /// The applied loads and body forces, `Σ_a V_a` (N): the reactions balance it at
@@ -273,12 +274,7 @@ impl std::fmt::Display for RunSummary {
         if let Some(n) = &self.reference_note {
             writeln!(f, "reference       {n}")?;
         }
-        if let Some(d) = &self.diagnostics {
-            let label = if d.starts_with("implicit Euler") {
-                "newton"
-            } else {
-                "multigrid"
-            };
+        if let Some((label, d)) = &self.diagnostics {
             writeln!(f, "{label:<16}{d}")?;
         }
         write_output(f, self.out_dir.as_deref())
@@ -798,7 +794,9 @@ pub fn run_with(
             None => Vec::new(),
         },
         reference_note,
-        diagnostics: stepper.diagnostics(),
+        diagnostics: stepper
+            .diagnostics()
+            .map(|d| (stepper.diagnostics_label(), d)),
         rows: rows.rows(),
         applied,
     };

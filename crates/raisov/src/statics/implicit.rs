@@ -658,6 +658,9 @@ impl Stepper for ImplicitEuler {
             self.params.dt
         )
     }
+    fn diagnostics_label(&self) -> &'static str {
+        "newton"
+    }
     fn diagnostics(&self) -> Option<String> {
         let c = &self.counts;
         let per = |x: u64| x as f64 / self.steps.max(1) as f64;

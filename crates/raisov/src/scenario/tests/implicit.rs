@@ -44,8 +44,8 @@ fn implicit_euler_scenario_settles_at_the_static_solution() {
     assert_eq!(d.reason, StopReason::Steady, "{d}");
     assert!(
         d.diagnostics
-            .as_deref()
-            .is_some_and(|x| x.contains("Newton iterations a step")),
+            .as_ref()
+            .is_some_and(|(l, x)| *l == "newton" && x.contains("Newton iterations a step")),
         "{d}"
     );
     let statics = format!(
@@ -177,8 +177,8 @@ fn bdf2_scenario_with_stiffness_damping_settles_at_the_static_solution() {
     assert_eq!(d.reason, StopReason::Steady, "{d}");
     assert!(
         d.diagnostics
-            .as_deref()
-            .is_some_and(|x| x.starts_with("BDF2")),
+            .as_ref()
+            .is_some_and(|(l, x)| *l == "newton" && x.starts_with("BDF2")),
         "{d}"
     );
     let statics = format!(

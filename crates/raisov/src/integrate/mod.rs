@@ -260,6 +260,24 @@ pub struct Spring {
     pub limit: f64,
 }
 
+/// Coulomb friction between a grasper's jaws and the tissue ([`crate::sim::GrabOptions::friction`]): the
+/// grasp transmits at most `μ N` (N) before its patch slides, node `a` its mass share
+/// `w_a μ N`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Grip {
+    /// The friction coefficient μ (> 0).
+    pub friction: f64,
+    /// The clamp force N (N, > 0): the jaws' total normal force on the patch.
+    pub clamp: f64,
+}
+
+impl Grip {
+    /// `μ N` (N).
+    pub fn limit(&self) -> f64 {
+        self.friction * self.clamp
+    }
+}
+
 impl Spring {
     /// A linear spring (no limit).
     pub fn linear(node: u32, k: f64, d: [f64; 3]) -> Spring {

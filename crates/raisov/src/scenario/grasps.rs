@@ -60,7 +60,7 @@ pub struct Grasp {
     /// patch by mass: `crate::sim::Coupling::Spring`); `None`: held hard.
     pub stiffness: Option<f64>,
     /// A friction grasp's grip (`friction`, `clamp_force`; with `stiffness`).
-    pub grip: Option<crate::sim::Grip>,
+    pub grip: Option<crate::integrate::Grip>,
 }
 
 /// A pin taken during the run (`[[pin]]`).
@@ -162,7 +162,7 @@ pub(super) fn resolve_grasp(
                     format!("`{key}.friction` needs `{key}.stiffness` (N/m, the stiffness of the jaws' grip while it sticks): a friction grasp is a spring grasp that slides"),
                 ));
             }
-            Some(crate::sim::Grip {
+            Some(crate::integrate::Grip {
                 friction: positive(path, &format!("{key}.friction"), mu)?,
                 clamp: positive(path, &format!("{key}.clamp_force"), n)?,
             })

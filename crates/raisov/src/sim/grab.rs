@@ -3,6 +3,7 @@
 
 use super::{GrabId, PinId, Simulation};
 use crate::geometry::sub;
+pub use crate::integrate::Grip;
 use crate::integrate::{RuntimeConstraints, Spring};
 use crate::{Error, Result};
 use std::collections::BTreeMap;
@@ -49,24 +50,6 @@ pub enum Coupling {
         /// `k` (N/m), finite and > 0.
         stiffness: f64,
     },
-}
-
-/// Coulomb friction between a grasper's jaws and the tissue ([`GrabOptions::friction`]): the
-/// grasp transmits at most `μ N` (N) before its patch slides, node `a` its mass share
-/// `w_a μ N`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Grip {
-    /// The friction coefficient μ (> 0).
-    pub friction: f64,
-    /// The clamp force N (N, > 0): the jaws' total normal force on the patch.
-    pub clamp: f64,
-}
-
-impl Grip {
-    /// `μ N` (N).
-    pub fn limit(&self) -> f64 {
-        self.friction * self.clamp
-    }
 }
 
 /// The options of [`Simulation::grab_with`].

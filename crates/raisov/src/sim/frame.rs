@@ -6,7 +6,10 @@
 //! `j`-th of `s` equal parts of the budget (at least one step each, so a retried frame of
 //! `Cycles(n)` with `n < s` takes `s` steps). A try is rejected when a step returns a
 //! [`crate::error::Divergence`] (an inverted element, a non-finite value, an energy blow-up)
-//! or when the end state inverts an element; the stepper then returns to the state saved at
+//! or when the end state inverts an element or has diverged without stopping the stepper (a
+//! residual that is not finite, or a node moved more than [`DIVERGED_EXTENTS`] times the
+//! body's extent: a law defined for inverted elements under a static smoother, whose
+//! velocities stay zero); the stepper then returns to the state saved at
 //! the start of the frame ([`crate::integrate::Stepper::save`]) and the next try begins. A
 //! frame whose grasps do not move is not retried. When every try is rejected the simulation
 //! stays at the state before the frame with the grasps where they were (their targets kept,
@@ -31,6 +34,10 @@
 
 use super::Simulation;
 use std::time::{Duration, Instant};
+
+/// A frame whose state moves a node further than this many times the body's extent (its
+/// reference bounding box's diagonal) is rejected as diverged.
+pub const DIVERGED_EXTENTS: f64 = 10.0;
 
 /// How much work one frame may do.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -104,14 +111,16 @@ impl Simulation {
             let subs = 1u32 << attempt.min(16);
             let mut cycles = 0u64;
             let result = self.try_frame(budget, subs, &ids, &from, &to, start, &mut cycles);
-            let result = result.and_then(|()| {
-                self.observe().map_err(|f| {
-                    format!(
-                        "element {} inverted at the end of the frame (det F = {:.3e})",
-                        f.element, f.det_f
-                    )
+            let result = result
+                .and_then(|()| {
+                    self.observe().map_err(|f| {
+                        format!(
+                            "element {} inverted at the end of the frame (det F = {:.3e})",
+                            f.element, f.det_f
+                        )
+                    })
                 })
-            });
+                .and_then(|()| self.diverged().map_or(Ok(()), Err));
             match result {
                 Ok(()) => {
                     report.cycles = cycles;
@@ -152,6 +161,28 @@ impl Simulation {
         self.publish_haptics();
         report.wall = start.elapsed();
         report
+    }
+
+    /// Whether the observed state at a frame's end has diverged without an inverted element
+    /// or a non-finite value stopping the stepper (a law defined for inverted elements, a
+    /// static smoother whose velocities stay zero): a residual that is not finite, or a node
+    /// displaced by more than [`DIVERGED_EXTENTS`] times the body's extent (the diagonal of
+    /// its reference bounding box), which no tissue does. The reason in words, or `None`.
+    fn diverged(&self) -> Option<String> {
+        if !self.residual.is_finite() {
+            return Some("the residual is not finite at the end of the frame: it diverged".into());
+        }
+        let (lo, hi) = self.mesh.bounding_box();
+        let extent = crate::mesh::norm(crate::mesh::sub(hi, lo));
+        let u = &self.stepper.state().u;
+        let (a, d) = (0..u.len() / 3)
+            .map(|a| (a, crate::mesh::norm([u[3 * a], u[3 * a + 1], u[3 * a + 2]])))
+            .fold((0, 0.0f64), |b, x| if x.1 > b.1 { x } else { b });
+        (d > DIVERGED_EXTENTS * extent).then(|| {
+            format!(
+                "node {a} moved {d:.3e} m, more than {DIVERGED_EXTENTS} times the body's extent ({extent:.3e} m): the frame diverged"
+            )
+        })
     }
 
     /// A divergence in words, its node named by its id in the mesh file and its reference

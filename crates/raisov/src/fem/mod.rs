@@ -808,16 +808,18 @@ impl FemModel {
             (Material::MooneyRivlin(m), k) => self.element_forces_with(m, m, k, e, u, out),
             (Material::VerondaWestmann(m), k) => self.element_forces_with(m, m, k, e, u, out),
             (Material::StableNeoHookean(m), k) => self.element_forces_with(m, m, k, e, u, out),
-            (Material::TiNeoHookean(m), ElementKind::Tet4) => match self.element_fibre(e) {
-                Some(fibre) => self.tet_forces_with(&TiNeoHookean { fibre, ..*m }, e, u, out),
-                None => self.tet_forces_with(m, e, u, out),
-            },
-            (Material::HolzapfelGasserOgden(m), ElementKind::Tet4) => match self.element_fibre(e) {
-                Some(fibre) => {
-                    self.tet_forces_with(&HolzapfelGasserOgden { fibre, ..*m }, e, u, out)
-                }
-                None => self.tet_forces_with(m, e, u, out),
-            },
+            (Material::TiNeoHookean(m), ElementKind::Tet4) => {
+                let m = self
+                    .element_fibre(e)
+                    .map_or(*m, |fibre| TiNeoHookean { fibre, ..*m });
+                self.tet_forces_with(&m, e, u, out)
+            }
+            (Material::HolzapfelGasserOgden(m), ElementKind::Tet4) => {
+                let m = self
+                    .element_fibre(e)
+                    .map_or(*m, |fibre| HolzapfelGasserOgden { fibre, ..*m });
+                self.tet_forces_with(&m, e, u, out)
+            }
             (Material::NeoHookeanVisco(_), ElementKind::Tet4) => {
                 let law = self
                     .visco

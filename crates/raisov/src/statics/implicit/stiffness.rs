@@ -74,8 +74,13 @@ impl FrozenStiffness {
         Ok(())
     }
 
-    /// `r += c K_n (u − x*)` over the elements, in element order.
-    fn add_forces(&self, top: &ElementTopology<'_>, u: &[f64], r: &mut [f64]) {
+    /// `f(element nodes, c K_e, (u − x*)_e)` for every element, in element order.
+    fn each(
+        &self,
+        top: &ElementTopology<'_>,
+        u: &[f64],
+        mut f: impl FnMut(&[u32], &[f64], &[f64]),
+    ) {
         let d = 3 * top.nodes_per_element;
         let mut du = vec![0.0; d];
         for (e, ke) in self.k.chunks_exact(self.d2).enumerate() {
@@ -84,28 +89,30 @@ impl FrozenStiffness {
                 let i = 3 * el[q / 3] as usize + q % 3;
                 *x = u[i] - self.base[i];
             }
+            f(el, ke, &du);
+        }
+    }
+
+    /// `r += c K_n (u − x*)` over the elements, in element order.
+    fn add_forces(&self, top: &ElementTopology<'_>, u: &[f64], r: &mut [f64]) {
+        let d = 3 * top.nodes_per_element;
+        self.each(top, u, |el, ke, du| {
             for (row, kr) in ke.chunks_exact(d).enumerate() {
-                let f: f64 = kr.iter().zip(&du).map(|(k, x)| k * x).sum();
+                let f: f64 = kr.iter().zip(du).map(|(k, x)| k * x).sum();
                 r[3 * el[row / 3] as usize + row % 3] += f;
             }
-        }
+        });
     }
 
     /// `½ c (u − x*)ᵀ K_n (u − x*)` (J), in element order.
     fn energy(&self, top: &ElementTopology<'_>, u: &[f64]) -> f64 {
         let d = 3 * top.nodes_per_element;
-        let mut du = vec![0.0; d];
         let mut sum = 0.0;
-        for (e, ke) in self.k.chunks_exact(self.d2).enumerate() {
-            let el = top.element(e);
-            for (q, x) in du.iter_mut().enumerate() {
-                let i = 3 * el[q / 3] as usize + q % 3;
-                *x = u[i] - self.base[i];
+        self.each(top, u, |_, ke, du| {
+            for (kr, &xr) in ke.chunks_exact(d).zip(du) {
+                sum += xr * kr.iter().zip(du).map(|(k, x)| k * x).sum::<f64>();
             }
-            for (kr, &xr) in ke.chunks_exact(d).zip(&du) {
-                sum += xr * kr.iter().zip(&du).map(|(k, x)| k * x).sum::<f64>();
-            }
-        }
+        });
         0.5 * sum
     }
 }

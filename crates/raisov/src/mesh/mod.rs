@@ -20,6 +20,7 @@
 
 use std::collections::BTreeMap;
 
+pub mod cut;
 pub mod generate;
 mod self_intersection;
 pub mod stuffing;

@@ -1,0 +1,172 @@
+use super::*;
+use crate::mesh::generate::{box_tets, BoxPattern};
+use crate::mesh::tet_volume;
+
+/// Connected pieces of a mesh: elements joined through shared nodes; returns each element's
+/// piece and the number of pieces.
+fn pieces(m: &Mesh) -> (Vec<usize>, usize) {
+    let ne = m.num_elements();
+    let mut c = Classes((0..ne as u32).collect());
+    let mut first = vec![u32::MAX; m.num_nodes()];
+    for (e, el) in m.cells.chunks_exact(4).enumerate() {
+        for &a in el {
+            match first[a as usize] {
+                u32::MAX => first[a as usize] = e as u32,
+                f => c.join(f, e as u32),
+            }
+        }
+    }
+    let roots: Vec<u32> = (0..ne as u32).map(|e| c.find(e)).collect();
+    let mut ids: Vec<u32> = roots.clone();
+    ids.sort_unstable();
+    ids.dedup();
+    let piece = roots
+        .iter()
+        .map(|r| ids.binary_search(r).expect("root"))
+        .collect();
+    (piece, ids.len())
+}
+
+/// Σ_e f_e |T_e|: the material volume.
+fn material_volume(c: &CutMesh) -> f64 {
+    let m = c.mesh();
+    m.cells
+        .chunks_exact(4)
+        .zip(c.fractions())
+        .map(|(el, f)| {
+            let p = |i: usize| m.nodes[el[i] as usize];
+            f * tet_volume(p(0), p(1), p(2), p(3))
+        })
+        .sum()
+}
+
+fn block() -> CutMesh {
+    CutMesh::new(box_tets([0.04, 0.02, 0.02], [8, 4, 4], BoxPattern::Six).unwrap()).unwrap()
+}
+
+/// A blade through the whole block's cross-section at x = `x`, tilted a little.
+fn through(x: f64) -> Blade {
+    Blade::quad([
+        [x - 0.001, -0.01, -0.01],
+        [x + 0.001, 0.03, -0.01],
+        [x + 0.001, 0.03, 0.03],
+        [x - 0.001, -0.01, 0.03],
+    ])
+    .unwrap()
+}
+
+#[test]
+fn a_cut_through_the_block_leaves_two_pieces_of_the_same_total_volume() {
+    let mut c = block();
+    let v0 = material_volume(&c);
+    let ch = c.cut(&through(0.0213)).unwrap();
+    assert!(ch.split > 0);
+    let (piece, n) = pieces(c.mesh());
+    assert_eq!(n, 2, "one cut through the block leaves two pieces");
+    let v1 = material_volume(&c);
+    assert!((v1 - v0).abs() <= 1e-15 * v0, "volume {v0} → {v1}");
+    // The pieces' volumes are those of the two sides of the (snapped) plane, within the snap.
+    let mut vp = [0.0; 2];
+    let m = c.mesh();
+    for (e, el) in m.cells.chunks_exact(4).enumerate() {
+        let p = |i: usize| m.nodes[el[i] as usize];
+        vp[piece[e]] += c.fractions()[e] * tet_volume(p(0), p(1), p(2), p(3));
+    }
+    let left = vp[0].min(vp[1]);
+    let exact = 0.0213 * 0.02 * 0.02;
+    assert!(
+        (left - exact).abs() < 0.005 * 0.02 * 0.02,
+        "left piece {left} against {exact}"
+    );
+    // Each base element's copies have fractions summing to 1.
+    let mut sum = vec![0.0; c.base().num_elements()];
+    for (e, f) in c.fractions().iter().enumerate() {
+        sum[c.base_elements()[e] as usize] += f;
+    }
+    assert!(sum.iter().all(|s| (s - 1.0).abs() < 1e-14));
+    // No piece is smaller than the snap allows.
+    let min = c.fractions().iter().fold(1.0f64, |a, &b| a.min(b));
+    assert!(min >= (SNAP / (1.0 + SNAP)).powi(3) * 0.5, "smallest piece {min}");
+}
+
+#[test]
+fn a_notch_leaves_one_piece_with_its_lips_apart() {
+    let mut c = block();
+    // From above the top face (z = 0.02) down to half the depth, across the whole width.
+    let notch = Blade::quad([
+        [0.0205, -0.01, 0.0101],
+        [0.0205, 0.03, 0.0101],
+        [0.0205, 0.03, 0.03],
+        [0.0205, -0.01, 0.03],
+    ])
+    .unwrap();
+    let ch = c.cut(&notch).unwrap();
+    assert!(ch.split > 0);
+    assert_eq!(pieces(c.mesh()).1, 1, "a notch does not separate the block");
+    // Top-face nodes at the cut are doubled; bottom-face nodes are not.
+    let m = c.mesh();
+    let count = |z: f64| {
+        let mut per: std::collections::BTreeMap<u32, usize> = Default::default();
+        for (a, &o) in c.base_nodes().iter().enumerate() {
+            if (m.nodes[a][2] - z).abs() < 1e-9 {
+                *per.entry(o).or_default() += 1;
+            }
+        }
+        per.values().filter(|&&n| n > 1).count()
+    };
+    assert!(count(0.02) > 0, "the notch's lips have their own nodes on the top face");
+    assert_eq!(count(0.0), 0, "the bottom face is not cut");
+}
+
+#[test]
+fn crossing_cuts_leave_four_pieces() {
+    let mut c = block();
+    c.cut(&through(0.0213)).unwrap();
+    let across = Blade::quad([
+        [-0.01, 0.0093, -0.01],
+        [0.05, 0.0093, -0.01],
+        [0.05, 0.0093, 0.03],
+        [-0.01, 0.0093, 0.03],
+    ])
+    .unwrap();
+    c.cut(&across).unwrap();
+    assert_eq!(pieces(c.mesh()).1, 4);
+    let v = material_volume(&c);
+    assert!((v - 0.04 * 0.02 * 0.02).abs() < 1e-15);
+}
+
+#[test]
+fn a_blade_that_misses_changes_nothing() {
+    let mut c = block();
+    let miss = Blade::swept([0.1, 0.0, 0.0], [0.1, 0.02, 0.0], [0.0, 0.0, 0.02]).unwrap();
+    let ch = c.cut(&miss).unwrap();
+    assert!(ch.is_identity());
+    assert_eq!(c.mesh().num_nodes(), c.base().num_nodes());
+    assert_eq!(c.blades().len(), 1, "the cut is kept to keep the levels' indices aligned");
+}
+
+#[test]
+fn a_bad_blade_is_refused_with_what_would_be_valid() {
+    let e = Blade::swept([0.0; 3], [0.0; 3], [0.0, 0.0, 1.0]).unwrap_err();
+    assert!(e.to_string().contains("no area"), "{e}");
+    let e = Blade::quad([[0.0; 3], [1.0, 0.0, 0.0], [1.0, 1.0, 0.5], [0.0, 1.0, 0.0]]).unwrap_err();
+    assert!(e.to_string().contains("off the plane"), "{e}");
+    let e = Blade::quad([[0.0; 3], [2.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.0, 2.0, 0.0]]).unwrap_err();
+    assert!(e.to_string().contains("turns back"), "{e}");
+}
+
+#[test]
+fn the_clipped_tetrahedron_volumes_add_up() {
+    let t = Polytope::tet();
+    assert!((t.fraction() - 1.0).abs() < 1e-15);
+    let phi = [0.3, -0.2, 0.5, -0.7];
+    let (a, cap) = t.clip(phi);
+    let (b, _) = t.clip(phi.map(|v| -v));
+    assert!((a.fraction() + b.fraction() - 1.0).abs() < 1e-14);
+    assert_eq!(cap.len(), 4, "two nodes each side: a quad section");
+    // One node alone: a corner tetrahedron of edge fractions t_j = φ0/(φ0 − φj).
+    let phi = [0.1, -1.0, -2.0, -0.5];
+    let (a, _) = t.clip(phi);
+    let exact: f64 = phi[1..].iter().map(|&p| 0.1 / (0.1 - p)).product();
+    assert!((a.fraction() - exact).abs() < 1e-15, "{} vs {exact}", a.fraction());
+}

@@ -242,6 +242,16 @@ pub trait ForceModel: Send + Sync {
     fn load_history(&mut self, _h: &[f64]) -> usize {
         0
     }
+    /// Carry the model to a cut mesh ([`crate::mesh::cut`]): the same physics on
+    /// `change.mesh`, each element scaled by its material fraction, with the per-element data
+    /// (fibres, internal variables) of the element it is a copy of. Default: refused, naming
+    /// the model.
+    fn cut(&mut self, _change: &crate::mesh::cut::TopologyChange) -> crate::Result<()> {
+        Err(Error::param(
+            "cut",
+            "this force model cannot be cut (cutting takes the elements' own forces and gravity; pressure, traction, timed loads and tools are not carried through a cut yet)",
+        ))
+    }
 }
 
 /// Parameters of an FE model.
@@ -271,6 +281,10 @@ pub struct FemParams {
     /// is evaluated with its law's `a0` replaced by `fibres[e]` (module docs, "Fibre
     /// fields"). `None` (the default): every element has the law's own direction.
     pub fibres: Option<ElementFibres>,
+    /// The material fraction of each element, for a cut mesh ([`crate::mesh::cut`]): element
+    /// `e`'s reference measure, hence its strain energy, forces, tangent and lumped mass, is
+    /// `fractions[e]` times its tetrahedron's. `None` (the default): every element whole.
+    pub fractions: Option<std::sync::Arc<[f64]>>,
 }
 
 /// One unit fibre direction per element, in the reference configuration (shared, cheap to
@@ -328,6 +342,7 @@ impl FemParams {
             slab: 16384,
             precision: Precision::F64,
             fibres: None,
+            fractions: None,
         }
     }
 }
@@ -428,6 +443,23 @@ impl FemModel {
         if mesh.kind == ElementKind::Tri3 && !(params.thickness > 0.0) {
             return Err(Error::param("thickness", "must be a positive number (m)"));
         }
+        if let Some(f) = &params.fractions {
+            if f.len() != ne {
+                return Err(Error::param(
+                    "fractions",
+                    format!(
+                        "{} material fractions for {ne} elements: one per element",
+                        f.len()
+                    ),
+                ));
+            }
+            if let Some(e) = f.iter().position(|&v| !(v > 0.0 && v <= 1.0)) {
+                return Err(Error::param(
+                    "fractions",
+                    format!("element {e}'s material fraction {} must be in (0, 1]", f[e]),
+                ));
+            }
+        }
         let n = mesh.num_nodes();
         let visco_bytes = match &params.material {
             Material::NeoHookeanVisco(m) => visco::bytes_per_element(m.prony.len()),
@@ -455,7 +487,10 @@ impl FemModel {
                         )
                     })?;
                     dminv.extend_from_slice(inv.as_slice());
-                    measure.push(vol);
+                    measure.push(match &params.fractions {
+                        Some(f) => vol * f[e],
+                        None => vol,
+                    });
                 }
                 ElementKind::Tri3 => {
                     let (inv, area, n) = membrane_frame(&p).ok_or_else(|| {
@@ -488,17 +523,21 @@ impl FemModel {
             mesh.cells.iter().all(|&c| (c as usize) < n),
             "node id out of range"
         );
+        // The packed kernels take an element's volume from `det Dm⁻¹` in their volumetric
+        // term, so a cut mesh's fractions run on the generic path.
         let pack = match (&params.material, mesh.kind) {
-            (Material::NeoHookean(m), ElementKind::Tet4) => Some(packed::TetPack::new(
-                m.mu,
-                m.lambda,
-                &x0,
-                &mesh.cells,
-                &dminv,
-                &measure,
-                params.slab.max(1),
-                params.precision,
-            )),
+            (Material::NeoHookean(m), ElementKind::Tet4) if params.fractions.is_none() => {
+                Some(packed::TetPack::new(
+                    m.mu,
+                    m.lambda,
+                    &x0,
+                    &mesh.cells,
+                    &dminv,
+                    &measure,
+                    params.slab.max(1),
+                    params.precision,
+                ))
+            }
             _ => None,
         };
         let elem_forces = if pack.is_some() {
@@ -1020,6 +1059,29 @@ fn with_membrane<T>(m: &Material, f: impl FnOnce(&dyn MembraneMaterial) -> T) ->
 impl ForceModel for FemModel {
     fn num_nodes(&self) -> usize {
         self.n_nodes
+    }
+
+    fn cut(&mut self, change: &crate::mesh::cut::TopologyChange) -> crate::Result<()> {
+        if self.kind != ElementKind::Tet4 {
+            return Err(Error::param("cut", "only tetrahedral meshes can be cut"));
+        }
+        let mut params = self.params.clone();
+        params.fractions = Some(change.fractions.clone().into());
+        if let Some(f) = &params.fibres {
+            params.fibres = Some(ElementFibres(
+                change
+                    .element_from
+                    .iter()
+                    .map(|&e| f.0[e as usize])
+                    .collect(),
+            ));
+        }
+        let mut next = FemModel::new(&change.mesh, params)?;
+        if let Some(old) = &self.visco {
+            next.visco = Some(visco::Visco::carried(old, &change.element_from));
+        }
+        *self = next;
+        Ok(())
     }
 
     fn internal_forces(&mut self, u: &[f64], r: &mut [f64]) -> Result<(), ElementFailure> {

@@ -74,6 +74,20 @@ impl Visco {
         }
     }
 
+    /// The internal variables of a cut mesh's elements: element `e` copies those of
+    /// `old`'s element `from[e]` (its copies share its history), at `old`'s step.
+    pub fn carried(old: &Visco, from: &[u32]) -> Visco {
+        let m = old.law.prony.len();
+        let mut v = Visco::new(old.law.clone(), from.len());
+        for (e, &f) in from.iter().enumerate() {
+            let f = f as usize;
+            v.h[e * m..(e + 1) * m].copy_from_slice(&old.h[f * m..(f + 1) * m]);
+            v.s[e] = old.s[f];
+        }
+        v.set_step(old.dt);
+        v
+    }
+
     /// The step (s) the force evaluations use.
     pub fn step(&self) -> f64 {
         self.dt

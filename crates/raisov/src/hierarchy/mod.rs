@@ -58,6 +58,7 @@
 //!   restriction `R`. [`Transfer::transpose_add`] applies `Pᵀ` (to restrict forces).
 
 mod correspondence;
+pub mod cut;
 mod tree;
 
 /// The covering report of each link of `levels` (finest first): `[i]` is level `i` (fine)

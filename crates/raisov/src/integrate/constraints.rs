@@ -101,6 +101,36 @@ impl Constraints {
             }
         }
     }
+    /// The constraints carried to a cut mesh ([`crate::mesh::cut::TopologyChange`]): every
+    /// copy of a fixed, prescribed or sliding node is fixed, prescribed or sliding alike.
+    pub fn carried(&self, node_from: &[u32]) -> Constraints {
+        let n_old = self.mask.len();
+        let mut copies: Vec<Vec<u32>> = vec![Vec::new(); n_old];
+        for (a, &o) in node_from.iter().enumerate() {
+            if let Some(c) = copies.get_mut(o as usize) {
+                c.push(a as u32);
+            }
+        }
+        let fixed = self
+            .fixed
+            .iter()
+            .flat_map(|&a| copies[a as usize].iter().copied())
+            .collect();
+        let prescribed = self
+            .prescribed
+            .iter()
+            .flat_map(|(a, m)| copies[*a as usize].iter().map(move |&c| (c, m.clone())))
+            .collect();
+        let mut sliding: Vec<(u32, [f64; 3])> = self
+            .sliding
+            .iter()
+            .flat_map(|&(a, d)| copies[a as usize].iter().map(move |&c| (c, d)))
+            .collect();
+        sliding.sort_by_key(|&(a, _)| a);
+        Constraints::new(fixed, prescribed)
+            .with_sliding(&sliding)
+            .with_nodes(node_from.len())
+    }
     /// Build the per-node mask for `n` nodes.
     pub fn with_nodes(mut self, n: usize) -> Self {
         self.mask = vec![false; n];

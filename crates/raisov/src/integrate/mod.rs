@@ -231,6 +231,8 @@ pub struct System {
     /// [`System::acceleration`], [`System::residual`] and [`System::internal_forces`].
     pub springs: Vec<Spring>,
     r: Vec<f64>,
+    /// The gravity [`System::add_gravity`] added (m/s²): the part `m g` of `f_ext`.
+    gravity: [f64; 3],
 }
 
 /// A zero-length spring of stiffness `k` (N/m) pulling node `node` towards the displacement
@@ -396,6 +398,7 @@ impl System {
             constraints: constraints.with_nodes(n),
             springs: Vec::new(),
             r: vec![0.0; 3 * n],
+            gravity: [0.0; 3],
         }
     }
 
@@ -404,8 +407,67 @@ impl System {
         self.mass.len()
     }
 
+    /// Carry the system to a cut mesh ([`crate::mesh::cut`]): the force model cut
+    /// ([`ForceModel::cut`]); the lumped masses rebuilt from the elements' material
+    /// fractions, `m_a = ρ Σ_{e ∋ a} f_e |T_e| / 4` with `ρ` the system's mass over its
+    /// volume (so the total mass is unchanged); gravity `m_a g` on the new masses and each
+    /// nodal load on the first copy of its node; every copy of a constrained node constrained
+    /// alike ([`Constraints::carried`]); each spring on the first copy of its node.
+    pub fn cut(&mut self, change: &crate::mesh::cut::TopologyChange) -> crate::Result<()> {
+        let m = &change.mesh;
+        if m.kind != crate::mesh::ElementKind::Tet4 {
+            return Err(crate::Error::param(
+                "cut",
+                "only tetrahedral meshes can be cut",
+            ));
+        }
+        self.force.cut(change)?;
+        let n = m.num_nodes();
+        let mut share = vec![0.0; n];
+        for (el, f) in m.cells.chunks_exact(4).zip(&change.fractions) {
+            let p = |i: usize| m.nodes[el[i] as usize];
+            let v = 0.25 * f * crate::mesh::tet_volume(p(0), p(1), p(2), p(3));
+            for &a in el {
+                share[a as usize] += v;
+            }
+        }
+        let (old_mass, old_volume) = (self.mass.iter().sum::<f64>(), share.iter().sum::<f64>());
+        let rho = old_mass / old_volume;
+        let mass: Vec<f64> = share.iter().map(|v| rho * v).collect();
+        let g = self.gravity;
+        let mut first = vec![true; self.mass.len()];
+        let mut f_ext = vec![0.0; 3 * n];
+        for (a, &o) in change.node_from.iter().enumerate() {
+            let o = o as usize;
+            for k in 0..3 {
+                let load = self.f_ext[3 * o + k] - self.mass[o] * g[k];
+                f_ext[3 * a + k] = mass[a] * g[k] + if first[o] { load } else { 0.0 };
+            }
+            first[o] = false;
+        }
+        let mut first_copy = vec![u32::MAX; self.mass.len()];
+        for (a, &o) in change.node_from.iter().enumerate().rev() {
+            first_copy[o as usize] = a as u32;
+        }
+        for s in &mut self.springs {
+            s.node = first_copy[s.node as usize];
+        }
+        self.constraints = self.constraints.carried(&change.node_from);
+        self.inv_mass = mass
+            .iter()
+            .map(|&m| if m > 0.0 { 1.0 / m } else { 0.0 })
+            .collect();
+        self.mass = mass;
+        self.f_ext = f_ext;
+        self.r = vec![0.0; 3 * n];
+        Ok(())
+    }
+
     /// Add gravity `g` (m/s²) to the external forces: `V += m g` per node.
     pub fn add_gravity(&mut self, g: [f64; 3]) {
+        for k in 0..3 {
+            self.gravity[k] += g[k];
+        }
         for (a, &m) in self.mass.iter().enumerate() {
             for k in 0..3 {
                 self.f_ext[3 * a + k] += m * g[k];

@@ -132,6 +132,26 @@ pub trait Stepper: Send {
     fn finest_forces(&self) -> Option<&[f64]> {
         None
     }
+    /// The links between the levels (`[i]`: levels `i` and `i + 1`), for a stepper of several
+    /// levels; `None` (the default) for one level.
+    fn level_links(&self) -> Option<&[crate::hierarchy::Correspondence]> {
+        None
+    }
+    /// Cut the body ([`crate::mesh::cut`], [`crate::hierarchy::cut`]): every level's system
+    /// and state carried to its cut mesh (`cut.levels[l]`: each new node starts with the
+    /// displacement and velocity of the node it copies), the links replaced by `cut.links`.
+    /// Run-time constraints are dropped: the caller sets them again on the new nodes. The
+    /// default refuses, naming the stepper.
+    fn cut(&mut self, cut: &crate::hierarchy::cut::HierarchyCut) -> crate::Result<()> {
+        let _ = cut;
+        Err(crate::Error::param(
+            "cut",
+            format!(
+                "{} cannot cut the body: cutting runs on a single level's explicit integrators and on FAS",
+                self.describe()
+            ),
+        ))
+    }
 }
 
 /// Constraints added at run time on top of a stepper's own ([`Stepper::set_runtime_constraints`]).
@@ -414,6 +434,18 @@ impl SingleLevel {
 impl Stepper for SingleLevel {
     fn state(&self) -> &State {
         &self.state
+    }
+    fn cut(&mut self, cut: &crate::hierarchy::cut::HierarchyCut) -> crate::Result<()> {
+        let Some(ch) = cut.levels.first() else {
+            return Ok(());
+        };
+        self.set_runtime_constraints(&RuntimeConstraints::default());
+        self.own = None;
+        self.sys.cut(ch)?;
+        self.state.u = ch.carry(&self.state.u, 3);
+        self.state.v = ch.carry(&self.state.v, 3);
+        self.integrator = self.integrator.method().build(ch.mesh.num_nodes());
+        Ok(())
     }
     fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
         OwnConstraints::apply_runtime(&mut self.own, &mut self.sys, &mut self.state, c);

@@ -76,10 +76,7 @@ impl Blade {
     /// quad's size of the plane through them), convex, of non-zero area.
     pub fn quad(corners: [[f64; 3]; 4]) -> Result<Blade> {
         if corners.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(Error::param(
-                "blade",
-                "a corner is not a finite number (m)",
-            ));
+            return Err(Error::param("blade", "a corner is not a finite number (m)"));
         }
         let b = Blade { corners };
         let size = (0..4)
@@ -354,7 +351,11 @@ fn order_around(mut pts: Poly, n: [f64; 3]) -> Poly {
     };
     pts.sort_by(|p, q| angle(p).total_cmp(&angle(q)));
     // Each crossing point comes from two faces: drop the repeats.
-    let scale = pts.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs())).max(1.0);
+    let scale = pts
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+        .max(1.0);
     let same = |p: &[f64; 3], q: &[f64; 3]| norm(sub(*p, *q)) <= 1e-13 * scale;
     pts.dedup_by(|p, q| same(p, q));
     while pts.len() > 1 && same(&pts[0], &pts[pts.len() - 1]) {
@@ -439,10 +440,7 @@ impl CutMesh {
             }
             for i in 0..4 {
                 for j in i + 1..4 {
-                    edge_sum += norm(sub(
-                        mesh.nodes[el[j] as usize],
-                        mesh.nodes[el[i] as usize],
-                    ));
+                    edge_sum += norm(sub(mesh.nodes[el[j] as usize], mesh.nodes[el[i] as usize]));
                 }
             }
         }
@@ -531,7 +529,11 @@ impl CutMesh {
         if let Some(&(_, s)) = node_sides[a].iter().find(|(c, _)| *c == k) {
             return s;
         }
-        let x = self.base.nodes[self.origin[a] as usize];
+        self.plane_side(k, self.base.nodes[self.origin[a] as usize])
+    }
+
+    /// The side of cut `k`'s (snapped) plane a reference point `x` lies on: `1` or `-1`.
+    pub fn plane_side(&self, k: u32, x: [f64; 3]) -> i8 {
         if self.planes[k as usize].phi(x) < 0.0 {
             -1
         } else {
@@ -610,9 +612,8 @@ impl CutMesh {
             let e = self.element[c] as usize;
             let el = &self.base.cells[4 * e..4 * e + 4];
             let pts: [[f64; 3]; 4] = std::array::from_fn(|i| self.base.nodes[el[i] as usize]);
-            if (0..3).any(|i| {
-                pts.iter().all(|p| p[i] < lo[i]) || pts.iter().all(|p| p[i] > hi[i])
-            }) {
+            if (0..3).any(|i| pts.iter().all(|p| p[i] < lo[i]) || pts.iter().all(|p| p[i] > hi[i]))
+            {
                 continue;
             }
             let phi = self.phis(k as usize, e);
@@ -725,16 +726,14 @@ impl CutMesh {
                 }
                 let nel = &self.base.cells[4 * nb as usize..4 * nb as usize + 4];
                 let face_nodes = [el[corners[0]], el[corners[1]], el[corners[2]]];
-                let local_in_nb = face_nodes
-                    .map(|a| nel.iter().position(|&b| b == a).expect("shared face node"));
+                let local_in_nb =
+                    face_nodes.map(|a| nel.iter().position(|&b| b == a).expect("shared face node"));
                 let mut d = first_copy(nb);
                 while d < ne2 && element[d] == nb {
                     if self.face_overlap(&sides[c], &sides[d], face_nodes) {
                         for j in 0..3 {
-                            classes.join(
-                                (4 * c + corners[j]) as u32,
-                                (4 * d + local_in_nb[j]) as u32,
-                            );
+                            classes
+                                .join((4 * c + corners[j]) as u32, (4 * d + local_in_nb[j]) as u32);
                         }
                     }
                     d += 1;
@@ -763,10 +762,7 @@ impl CutMesh {
         let cells: Vec<u32> = (0..4 * ne2)
             .map(|s| id_of_root[root_of[s] as usize])
             .collect();
-        let origin: Vec<u32> = node_from
-            .iter()
-            .map(|&o| self.origin[o as usize])
-            .collect();
+        let origin: Vec<u32> = node_from.iter().map(|&o| self.origin[o as usize]).collect();
         let nodes: Vec<[f64; 3]> = origin
             .iter()
             .map(|&o| self.base.nodes[o as usize])

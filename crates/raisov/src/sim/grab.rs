@@ -297,19 +297,7 @@ impl Simulation {
                 }
             })
             .collect();
-        let mut coarse = Vec::new();
-        for l in 1..self.stepper.num_levels() {
-            let Some(m) = self.stepper.level_mesh(l) else {
-                break;
-            };
-            let mut carried: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
-            for (i, &a) in nodes.iter().enumerate() {
-                if let Some(c) = m.nearest_node(self.mesh.nodes[a as usize]) {
-                    carried.entry(c as u32).or_default().push(i);
-                }
-            }
-            coarse.push(carried.into_iter().collect());
-        }
+        let coarse = self.coarse_of(&nodes);
         let id = GrabId(self.next_id);
         self.next_id += 1;
         self.grabs.insert(
@@ -411,20 +399,7 @@ impl Simulation {
     /// where it stands on every level from now on.
     pub fn pin(&mut self, point: [f64; 3], radius: f64) -> Result<PinId> {
         let (_, nodes) = self.patch(point, radius, "pin")?;
-        let mut levels = vec![nodes.clone()];
-        for l in 1..self.stepper.num_levels() {
-            let Some(m) = self.stepper.level_mesh(l) else {
-                break;
-            };
-            let mut near: Vec<u32> = nodes
-                .iter()
-                .filter_map(|&a| m.nearest_node(self.mesh.nodes[a as usize]))
-                .map(|x| x as u32)
-                .collect();
-            near.sort_unstable();
-            near.dedup();
-            levels.push(near);
-        }
+        let levels = self.pin_levels(nodes);
         let id = PinId(self.next_id);
         self.next_id += 1;
         self.pins.insert(id, Pin { levels });
@@ -449,6 +424,46 @@ impl Simulation {
             .ok_or_else(|| Error::param("pin", format!("no pin {} (removed already?)", id.0)))
     }
 
+    /// Per coarser level, its nodes nearest the level-0 `nodes` of a grasp, each with the
+    /// indices (into `nodes`) carried to it.
+    pub(super) fn coarse_of(&self, nodes: &[u32]) -> Vec<Vec<(u32, Vec<usize>)>> {
+        let mut coarse = Vec::new();
+        for l in 1..self.stepper.num_levels() {
+            let Some(m) = self.stepper.level_mesh(l) else {
+                break;
+            };
+            let mut carried: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+            for (i, &a) in nodes.iter().enumerate() {
+                if let Some(c) = m.nearest_node(self.mesh.nodes[a as usize]) {
+                    carried.entry(c as u32).or_default().push(i);
+                }
+            }
+            coarse.push(carried.into_iter().collect());
+        }
+        coarse
+    }
+
+    /// A pin's nodes per level: the level-0 `nodes`, and each coarser level's nodes nearest
+    /// them.
+    pub(super) fn pin_levels(&self, nodes: Vec<u32>) -> Vec<Vec<u32>> {
+        let mut levels = Vec::new();
+        for l in 1..self.stepper.num_levels() {
+            let Some(m) = self.stepper.level_mesh(l) else {
+                break;
+            };
+            let mut near: Vec<u32> = nodes
+                .iter()
+                .filter_map(|&a| m.nearest_node(self.mesh.nodes[a as usize]))
+                .map(|x| x as u32)
+                .collect();
+            near.sort_unstable();
+            near.dedup();
+            levels.push(near);
+        }
+        levels.insert(0, nodes);
+        levels
+    }
+
     pub(super) fn grab_ref(&self, id: GrabId) -> Result<&Grab> {
         self.grabs.get(&id).ok_or_else(|| no_grab(id))
     }
@@ -459,7 +474,7 @@ impl Simulation {
 
     /// Grasps or pins were added or removed: hand the stepper the new set now (a pin holds
     /// where the nodes stand now), refresh the constrained mask and the supports.
-    fn constraints_changed(&mut self) {
+    pub(super) fn constraints_changed(&mut self) {
         self.apply_constraints();
         let n = self.mesh.num_nodes();
         self.constrained.clone_from(&self.own);

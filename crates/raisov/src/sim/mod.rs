@@ -116,6 +116,7 @@
 //! pascals, kilograms.
 
 mod builder;
+mod cut;
 pub mod frame;
 mod grab;
 pub mod haptic;
@@ -125,6 +126,7 @@ pub mod solve;
 pub mod tangent;
 
 pub use builder::{Scheme, SimulationBuilder};
+pub use cut::CutReport;
 pub use frame::{Budget, FrameReport};
 pub use grab::{Coupling, GrabOptions, Grip};
 pub use haptic::{HapticForce, HapticFrame, HapticLimits, HapticProxy};
@@ -210,6 +212,8 @@ pub struct Simulation {
     visual: Option<Visual>,
     /// The haptic proxies attached to grasps, published after every frame.
     haptics: BTreeMap<GrabId, std::sync::Arc<haptic::Shared>>,
+    /// The levels as cut so far ([`Simulation::cut`]); `None` before the first cut.
+    cuts: Option<cut::CutState>,
 }
 
 /// A visual surface embedded in level 0: `x(p) = p + Σ_j ω_j u_j` over its host element.
@@ -360,6 +364,7 @@ impl Simulation {
             mesh,
             visual: None,
             haptics: BTreeMap::new(),
+            cuts: None,
         };
         sim.constrained = sim.own.clone();
         sim.supports();
@@ -487,6 +492,11 @@ impl Simulation {
             forces: &self.support_forces,
             sum,
         }
+    }
+
+    /// Lumped mass per node (kg), in the mesh's node order.
+    pub fn masses(&self) -> &[f64] {
+        &self.mass
     }
 
     /// Total external load `Σ V` (N): gravity and nodal loads.

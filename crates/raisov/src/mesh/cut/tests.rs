@@ -86,7 +86,10 @@ fn a_cut_through_the_block_leaves_two_pieces_of_the_same_total_volume() {
     assert!(sum.iter().all(|s| (s - 1.0).abs() < 1e-14));
     // No piece is smaller than the snap allows.
     let min = c.fractions().iter().fold(1.0f64, |a, &b| a.min(b));
-    assert!(min >= (SNAP / (1.0 + SNAP)).powi(3) * 0.5, "smallest piece {min}");
+    assert!(
+        min >= (SNAP / (1.0 + SNAP)).powi(3) * 0.5,
+        "smallest piece {min}"
+    );
 }
 
 #[test]
@@ -114,7 +117,10 @@ fn a_notch_leaves_one_piece_with_its_lips_apart() {
         }
         per.values().filter(|&&n| n > 1).count()
     };
-    assert!(count(0.02) > 0, "the notch's lips have their own nodes on the top face");
+    assert!(
+        count(0.02) > 0,
+        "the notch's lips have their own nodes on the top face"
+    );
     assert_eq!(count(0.0), 0, "the bottom face is not cut");
 }
 
@@ -142,7 +148,11 @@ fn a_blade_that_misses_changes_nothing() {
     let ch = c.cut(&miss).unwrap();
     assert!(ch.is_identity());
     assert_eq!(c.mesh().num_nodes(), c.base().num_nodes());
-    assert_eq!(c.blades().len(), 1, "the cut is kept to keep the levels' indices aligned");
+    assert_eq!(
+        c.blades().len(),
+        1,
+        "the cut is kept to keep the levels' indices aligned"
+    );
 }
 
 #[test]
@@ -168,5 +178,32 @@ fn the_clipped_tetrahedron_volumes_add_up() {
     let phi = [0.1, -1.0, -2.0, -0.5];
     let (a, _) = t.clip(phi);
     let exact: f64 = phi[1..].iter().map(|&p| 0.1 / (0.1 - p)).product();
-    assert!((a.fraction() - exact).abs() < 1e-15, "{} vs {exact}", a.fraction());
+    assert!(
+        (a.fraction() - exact).abs() < 1e-15,
+        "{} vs {exact}",
+        a.fraction()
+    );
+}
+
+#[test]
+fn a_cut_models_tangent_is_its_force_derivative() {
+    use crate::fem::{FemModel, FemParams};
+    use crate::material::{Material, NeoHookean, StableNeoHookean};
+    let mut c =
+        CutMesh::new(box_tets([0.02, 0.01, 0.01], [2, 1, 1], BoxPattern::Six).unwrap()).unwrap();
+    let ch = c.cut(&through(0.0113)).unwrap();
+    assert!(ch.split > 0);
+    for m in [
+        Material::NeoHookean(NeoHookean::from_young(1e6, 0.3)),
+        Material::StableNeoHookean(StableNeoHookean::from_young(1e6, 0.3)),
+    ] {
+        let mut p = FemParams::new(m);
+        p.fractions = Some(c.fractions().to_vec().into());
+        let mut fem = FemModel::new(c.mesh(), p).unwrap();
+        let n = c.mesh().num_nodes();
+        let u: Vec<f64> = (0..3 * n)
+            .map(|i| 1e-4 * ((i * 7 % 13) as f64 - 6.0))
+            .collect();
+        crate::fem::tests::assert_tangent_matches_fd(&mut fem, &u, 1e-7, 1e-5, "cut");
+    }
 }

@@ -397,3 +397,29 @@ fn a_cut_gives_the_same_bits_on_any_thread_count() {
     assert_eq!(c1, c2);
     assert!(u1.iter().zip(&u2).all(|(a, b)| a.to_bits() == b.to_bits()));
 }
+
+#[test]
+fn the_drawn_surface_of_a_cut_body_opens_with_the_wound() {
+    let mesh = box_tets([0.04, 0.02, 0.02], [8, 4, 4], BoxPattern::Six).unwrap();
+    let mut sim = SimulationBuilder::new(mesh)
+        .fix(|p| p[0] <= 0.0)
+        .gravity(G)
+        .scheme(Scheme::SingleLevel(Method::SymplecticEuler))
+        .dt(2e-4)
+        .build()
+        .unwrap();
+    let before = sim.surface_triangles().len();
+    sim.cut(&plane_x(0.0213, -1.0, 1.0)).unwrap();
+    let tris = sim.surface_triangles().to_vec();
+    assert!(tris.len() > before, "the wound's faces are drawn");
+    let n = sim.surface_positions().len();
+    assert!(tris.iter().flatten().all(|&v| (v as usize) < n));
+    // The wound's vertices move with their lips: after the free half fell, the drawn surface
+    // reaches as low as the lowest node.
+    for _ in 0..10 {
+        assert!(sim.step_frame(Budget::Cycles(40)).accepted);
+    }
+    let low = |p: &[[f64; 3]]| p.iter().map(|x| x[2]).fold(f64::INFINITY, f64::min);
+    assert!((low(sim.surface_positions()) - low(sim.positions())).abs() < 1e-12);
+    assert!(low(sim.positions()) < -1e-4, "the free half fell");
+}

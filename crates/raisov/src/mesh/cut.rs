@@ -42,6 +42,12 @@
 //! rounding), and every copy keeps the uncut element's ratio of stiffness to mass, so however
 //! small a piece, the stable explicit step is the uncut mesh's.
 //!
+//! Surface ([`CutMesh::surface`]): what bounds the material, for drawing and grasping: the
+//! boundary faces of whole elements, and of each copy the parts of its tetrahedron's boundary
+//! faces inside its material and its cut faces (the wound), each new vertex embedded in its
+//! copy by barycentric weights and carried by the copy's nodes. It is a closed, outward
+//! surface around each piece (its enclosed volume is the material's).
+//!
 //! Numbering: elements and nodes keep the uncut mesh's order, the copies of an element (of a
 //! node) next to each other, so the banded order the force pass needs survives cutting.
 
@@ -235,6 +241,63 @@ impl TopologyChange {
     }
 }
 
+/// The surface of a cut body: the boundary faces of the whole elements (their nodes), and of
+/// each element copy the parts of its tetrahedron's boundary faces inside its material and its
+/// cut faces (the wound), each point embedded in its copy by barycentric weights.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EmbeddedSurface {
+    /// The mesh's node count: vertex `v < nodes` is node `v`, vertex `nodes + i` is
+    /// `points[i]`.
+    pub nodes: usize,
+    /// Embedded vertices: an element and the barycentric weights of its four corners.
+    pub points: Vec<(u32, [f64; 4])>,
+    /// Triangles, outward.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl EmbeddedSurface {
+    /// Positions of the vertices: the nodes' `x` first, then the embedded points in their
+    /// elements (`cells` the mesh's connectivity).
+    pub fn positions(&self, x: &[[f64; 3]], cells: &[u32], out: &mut Vec<[f64; 3]>) {
+        out.clear();
+        out.extend_from_slice(&x[..self.nodes]);
+        for &(e, w) in &self.points {
+            let el = &cells[4 * e as usize..4 * e as usize + 4];
+            let mut p = [0.0; 3];
+            for (j, &a) in el.iter().enumerate() {
+                for k in 0..3 {
+                    p[k] += w[j] * x[a as usize][k];
+                }
+            }
+            out.push(p);
+        }
+    }
+
+    /// Add a polygon of element `e` (corners `el`) given in reference coordinates, fanned.
+    fn polygon(&mut self, e: u32, el: &[u32], poly: &Poly) {
+        let mut ids: Vec<u32> = Vec::with_capacity(poly.len());
+        for l in poly {
+            let w = [1.0 - l[0] - l[1] - l[2], l[0], l[1], l[2]];
+            let id = match w.iter().position(|&x| x == 1.0) {
+                Some(j) if w.iter().filter(|&&x| x == 0.0).count() == 3 => el[j],
+                _ => {
+                    self.points.push((e, w));
+                    (self.nodes + self.points.len() - 1) as u32
+                }
+            };
+            if ids.last() != Some(&id) {
+                ids.push(id);
+            }
+        }
+        while ids.len() > 1 && ids.first() == ids.last() {
+            ids.pop();
+        }
+        for i in 1..ids.len().saturating_sub(1) {
+            self.triangles.push([ids[0], ids[i], ids[i + 1]]);
+        }
+    }
+}
+
 /// A convex polygon or polyhedron face in reference coordinates, as points.
 type Poly = Vec<[f64; 3]>;
 
@@ -279,6 +342,9 @@ fn area_vector(p: &Poly) -> [f64; 3] {
 #[derive(Clone)]
 struct Polytope {
     faces: Vec<Poly>,
+    /// Where each face comes from: `Ok(f)` the tetrahedron's face opposite corner `f`,
+    /// `Err(k)` the cut surface of cut `k` (a cap).
+    tags: Vec<std::result::Result<usize, u32>>,
 }
 
 impl Polytope {
@@ -286,21 +352,29 @@ impl Polytope {
         let (o, x, y, z) = ([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
         Polytope {
             faces: vec![vec![o, y, x], vec![o, x, z], vec![o, z, y], vec![x, y, z]],
+            tags: vec![Ok(3), Ok(2), Ok(1), Ok(0)],
         }
     }
 
     /// Keep `{Σ λ_i φ_i ≥ 0}` (φ at the four corners, `λ₀ = 1 − λ₁ − λ₂ − λ₃`); returns the
     /// clipped polytope and its cap (the cross-section, outward).
     fn clip(&self, phi: [f64; 4]) -> (Polytope, Poly) {
+        self.clip_tagged(phi, u32::MAX)
+    }
+
+    /// [`Polytope::clip`], its cap tagged as cut `k`.
+    fn clip_tagged(&self, phi: [f64; 4], k: u32) -> (Polytope, Poly) {
         let f = |l: [f64; 3]| {
             phi[0] + l[0] * (phi[1] - phi[0]) + l[1] * (phi[2] - phi[0]) + l[2] * (phi[3] - phi[0])
         };
         let mut cap = Vec::new();
         let mut faces = Vec::with_capacity(self.faces.len() + 1);
-        for face in &self.faces {
+        let mut tags = Vec::with_capacity(self.faces.len() + 1);
+        for (face, &tag) in self.faces.iter().zip(&self.tags) {
             let c = clip(face, &f, &mut cap);
             if c.len() >= 3 {
                 faces.push(c);
+                tags.push(tag);
             }
         }
         // Order the cap's points around their centroid, outward (−∇f).
@@ -308,8 +382,9 @@ impl Polytope {
         let cap = order_around(cap, [-g[0], -g[1], -g[2]]);
         if cap.len() >= 3 {
             faces.push(cap.clone());
+            tags.push(Err(k));
         }
-        (Polytope { faces }, cap)
+        (Polytope { faces, tags }, cap)
     }
 
     /// Volume as a fraction of the reference tetrahedron's (6 × the volume).
@@ -517,7 +592,7 @@ impl CutMesh {
         let mut p = Polytope::tet();
         for &(k, s) in sides {
             let phi = self.phis(k as usize, e).map(|v| v * s as f64);
-            p = p.clip(phi).0;
+            p = p.clip_tagged(phi, k).0;
         }
         p
     }
@@ -802,6 +877,62 @@ impl CutMesh {
             element_from,
             split: n_split,
         })
+    }
+
+    /// The surface of the cut body (module docs, "Surface").
+    pub fn surface(&self) -> EmbeddedSurface {
+        let m = &self.mesh;
+        let mut faces: Vec<([u32; 3], u32)> = Vec::with_capacity(m.cells.len());
+        for (e, el) in m.cells.chunks_exact(4).enumerate() {
+            for (f, c) in FACE.iter().enumerate() {
+                let mut k = [el[c[0]], el[c[1]], el[c[2]]];
+                k.sort_unstable();
+                faces.push((k, (4 * e + f) as u32));
+            }
+        }
+        faces.sort_unstable();
+        let mut boundary = vec![false; m.cells.len()];
+        let mut i = 0;
+        while i < faces.len() {
+            let mut j = i + 1;
+            while j < faces.len() && faces[j].0 == faces[i].0 {
+                j += 1;
+            }
+            if j - i == 1 {
+                boundary[faces[i].1 as usize] = true;
+            }
+            i = j;
+        }
+        let mut out = EmbeddedSurface {
+            nodes: m.num_nodes(),
+            points: Vec::new(),
+            triangles: Vec::new(),
+        };
+        for (e, el) in m.cells.chunks_exact(4).enumerate() {
+            if self.sides[e].is_empty() {
+                // A whole element: its boundary faces, outward.
+                for (f, c) in FACE.iter().enumerate() {
+                    if boundary[4 * e + f] {
+                        let (a, b, d) = (el[c[0]], el[c[1]], el[c[2]]);
+                        // FACE[f] points away from corner f for even f; flip the odd ones.
+                        out.triangles
+                            .push(if f % 2 == 0 { [a, b, d] } else { [a, d, b] });
+                    }
+                }
+                continue;
+            }
+            let p = self.material(self.element[e] as usize, &self.sides[e]);
+            for (poly, tag) in p.faces.iter().zip(&p.tags) {
+                let draw = match tag {
+                    Ok(f) => boundary[4 * e + f],
+                    Err(_) => true,
+                };
+                if draw {
+                    out.polygon(e as u32, el, poly);
+                }
+            }
+        }
+        out
     }
 
     /// Whether copies with sides `sa` and `sb` of two base elements have overlapping

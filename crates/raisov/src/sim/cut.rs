@@ -5,23 +5,37 @@
 //! What carries over: each new node starts with the displacement and velocity of the node it
 //! copies (the wound opens from the current shape); grasps and pins hold every copy of their
 //! nodes (a grasp across the blade's path keeps both lips in hand, as tweezers would); each
-//! nodal load stays on the first copy of its node; the visual surface (a mesh meshed from a
-//! surface) keeps its vertices' hosts, each on its own side of the cuts. The frame predictor
-//! starts again. The surface grasps and pins take from ([`Simulation::surface_triangles`]
-//! without a visual surface) is the cut mesh's boundary, the wound's faces included: the
-//! faces of the element copies on each lip.
+//! nodal load stays on the first copy of its node. The frame predictor starts again.
+//!
+//! What is drawn ([`Simulation::surface_positions`], [`Simulation::surface_triangles`]): from
+//! the first cut on, the cut body's surface ([`crate::mesh::cut::CutMesh::surface`]: the
+//! boundary faces within the material and the wound's faces, carried by the element copies),
+//! in place of a visual surface, which would bridge the wound. Grasps and pins take their
+//! patch from the cut mesh's boundary faces (the element copies' faces on each lip).
 
 use super::Simulation;
-use crate::hierarchy::cut::{rehost, CutHierarchy};
-use crate::hierarchy::Transfer;
-use crate::mesh::cut::{Blade, TopologyChange};
+use crate::hierarchy::cut::CutHierarchy;
+use crate::mesh::cut::{Blade, EmbeddedSurface, TopologyChange};
 use crate::{Error, Result};
 
-/// What a cut keeps between cuts: the levels as cut so far and the visual surface's uncut
-/// hosts.
+/// What a cut keeps between cuts: the levels as cut so far.
 pub(super) struct CutState {
     hierarchy: CutHierarchy,
-    visual: Option<Transfer>,
+}
+
+/// The drawn surface of a cut body ([`crate::mesh::cut::CutMesh::surface`]) and its vertices
+/// at the current state.
+pub(super) struct Embedded {
+    pub(super) surface: EmbeddedSurface,
+    pub(super) positions: Vec<[f64; 3]>,
+}
+
+impl Embedded {
+    /// Carry the vertices to the nodes' current `positions`.
+    pub(super) fn update(&mut self, positions: &[[f64; 3]], cells: &[u32]) {
+        self.surface
+            .positions(positions, cells, &mut self.positions);
+    }
 }
 
 /// What [`Simulation::cut`] did.
@@ -117,7 +131,6 @@ impl Simulation {
         }
         Ok(CutState {
             hierarchy: CutHierarchy::new(meshes, links)?,
-            visual: self.visual.as_ref().map(|v| v.transfer.clone()),
         })
     }
 
@@ -190,14 +203,12 @@ impl Simulation {
             let levels = self.pin_levels(nodes);
             self.pins.get_mut(&id).expect("pin").levels = levels;
         }
-        if let (Some(v), Some(base)) = (self.visual.as_mut(), &state.visual) {
-            let level0 = &state.hierarchy.levels()[0];
-            let points = &v.surface.points;
-            let origin: Vec<u32> = (0..points.len() as u32).collect();
-            v.transfer = rehost(base, &origin, level0, |a, k| {
-                level0.plane_side(k, points[a])
-            });
-        }
+        // The drawn surface: the cut body's own (a visual surface would bridge the wound).
+        self.visual = None;
+        self.embedded = Some(Embedded {
+            surface: state.hierarchy.levels()[0].surface(),
+            positions: Vec::new(),
+        });
         // The grasps and pins on the new nodes; the caches at the carried state.
         self.constraints_changed();
         Ok(())

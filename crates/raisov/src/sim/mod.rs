@@ -214,6 +214,8 @@ pub struct Simulation {
     haptics: BTreeMap<GrabId, std::sync::Arc<haptic::Shared>>,
     /// The levels as cut so far ([`Simulation::cut`]); `None` before the first cut.
     cuts: Option<cut::CutState>,
+    /// The cut body's drawn surface, from the first cut on.
+    embedded: Option<cut::Embedded>,
 }
 
 /// A visual surface embedded in level 0: `x(p) = p + Σ_j ω_j u_j` over its host element.
@@ -365,6 +367,7 @@ impl Simulation {
             visual: None,
             haptics: BTreeMap::new(),
             cuts: None,
+            embedded: None,
         };
         sim.constrained = sim.own.clone();
         sim.supports();
@@ -427,21 +430,26 @@ impl Simulation {
 
     /// The surface a viewer draws, at the current state (m): the visual surface's vertices
     /// when the mesh was meshed from a surface (`[mesh] surface`, carried barycentrically by
-    /// level 0), else the mesh's own node positions ([`Simulation::positions`]). Pair it with
-    /// [`Simulation::surface_triangles`].
+    /// level 0), else the mesh's own node positions ([`Simulation::positions`]); from the
+    /// first cut on ([`Simulation::cut`]), the cut body's surface: the nodes' positions
+    /// followed by the wound's embedded vertices. Pair it with
+    /// [`Simulation::surface_triangles`], and read both again after a cut.
     pub fn surface_positions(&self) -> &[[f64; 3]] {
-        match &self.visual {
-            Some(v) => &v.positions,
-            None => &self.positions,
+        match (&self.embedded, &self.visual) {
+            (Some(e), _) => &e.positions,
+            (None, Some(v)) => &v.positions,
+            (None, None) => &self.positions,
         }
     }
 
     /// The triangles of [`Simulation::surface_positions`], outward: the visual surface's, or
-    /// the mesh's boundary faces (a membrane's own triangles).
+    /// the mesh's boundary faces (a membrane's own triangles); after a cut, the cut body's
+    /// boundary within its material and the wound's faces.
     pub fn surface_triangles(&self) -> &[[u32; 3]] {
-        match &self.visual {
-            Some(v) => &v.surface.triangles,
-            None => &self.surface,
+        match (&self.embedded, &self.visual) {
+            (Some(e), _) => &e.surface.triangles,
+            (None, Some(v)) => &v.surface.triangles,
+            (None, None) => &self.surface,
         }
     }
 
@@ -552,6 +560,9 @@ impl Simulation {
             self.support_forces[i] = self.net(a as usize);
         }
         self.update_visual();
+        if let Some(e) = self.embedded.as_mut() {
+            e.update(&self.positions, &self.mesh.cells);
+        }
         Ok(())
     }
 

@@ -207,3 +207,93 @@ fn a_cut_models_tangent_is_its_force_derivative() {
         crate::fem::tests::assert_tangent_matches_fd(&mut fem, &u, 1e-7, 1e-5, "cut");
     }
 }
+
+/// The volume a triangle surface encloses (divergence theorem), at positions `x`.
+fn enclosed(s: &EmbeddedSurface, x: &[[f64; 3]]) -> f64 {
+    s.triangles
+        .iter()
+        .map(|t| dot(x[t[0] as usize], cross(x[t[1] as usize], x[t[2] as usize])) / 6.0)
+        .sum()
+}
+
+#[test]
+fn the_uncut_surface_is_the_meshs_boundary() {
+    let c = block();
+    let s = c.surface();
+    assert!(s.points.is_empty());
+    let canon = |t: &[u32; 3]| {
+        let i = (0..3).min_by_key(|&i| t[i]).unwrap();
+        [t[i], t[(i + 1) % 3], t[(i + 2) % 3]]
+    };
+    let mut a: Vec<_> = s.triangles.iter().map(canon).collect();
+    let mut b: Vec<_> = c.mesh().surface_triangles().iter().map(canon).collect();
+    a.sort_unstable();
+    b.sort_unstable();
+    assert_eq!(a, b);
+}
+
+#[test]
+fn the_cut_surface_closes_around_the_material() {
+    // A notch across a cut: the enclosed volume is the material's.
+    let mut c = block();
+    c.cut(&through(0.0213)).unwrap();
+    c.cut(
+        &Blade::quad([
+            [-0.01, 0.0093, 0.0101],
+            [0.05, 0.0093, 0.0101],
+            [0.05, 0.0093, 0.03],
+            [-0.01, 0.0093, 0.03],
+        ])
+        .unwrap(),
+    )
+    .unwrap();
+    let s = c.surface();
+    let mut x = Vec::new();
+    s.positions(&c.mesh().nodes, &c.mesh().cells, &mut x);
+    let v = enclosed(&s, &x);
+    let exact = material_volume(&c);
+    assert!(
+        (v - exact).abs() < 1e-12 * exact,
+        "encloses {v}, material {exact}"
+    );
+    // Two cuts through (a notch's tip leaves T-junctions where the wound ends at a whole
+    // element's face): every piece closed.
+    let mut c = block();
+    c.cut(&through(0.0213)).unwrap();
+    c.cut(
+        &Blade::quad([
+            [-0.01, 0.0093, -0.01],
+            [0.05, 0.0093, -0.01],
+            [0.05, 0.0093, 0.03],
+            [-0.01, 0.0093, 0.03],
+        ])
+        .unwrap(),
+    )
+    .unwrap();
+    let s = c.surface();
+    assert!(!s.points.is_empty(), "the wound has vertices of its own");
+    let mut x = Vec::new();
+    s.positions(&c.mesh().nodes, &c.mesh().cells, &mut x);
+    let v = enclosed(&s, &x);
+    let exact = material_volume(&c);
+    assert!(
+        (v - exact).abs() < 1e-12 * exact,
+        "encloses {v}, material {exact}"
+    );
+    // Each edge of the surface is shared by two triangles in opposite directions, once the
+    // embedded points are merged by position.
+    let key = |p: [f64; 3]| p.map(|v| (v * 1e9).round() as i64);
+    let mut edges: std::collections::BTreeMap<([i64; 3], [i64; 3]), i32> = Default::default();
+    for t in &s.triangles {
+        for i in 0..3 {
+            let (a, b) = (key(x[t[i] as usize]), key(x[t[(i + 1) % 3] as usize]));
+            if a == b {
+                continue;
+            }
+            let (k, d) = if a < b { ((a, b), 1) } else { ((b, a), -1) };
+            *edges.entry(k).or_default() += d;
+        }
+    }
+    let open = edges.values().filter(|&&v| v != 0).count();
+    assert_eq!(open, 0, "{open} edges are not closed");
+}

@@ -423,3 +423,185 @@ fn the_drawn_surface_of_a_cut_body_opens_with_the_wound() {
     assert!((low(sim.surface_positions()) - low(sim.positions())).abs() < 1e-12);
     assert!(low(sim.positions()) < -1e-4, "the free half fell");
 }
+
+/// A cantilever block scenario: `[[cut]]` and the run's sections in `extra`.
+fn block_scenario(extra: &str) -> raisov::scenario::Scenario {
+    let text = format!(
+        r#"
+gravity = [0, 0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.02, 0.02]
+divisions = [8, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+density = 1000
+[damping]
+alpha = 100.0
+[[fix]]
+plane = {{ point = [0, 0, 0], normal = [1, 0, 0] }}
+{extra}
+"#
+    );
+    raisov::scenario::Scenario::from_toml(&text, std::path::Path::new("cut.toml")).unwrap()
+}
+
+fn temp_out(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("raisov-cutting-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// `NumberOfPoints="…"` of a VTU file.
+fn vtu_points(path: &std::path::Path) -> usize {
+    let text = std::fs::read(path).unwrap();
+    let text = String::from_utf8_lossy(&text);
+    let i = text.find("NumberOfPoints=\"").unwrap() + 16;
+    text[i..].split('"').next().unwrap().parse().unwrap()
+}
+
+#[test]
+fn a_scenario_cut_in_time_writes_frames_of_the_cut_body() {
+    let sc = block_scenario(
+        r#"
+[[cut]]
+time = 0.01
+edge = [[0.0213, -0.01, 0.0101], [0.0213, 0.03, 0.0101]]
+sweep = [0.0, 0.0, 0.02]
+[run]
+duration = 0.05
+[output]
+frame_interval = 0.02
+"#,
+    );
+    assert_eq!(sc.cuts.len(), 1);
+    let out = temp_out("time");
+    let sol = raisov::sim::solve(
+        &sc,
+        raisov::scenario::RunOptions {
+            out_dir: Some(out.clone()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let n0 = sc.mesh.num_nodes();
+    assert!(sol.u.len() > 3 * n0, "the solution has the copies' nodes");
+    let frames: Vec<_> = {
+        let mut f: Vec<_> = std::fs::read_dir(out.join("frames"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        f.sort();
+        f
+    };
+    assert_eq!(
+        vtu_points(&frames[0]),
+        n0,
+        "the first frame is the uncut body"
+    );
+    assert!(
+        vtu_points(frames.last().unwrap()) > n0,
+        "the last frame is the cut body"
+    );
+    let stress = std::fs::read_to_string(out.join("nodal_stress.csv")).unwrap();
+    assert_eq!(
+        stress.lines().count() - 1,
+        sol.u.len() / 3,
+        "a row per node of the cut body"
+    );
+    let measures = std::fs::read_to_string(out.join("measures.csv")).unwrap();
+    assert!(
+        measures.lines().count() > 10,
+        "the measures go on after the cut"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn an_interactive_scenario_cuts_at_its_frame() {
+    let sc = block_scenario(
+        r#"
+[[cut]]
+time = 0.1
+quad = [[0.0213, -0.01, 0.0101], [0.0213, 0.03, 0.0101], [0.0213, 0.03, 0.03], [0.0213, -0.01, 0.03]]
+[run]
+duration = 0.2
+[interactive]
+fps = 20
+cycles = 20
+"#,
+    );
+    let out = temp_out("interactive");
+    let sol = raisov::sim::solve(
+        &sc,
+        raisov::scenario::RunOptions {
+            out_dir: Some(out.clone()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(sol.u.len() > 3 * sc.mesh.num_nodes());
+    let n0 = sc.mesh.num_nodes();
+    let frame = |k: usize| out.join("frames").join(format!("{}_{k:06}.vtu", sc.name));
+    assert_eq!(vtu_points(&frame(1)), n0, "frame 1 is before the cut");
+    assert!(
+        vtu_points(&frame(2)) > n0,
+        "the cut acts before frame 2 (t = 0.1 s)"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn a_cut_the_run_cannot_take_is_refused_when_the_scenario_loads() {
+    let load = |extra: &str| {
+        let text = format!(
+            r#"
+[mesh]
+generate = "box"
+size = [0.04, 0.02, 0.02]
+divisions = [4, 2, 2]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = {{ point = [0, 0, 0], normal = [1, 0, 0] }}
+[[cut]]
+edge = [[0.02, -0.01, 0.0], [0.02, 0.03, 0.0]]
+sweep = [0.0, 0.0, 0.03]
+{extra}
+"#
+        );
+        raisov::scenario::Scenario::from_toml(&text, std::path::Path::new("cut.toml"))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default()
+    };
+    let e = load("[integrator]\nmethod = \"newton\"");
+    assert!(e.contains("[[cut]]") && e.contains("static"), "{e}");
+    let e = load("[integrator]\nmethod = \"implicit-euler\"\ndt = 0.01\n[run]\nduration = 1");
+    assert!(e.contains("implicit"), "{e}");
+    let e = load("[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\n[run]\nduration = 1");
+    assert!(e.contains("RaISoV"), "{e}");
+    let bad = r#"
+[mesh]
+generate = "box"
+size = [0.04, 0.02, 0.02]
+divisions = [4, 2, 2]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[cut]]
+edge = [[0.02, 0.0, 0.0], [0.02, 0.0, 0.0]]
+sweep = [0.0, 0.0, 0.03]
+[run]
+duration = 1
+"#;
+    let e = raisov::scenario::Scenario::from_toml(bad, std::path::Path::new("cut.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cut[0]") && e.contains("no area"), "{e}");
+}

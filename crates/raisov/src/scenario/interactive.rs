@@ -401,6 +401,11 @@ pub trait FrameStepper {
     /// `Err`: the run ends ([`Error::Diverged`] is given the frame's time and the node's
     /// place by the run).
     fn frame(&mut self, k: usize, t: f64, values: &[[f64; 3]]) -> Result<Option<String>>;
+    /// Level 0 as cut ([`super::cuts`]), once a cut split an element; `None` (the default)
+    /// for a body never cut.
+    fn cut_mesh(&self) -> Option<&crate::mesh::cut::CutMesh> {
+        None
+    }
 }
 
 /// The stepper alone, with the budget of the module docs, and the frame predictor
@@ -479,10 +484,10 @@ pub fn run_interactive(
     let Some(settings) = sc.interactive else {
         return Err(err(&sc.path, "no [interactive] section"));
     };
-    if !sc.grasps.is_empty() || !sc.pins.is_empty() {
+    if !sc.grasps.is_empty() || !sc.pins.is_empty() || !sc.cuts.is_empty() {
         return Err(err(
             &sc.path,
-            "grasps and pins taken during the run are replayed through a Simulation: \
+            "grasps, pins and cuts taken during the run are replayed through a Simulation: \
              run the scenario with raisov::sim::replay::run_interactive",
         ));
     }
@@ -519,7 +524,9 @@ pub fn run_frames(
     let grasps = !sc.grasps.is_empty() || !sc.pins.is_empty();
     let out = OutDir::lock(sc, &opts)?;
     out.prepare(&sc.name)?;
-    let n = sc.mesh.num_nodes();
+    let mut n = sc.mesh.num_nodes();
+    // The cut body's mesh and cell data, from the first cut on ([`super::cuts`]).
+    let mut cut: Option<super::cuts::CutFrame> = None;
     // (A duration written as a whole number of frames over fps is that number of frames.)
     let frames_n = (duration(sc) * settings.fps - 1e-9).ceil().max(1.0) as usize;
     // The reference system, its solver and solution.
@@ -582,7 +589,7 @@ pub fn run_frames(
     };
     let mut pvd = PvdWriter::new(out.path(&format!("{}.pvd", sc.name)));
     let mut lag = vec![0.0; 3 * n];
-    let file_node_id: Option<Vec<i64>> = sc.output_node_ids();
+    let mut file_node_id: Option<Vec<i64>> = sc.output_node_ids();
     for k in 1..=frames_n {
         if opts
             .stop
@@ -621,10 +628,30 @@ pub fn run_frames(
             }
         }
         let wall = start.elapsed().as_secs_f64();
+        let recut = frames.cut_mesh().and_then(|cm| {
+            let same = cut.as_ref().is_some_and(|c| {
+                c.mesh.num_nodes() == cm.mesh().num_nodes()
+                    && c.mesh.num_elements() == cm.mesh().num_elements()
+            });
+            (!same).then(|| super::cuts::CutFrame::of(sc, cm))
+        });
+        if let Some(c) = recut {
+            // The body was cut: the frames carry its mesh from now on. The static reference
+            // is the uncut body's, so the lag is not measured after a cut.
+            n = c.mesh.num_nodes();
+            reference = None;
+            u_star = vec![0.0; 3 * n];
+            r = vec![0.0; 3 * n];
+            lag = vec![0.0; 3 * n];
+            free = vec![true; n];
+            file_node_id.clone_from(&c.file_ids);
+            surface_frames = None;
+            cut = Some(c);
+        }
         let stepper = frames.stepper();
         let total_steps = stepper.steps();
         let frame_evals = stepper.force_evaluations() - evals_before;
-        let mut reference_ok = settings.reference;
+        let mut reference_ok = reference.is_some();
         if let Some(reference) = reference.as_mut() {
             if rate_dependent {
                 // The equilibrium of the frame's internal state: the stepper's history, held
@@ -730,12 +757,16 @@ pub fn run_frames(
                     data: FieldData::Int(ids),
                 });
             }
+            let (mesh, cells) = match &cut {
+                Some(c) => (&c.mesh, c.cell_fields()),
+                None => (&sc.mesh, sc.cell_fields()),
+            };
             write_vtu_as(
                 &frames_dir.join(&file),
-                &sc.mesh,
-                &sc.mesh.nodes,
+                mesh,
+                &mesh.nodes,
                 &fields,
-                &sc.cell_fields(),
+                &cells,
                 sc.vtu,
             )?;
             pvd.add(t, &format!("frames/{file}"))?;

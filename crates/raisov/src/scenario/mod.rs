@@ -22,6 +22,7 @@
 //! multigrid's power-iteration start vector, the one place where an index chose a value, is
 //! keyed by the file's ids ([`crate::multigrid::Level::node_keys`]), not by the memory order.
 
+pub mod cuts;
 pub mod fibres;
 pub mod grasps;
 mod implicit;
@@ -232,6 +233,8 @@ pub struct Scenario {
     pub grasps: Vec<grasps::Grasp>,
     /// `[[pin]]`: the pins the interactive run takes ([`grasps`]), in file order.
     pub pins: Vec<grasps::Pin>,
+    /// `[[cut]]`: the cuts made during the run ([`cuts`]), in file order.
+    pub cuts: Vec<cuts::Cut>,
     /// `[mesh] surface`: the surface the levels were generated from, written with every
     /// frame ([`surface`]); `None` for other meshes.
     pub surface: Option<surface::VisualSurface>,
@@ -1095,11 +1098,13 @@ impl Scenario {
             interactive,
             grasps,
             pins,
+            cuts: cuts::resolve(&spec, path)?,
             surface: surface_levels.map(|sl| sl.visual),
             statics,
             implicit,
         };
         sc.check_model_loads()?;
+        cuts::check(&sc)?;
         // A reference file is read (and its numbers checked) now, not when the run needs it.
         if let Reference::File(p) = &sc.reference {
             run::read_nodal_stress(p, &sc)?;

@@ -464,13 +464,30 @@ pub fn read_nodal_stress(path: &Path, sc: &Scenario) -> Result<Vec<f64>> {
 }
 
 /// One row per node in file order, the `node` column its file id ([`Scenario::file_node`]).
-fn write_nodal_stress(path: &Path, sc: &Scenario, u: &[f64], t: &[f64]) -> Result<()> {
+/// A cut body (`copies`: each node of the scenario's mesh's copies, whose `u` and `t` these
+/// are) has a row per copy, in the order of the copies, each with its node's id: the stress
+/// of each lip averaged over its own side.
+fn write_nodal_stress(
+    path: &Path,
+    sc: &Scenario,
+    u: &[f64],
+    t: &[f64],
+    copies: Option<&[Vec<u32>]>,
+) -> Result<()> {
     let x0 = &sc.mesh.nodes;
     let at = mesh_index_of_file(sc.file_ids.as_deref(), x0.len());
+    let rows: Vec<(usize, usize)> = at
+        .iter()
+        .enumerate()
+        .flat_map(|(k, &o)| match copies {
+            Some(c) => c[o].iter().map(|&a| (k, a as usize)).collect::<Vec<_>>(),
+            None => vec![(k, o)],
+        })
+        .collect();
     write_atomic(path, |w| {
         writeln!(w, "node,x,y,z,ux,uy,uz,T00,T01,T02,T10,T11,T12,T20,T21,T22")?;
-        for (k, &a) in at.iter().enumerate() {
-            let p = x0[a];
+        for &(k, a) in &rows {
+            let p = x0[at[k]];
             let id = sc.node_labels.as_ref().map_or(k as u64, |l| l[k]);
             write!(
                 w,
@@ -511,6 +528,8 @@ struct Frames<'a> {
     /// Each point's node id in the mesh file, where the scenario renumbered the nodes.
     file_ids: Option<Vec<i64>>,
     surface: Option<SurfaceFrames<'a>>,
+    /// The cut body's mesh and cell data, from the first cut on ([`super::cuts`]).
+    cut: Option<super::cuts::CutFrame>,
 }
 
 impl<'a> Frames<'a> {
@@ -547,7 +566,29 @@ impl<'a> Frames<'a> {
             pressure: vec![0.0; n],
             areas: None,
             file_ids: sc.output_node_ids(),
+            cut: None,
         })
+    }
+
+    /// The body was cut: later frames carry the cut mesh (a series whose points and cells
+    /// change, each frame file complete in itself, as ParaView reads a PVD collection); the
+    /// visual surface, which would bridge the wound, is no longer written.
+    fn cut(&mut self, cut: super::cuts::CutFrame) {
+        let n = if self.dir.is_some() {
+            cut.mesh.num_nodes()
+        } else {
+            0
+        };
+        self.stress = vec![0.0; 9 * n];
+        self.contact = vec![0.0; 3 * n];
+        if !self.friction.is_empty() {
+            self.friction = vec![0.0; 3 * n];
+        }
+        self.pressure = vec![0.0; n];
+        self.areas = None;
+        self.file_ids.clone_from(&cut.file_ids);
+        self.surface = None;
+        self.cut = Some(cut);
     }
     fn write(&mut self, sc: &Scenario, stepper: &mut dyn Stepper) -> Result<()> {
         let Some(dir) = &self.dir else {
@@ -558,10 +599,11 @@ impl<'a> Frames<'a> {
         let contact = sys.force.contact_forces(&s.u, &mut self.contact);
         let friction =
             !self.friction.is_empty() && sys.force.friction_forces(&s.u, &mut self.friction);
+        let mesh = self.cut.as_ref().map_or(&sc.mesh, |c| &c.mesh);
         if contact {
             let areas = self
                 .areas
-                .get_or_insert_with(|| crate::contact::tributary_areas(&sc.mesh));
+                .get_or_insert_with(|| crate::contact::tributary_areas(mesh));
             crate::contact::nominal_pressure(&self.contact, areas, &mut self.pressure);
         }
         let file = format!("{}_{:06}.vtu", self.name, self.count);
@@ -601,12 +643,16 @@ impl<'a> Frames<'a> {
                 data: FieldData::Int(ids),
             });
         }
+        let cells = match &self.cut {
+            Some(c) => c.cell_fields(),
+            None => sc.cell_fields(),
+        };
         write_vtu_as(
             &dir.join(&file),
-            &sc.mesh,
-            &sc.mesh.nodes,
+            mesh,
+            &mesh.nodes,
             &fields,
-            &sc.cell_fields(),
+            &cells,
             self.format,
         )?;
         self.pvd.add(s.t, &format!("frames/{file}"))?;
@@ -651,6 +697,7 @@ pub fn run_with(
     };
     let mut meter = Meter::new(n, t_inf);
     let mut frames = Frames::new(sc, &out)?;
+    let mut cuts = super::cuts::RunCuts::new(sc);
     let mut rows = out.measures(sc.has_friction())?;
     let start = Instant::now();
     let dt = stepper.dt();
@@ -697,8 +744,23 @@ pub fn run_with(
             reason = StopReason::Interrupted;
             break;
         }
+        match cuts.make_due(sc, stepper.state().t, 1e-9 * dt, stepper) {
+            Ok(true) => {
+                let cut = super::cuts::CutFrame::of(sc, cuts.level0().expect("a cut was made"));
+                // |T − T∞| compares with the uncut body's nodes: not measured after a cut.
+                meter = Meter::new(cut.mesh.num_nodes(), None);
+                frames.cut(cut);
+            }
+            Ok(false) => {}
+            Err(e) => {
+                result = Err(e);
+                break;
+            }
+        }
         if let Err(mut d) = stepper.advance() {
-            sc.locate(&mut d);
+            if frames.cut.is_none() {
+                sc.locate(&mut d);
+            }
             result = Err(Error::Diverged(d));
             break;
         }
@@ -755,12 +817,13 @@ pub fn run_with(
     let wall = start.elapsed().as_secs_f64();
     result?;
     let stress_path = out.path("nodal_stress.csv");
+    let copies = frames.cut.as_ref().map(|c| &c.copies[..]);
     let applied = {
         let (sys, s) = stepper.finest();
         if out.dir().is_some() {
-            let mut t = vec![0.0; 9 * n];
+            let mut t = vec![0.0; s.u.len() * 3];
             sys.force.nodal_stress(&s.u, &mut t);
-            write_nodal_stress(&stress_path, sc, &s.u, &t)?;
+            write_nodal_stress(&stress_path, sc, &s.u, &t, copies)?;
         }
         let mut v = sys.force.load_report(&s.u).applied;
         for (i, f) in sys.f_ext.iter().enumerate() {
@@ -771,8 +834,11 @@ pub fn run_with(
     let summary = RunSummary {
         name: sc.name.clone(),
         stepper: stepper.describe(),
-        nodes: n,
-        elements: sc.mesh.num_elements(),
+        nodes: frames.cut.as_ref().map_or(n, |c| c.mesh.num_nodes()),
+        elements: frames
+            .cut
+            .as_ref()
+            .map_or(sc.mesh.num_elements(), |c| c.mesh.num_elements()),
         steps: stepper.steps(),
         simulated: last.time,
         wall,

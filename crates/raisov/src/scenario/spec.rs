@@ -156,6 +156,16 @@
 //! radius = 0.01                   # m, default 0
 //! start = 0.8                     # s, default 0
 //!
+//! [[cut]]                         # a scalpel's cut (crate::mesh::cut, every level): the
+//!                                 # elements the blade crosses split along it, the wound's
+//!                                 # faces free; tetrahedra, explicit integrators or FAS
+//!                                 # (scenario::cuts)
+//! time = 0.5                      # s, default 0: before the first step (the first frame, in an
+//!                                 # interactive run) at or after it
+//! edge = [[0.02, -0.01, 0.05], [0.02, 0.05, 0.05]]  # m: the blade's edge ...
+//! sweep = [0.0, 0.0, -0.03]       # m: ... swept along this, giving the quad edge, edge + sweep
+//! # quad = [[..], [..], [..], [..]]  # m: or the blade's quad itself (planar, convex, in order)
+//!
 //! [[pressure]]                    # follower pressure on surface triangles (crate::fem::loads):
 //! group = "zmax"                  # the boundary triangles (tets) or elements (membranes) whose
 //!                                 # three nodes are in this group, or
@@ -849,6 +859,9 @@ pub struct ScenarioSpec {
     /// `[[pin]]`: pins taken during an interactive run (what the viewer records).
     #[serde(default)]
     pub pin: Vec<PinSpec>,
+    /// `[[cut]]`: cuts made during the run.
+    #[serde(default)]
+    pub cut: Vec<CutSpec>,
     /// `[[pressure]]`: follower pressures on surface triangles.
     #[serde(default)]
     pub pressure: Vec<SurfaceLoadSpec>,
@@ -1317,6 +1330,20 @@ pub struct PinSpec {
     /// `start`: the path time (s) at which the pin is taken, held where the patch stands;
     /// default 0.
     pub start: Option<f64>,
+}
+
+/// `[[cut]]`: a cut made during the run ([`crate::scenario::cuts`]).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CutSpec {
+    /// `time` (s): made before the first step (frame) at or after it; default 0.
+    pub time: Option<f64>,
+    /// `edge`: the blade's edge (m), swept along `sweep`.
+    pub edge: Option<[[f64; 3]; 2]>,
+    /// `sweep` (m): how the edge moves; the blade is the quad `a, b, b + sweep, a + sweep`.
+    pub sweep: Option<[f64; 3]>,
+    /// `quad`: the blade's quad itself (m), instead of `edge` and `sweep`.
+    pub quad: Option<[[f64; 3]; 4]>,
 }
 
 /// `[integrator]`: the time integrator, or the static solve.

@@ -99,6 +99,15 @@ impl Simulation {
             .unwrap_or_default()
     }
 
+    /// Level 0 as cut ([`crate::mesh::cut::CutMesh`]: each node's and element's origin in the
+    /// uncut mesh), once a cut split an element.
+    pub fn cut_mesh(&self) -> Option<&crate::mesh::cut::CutMesh> {
+        self.cuts
+            .as_ref()
+            .map(|c| &c.hierarchy.levels()[0])
+            .filter(|l| l.is_cut())
+    }
+
     /// Level 0's material fraction per element (1 for an element no cut split).
     pub fn material_fractions(&self) -> Vec<f64> {
         match &self.cuts {

@@ -22,7 +22,7 @@ pub fn run_interactive(
     mut stepper: Box<dyn Stepper>,
     opts: RunOptions,
 ) -> Result<InteractiveSummary> {
-    if sc.grasps.is_empty() && sc.pins.is_empty() {
+    if sc.grasps.is_empty() && sc.pins.is_empty() && sc.cuts.is_empty() {
         return interactive::run_interactive(sc, stepper.as_mut(), opts);
     }
     let mut replay = Replay::new(sc, stepper)?;
@@ -35,6 +35,7 @@ pub struct Replay {
     path: PathBuf,
     grasps: Vec<Grasp>,
     pins: Vec<Pin>,
+    cuts: Vec<crate::scenario::cuts::Cut>,
     fps: f64,
     budget: Budget,
     /// Per grasp, while held: its id and grasp point `g`.
@@ -67,6 +68,7 @@ impl Replay {
             path: sc.path.clone(),
             grasps: sc.grasps.clone(),
             pins: sc.pins.clone(),
+            cuts: sc.cuts.clone(),
             fps: settings.fps,
             budget,
             held: vec![None; sc.grasps.len()],
@@ -102,6 +104,10 @@ impl FrameStepper for Replay {
         &mut *self.sim.stepper
     }
 
+    fn cut_mesh(&self) -> Option<&crate::mesh::cut::CutMesh> {
+        self.sim.cut_mesh()
+    }
+
     fn frame(&mut self, k: usize, t: f64, values: &[[f64; 3]]) -> Result<Option<String>> {
         self.sim.stepper.hold_prescribed(values);
         let path = &self.path;
@@ -111,6 +117,11 @@ impl FrameStepper for Replay {
             msg: format!("{what}: at t = {} s (frame {k}): {e}", compact(t)),
         };
         let fps = self.fps;
+        for c in self.cuts.iter().filter(|c| frame_of(c.time, fps) == k) {
+            self.sim
+                .cut(&c.blade)
+                .map_err(|e| at(format!("cut[{}]", c.index), e))?;
+        }
         let mut released = false;
         for (g, held) in self.grasps.iter().zip(&mut self.held) {
             if g.release.is_some_and(|r| frame_of(r, fps) == k) {

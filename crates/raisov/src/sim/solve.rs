@@ -168,7 +168,7 @@ pub fn solve_with(
             Vec::new(),
         ));
     }
-    if sc.grasps.is_empty() && sc.pins.is_empty() {
+    if sc.grasps.is_empty() && sc.pins.is_empty() && sc.cuts.is_empty() {
         let summary = interactive::run_interactive(sc, stepper.as_mut(), opts)?;
         return Ok(finish(
             Finished::Interactive(summary),
@@ -195,7 +195,7 @@ fn finish(
     sc: &Scenario,
     grasp_forces: Vec<Option<[f64; 3]>>,
 ) -> Solution {
-    let n = sc.mesh.num_nodes();
+    let _ = sc;
     // A static solve counts its Newton steps (as its `measures.csv` does).
     let (steps, evals) = match &finished {
         Finished::Static(s) => (
@@ -205,6 +205,8 @@ fn finish(
         _ => (stepper.steps(), stepper.force_evaluations()),
     };
     let (sys, s) = stepper.finest();
+    // The finest level's node count: the scenario's mesh's, or more after a cut.
+    let n = sys.num_nodes();
     let mut last = Meter::new(n, None).sample(sys, s, steps);
     last.force_evals = evals;
     last.wall = finished.wall();

@@ -280,7 +280,7 @@ pub fn run_static_keeping(
         if out.dir().is_some() {
             let mut tn = vec![0.0; 9 * n];
             sys.force.nodal_stress(&s.u, &mut tn);
-            write_nodal_stress(&out.path("nodal_stress.csv"), sc, &s.u, &tn)?;
+            write_nodal_stress(&out.path("nodal_stress.csv"), sc, &s.u, &tn, None)?;
         }
         let mut v = sys.force.load_report(&s.u).applied;
         for (i, f) in sys.f_ext.iter().enumerate() {

@@ -55,6 +55,10 @@ enum BenchSuite {
     /// and 1/1000 s against central differences (`raisov_lab::bench::implicit`; --quick:
     /// without 1/1000 s).
     Implicit,
+    /// Cutting: one 3 cm cut across the liver L0 hierarchy (its time, the frame rate before
+    /// and after) and 1 000 random cuts on the liver L1 hierarchy with gravity and a grasp
+    /// (failures counted; `raisov_lab::bench::cut`; --quick: 100 cuts).
+    Cut,
     /// The frame benchmark of the interactive loop: frames/s, lag to each frame's static
     /// equilibrium and force evaluations per frame on the liver and heart hierarchies,
     /// grasped and pulled (`raisov_lab::bench::frames`; --quick: neo-Hookean, patch grasps,
@@ -455,6 +459,18 @@ fn real_main(cli: Cli) -> Result<i32> {
         } => on_pool(|| {
             let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
             raisov_lab::bench::implicit(&meshes, quick, &mut |line| println!("{line}"))
+                .map_err(BadInput)
+                .with_context(|| format!("the liver meshes from {}", meshes.display()))?;
+            Ok(0)
+        }),
+        Cmd::Bench {
+            suite: Some(BenchSuite::Cut),
+            quick,
+            meshes,
+            ..
+        } => on_pool(|| {
+            let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
+            raisov_lab::bench::cut::cut(&meshes, quick, &mut |line| println!("{line}"))
                 .map_err(BadInput)
                 .with_context(|| format!("the liver meshes from {}", meshes.display()))?;
             Ok(0)

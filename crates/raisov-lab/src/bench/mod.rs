@@ -54,6 +54,7 @@
 //! roofline bookkeeping, so they stay in one file.
 
 mod api;
+pub mod cut;
 pub mod frames;
 mod implicit;
 pub use api::api;

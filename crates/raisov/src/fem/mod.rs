@@ -371,6 +371,9 @@ pub struct FemModel {
     elem_forces: Vec<f64>,
     /// Packed neo-Hookean tetrahedra (the fast path), if the model qualifies.
     pack: Option<packed::TetPack>,
+    /// With `pack`, the elements of a cut mesh that hold part of their tetrahedron: their
+    /// forces come from the generic path, added after the pack's (ascending).
+    partial: Vec<u32>,
     /// Node rows the packed kernel reads in [`FemModel::internal_forces`], filled from `u`
     /// at each force pass: `X + u` (positions kernel, f64 storage) or `u` (f32 storage).
     /// Empty without `pack`. (The fused step keeps its rows in its [`FusedState`].)
@@ -524,14 +527,50 @@ impl FemModel {
             "node id out of range"
         );
         // The packed kernels take an element's volume from `det Dm⁻¹` in their volumetric
-        // term, so a cut mesh's fractions run on the generic path.
+        // term: the elements of a cut mesh that hold part of their tetrahedron (fraction
+        // below 1) run on the generic path beside the pack of the whole ones.
+        let partial: Vec<u32> = match &params.fractions {
+            Some(f) => (0..ne as u32).filter(|&e| f[e as usize] < 1.0).collect(),
+            None => Vec::new(),
+        };
         let pack = match (&params.material, mesh.kind) {
-            (Material::NeoHookean(m), ElementKind::Tet4) if params.fractions.is_none() => {
+            (Material::NeoHookean(m), ElementKind::Tet4) if partial.len() < ne => {
+                let mut whole = vec![true; ne];
+                for &e in &partial {
+                    whole[e as usize] = false;
+                }
+                let keep = |stride: usize, v: &[f64]| -> Vec<f64> {
+                    v.chunks_exact(stride)
+                        .zip(&whole)
+                        .filter(|(_, &w)| w)
+                        .flat_map(|(c, _)| c.iter().copied())
+                        .collect()
+                };
+                let (cells, dminv, measure) = if partial.is_empty() {
+                    (
+                        std::borrow::Cow::Borrowed(&mesh.cells[..]),
+                        std::borrow::Cow::Borrowed(&dminv[..]),
+                        std::borrow::Cow::Borrowed(&measure[..]),
+                    )
+                } else {
+                    let cells: Vec<u32> = mesh
+                        .cells
+                        .chunks_exact(4)
+                        .zip(&whole)
+                        .filter(|(_, &w)| w)
+                        .flat_map(|(c, _)| c.iter().copied())
+                        .collect();
+                    (
+                        std::borrow::Cow::Owned(cells),
+                        std::borrow::Cow::Owned(keep(9, &dminv)),
+                        std::borrow::Cow::Owned(keep(1, &measure)),
+                    )
+                };
                 Some(packed::TetPack::new(
                     m.mu,
                     m.lambda,
                     &x0,
-                    &mesh.cells,
+                    &cells,
                     &dminv,
                     &measure,
                     params.slab.max(1),
@@ -540,6 +579,7 @@ impl FemModel {
             }
             _ => None,
         };
+        let partial = if pack.is_some() { partial } else { Vec::new() };
         let elem_forces = if pack.is_some() {
             Vec::new()
         } else {
@@ -568,6 +608,7 @@ impl FemModel {
                 vec![0.0; 3 * n]
             },
             pack,
+            partial,
             visco: match &params.material {
                 Material::NeoHookeanVisco(m) => Some(visco::Visco::new(m.clone(), ne)),
                 _ => None,
@@ -1089,11 +1130,20 @@ impl ForceModel for FemModel {
             packed::fill_rows(&mut self.rows, u, &self.x0, p.reads_positions());
             let ok = p.accumulate(&self.rows, &mut self.acc);
             packed::drain_rows(&mut self.acc, r);
-            return if ok {
-                Ok(())
-            } else {
-                Err(self.fast_failure(u))
-            };
+            if !ok {
+                return Err(self.fast_failure(u));
+            }
+            let mut out = [0.0; 12];
+            for &e in &self.partial {
+                let e = e as usize;
+                self.element_forces(e, u, &mut out)?;
+                for (j, &a) in self.cells[4 * e..4 * e + 4].iter().enumerate() {
+                    for k in 0..3 {
+                        r[3 * a as usize + k] += out[3 * j + k];
+                    }
+                }
+            }
+            return Ok(());
         }
         let npe = self.npe();
         let chunk = self.params.chunk.max(1);

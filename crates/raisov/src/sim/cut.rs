@@ -50,6 +50,10 @@ pub struct CutReport {
     /// Wall time of the cut (s): every level cut, the links, the stepper and the simulation
     /// carried over.
     pub seconds: f64,
+    /// Of which: the levels cut and the links carried ([`crate::hierarchy::cut`]).
+    pub levels_seconds: f64,
+    /// Of which: the stepper carried to the cut levels ([`crate::integrate::Stepper::cut`]).
+    pub stepper_seconds: f64,
 }
 
 impl Simulation {
@@ -64,6 +68,7 @@ impl Simulation {
             None => self.cut_state()?,
         };
         let saved = state.hierarchy.clone();
+        let t0 = std::time::Instant::now();
         let hc = match state.hierarchy.cut(blade) {
             Ok(hc) => hc,
             Err(e) => {
@@ -73,8 +78,13 @@ impl Simulation {
             }
         };
         let split = hc.levels.iter().map(|l| l.split).collect();
+        let levels_seconds = t0.elapsed().as_secs_f64();
+        let t1 = std::time::Instant::now();
+        let mut stepper_seconds = 0.0;
         if !hc.is_identity() {
-            if let Err(e) = self.stepper.cut(&hc) {
+            let cut = self.stepper.cut(&hc);
+            stepper_seconds = t1.elapsed().as_secs_f64();
+            if let Err(e) = cut {
                 state.hierarchy = saved;
                 self.cuts = Some(state);
                 self.constraints_changed();
@@ -88,6 +98,8 @@ impl Simulation {
             nodes: self.mesh.num_nodes(),
             elements: self.mesh.num_elements(),
             seconds: start.elapsed().as_secs_f64(),
+            levels_seconds,
+            stepper_seconds,
         })
     }
 

@@ -218,7 +218,7 @@ impl FemModel {
             assert!(f.len() == 3 * n, "f_ext: 3 per node");
         }
         assert!(inv_mass.len() == n && fixed.len() == n);
-        let Some(p) = &self.pack else {
+        let Some(p) = self.pack.as_ref().filter(|_| self.partial.is_empty()) else {
             return self.step_generic(s, load, inv_mass, fixed, alpha, dt);
         };
         let positions = p.reads_positions();

@@ -297,3 +297,44 @@ fn the_cut_surface_closes_around_the_material() {
     let open = edges.values().filter(|&&v| v != 0).count();
     assert_eq!(open, 0, "{open} edges are not closed");
 }
+
+#[test]
+fn a_cut_neo_hookean_model_keeps_its_whole_elements_packed_and_its_forces() {
+    use crate::fem::{FemModel, FemParams, ForceModel};
+    use crate::material::{Material, NeoHookean};
+    let mut c = block();
+    c.cut(&through(0.0213)).unwrap();
+    let mut p = FemParams::new(Material::NeoHookean(NeoHookean::from_young(5e3, 0.45)));
+    p.fractions = Some(c.fractions().to_vec().into());
+    let mut fem = FemModel::new(c.mesh(), p).unwrap();
+    assert!(
+        fem.fast_path().is_some(),
+        "the whole elements stay on the packed kernel"
+    );
+    let n = c.mesh().num_nodes();
+    let u: Vec<f64> = (0..3 * n)
+        .map(|i| 1e-4 * ((i * 7 % 13) as f64 - 6.0))
+        .collect();
+    let mut r = vec![0.0; 3 * n];
+    fem.internal_forces(&u, &mut r).unwrap();
+    // Against every element's own forces, summed.
+    let mut sum = vec![0.0; 3 * n];
+    for e in 0..c.mesh().num_elements() {
+        let f = fem.element_forces_of(e, &u).unwrap();
+        for (j, &a) in c.mesh().cells[4 * e..4 * e + 4].iter().enumerate() {
+            for k in 0..3 {
+                sum[3 * a as usize + k] += f[3 * j + k];
+            }
+        }
+    }
+    let scale = sum.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = r
+        .iter()
+        .zip(&sum)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        diff <= 1e-12 * scale,
+        "packed and partial forces {diff} off (scale {scale})"
+    );
+}

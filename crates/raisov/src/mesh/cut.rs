@@ -253,6 +253,9 @@ pub struct EmbeddedSurface {
     pub points: Vec<(u32, [f64; 4])>,
     /// Triangles, outward.
     pub triangles: Vec<[u32; 3]>,
+    /// The cut mesh's boundary faces, whole (every face no other element shares, the
+    /// copies' included), outward: [`Mesh::surface_triangles`] of the cut mesh.
+    pub boundary: Vec<[u32; 3]>,
 }
 
 impl EmbeddedSurface {
@@ -907,18 +910,26 @@ impl CutMesh {
             nodes: m.num_nodes(),
             points: Vec::new(),
             triangles: Vec::new(),
+            boundary: Vec::new(),
         };
         for (e, el) in m.cells.chunks_exact(4).enumerate() {
+            for (f, c) in FACE.iter().enumerate() {
+                if boundary[4 * e + f] {
+                    let (a, b, d) = (el[c[0]], el[c[1]], el[c[2]]);
+                    // FACE[f] points away from corner f for even f; flip the odd ones.
+                    out.boundary
+                        .push(if f % 2 == 0 { [a, b, d] } else { [a, d, b] });
+                }
+            }
             if self.sides[e].is_empty() {
                 // A whole element: its boundary faces, outward.
-                for (f, c) in FACE.iter().enumerate() {
-                    if boundary[4 * e + f] {
-                        let (a, b, d) = (el[c[0]], el[c[1]], el[c[2]]);
-                        // FACE[f] points away from corner f for even f; flip the odd ones.
-                        out.triangles
-                            .push(if f % 2 == 0 { [a, b, d] } else { [a, d, b] });
-                    }
-                }
+                let k = out.boundary.len();
+                let faces = FACE
+                    .iter()
+                    .enumerate()
+                    .filter(|&(f, _)| boundary[4 * e + f])
+                    .count();
+                out.triangles.extend_from_slice(&out.boundary[k - faces..k]);
                 continue;
             }
             let p = self.material(self.element[e] as usize, &self.sides[e]);

@@ -170,7 +170,7 @@ impl Simulation {
         self.mass = sys.mass.clone();
         self.f_ext = sys.f_ext.clone();
         self.own = (0..n).map(|a| sys.constraints.is_constrained(a)).collect();
-        self.surface = self.mesh.surface_triangles();
+
         self.positions = vec![[0.0; 3]; n];
         self.r = vec![0.0; 3 * n];
         self.stress = None;
@@ -226,8 +226,10 @@ impl Simulation {
         }
         // The drawn surface: the cut body's own (a visual surface would bridge the wound).
         self.visual = None;
+        let surface = state.hierarchy.levels()[0].surface();
+        self.surface.clone_from(&surface.boundary);
         self.embedded = Some(Embedded {
-            surface: state.hierarchy.levels()[0].surface(),
+            surface,
             positions: Vec::new(),
         });
         // The grasps and pins on the new nodes; the caches at the carried state.

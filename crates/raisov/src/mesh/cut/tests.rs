@@ -338,3 +338,18 @@ fn a_cut_neo_hookean_model_keeps_its_whole_elements_packed_and_its_forces() {
         "packed and partial forces {diff} off (scale {scale})"
     );
 }
+
+#[test]
+fn the_cut_surfaces_boundary_is_the_cut_meshs_boundary() {
+    let mut c = block();
+    c.cut(&through(0.0213)).unwrap();
+    let canon = |t: &[u32; 3]| {
+        let i = (0..3).min_by_key(|&i| t[i]).unwrap();
+        [t[i], t[(i + 1) % 3], t[(i + 2) % 3]]
+    };
+    let mut a: Vec<_> = c.surface().boundary.iter().map(canon).collect();
+    let mut b: Vec<_> = c.mesh().surface_triangles().iter().map(canon).collect();
+    a.sort_unstable();
+    b.sort_unstable();
+    assert_eq!(a, b);
+}

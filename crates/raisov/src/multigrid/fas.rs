@@ -948,42 +948,20 @@ impl Stepper for Fas {
     /// Every level cut and the cycle rebuilt on the cut levels (its spectral estimates made
     /// again), the states carried, the counters kept.
     fn cut(&mut self, cut: &crate::hierarchy::cut::HierarchyCut) -> crate::Result<()> {
-        if cut.levels.len() != self.levels.len() || cut.links.len() != self.links.len() {
-            return Err(crate::Error::param(
-                "cut",
-                format!(
-                    "the cut has {} levels for FAS's {}",
-                    cut.levels.len(),
-                    self.levels.len()
-                ),
-            ));
-        }
         self.set_runtime_constraints(&RuntimeConstraints::default());
         let mut levels = std::mem::take(&mut self.levels);
-        let mut failed = None;
-        for (l, (lv, ch)) in levels.iter_mut().zip(&cut.levels).enumerate() {
-            if let Err(e) = lv.sys.cut(ch) {
-                failed = Some(e);
-                break;
-            }
-            if l > 0 {
-                // `Fas::new` turned the coarse fixed regions into held points: back to fixed,
-                // as it takes them.
-                let c = &lv.sys.constraints;
-                let fixed = c.prescribed.iter().map(|(a, _)| *a).collect();
-                lv.sys.constraints = Constraints::new(fixed, vec![])
-                    .with_sliding(c.sliding())
-                    .with_nodes(ch.mesh.num_nodes());
-            }
-            lv.state.u = ch.carry(&lv.state.u, 3);
-            lv.state.v = ch.carry(&lv.state.v, 3);
-            lv.integrator = lv.integrator.method().build(ch.mesh.num_nodes());
-            lv.node_keys = lv.node_keys.as_ref().map(|k| ch.carry(k, 1));
-            lv.mesh = ch.mesh.clone();
-        }
-        if let Some(e) = failed {
+        if let Err(e) = super::cut_levels(&mut levels, cut) {
             self.levels = levels;
             return Err(e);
+        }
+        for lv in levels.iter_mut().skip(1) {
+            // `Fas::new` turned the coarse fixed regions into held points: back to fixed,
+            // as it takes them.
+            let c = &lv.sys.constraints;
+            let fixed = c.prescribed.iter().map(|(a, _)| *a).collect();
+            lv.sys.constraints = Constraints::new(fixed, vec![])
+                .with_sliding(c.sliding())
+                .with_nodes(lv.num_nodes());
         }
         let mut next = Fas::new(levels, cut.links.clone(), self.params.clone());
         next.steps = self.steps;

@@ -66,6 +66,43 @@ impl Level {
     pub fn num_nodes(&self) -> usize {
         self.mesh.num_nodes()
     }
+
+    /// Carry the level to its cut mesh (`change`): the system ([`System::cut`]), the state
+    /// (each new node a copy of its node), the integrator, the node keys and the mesh.
+    pub fn cut(&mut self, change: &crate::mesh::cut::TopologyChange) -> crate::Result<()> {
+        self.sys.cut(change)?;
+        let n = change.mesh.num_nodes();
+        self.state.u = change.carry(&self.state.u, 3);
+        self.state.v = change.carry(&self.state.v, 3);
+        self.integrator = self.integrator.method().build(n);
+        self.node_keys = self.node_keys.as_ref().map(|k| change.carry(k, 1));
+        self.mesh = change.mesh.clone();
+        Ok(())
+    }
+}
+
+/// Carry every level of a multigrid stepper to its cut mesh ([`Level::cut`]); an error for
+/// a cut of another number of levels. On an error the levels cut so far stay cut: the
+/// stepper is not to be stepped again (a force model that cannot be cut refuses on the
+/// first level, before anything changed).
+pub(crate) fn cut_levels(
+    levels: &mut [Level],
+    cut: &crate::hierarchy::cut::HierarchyCut,
+) -> crate::Result<()> {
+    if cut.levels.len() != levels.len() || cut.links.len() + 1 != levels.len() {
+        return Err(crate::Error::param(
+            "cut",
+            format!(
+                "the cut has {} levels for the stepper's {}",
+                cut.levels.len(),
+                levels.len()
+            ),
+        ));
+    }
+    for (lv, ch) in levels.iter_mut().zip(&cut.levels) {
+        lv.cut(ch)?;
+    }
+    Ok(())
 }
 
 /// A node field read by the host sums, one 3-vector per node: a stored vector, or the

@@ -515,6 +515,24 @@ impl Stepper for Raisov {
     fn switch_counts(&self) -> Option<SwitchCounts> {
         Some(self.switches)
     }
+    fn level_links(&self) -> Option<&[crate::hierarchy::Correspondence]> {
+        Some(&self.links)
+    }
+    /// Every level cut and the cycle started again on the cut levels (`X_(n−1)` the carried
+    /// state, as at the start of a run), the counters kept.
+    fn cut(&mut self, cut: &crate::hierarchy::cut::HierarchyCut) -> crate::Result<()> {
+        self.set_runtime_constraints(&RuntimeConstraints::default());
+        let mut levels = std::mem::take(&mut self.levels);
+        if let Err(e) = super::cut_levels(&mut levels, cut) {
+            self.levels = levels;
+            return Err(e);
+        }
+        let mut next = Raisov::new(levels, cut.links.clone(), self.params);
+        next.steps = self.steps;
+        next.switches = self.switches;
+        *self = next;
+        Ok(())
+    }
     fn level_mesh(&self, level: usize) -> Option<&crate::mesh::Mesh> {
         self.levels.get(level).map(|l| &l.mesh)
     }

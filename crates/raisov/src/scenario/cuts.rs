@@ -5,12 +5,12 @@
 //! time, and before frame `k(s)` ([`super::grasps::frame_of`]) in an interactive run, before
 //! that frame's grasps and pins; cuts of the same step or frame in file order. The blade is
 //! `quad`, or `edge` swept along `sweep`. What a cut needs: a tetrahedral mesh, a run in time
-//! or an interactive run on the explicit integrators or FAS (`scheme = "fas"`), and no
+//! or an interactive run on the explicit integrators or a multigrid cycle (FAS, RaISoV), and no
 //! pressure, traction, timed load or tool (their surfaces and nodes are not carried through
 //! a cut); anything else is refused when the scenario loads.
 
 use super::spec::{CutSpec, ScenarioSpec};
-use super::{err, MultigridScheme, Scenario};
+use super::{err, Scenario};
 use crate::mesh::cut::Blade;
 use crate::mesh::ElementKind;
 use crate::numbers::compact;
@@ -81,11 +81,6 @@ pub(super) fn check(sc: &Scenario) -> Result<()> {
     }
     if sc.implicit.is_some() {
         return refuse("the implicit schemes do not cut yet: use an explicit integrator or [multigrid] scheme = \"fas\"");
-    }
-    if let Some(mg) = &sc.multigrid {
-        if matches!(mg.scheme, MultigridScheme::RaisovPaper(_)) {
-            return refuse("RaISoV (the paper's cycle) does not cut: use [multigrid] scheme = \"fas\" or a single level");
-        }
     }
     if !sc.surface_loads.is_empty() || !sc.timed_load.is_empty() || !sc.tools.is_empty() {
         return refuse("pressure, traction, timed loads and tools are not carried through a cut yet: remove them, or the cuts");

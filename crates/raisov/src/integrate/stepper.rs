@@ -147,7 +147,7 @@ pub trait Stepper: Send {
         Err(crate::Error::param(
             "cut",
             format!(
-                "{} cannot cut the body: cutting runs on a single level's explicit integrators and on the multigrid cycles (FAS, RaISoV)",
+                "{} cannot cut the body: cutting runs on the explicit and implicit integrators and the multigrid cycles (FAS, RaISoV)",
                 self.describe()
             ),
         ))

@@ -5,7 +5,7 @@
 //! time, and before frame `k(s)` ([`super::grasps::frame_of`]) in an interactive run, before
 //! that frame's grasps and pins; cuts of the same step or frame in file order. The blade is
 //! `quad`, or `edge` swept along `sweep`. What a cut needs: a tetrahedral mesh, a run in time
-//! or an interactive run on the explicit integrators or a multigrid cycle (FAS, RaISoV), and no
+//! or an interactive run (explicit or implicit integrators, FAS, RaISoV), and no
 //! pressure, traction, timed load or tool (their surfaces and nodes are not carried through
 //! a cut); anything else is refused when the scenario loads.
 
@@ -78,9 +78,6 @@ pub(super) fn check(sc: &Scenario) -> Result<()> {
     }
     if sc.statics.is_some() {
         return refuse("a static solve (method = \"newton\") has no time to cut at: use a run in time or an [interactive] section");
-    }
-    if sc.implicit.is_some() {
-        return refuse("the implicit schemes do not cut yet: use an explicit integrator or [multigrid] scheme = \"fas\"");
     }
     if !sc.surface_loads.is_empty() || !sc.timed_load.is_empty() || !sc.tools.is_empty() {
         return refuse("pressure, traction, timed loads and tools are not carried through a cut yet: remove them, or the cuts");

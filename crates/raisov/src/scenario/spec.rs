@@ -158,7 +158,7 @@
 //!
 //! [[cut]]                         # a scalpel's cut (crate::mesh::cut, every level): the
 //!                                 # elements the blade crosses split along it, the wound's
-//!                                 # faces free; tetrahedra, explicit integrators, FAS or RaISoV
+//!                                 # faces free; tetrahedra, runs in time or interactive
 //!                                 # (scenario::cuts)
 //! time = 0.5                      # s, default 0: before the first step (the first frame, in an
 //!                                 # interactive run) at or after it

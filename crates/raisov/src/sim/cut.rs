@@ -59,7 +59,7 @@ pub struct CutReport {
 impl Simulation {
     /// Cut the body with `blade` on every level (module docs); returns what it split. A blade
     /// that misses the body changes nothing. Errors, with nothing changed: a membrane, a
-    /// stepper that cannot cut (the implicit schemes), a force model that cannot be
+    /// stepper that cannot cut, a force model that cannot be
     /// cut (pressure, traction, timed loads, tools).
     pub fn cut(&mut self, blade: &Blade) -> Result<CutReport> {
         let start = std::time::Instant::now();

@@ -691,6 +691,40 @@ impl Stepper for ImplicitEuler {
     fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
         OwnConstraints::apply_runtime(&mut self.own, &mut self.sys, &mut self.state, c);
     }
+    /// Level 0 carried to its cut mesh, the Newton solver built again on it by sparse
+    /// Cholesky (the multigrid preconditioner's coarse level is not cut: a cut body's steps
+    /// are solved directly), BDF2's previous step carried as the state is.
+    fn cut(&mut self, cut: &crate::hierarchy::cut::HierarchyCut) -> crate::Result<()> {
+        let Some(ch) = cut.levels.first() else {
+            return Ok(());
+        };
+        self.set_runtime_constraints(&RuntimeConstraints::default());
+        self.own = None;
+        self.sys.cut(ch)?;
+        let n = ch.mesh.num_nodes();
+        self.down.clear();
+        self.params.multigrid = None;
+        self.solver = build_solver(&self.sys, &self.down)
+            .map_err(|e| crate::Error::param("cut", e.to_string()))?;
+        self.key = PatternKey::of(&self.sys);
+        self.state.u = ch.carry(&self.state.u, 3);
+        self.state.v = ch.carry(&self.state.v, 3);
+        if !self.prev.0.is_empty() {
+            self.prev = (ch.carry(&self.prev.0, 3), ch.carry(&self.prev.1, 3));
+        }
+        self.springs = Vec::with_capacity(n);
+        self.u = vec![0.0; 3 * n];
+        self.scratch = vec![0.0; 3 * n];
+        if !self.base.is_empty() {
+            self.base = vec![0.0; 3 * n];
+        }
+        if self.params.beta > 0.0 {
+            self.frozen = stiffness::FrozenStiffness::for_model(&*self.sys.force)
+                .map_err(|e| crate::Error::param("cut", e.to_string()))?;
+        }
+        self.solved_he = 0.0;
+        Ok(())
+    }
     fn save(&self, cp: &mut Checkpoint) {
         let mut w = cp.writer();
         w.state(&self.state);

@@ -963,7 +963,7 @@ impl Stepper for Fas {
                 .with_sliding(c.sliding())
                 .with_nodes(lv.num_nodes());
         }
-        let mut next = Fas::new(levels, cut.links.clone(), self.params.clone());
+        let mut next = Fas::new(levels, cut.links.clone(), self.params);
         next.steps = self.steps;
         next.fallbacks = self.fallbacks;
         next.dropped_corrections = self.dropped_corrections;

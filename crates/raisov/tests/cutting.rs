@@ -669,3 +669,53 @@ duration = 0.05
         .fold(f64::INFINITY, f64::min);
     assert!(low < -1e-3, "the cut-off half fell {low} m");
 }
+
+#[test]
+fn the_wounds_faces_carry_no_traction_and_each_lip_averages_its_own_stress() {
+    use raisov::fem::ForceModel;
+    let (fine, _, blade) = notched_levels();
+    let mut cut = CutMesh::new(fine.clone()).unwrap();
+    cut.cut(&blade).unwrap();
+    let stress = |mesh: &Mesh, fractions: Option<&[f64]>| {
+        let mut sys = cantilever(mesh, fractions);
+        let u = equilibrium(&mut sys);
+        let mut t = vec![0.0; 9 * mesh.num_nodes()];
+        sys.force.nodal_stress(&u, &mut t);
+        t
+    };
+    let t_cut = stress(cut.mesh(), Some(cut.fractions()));
+    let t_whole = stress(&fine, None);
+    // The wound's nodes: the base nodes with more than one copy, in the top half.
+    let mut copies = vec![Vec::new(); fine.num_nodes()];
+    for (a, &o) in cut.base_nodes().iter().enumerate() {
+        copies[o as usize].push(a);
+    }
+    let lips: Vec<usize> = (0..fine.num_nodes())
+        .filter(|&o| copies[o].len() > 1 && fine.nodes[o][2] > 0.0151)
+        .collect();
+    assert!(!lips.is_empty());
+    // σ_xx, the stress across the wound, at each lip against the uncut beam at the same place.
+    let (mut on_lips, mut uncut) = (0.0, 0.0);
+    for &o in &lips {
+        uncut += t_whole[9 * o].abs();
+        for &a in &copies[o] {
+            on_lips += t_cut[9 * a].abs() / copies[o].len() as f64;
+        }
+    }
+    let ratio = on_lips / uncut;
+    eprintln!(
+        "|σ_xx| on the lips / uncut: {ratio:.3} over {} nodes",
+        lips.len()
+    );
+    assert!(
+        ratio < 0.2,
+        "the lips carry {ratio} of the uncut beam's bending stress"
+    );
+    // The two lips of a node carry their own stress: they differ.
+    let o = lips[0];
+    let (a, b) = (copies[o][0], copies[o][1]);
+    assert!((t_cut[9 * a..9 * a + 9])
+        .iter()
+        .zip(&t_cut[9 * b..9 * b + 9])
+        .any(|(x, y)| (x - y).abs() > 1e-3 * uncut / lips.len() as f64));
+}

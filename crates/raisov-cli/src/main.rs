@@ -927,6 +927,20 @@ fn cmd_check(path: &Path) -> Result<()> {
             ),
         );
     }
+    for c in &sc.cuts {
+        let [a, b, q, d] = c.blade.corners;
+        line(
+            "cut",
+            &format!(
+                "at {} s, the blade {} {} {} {} m",
+                compact(c.time),
+                raisov::numbers::point(a),
+                raisov::numbers::point(b),
+                raisov::numbers::point(q),
+                raisov::numbers::point(d)
+            ),
+        );
+    }
     if sc.statics.is_some() {
         // A static solve: no time stepping, no stop rule, no FAS stepper.
         let how = raisov::scenario::describe_static(&sc).map_err(BadInput)?;

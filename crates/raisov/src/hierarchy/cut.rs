@@ -71,10 +71,13 @@ impl CutHierarchy {
 
     /// Cut every level with `blade`; the links between the cut levels.
     pub fn cut(&mut self, blade: &Blade) -> Result<HierarchyCut> {
+        use rayon::prelude::*;
         let levels = self
             .levels
-            .iter_mut()
+            .par_iter_mut()
             .map(|l| l.cut(blade))
+            .collect::<Vec<_>>()
+            .into_iter()
             .collect::<Result<Vec<_>>>()?;
         Ok(HierarchyCut {
             levels,

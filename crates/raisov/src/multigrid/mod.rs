@@ -99,10 +99,15 @@ pub(crate) fn cut_levels(
             ),
         ));
     }
-    for (lv, ch) in levels.iter_mut().zip(&cut.levels) {
-        lv.cut(ch)?;
-    }
-    Ok(())
+    // The levels are independent: in parallel (each level's result is the same bits).
+    use rayon::prelude::*;
+    levels
+        .par_iter_mut()
+        .zip(cut.levels.par_iter())
+        .map(|(lv, ch)| lv.cut(ch))
+        .collect::<Vec<_>>()
+        .into_iter()
+        .collect()
 }
 
 /// A node field read by the host sums, one 3-vector per node: a stored vector, or the

@@ -52,7 +52,8 @@ pub struct CutReport {
     pub seconds: f64,
     /// Of which: the levels cut and the links carried ([`crate::hierarchy::cut`]).
     pub levels_seconds: f64,
-    /// Of which: the stepper carried to the cut levels ([`crate::integrate::Stepper::cut`]).
+    /// Of which: the stepper carried to the cut levels ([`crate::integrate::Stepper::cut`]),
+    /// beside the simulation's own model of level 0.
     pub stepper_seconds: f64,
 }
 
@@ -82,9 +83,12 @@ impl Simulation {
         let t1 = std::time::Instant::now();
         let mut stepper_seconds = 0.0;
         if !hc.is_identity() {
-            let cut = self.stepper.cut(&hc);
+            // The stepper's levels and the simulation's own model of level 0, side by side
+            // (the same force model: both take the cut or both refuse it).
+            let (stepper, model) = (&mut self.stepper, &mut self.model);
+            let (cut, own) = rayon::join(|| stepper.cut(&hc), || model.cut(&hc.levels[0]));
             stepper_seconds = t1.elapsed().as_secs_f64();
-            if let Err(e) = cut {
+            if let Err(e) = cut.and(own) {
                 state.hierarchy = saved;
                 self.cuts = Some(state);
                 self.constraints_changed();
@@ -155,10 +159,9 @@ impl Simulation {
         })
     }
 
-    /// Carry the simulation's own parts to level 0's cut mesh, after the stepper took the
-    /// cut.
+    /// Carry the simulation's own parts (its model cut already) to level 0's cut mesh, after
+    /// the stepper took the cut.
     fn carry(&mut self, ch: &TopologyChange, state: &CutState) -> Result<()> {
-        self.model.cut(ch)?;
         let n = ch.mesh.num_nodes();
         let mut copies: Vec<Vec<u32>> = vec![Vec::new(); self.mesh.num_nodes()];
         for (a, &o) in ch.node_from.iter().enumerate() {

@@ -526,60 +526,19 @@ impl FemModel {
             mesh.cells.iter().all(|&c| (c as usize) < n),
             "node id out of range"
         );
-        // The packed kernels take an element's volume from `det Dm⁻¹` in their volumetric
-        // term: the elements of a cut mesh that hold part of their tetrahedron (fraction
-        // below 1) run on the generic path beside the pack of the whole ones.
-        let partial: Vec<u32> = match &params.fractions {
-            Some(f) => (0..ne as u32).filter(|&e| f[e as usize] < 1.0).collect(),
-            None => Vec::new(),
+        let (pack, partial) = match (&params.material, mesh.kind) {
+            (Material::NeoHookean(m), ElementKind::Tet4) => packed::TetPack::of_whole(
+                m,
+                &x0,
+                &mesh.cells,
+                &dminv,
+                &measure,
+                params.fractions.as_deref(),
+                params.slab.max(1),
+                params.precision,
+            ),
+            _ => (None, Vec::new()),
         };
-        let pack = match (&params.material, mesh.kind) {
-            (Material::NeoHookean(m), ElementKind::Tet4) if partial.len() < ne => {
-                let mut whole = vec![true; ne];
-                for &e in &partial {
-                    whole[e as usize] = false;
-                }
-                let keep = |stride: usize, v: &[f64]| -> Vec<f64> {
-                    v.chunks_exact(stride)
-                        .zip(&whole)
-                        .filter(|(_, &w)| w)
-                        .flat_map(|(c, _)| c.iter().copied())
-                        .collect()
-                };
-                let (cells, dminv, measure) = if partial.is_empty() {
-                    (
-                        std::borrow::Cow::Borrowed(&mesh.cells[..]),
-                        std::borrow::Cow::Borrowed(&dminv[..]),
-                        std::borrow::Cow::Borrowed(&measure[..]),
-                    )
-                } else {
-                    let cells: Vec<u32> = mesh
-                        .cells
-                        .chunks_exact(4)
-                        .zip(&whole)
-                        .filter(|(_, &w)| w)
-                        .flat_map(|(c, _)| c.iter().copied())
-                        .collect();
-                    (
-                        std::borrow::Cow::Owned(cells),
-                        std::borrow::Cow::Owned(keep(9, &dminv)),
-                        std::borrow::Cow::Owned(keep(1, &measure)),
-                    )
-                };
-                Some(packed::TetPack::new(
-                    m.mu,
-                    m.lambda,
-                    &x0,
-                    &cells,
-                    &dminv,
-                    &measure,
-                    params.slab.max(1),
-                    params.precision,
-                ))
-            }
-            _ => None,
-        };
-        let partial = if pack.is_some() { partial } else { Vec::new() };
         let elem_forces = if pack.is_some() {
             Vec::new()
         } else {

@@ -199,6 +199,64 @@ unsafe impl Send for SyncPtr {}
 unsafe impl Sync for SyncPtr {}
 
 impl TetPack {
+    /// The pack of a neo-Hookean mesh's whole elements, and the elements left out: those of
+    /// a cut mesh holding part of their tetrahedron (`fractions` below 1), which the force
+    /// pass evaluates on the generic path beside the pack (its volumetric term takes an
+    /// element's volume from `det Dm⁻¹`, which a fraction does not scale). No pack where no
+    /// element is whole. Arguments as [`TetPack::new`], `measure` the scaled volumes.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn of_whole(
+        law: &crate::material::NeoHookean,
+        x0: &[f64],
+        cells: &[u32],
+        dminv: &[f64],
+        measure: &[f64],
+        fractions: Option<&[f64]>,
+        target_block: usize,
+        precision: Precision,
+    ) -> (Option<TetPack>, Vec<u32>) {
+        let ne = measure.len();
+        let partial: Vec<u32> = match fractions {
+            Some(f) => (0..ne as u32).filter(|&e| f[e as usize] < 1.0).collect(),
+            None => Vec::new(),
+        };
+        if partial.len() == ne {
+            return (None, Vec::new());
+        }
+        let pack = |cells: &[u32], dminv: &[f64], measure: &[f64]| {
+            TetPack::new(
+                law.mu,
+                law.lambda,
+                x0,
+                cells,
+                dminv,
+                measure,
+                target_block,
+                precision,
+            )
+        };
+        if partial.is_empty() {
+            return (Some(pack(cells, dminv, measure)), partial);
+        }
+        let mut whole = vec![true; ne];
+        for &e in &partial {
+            whole[e as usize] = false;
+        }
+        fn keep<T: Copy>(v: &[T], stride: usize, whole: &[bool]) -> Vec<T> {
+            v.chunks_exact(stride)
+                .zip(whole)
+                .filter(|(_, &w)| w)
+                .flat_map(|(c, _)| c.iter().copied())
+                .collect()
+        }
+        let p = pack(
+            &keep(cells, 4, &whole),
+            &keep(dminv, 9, &whole),
+            &keep(measure, 1, &whole),
+        );
+        (Some(p), partial)
+    }
+
     /// Pack the elements. `cells` 4 per element, `dminv` 9 per element column-major,
     /// `target_block` the wanted elements per slab, `precision` that of the stored `dminv`
     /// and `vol`.

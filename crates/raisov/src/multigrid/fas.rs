@@ -949,11 +949,7 @@ impl Stepper for Fas {
     /// again), the states carried, the counters kept.
     fn cut(&mut self, cut: &crate::hierarchy::cut::HierarchyCut) -> crate::Result<()> {
         self.set_runtime_constraints(&RuntimeConstraints::default());
-        let mut levels = std::mem::take(&mut self.levels);
-        if let Err(e) = super::cut_levels(&mut levels, cut) {
-            self.levels = levels;
-            return Err(e);
-        }
+        let mut levels = super::take_cut_levels(&mut self.levels, cut)?;
         for lv in levels.iter_mut().skip(1) {
             // `Fas::new` turned the coarse fixed regions into held points: back to fixed,
             // as it takes them.

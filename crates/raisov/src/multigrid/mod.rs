@@ -81,11 +81,26 @@ impl Level {
     }
 }
 
-/// Carry every level of a multigrid stepper to its cut mesh ([`Level::cut`]); an error for
-/// a cut of another number of levels. On an error the levels cut so far stay cut: the
-/// stepper is not to be stepped again (a force model that cannot be cut refuses on the
-/// first level, before anything changed).
-pub(crate) fn cut_levels(
+/// A multigrid stepper's levels taken out and carried to their cut meshes ([`Level::cut`]),
+/// for the stepper to be built again on them; an error for a cut of another number of
+/// levels, the levels put back. A level that fails leaves the levels before it cut: the
+/// stepper is not to be stepped again (a force model that cannot be cut refuses on every
+/// level alike, before anything changed).
+pub(crate) fn take_cut_levels(
+    levels: &mut Vec<Level>,
+    cut: &crate::hierarchy::cut::HierarchyCut,
+) -> crate::Result<Vec<Level>> {
+    let mut taken = std::mem::take(levels);
+    match cut_levels(&mut taken, cut) {
+        Ok(()) => Ok(taken),
+        Err(e) => {
+            *levels = taken;
+            Err(e)
+        }
+    }
+}
+
+fn cut_levels(
     levels: &mut [Level],
     cut: &crate::hierarchy::cut::HierarchyCut,
 ) -> crate::Result<()> {

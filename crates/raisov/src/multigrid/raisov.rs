@@ -522,11 +522,7 @@ impl Stepper for Raisov {
     /// state, as at the start of a run), the counters kept.
     fn cut(&mut self, cut: &crate::hierarchy::cut::HierarchyCut) -> crate::Result<()> {
         self.set_runtime_constraints(&RuntimeConstraints::default());
-        let mut levels = std::mem::take(&mut self.levels);
-        if let Err(e) = super::cut_levels(&mut levels, cut) {
-            self.levels = levels;
-            return Err(e);
-        }
+        let levels = super::take_cut_levels(&mut self.levels, cut)?;
         let mut next = Raisov::new(levels, cut.links.clone(), self.params);
         next.steps = self.steps;
         next.switches = self.switches;

@@ -1092,13 +1092,26 @@ impl ForceModel for FemModel {
             if !ok {
                 return Err(self.fast_failure(u));
             }
-            let mut out = [0.0; 12];
-            for &e in &self.partial {
-                let e = e as usize;
-                self.element_forces(e, u, &mut out)?;
-                for (j, &a) in self.cells[4 * e..4 * e + 4].iter().enumerate() {
+            // The partial elements' forces in parallel, added in element order (the same
+            // bits on any thread count).
+            let this = &*self;
+            let forces: Vec<Result<[f64; 12], ElementFailure>> = this
+                .partial
+                .par_iter()
+                .with_min_len(64)
+                .map(|&e| {
+                    let mut out = [0.0; 12];
+                    this.element_forces(e as usize, u, &mut out).map(|_| out)
+                })
+                .collect();
+            for (&e, f) in self.partial.iter().zip(forces) {
+                let f = f?;
+                for (j, &a) in self.cells[4 * e as usize..4 * e as usize + 4]
+                    .iter()
+                    .enumerate()
+                {
                     for k in 0..3 {
-                        r[3 * a as usize + k] += out[3 * j + k];
+                        r[3 * a as usize + k] += f[3 * j + k];
                     }
                 }
             }

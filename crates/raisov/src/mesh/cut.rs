@@ -253,8 +253,8 @@ pub struct EmbeddedSurface {
     pub points: Vec<(u32, [f64; 4])>,
     /// Triangles, outward.
     pub triangles: Vec<[u32; 3]>,
-    /// The cut mesh's boundary faces, whole (every face no other element shares, the
-    /// copies' included), outward: [`Mesh::surface_triangles`] of the cut mesh.
+    /// The cut mesh's boundary faces, whole (every face no element across it shares, the
+    /// copies' included), outward: what grasps take their patch from.
     pub boundary: Vec<[u32; 3]>,
 }
 
@@ -885,27 +885,23 @@ impl CutMesh {
     /// The surface of the cut body (module docs, "Surface").
     pub fn surface(&self) -> EmbeddedSurface {
         let m = &self.mesh;
-        let mut faces: Vec<([u32; 3], u32)> = Vec::with_capacity(m.cells.len());
-        for (e, el) in m.cells.chunks_exact(4).enumerate() {
-            for (f, c) in FACE.iter().enumerate() {
-                let mut k = [el[c[0]], el[c[1]], el[c[2]]];
-                k.sort_unstable();
-                faces.push((k, (4 * e + f) as u32));
-            }
-        }
-        faces.sort_unstable();
-        let mut boundary = vec![false; m.cells.len()];
-        let mut i = 0;
-        while i < faces.len() {
-            let mut j = i + 1;
-            while j < faces.len() && faces[j].0 == faces[i].0 {
-                j += 1;
-            }
-            if j - i == 1 {
-                boundary[faces[i].1 as usize] = true;
-            }
-            i = j;
-        }
+        // A copy's face is on the boundary where no copy of the base element across it
+        // holds the same three nodes (the face shared): found through the base mesh's face
+        // neighbours, no sort.
+        let boundary: Vec<bool> = (0..m.cells.len())
+            .map(|slot| {
+                let (c, f) = (slot / 4, slot % 4);
+                let nb = self.neighbours[4 * self.element[c] as usize + f];
+                if nb == u32::MAX {
+                    return true;
+                }
+                let el = &m.cells[4 * c..4 * c + 4];
+                let face = FACE[f].map(|i| el[i]);
+                !self
+                    .copies(nb)
+                    .any(|d| face.iter().all(|a| m.cells[4 * d..4 * d + 4].contains(a)))
+            })
+            .collect();
         let mut out = EmbeddedSurface {
             nodes: m.num_nodes(),
             points: Vec::new(),

@@ -1,7 +1,9 @@
 // Browser test of `raisov serve`: start the server on a free port, load the page in Debian's
 // Chromium (headless, software WebGL), Shift-drag on the organ, check that the surface moved
 // and the grasp force readout is non-zero, save a screenshot; then check that a page of
-// another site, open in the same browser, cannot open the viewer's WebSocket.
+// another site, open in the same browser, cannot open the viewer's WebSocket. A second test
+// cuts the organ with the scalpel (c, then a drag across it): the server sends the cut body's
+// topology, with more vertices, and a grasp then pulls a lip of the wound.
 // Env: RAISOV_BIN (default target/release/raisov), CHROMIUM (default /usr/bin/chromium),
 // SCREENSHOT (default target/browser/serve.png).
 import { test } from 'node:test';
@@ -16,6 +18,9 @@ import { chromium } from 'playwright-core';
 const root = resolve(dirname(fileURLToPath(import.meta.url)), '..', '..');
 const bin = process.env.RAISOV_BIN ?? resolve(root, 'target/release/raisov');
 const shot = process.env.SCREENSHOT ?? resolve(root, 'target/browser/serve.png');
+
+const browserArgs = ['--headless', '--no-sandbox', '--disable-background-networking', '--disable-component-update',
+  '--disable-sync', '--no-first-run', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'];
 
 function startServer() {
   return new Promise((ok, fail) => {
@@ -37,8 +42,7 @@ test('raisov serve: Shift-drag grasps the organ in the browser', { timeout: 1100
   const { proc, url } = await startServer();
   const browser = await chromium.launch({
     executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
-    args: ['--headless', '--no-sandbox', '--disable-background-networking', '--disable-component-update',
-      '--disable-sync', '--no-first-run', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+    args: browserArgs,
   });
   try {
     const page = await browser.newPage({ viewport: { width: 1100, height: 750 } });
@@ -153,6 +157,83 @@ test('raisov serve: Shift-drag grasps the organ in the browser', { timeout: 1100
     } finally {
       other.close();
     }
+  } finally {
+    await browser.close();
+    proc.kill();
+  }
+});
+
+test('raisov serve: the scalpel cuts the organ and a grasp pulls the wound', { timeout: 150000 }, async () => {
+  const { proc, url } = await startServer();
+  const browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: browserArgs });
+  try {
+    const page = await browser.newPage({ viewport: { width: 1100, height: 750 } });
+    const errors = [];
+    page.on('pageerror', (e) => errors.push(String(e)));
+    await page.goto(url);
+    await page.waitForFunction(() => window.raisovState && window.raisovState.frames > 3
+      && window.raisovState.client !== null, null, { timeout: 30000 });
+    const before = await page.evaluate(() => ({ n: window.raisovState.topology.n, m: window.raisovState.topology.m,
+      topologies: window.raisovState.topologies }));
+    assert.equal(before.topologies, 1);
+    // Scalpel mode (the c key), then a drag across the organ's middle, left to right.
+    await page.keyboard.press('c');
+    assert.ok(await page.evaluate(() => window.raisovState.scalpel), 'c did not enter scalpel mode');
+    const vp = page.viewportSize();
+    const [x0, y0] = [vp.width / 2, vp.height / 2];
+    await page.mouse.move(x0 - 60, y0);
+    await page.mouse.down();
+    for (let k = 1; k <= 12; k++) {
+      await page.mouse.move(x0 - 60 + 10 * k, y0);
+      await page.waitForTimeout(80);
+    }
+    await page.mouse.up();
+    // The server answers the cuts and sends the cut body's surface: a second topology (or more)
+    // with more vertices (the wound's faces).
+    await page.waitForFunction((n0) => {
+      const s = window.raisovState;
+      return s.cutsSent > 0 && s.cutsAnswered === s.cutsSent && s.topologies >= 2 && s.topology.n > n0
+        && s.cuts > 0 && s.firstPositions !== null;
+    }, before.n, { timeout: 90000 });
+    const cut = await page.evaluate(() => {
+      const s = window.raisovState;
+      return { n: s.topology.n, m: s.topology.m, topologies: s.topologies, sent: s.cutsSent, cuts: s.cuts,
+        last: s.lastCut, errors: s.errors };
+    });
+    console.log(`scalpel: ${cut.sent} cut message(s) sent, ${cut.cuts} split the liver; surface ${before.n} -> ${cut.n} ` +
+      `vertices, ${before.m} -> ${cut.m} triangles; last cut ${JSON.stringify(cut.last)}; errors ${JSON.stringify(cut.errors)}`);
+    assert.ok(cut.n > before.n && cut.m > before.m, `the cut surface has ${cut.n} vertices, ${cut.m} triangles`);
+    // Leave scalpel mode; Shift-drag the lip above the cut upwards: the grasp works on the cut body.
+    await page.keyboard.press('c');
+    await page.keyboard.down('Shift');
+    await page.mouse.move(x0, y0 - 12);
+    await page.mouse.down();
+    for (let k = 1; k <= 15; k++) {
+      await page.mouse.move(x0, y0 - 12 - 4 * k);
+      await page.waitForTimeout(50);
+    }
+    await page.waitForFunction(() => window.raisovState.holder === window.raisovState.client
+      && window.raisovState.forceN > 0, null, { timeout: 30000 });
+    await page.waitForTimeout(2500);
+    const pulled = await page.evaluate(() => {
+      const s = window.raisovState;
+      let moved = 0;
+      for (let i = 0; i < s.positions.length; i += 3) {
+        moved = Math.max(moved, Math.hypot(s.positions[i] - s.firstPositions[i],
+          s.positions[i + 1] - s.firstPositions[i + 1], s.positions[i + 2] - s.firstPositions[i + 2]));
+      }
+      return { moved, forceN: s.forceN, n: s.topology.n };
+    });
+    const shotCut = shot.replace(/\.png$/, '-scalpel.png');
+    mkdirSync(dirname(shotCut), { recursive: true });
+    await page.screenshot({ path: shotCut });
+    await page.mouse.up();
+    await page.keyboard.up('Shift');
+    console.log(`pulled the lip: surface moved ${(pulled.moved * 1e3).toFixed(2)} mm, force ${pulled.forceN.toFixed(3)} N; ${shotCut}`);
+    assert.equal(pulled.n, cut.n, 'the grasp changed the topology');
+    assert.ok(pulled.moved > 1e-3, `surface vertices moved ${pulled.moved} m (want > 1 mm)`);
+    assert.ok(pulled.forceN > 0, 'no grasp force on the cut body');
+    assert.deepEqual(errors, [], 'page errors');
   } finally {
     await browser.close();
     proc.kill();

@@ -19,11 +19,17 @@
 //!   6 method   u32: 0 FAS, 1 RaISoV (paper), 2 single level         12
 //!   7 colour   u32: 0 displacement magnitude (m), 1 von Mises stress (Pa)  12
 //!   8 save     — (reply: a text message with the recorded scenario)  8
+//!   9 cut      edge point a x y z, edge point b x y z, sweep x y z (m)  44
 //! ```
 //!
+//! A cut is the planar blade `raisov::mesh::cut::Blade::swept(a, b, sweep)`: the quad with
+//! corners `a`, `b`, `b + sweep`, `a + sweep`, a scalpel drawn on the surface from `a` to `b`
+//! and pushed to the depth `|sweep|` along `sweep`'s direction.
+//!
 //! A message of another length, an unknown kind, a non-zero pad, a non-finite or
-//! out-of-range number (|x| > [`MAX_COORD`] m, radius outside `[0, MAX_RADIUS]` m) is answered
-//! with an error (a text message `{"type":"error","message":…}`) and dropped; so is a text
+//! out-of-range number (|x| > [`MAX_COORD`] m, radius outside `[0, MAX_RADIUS]` m, a cut's
+//! sweep of length 0 or above [`MAX_DEPTH`] m, a cut's edge points `a = b`) is answered with
+//! an error (a text message `{"type":"error","message":…}`) and dropped; so is a text
 //! message, and anything longer than [`MAX_MESSAGE`] bytes closes the connection.
 //!
 //! # Server → client
@@ -32,7 +38,8 @@
 //!
 //! ```text
 //! topology  "RSVT"  u32 vertex count n, u32 triangle count m, then u32 × 3m vertex indices
-//!                   (sent once per connection, and after a method switch or reset)
+//!                   (sent once per connection, and after a method switch, a reset or a
+//!                   cut that split elements: n and m change with every cut)
 //! frame     "RSVF"  u32 frame number, u32 n, u32 flags (bit 0: a grasp is held, bit 1: the
 //!                   scalar is stress, bit 2: at rest, the simulation sleeps until a command
 //!                   arrives, bit 3: the grasp cannot reach its target, bit 4: the scheme
@@ -44,7 +51,10 @@
 //! Text messages are small JSON objects: `hello` (client id, methods, the frame budget
 //! `{"ms": …}` or `{"cycles": …}`, the frame-rate cap `max_fps`), `error`, `holder` (who holds
 //! the grasp), `pins` (every pin's point and radius, m: sent on connect and whenever they
-//! change), `recording` (the scenario TOML).
+//! change), `recording` (the scenario TOML), `cut` (to every client after a cut: the client
+//! that cut, the elements split per level `split`, level 0's `nodes` and `elements` after
+//! it, its wall time `ms`, and the cuts so far `cuts`; a blade that missed splits nothing
+//! and is not counted).
 
 use thiserror::Error;
 
@@ -55,6 +65,8 @@ pub const MAX_MESSAGE: usize = 4096;
 pub const MAX_COORD: f32 = 100.0;
 /// The largest grasp or pin radius (m).
 pub const MAX_RADIUS: f32 = 1.0;
+/// The longest sweep of a cut (m): the deepest a blade is pushed.
+pub const MAX_DEPTH: f32 = 0.5;
 
 /// Magic of a topology message.
 pub const TOPOLOGY_MAGIC: &[u8; 4] = b"RSVT";
@@ -185,6 +197,15 @@ pub enum Command {
     Colour(Colour),
     /// Send back the recorded scenario.
     Save,
+    /// Cut with the blade the edge `a`–`b` sweeps along `sweep` (module docs).
+    Cut {
+        /// Edge point a (m).
+        a: [f32; 3],
+        /// Edge point b (m).
+        b: [f32; 3],
+        /// The sweep (m): direction and depth.
+        sweep: [f32; 3],
+    },
 }
 
 /// A command with its sequence number.
@@ -203,7 +224,7 @@ pub enum ProtocolError {
     #[error("message of {0} bytes: shorter than the 8-byte header (kind, 3 zero bytes, seq)")]
     Short(usize),
     /// Unknown kind byte.
-    #[error("unknown message kind {0}: valid are 1 grab, 2 move, 3 release, 4 pin, 5 reset, 6 method, 7 colour, 8 save")]
+    #[error("unknown message kind {0}: valid are 1 grab, 2 move, 3 release, 4 pin, 5 reset, 6 method, 7 colour, 8 save, 9 cut")]
     UnknownKind(u8),
     /// Wrong length for the kind.
     #[error("{kind} message of {got} bytes: must be {want}")]
@@ -250,6 +271,7 @@ fn kind_name(kind: u8) -> Option<(&'static str, usize)> {
         6 => ("method", 12),
         7 => ("colour", 12),
         8 => ("save", 8),
+        9 => ("cut", 44),
         _ => return None,
     })
 }
@@ -263,7 +285,12 @@ fn u32_at(b: &[u8], at: usize) -> u32 {
 }
 
 fn coords(b: &[u8], what: &'static str) -> Result<[f32; 3], ProtocolError> {
-    let p = [f32_at(b, 8), f32_at(b, 12), f32_at(b, 16)];
+    coords_at(b, 8, what)
+}
+
+/// Three coordinates from byte `at`: finite, |x| <= [`MAX_COORD`].
+fn coords_at(b: &[u8], at: usize, what: &'static str) -> Result<[f32; 3], ProtocolError> {
+    let p = [f32_at(b, at), f32_at(b, at + 4), f32_at(b, at + 8)];
     for &x in &p {
         if !x.is_finite() {
             return Err(ProtocolError::Value {
@@ -293,6 +320,41 @@ fn radius(b: &[u8]) -> Result<f32, ProtocolError> {
         });
     }
     Ok(r)
+}
+
+/// A cut's edge and sweep (module docs): edge points within [`MAX_COORD`] and apart, a sweep
+/// of finite components and length in `(0, MAX_DEPTH]`.
+fn cut(b: &[u8]) -> Result<Command, ProtocolError> {
+    let a = coords_at(b, 8, "cut edge point a")?;
+    let e = coords_at(b, 20, "cut edge point b")?;
+    if a == e {
+        return Err(ProtocolError::Value {
+            what: "cut edge length |b - a|",
+            value: 0.0,
+            why: "the edge points a and b must differ (m)",
+        });
+    }
+    let sweep = [f32_at(b, 32), f32_at(b, 36), f32_at(b, 40)];
+    if let Some(&x) = sweep.iter().find(|x| !x.is_finite()) {
+        return Err(ProtocolError::Value {
+            what: "cut sweep",
+            value: x,
+            why: "must be finite",
+        });
+    }
+    let depth = sweep
+        .iter()
+        .map(|&x| (x as f64).powi(2))
+        .sum::<f64>()
+        .sqrt() as f32;
+    if !(depth > 0.0 && depth <= MAX_DEPTH) {
+        return Err(ProtocolError::Value {
+            what: "cut sweep length (depth)",
+            value: depth,
+            why: "must be in (0, 0.5] m",
+        });
+    }
+    Ok(Command::Cut { a, b: e, sweep })
 }
 
 /// Parse one client message (module docs).
@@ -347,6 +409,7 @@ pub fn parse(b: &[u8]) -> Result<Message, ProtocolError> {
             }
         }),
         8 => Command::Save,
+        9 => cut(b)?,
         _ => unreachable!("kind_name covers the kinds"),
     };
     Ok(Message { seq, command })
@@ -369,6 +432,7 @@ pub fn encode(m: &Message) -> Vec<u8> {
             })],
         ),
         Command::Save => (8, vec![]),
+        Command::Cut { a, b, sweep } => (9, [a, b, sweep].concat()),
     };
     let mut b = vec![kind, 0, 0, 0];
     b.extend_from_slice(&m.seq.to_le_bytes());
@@ -535,6 +599,11 @@ mod tests {
             Command::Method(Method::Raisov),
             Command::Colour(Colour::Stress),
             Command::Save,
+            Command::Cut {
+                a: [0.01, 0.02, 0.03],
+                b: [-0.01, 0.02, 0.03],
+                sweep: [0.0, 0.0, -0.02],
+            },
         ];
         for (i, c) in cmds.into_iter().enumerate() {
             let m = Message {
@@ -594,6 +663,76 @@ mod tests {
                 .collect();
             let _ = parse(&g);
         }
+    }
+
+    /// A cut of 44 bytes parses to its edge and sweep; each field out of range is refused,
+    /// naming the field.
+    #[test]
+    fn a_cut_message_parses_and_each_bad_field_is_refused() {
+        let cut = Command::Cut {
+            a: [0.01, 0.0, 0.04],
+            b: [0.03, 0.0, 0.04],
+            sweep: [0.0, 0.0, -0.02],
+        };
+        let good = encode(&Message {
+            seq: 7,
+            command: cut,
+        });
+        assert_eq!(good.len(), 44);
+        assert_eq!(
+            parse(&good),
+            Ok(Message {
+                seq: 7,
+                command: cut
+            })
+        );
+        assert!(matches!(
+            parse(&good[..40]),
+            Err(ProtocolError::Length {
+                kind: "cut",
+                got: 40,
+                want: 44
+            })
+        ));
+        let field = |at: usize, v: f32| {
+            let mut bad = good.clone();
+            bad[at..at + 4].copy_from_slice(&v.to_le_bytes());
+            match parse(&bad) {
+                Err(ProtocolError::Value { what, .. }) => what,
+                other => panic!("{v} at {at}: {other:?}"),
+            }
+        };
+        // Edge point a (bytes 8..20), b (20..32): finite and within MAX_COORD.
+        assert_eq!(field(8, f32::NAN), "cut edge point a");
+        assert_eq!(field(16, 1e3), "cut edge point a");
+        assert_eq!(field(20, f32::NEG_INFINITY), "cut edge point b");
+        assert_eq!(field(28, -101.0), "cut edge point b");
+        // The sweep (32..44): finite, of length in (0, MAX_DEPTH].
+        assert_eq!(field(32, f32::INFINITY), "cut sweep");
+        assert_eq!(field(40, f32::NAN), "cut sweep");
+        assert_eq!(field(40, 0.0), "cut sweep length (depth)");
+        assert_eq!(field(40, -0.6), "cut sweep length (depth)");
+        let mut deepest = good.clone();
+        deepest[40..44].copy_from_slice(&(-MAX_DEPTH).to_le_bytes());
+        assert!(parse(&deepest).is_ok(), "a sweep of MAX_DEPTH is valid");
+        // a = b: no edge.
+        let same = encode(&Message {
+            seq: 7,
+            command: Command::Cut {
+                a: [0.01, 0.0, 0.04],
+                b: [0.01, 0.0, 0.04],
+                sweep: [0.0, 0.0, -0.02],
+            },
+        });
+        assert!(matches!(
+            parse(&same),
+            Err(ProtocolError::Value {
+                what: "cut edge length |b - a|",
+                ..
+            })
+        ));
+        let e = parse(&same).unwrap_err().to_string();
+        assert!(e.contains("must differ"), "{e}");
     }
 
     #[test]

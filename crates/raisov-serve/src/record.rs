@@ -1,4 +1,4 @@
-//! Recording a session's grasps, pins and releases, written as a scenario `raisov run`
+//! Recording a session's grasps, pins, releases and cuts, written as a scenario `raisov run`
 //! replays frame for frame ([`raisov::scenario::grasps`]).
 //!
 //! The time of a recording is the session's frame count: the recording starts with the
@@ -27,7 +27,18 @@
 //! ```
 //!
 //! and pin `i`, taken before frame `P` at the point `p` with radius `r`, `[[pin]]` with
-//! `point`, `radius` and `start = P / fps`. A grasp let go before any frame stepped is not
+//! `point`, `radius` and `start = P / fps`. A cut made before frame `C` with the edge `a`–`b`
+//! and the sweep `s` the client sent (the blade `Blade::swept(a, b, s)`) becomes
+//!
+//! ```toml
+//! [[cut]]
+//! time = C / fps         # s
+//! edge = [a, b]          # m
+//! sweep = s              # m
+//! ```
+//!
+//! in the order made (a cut changes the body the next one cuts). Only cuts that split an
+//! element are recorded (one that missed changed nothing). A grasp let go before any frame stepped is not
 //! written (it held nothing; a hard one did stop its patch, setting its velocity to zero,
 //! which the replay then does not); nor is anything after the last frame stepped. Within
 //! one frame the replay lets go, then pins, then grasps (`raisov::scenario::grasps`): a
@@ -84,6 +95,15 @@ pub enum Event {
         /// m
         radius: f64,
     },
+    /// A cut with the blade the edge `a`–`b` sweeps along `sweep` (m).
+    Cut {
+        /// m
+        a: [f64; 3],
+        /// m
+        b: [f64; 3],
+        /// m
+        sweep: [f64; 3],
+    },
 }
 
 /// Recorded events with the frames they act before.
@@ -130,13 +150,28 @@ pub struct PinAt {
     pub start: u64,
 }
 
-/// What a recording holds: its grasps and pins and the frames stepped.
+/// One cut as recorded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CutAt {
+    /// Edge point a (m).
+    pub a: [f64; 3],
+    /// Edge point b (m).
+    pub b: [f64; 3],
+    /// The sweep (m).
+    pub sweep: [f64; 3],
+    /// Made before this frame.
+    pub start: u64,
+}
+
+/// What a recording holds: its grasps, pins and cuts and the frames stepped.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Paths {
     /// The grasps, in the order taken.
     pub grasps: Vec<GraspPath>,
     /// The pins, in the order taken.
     pub pins: Vec<PinAt>,
+    /// The cuts, in the order made.
+    pub cuts: Vec<CutAt>,
     /// Frames stepped (the replay's frame count).
     pub frames: u64,
 }
@@ -219,11 +254,12 @@ impl Recorder {
         format!("{fps:.2e}").parse().unwrap_or(30.0)
     }
 
-    /// The grasps and pins that acted on a frame stepped, and the frames stepped.
+    /// The grasps, pins and cuts that acted on a frame stepped, and the frames stepped.
     pub fn paths(&self) -> Paths {
         let frames = self.full.unwrap_or(self.frames);
         let mut grasps: Vec<GraspPath> = Vec::new();
         let mut pins = Vec::new();
+        let mut cuts = Vec::new();
         // The open grasp: its index and grasp point, and its last target's row.
         let mut open: Option<(usize, [f64; 3])> = None;
         for (k, e) in self.events.iter().filter(|(k, _)| *k <= frames) {
@@ -267,18 +303,25 @@ impl Recorder {
                     radius: *radius,
                     start: k,
                 }),
+                Event::Cut { a, b, sweep } => cuts.push(CutAt {
+                    a: *a,
+                    b: *b,
+                    sweep: *sweep,
+                    start: k,
+                }),
             }
         }
         Paths {
             grasps,
             pins,
+            cuts,
             frames,
         }
     }
 
     /// The scenario text: the served scenario with `method`, its paths absolute, the grasps as
-    /// `[[displace]]`, the pins as `[[pin]]`, and `[interactive]` with `budget` (module
-    /// docs); `nodes` (level 0's) goes into the header.
+    /// `[[displace]]`, the pins as `[[pin]]`, the cuts as `[[cut]]`, and `[interactive]` with
+    /// `budget` (module docs); `nodes` (level 0's, uncut) goes into the header.
     pub fn scenario(
         &self,
         source: &Source,
@@ -341,6 +384,24 @@ impl Recorder {
         if !pins.is_empty() {
             t.insert("pin".into(), toml::Value::Array(pins));
         }
+        let cuts: Vec<toml::Value> = paths
+            .cuts
+            .iter()
+            .map(|c| {
+                let mut e = toml::Table::new();
+                e.insert("time".into(), f(time(c.start)));
+                e.insert(
+                    "edge".into(),
+                    toml::Value::Array(vec![arr(&c.a), arr(&c.b)]),
+                );
+                e.insert("sweep".into(), arr(&c.sweep));
+                toml::Value::Table(e)
+            })
+            .collect();
+        t.remove("cut");
+        if !cuts.is_empty() {
+            t.insert("cut".into(), toml::Value::Array(cuts));
+        }
         if let Some(toml::Value::Table(i)) = t.get_mut("integrator") {
             if i.get("method").and_then(|m| m.as_str()) == Some("newton") {
                 // The viewer stepped the scenario's dynamics, not a static solve.
@@ -395,12 +456,13 @@ impl Recorder {
             String::new()
         };
         format!(
-            "# Recorded by `raisov serve` ({} grasp(s), {} pin(s); {} frames at {fps} per second\n\
-             # of path time; {} nodes at level 0, method {}).{ended}\n\
-             # Replay: `raisov run FILE` steps the viewer's frames again, grasps and pins\n\
+            "# Recorded by `raisov serve` ({} grasp(s), {} pin(s), {} cut(s); {} frames at {fps}\n\
+             # per second of path time; {} nodes at level 0 before any cut, method {}).{ended}\n\
+             # Replay: `raisov run FILE` steps the viewer's frames again, grasps, pins and cuts\n\
              # taken and let go before the frames they were (raisov::scenario::grasps).\n{body}",
             paths.grasps.len(),
             paths.pins.len(),
+            paths.cuts.len(),
             paths.frames,
             nodes,
             method.label()
@@ -502,6 +564,62 @@ mod tests {
                 start: 7
             }]
         );
+    }
+
+    /// A cut made before frame 3 (of 4 stepped) is written as `[[cut]]` with `time = 3 / fps`,
+    /// its edge and sweep as the client sent them; a cut after the last frame is not.
+    #[test]
+    fn cuts_are_written_as_cut_entries_at_their_frames() {
+        let source = Source::from_text(
+            "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.04, 0.04]\ndivisions = [2, 2, 2]\n\
+             [material]\nlaw = \"neo-hookean\"\nyoung = 5e3\npoisson = 0.45\n\
+             [[cut]]\ntime = 0.0\nedge = [[0, 0, 0], [1, 0, 0]]\nsweep = [0, 0, 1]\n",
+            std::path::PathBuf::from("."),
+            "cube",
+            Path::new("cube.toml"),
+        )
+        .unwrap();
+        assert!(
+            !source.table.contains_key("cut"),
+            "the served scenario's cuts are not served (the clients cut)"
+        );
+        let mut r = Recorder::new();
+        r.frame(None);
+        r.frame(None);
+        let (a, b, sweep) = ([0.01, 0.0, 0.04], [0.03, 0.04, 0.04], [0.0, 0.0, -0.02]);
+        r.push(Event::Cut { a, b, sweep });
+        r.frame(None);
+        r.frame(None);
+        r.push(Event::Cut { a: b, b: a, sweep });
+        let p = r.paths();
+        assert_eq!(
+            p.cuts,
+            vec![CutAt {
+                a,
+                b,
+                sweep,
+                start: 3
+            }]
+        );
+        let text = r.scenario(&source, Method::Single, Budget::Cycles(2), 27);
+        assert!(text.contains("1 cut(s)"), "{text}");
+        let t: toml::Table = text.parse().unwrap();
+        let cuts = t["cut"].as_array().unwrap();
+        assert_eq!(cuts.len(), 1, "{text}");
+        let c = cuts[0].as_table().unwrap();
+        let fps = r.fps();
+        assert_eq!(c["time"].as_float(), Some(3.0 / fps));
+        let v = |x: &toml::Value| -> Vec<f64> {
+            x.as_array()
+                .unwrap()
+                .iter()
+                .map(|y| y.as_float().unwrap())
+                .collect()
+        };
+        let edge = c["edge"].as_array().unwrap();
+        assert_eq!((v(&edge[0]), v(&edge[1])), (a.to_vec(), b.to_vec()));
+        assert_eq!(v(&c["sweep"]), sweep.to_vec());
+        assert_eq!(c.len(), 3, "time, edge, sweep: {c:?}");
     }
 
     /// The events fill up: the recording ends at the frame where they did.

@@ -15,10 +15,24 @@
 //! ([`Source::text_for`]), from rest; a method switch then pins the recorded pins again at
 //! their points and grasps again at the held grasp's first point, moved to its target.
 //!
-//! Recording ([`crate::record`]): every command that grasps, lets go or pins is recorded
+//! Cut: a client's cut is the blade `Blade::swept(a, b, sweep)`, cut on every level by
+//! [`Simulation::cut`]. A cut that split elements changes the surface (its vertex and
+//! triangle counts, the wound's faces): the topology is rebuilt and sent to every client
+//! before the next frame, and every client is told what the cut split (a `cut` message). A
+//! cut that missed changes nothing; one the simulation refuses (RaISoV, the implicit schemes,
+//! loads that cannot be cut) is answered with an error naming why, nothing changed. The
+//! displacement colour stays `|x − X|` across cuts (`X` the reference position, which the
+//! copies of a node share; on a visual surface, the vertex's position when the topology was
+//! built).
+//!
+//! A reset goes back to the uncut body. A method switch cuts the new simulation with the
+//! blades of the old one ([`Simulation::cuts`]), in order, so the wound stays; a method that
+//! cannot cut them is refused with an error, the old simulation kept.
+//!
+//! Recording ([`crate::record`]): every command that grasps, lets go, pins or cuts is recorded
 //! before the frame it acts on, and every frame stepped with the held grasp's target in it;
-//! a reset or a method switch starts the recording again (with the pins and grasp a switch
-//! takes again).
+//! a reset or a method switch starts the recording again (with the cuts, pins and grasp a
+//! switch takes again).
 //!
 //! Sleep: the thread steps only while somebody needs frames. With no client connected and no
 //! grasp held it waits for a command; so it does once the state is at rest, when for
@@ -48,6 +62,7 @@ use crate::protocol::{
 };
 use crate::record::{Event, Recorder};
 use crate::ServeError;
+use raisov::mesh::cut::Blade;
 use raisov::sim::{Budget, GrabId, GrabOptions, Simulation};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
@@ -64,8 +79,8 @@ pub const REST_MOTION: f64 = 1e-6;
 /// The scenario the server runs, as a TOML table, and the method it names.
 #[derive(Clone, Debug)]
 pub struct Source {
-    /// The scenario without `[[displace]]`, `[[pin]]` (the clients grasp and pin) and
-    /// `[interactive]`.
+    /// The scenario without `[[displace]]`, `[[pin]]`, `[[cut]]` (the clients grasp, pin and
+    /// cut) and `[interactive]`.
     pub table: toml::Table,
     /// Relative paths of the scenario are taken from here.
     pub base_dir: PathBuf,
@@ -125,6 +140,7 @@ impl Source {
         // What the clients do (and a recording's replay of it) is not served.
         table.remove("displace");
         table.remove("pin");
+        table.remove("cut");
         table.remove("interactive");
         let method = match table.get("multigrid").and_then(|m| m.get("scheme")) {
             // Backward Euler on one level, its levels preconditioning the Newton solves.
@@ -453,6 +469,11 @@ struct Worker {
     clients: Vec<(u64, mpsc::Sender<Reply>)>,
     held: Option<Held>,
     pins: Vec<([f64; 3], f64)>,
+    /// The cuts that split elements, as the clients sent them (edge a, edge b, sweep; m), in
+    /// order: the recording's `[[cut]]`s after a method switch.
+    cuts: Vec<([f64; 3], [f64; 3], [f64; 3])>,
+    /// Level 0's nodes before any cut.
+    uncut_nodes: usize,
     recorder: Recorder,
     frame: u32,
     fps: f64,
@@ -490,6 +511,7 @@ impl Worker {
         method: Method,
     ) -> Result<(Worker, watch::Receiver<Arc<Published>>), ServeError> {
         let sim = source.build(method)?;
+        let uncut_nodes = sim.mesh().num_nodes();
         let retries = sim.max_retries();
         let timed = source.timed();
         let (tx, rx) = watch::channel(Arc::new(Published {
@@ -514,6 +536,8 @@ impl Worker {
             clients: Vec::new(),
             held: None,
             pins: Vec::new(),
+            cuts: Vec::new(),
+            uncut_nodes,
             recorder: Recorder::new(),
             frame: 0,
             fps: 0.0,
@@ -558,8 +582,21 @@ impl Worker {
             .map(|t| [map[t[0] as usize], map[t[1] as usize], map[t[2] as usize]])
             .collect();
         let pos = self.sim.surface_positions();
-        self.rest = used.iter().map(|&v| pos[v as usize]).collect();
         self.nodal = std::ptr::eq(pos.as_ptr(), self.sim.positions().as_ptr());
+        // The reference positions X = x − u of mesh nodes; a visual surface's vertices where
+        // they are now.
+        let u = self.sim.displacements();
+        let nodal = self.nodal;
+        self.rest = used
+            .iter()
+            .map(|&v| {
+                let (x, v) = (pos[v as usize], v as usize);
+                match nodal {
+                    true => [x[0] - u[3 * v], x[1] - u[3 * v + 1], x[2] - u[3 * v + 2]],
+                    false => x,
+                }
+            })
+            .collect();
         self.topology = Arc::new(protocol::encode_topology(used.len(), &local));
         self.topology_version += 1;
         self.used = used;
@@ -903,7 +940,7 @@ impl Worker {
                     &self.source,
                     self.method,
                     self.config.budget,
-                    self.sim.mesh().num_nodes(),
+                    self.uncut_nodes,
                 );
                 if let Some(path) = &self.config.record_path {
                     if let Err(e) = std::fs::write(path, &text) {
@@ -919,21 +956,86 @@ impl Worker {
                     ),
                 );
             }
+            Command::Cut { a, b, sweep } => self.cut(id, f64p(a), f64p(b), f64p(sweep)),
         }
     }
 
-    /// Rebuild the simulation with `method`; `keep` re-applies the pins and the grasp. The
-    /// recording starts again with them (the frames before were of another simulation).
+    /// A client's cut (module docs): the blade the edge `a`–`b` sweeps along `sweep` (m).
+    fn cut(&mut self, id: u64, a: [f64; 3], b: [f64; 3], sweep: [f64; 3]) {
+        let report = Blade::swept(a, b, sweep).and_then(|blade| self.sim.cut(&blade));
+        match report {
+            Ok(r) => {
+                if r.split.iter().any(|&s| s > 0) {
+                    self.cuts.push((a, b, sweep));
+                    self.recorder.push(Event::Cut { a, b, sweep });
+                    self.new_topology();
+                }
+                let split: Vec<String> = r.split.iter().map(usize::to_string).collect();
+                let m = format!(
+                    "{{\"type\":\"cut\",\"client\":{id},\"split\":[{}],\"nodes\":{},\"elements\":{},\"ms\":{},\"cuts\":{}}}",
+                    split.join(","),
+                    r.nodes,
+                    r.elements,
+                    json_number(r.seconds * 1e3),
+                    self.cuts.len()
+                );
+                self.broadcast(m);
+            }
+            Err(e) => {
+                let m = match self.method {
+                    Method::Raisov => format!(
+                        "{} cannot cut: switch to FAS or single level ({e})",
+                        self.method.label()
+                    ),
+                    _ => format!("cut: {e}"),
+                };
+                self.error(id, m);
+            }
+        }
+    }
+
+    /// Rebuild the simulation with `method`; `keep` re-applies the cuts, the pins and the
+    /// grasp (a method that cannot cut the body again is refused, the old simulation kept).
+    /// The recording starts again with them (the frames before were of another simulation).
     fn rebuild(&mut self, id: u64, method: Method, keep: bool) {
-        match self.source.build(method) {
-            Ok(sim) => {
+        let built = self.source.build(method).map_err(|e| e.to_string());
+        let built = match (built, keep) {
+            (Ok(mut sim), true) => {
+                let uncut = sim.mesh().num_nodes();
+                let blades = self.sim.cuts();
+                let n = blades.len();
+                match blades.iter().try_for_each(|b| sim.cut(b).map(|_| ())) {
+                    Ok(()) => Ok((sim, uncut)),
+                    Err(e) => Err(format!(
+                        "the body has {n} cut(s) and {} cannot take them ({e}): staying with {}; \
+                         reset to switch to it with the body uncut",
+                        method.label(),
+                        self.method.label()
+                    )),
+                }
+            }
+            (Ok(sim), false) => {
+                let uncut = sim.mesh().num_nodes();
+                Ok((sim, uncut))
+            }
+            (Err(e), _) => Err(e),
+        };
+        match built {
+            Ok((sim, uncut_nodes)) => {
                 self.sim = sim;
+                self.uncut_nodes = uncut_nodes;
+                if !keep {
+                    self.cuts.clear();
+                }
                 self.recorder = Recorder::new();
                 self.retries = self.sim.max_retries();
                 self.stuck = false;
                 self.method = method;
                 self.new_topology();
                 if keep {
+                    for &(a, b, sweep) in &self.cuts {
+                        self.recorder.push(Event::Cut { a, b, sweep });
+                    }
                     let pins = std::mem::take(&mut self.pins);
                     for (p, r) in pins {
                         if self.sim.pin(p, r).is_ok() {

@@ -1,5 +1,5 @@
 // The page of `raisov serve`: draws the organ's surface from binary frames, sends grasps,
-// moves, pins and switches (protocol: crates/raisov-serve/src/protocol.rs).
+// moves, pins, cuts and switches (protocol: crates/raisov-serve/src/protocol.rs).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
@@ -39,6 +39,9 @@ const state = {
   displayFps: 0, latencyMs: null, serverLagMs: null, residuals: [], method: 0, stress: false,
   resting: false, stuck: false, diverged: false, budget: null, maxFps: 0, pins: [],
   legendStress: null, legendMax: 0, budgetUsed: null,
+  // Topology messages received (the first, then one after each cut, switch or reset), the
+  // scalpel mode, cut messages sent, and the server's count of cuts that split the body.
+  topologies: 0, scalpel: false, cutsSent: 0, cutsAnswered: 0, cuts: 0, lastCut: null,
 };
 window.raisovState = state;
 
@@ -173,11 +176,18 @@ function onText(m) {
     drawPins();
   } else if (m.type === 'error') {
     showError(m.message);
+    // A refused cut (or any error while one is in flight) lets the next one go.
+    cutDone();
   } else if (m.type === 'holder') {
     setHolder(m.holder);
   } else if (m.type === 'method') {
     setMethod(m.method);
     state.stress = m.stress;
+  } else if (m.type === 'cut') {
+    state.cuts = m.cuts;
+    state.lastCut = m;
+    $('cuts').textContent = `${m.cuts} (${m.nodes} nodes)`;
+    if (m.client === state.client) cutDone();
   } else if (m.type === 'recording') {
     const a = document.createElement('a');
     a.href = URL.createObjectURL(new Blob([m.toml], { type: 'text/plain' }));
@@ -205,9 +215,10 @@ function onTopology(dv) {
   geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(3 * n), 3));
   geometry.setAttribute('color', new THREE.BufferAttribute(new Float32Array(3 * n), 3));
   state.topology = { n, m };
+  state.topologies++;
   state.firstPositions = null;
   legendMax = 0;
-  framed = false;
+  // The camera stays where it is: a new topology after a cut shows the wound from the same view.
 }
 
 let legendMax = 0;
@@ -366,6 +377,74 @@ const raycaster = new THREE.Raycaster();
 const ndc = new THREE.Vector2();
 const dragPlane = new THREE.Plane();
 let dragging = false;
+// The scalpel: a drag across the organ cuts it (cut messages, protocol kind 9).
+let cutting = false;
+let cutFrom = null; // { p: surface point (m), x, y: its screen position (px) }
+let cutTo = null; // the newest surface point under the pointer not yet cut to
+let cutInFlight = 0; // when the last cut was sent (ms), 0 when none is
+const CUT_STEP_PX = 6;
+const depth = () => Number($('depth').value) * 1e-2;
+$('depth').addEventListener('input', () => { $('depthv').textContent = $('depth').value; });
+// The trace of the drag, drawn over the organ.
+const traceGeometry = new THREE.BufferGeometry();
+traceGeometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(3 * 512), 3));
+traceGeometry.setDrawRange(0, 0);
+const trace = new THREE.Line(traceGeometry, new THREE.LineBasicMaterial({ color: 0xffd166, depthTest: false }));
+trace.renderOrder = 11;
+trace.frustumCulled = false;
+scene.add(trace);
+function traceAdd(p, restart) {
+  const a = traceGeometry.getAttribute('position');
+  let k = restart ? 0 : traceGeometry.drawRange.count;
+  if (k >= 512) k = 0;
+  a.setXYZ(k, p.x, p.y, p.z);
+  a.needsUpdate = true;
+  traceGeometry.setDrawRange(0, k + 1);
+}
+function setScalpel(on) {
+  state.scalpel = on;
+  $('scalpel').textContent = on ? 'scalpel: on (c)' : 'scalpel: off (c)';
+  $('scalpel').style.background = on ? '#e63946' : '';
+  if (!on) endCut();
+}
+$('scalpel').addEventListener('click', () => setScalpel(!state.scalpel));
+window.addEventListener('keydown', (e) => {
+  if ((e.key === 'c' || e.key === 'C') && !e.ctrlKey && !e.metaKey && !e.altKey && !e.repeat) setScalpel(!state.scalpel);
+});
+// The unit view direction through the screen point (x, y) (px).
+function viewRay(x, y) {
+  const r = renderer.domElement.getBoundingClientRect();
+  ndc.set(((x - r.left) / r.width) * 2 - 1, -((y - r.top) / r.height) * 2 + 1);
+  raycaster.setFromCamera(ndc, camera);
+  return raycaster.ray.direction.clone().normalize();
+}
+// Send the cut from `cutFrom` to `cutTo`: the edge between the two surface points, swept to the
+// slider's depth along the view direction through the segment's midpoint on the screen. One cut
+// is in flight at a time (until the server's `cut` reply or an error, at most 3 s): the pointer
+// moves in the meantime make the next cut longer, not a queue of cuts behind a slow one.
+function sendCut() {
+  if (!cutFrom || !cutTo || (cutInFlight && performance.now() - cutInFlight < 3000)) return;
+  const a = cutFrom.p;
+  const b = cutTo.p;
+  const w = viewRay((cutFrom.x + cutTo.x) / 2, (cutFrom.y + cutTo.y) / 2).multiplyScalar(depth());
+  if (send(9, [a.x, a.y, a.z, b.x, b.y, b.z, w.x, w.y, w.z])) {
+    state.cutsSent++;
+    cutInFlight = performance.now();
+    cutFrom = cutTo;
+    cutTo = null;
+  }
+}
+function cutDone() {
+  if (cutInFlight) state.cutsAnswered++;
+  cutInFlight = 0;
+  sendCut(); // the points moved over meanwhile (the drag's last piece after it ended)
+}
+function endCut() {
+  if (!cutting) return;
+  if (cutTo) sendCut();
+  cutting = false;
+  controls.enabled = true;
+}
 let pendingMove = null;
 const radius = () => Number($('radius').value) * 1e-3;
 $('radius').addEventListener('input', () => { $('radiusv').textContent = $('radius').value; });
@@ -379,14 +458,25 @@ function pick(e) {
 }
 
 function modifiers(e) {
-  controls.enabled = !(e.shiftKey || e.ctrlKey || e.metaKey) && !dragging;
+  controls.enabled = !(e.shiftKey || e.ctrlKey || e.metaKey) && !dragging && !cutting;
 }
 window.addEventListener('keydown', modifiers);
 window.addEventListener('keyup', modifiers);
 
 renderer.domElement.addEventListener('pointerdown', (e) => {
   if (e.button !== 0) return;
-  if (e.shiftKey) {
+  if (state.scalpel && !e.shiftKey && !e.ctrlKey && !e.metaKey) {
+    // Scalpel: a drag that starts on the organ cuts; one that starts beside it orbits.
+    const p = pick(e);
+    if (!p) return;
+    e.preventDefault();
+    controls.enabled = false;
+    cutting = true;
+    renderer.domElement.setPointerCapture(e.pointerId);
+    cutFrom = { p, x: e.clientX, y: e.clientY };
+    cutTo = null;
+    traceAdd(p, true);
+  } else if (e.shiftKey) {
     const p = pick(e);
     if (!p) return;
     e.preventDefault();
@@ -403,6 +493,16 @@ renderer.domElement.addEventListener('pointerdown', (e) => {
 }, { capture: true });
 
 renderer.domElement.addEventListener('pointermove', (e) => {
+  if (cutting) {
+    const last = cutTo ?? cutFrom;
+    if (Math.hypot(e.clientX - last.x, e.clientY - last.y) < CUT_STEP_PX) return;
+    const p = pick(e);
+    if (!p) return; // beside the organ: the cut goes on from the last point on it
+    cutTo = { p, x: e.clientX, y: e.clientY };
+    traceAdd(p, false);
+    sendCut();
+    return;
+  }
   if (!dragging) return;
   const r = renderer.domElement.getBoundingClientRect();
   ndc.set(((e.clientX - r.left) / r.width) * 2 - 1, -((e.clientY - r.top) / r.height) * 2 + 1);
@@ -412,6 +512,7 @@ renderer.domElement.addEventListener('pointermove', (e) => {
 });
 
 function endDrag() {
+  endCut();
   if (!dragging) return;
   dragging = false;
   pendingMove = null;
@@ -454,6 +555,7 @@ function loop() {
     else if (state.resting) s = 'at rest: the simulation sleeps until you grasp, pin or switch';
     else if (now - lastFrameAt > 3000) s = 'waiting for frames…';
     else if (state.stuck) s = 'the grasp cannot reach the cursor: move back towards the organ';
+    else if (state.scalpel) s = `scalpel: drag across the organ to cut ${$('depth').value} cm deep (c leaves)`;
     $('status').textContent = s;
   }
 }

@@ -90,8 +90,9 @@ int32_t raisov_sim_grab_stiffness(RaisovSim *sim, int64_t grab, double *out);
 
 /* The surface a renderer draws: the visual surface's vertices when the scenario meshed one
  * ([mesh] surface), else the mesh's nodes; its triangles counter-clockwise seen from outside
- * (a tetrahedral mesh's boundary faces, a membrane's own triangles). The triangles never
- * change; the positions change every frame. */
+ * (a tetrahedral mesh's boundary faces, a membrane's own triangles). The triangles change
+ * only when the body is cut (raisov_sim_cut: read the counts again); the positions change
+ * every frame. */
 
 /* Number of surface vertices, or -1. */
 int64_t raisov_sim_surface_vertex_count(const RaisovSim *sim);
@@ -116,6 +117,30 @@ int64_t raisov_sim_surface_triangles(const RaisovSim *sim, uint32_t *out, size_t
  *     f = f_f + K d, scaled down to max_force if larger (the device's limit).
  *
  * f is the force the tissue exerts on the tool: what the device renders on the hand. */
+
+/* Levels whose split elements RaisovCutReport.split lists one by one. */
+#define RAISOV_CUT_MAX_LEVELS 8
+
+/* What raisov_sim_cut did. */
+typedef struct RaisovCutReport {
+    uint32_t levels;                        /* the simulation's levels (entries of split used,
+                                             * at most RAISOV_CUT_MAX_LEVELS) */
+    uint64_t split[RAISOV_CUT_MAX_LEVELS];  /* elements split per level, finest first */
+    uint64_t split_total;                   /* elements split on every level */
+    int64_t nodes;                          /* level 0's nodes after the cut */
+    int64_t elements;                       /* level 0's elements after the cut */
+    double seconds;                         /* wall time of the cut (s) */
+} RaisovCutReport;
+
+/* Cut the body with the blade the edge a[3]-b[3] (m) sweeps along sweep[3] (m): the quad with
+ * corners a, b, b + sweep, a + sweep (a scalpel drawn from a to b on the surface, pushed
+ * |sweep| deep along sweep), on every level (the virtual node algorithm). Node and element
+ * counts change: read raisov_sim_num_nodes and the surface counts again. A blade that misses
+ * changes nothing (split all zero). Writes *out (NULL: not wanted). 0, or -1 with nothing
+ * changed: a degenerate blade, a membrane, a scheme that cannot cut (RaISoV (paper), the
+ * implicit schemes), loads that cannot be cut. */
+int32_t raisov_sim_cut(RaisovSim *sim, const double *a, const double *b, const double *sweep,
+                       RaisovCutReport *out);
 
 /* One published frame. */
 typedef struct RaisovHapticFrame {

@@ -1,7 +1,8 @@
 //! A small C ABI over [`raisov::sim`] (header `include/raisov.h`): create a simulation from a
-//! scenario file, grasp its surface (hard or by springs), step frames (a number of steps or
-//! a wall-time budget), read node positions, the surface a renderer draws, the tool force and
-//! the grasp stiffness, hand a haptic device thread a proxy of a grasp, free it.
+//! scenario file, grasp its surface (hard or by springs), cut it with a planar blade, step
+//! frames (a number of steps or a wall-time budget), read node positions, the surface a
+//! renderer draws, the tool force and the grasp stiffness, hand a haptic device thread a proxy
+//! of a grasp, free it.
 //!
 //! Conventions are the Rust API's, in SI units: `raisov_sim_grab_force` writes
 //! `Σ_{a ∈ g} (V_a − R_a(u))`, the force the tissue exerts on the tool (N); positions are
@@ -247,6 +248,78 @@ pub unsafe extern "C" fn raisov_sim_release(sim: *mut RaisovSim, grab: i64) -> i
         let id = grab_id(s, grab)?;
         s.sim.release(id).map_err(|e| e.to_string())?;
         s.grabs.remove(&grab);
+        Ok(0)
+    })
+}
+
+/// Levels whose split elements [`RaisovCutReport::split`] lists one by one.
+pub const RAISOV_CUT_MAX_LEVELS: usize = 8;
+
+/// What [`raisov_sim_cut`] did (`RaisovCutReport` in C): [`raisov::sim::CutReport`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RaisovCutReport {
+    /// Levels of the simulation (entries of `split` used, at most
+    /// [`RAISOV_CUT_MAX_LEVELS`]).
+    pub levels: u32,
+    /// Elements the blade split, per level (finest first); 0 beyond `levels`.
+    pub split: [u64; RAISOV_CUT_MAX_LEVELS],
+    /// Elements split on every level (those beyond [`RAISOV_CUT_MAX_LEVELS`] included).
+    pub split_total: u64,
+    /// Level 0's nodes after the cut.
+    pub nodes: i64,
+    /// Level 0's elements after the cut.
+    pub elements: i64,
+    /// Wall time of the cut (s).
+    pub seconds: f64,
+}
+
+/// Cut the body with the blade the edge `a`–`b` (3 doubles each, m) sweeps along `sweep`
+/// (3 doubles, m): the quad with corners a, b, b + sweep, a + sweep, cut on every level
+/// ([`Simulation::cut`]). The node and element counts change: read the counts again before
+/// copying positions or the surface. A blade that misses the body changes nothing (`split`
+/// all zero). Writes the report into `*out` (NULL: not wanted). 0, or -1 on error with
+/// nothing changed: a degenerate blade, a membrane, a scheme that cannot cut (RaISoV (paper),
+/// the implicit schemes), loads that cannot be cut.
+///
+/// # Safety
+/// `sim` must be null or a live handle; `a`, `b`, `sweep` null or 3 readable doubles each;
+/// `out` null or a writable `RaisovCutReport`.
+#[no_mangle]
+pub unsafe extern "C" fn raisov_sim_cut(
+    sim: *mut RaisovSim,
+    a: *const f64,
+    b: *const f64,
+    sweep: *const f64,
+    out: *mut RaisovCutReport,
+) -> i32 {
+    guard(-1, || {
+        // SAFETY: the caller's contract, forwarded.
+        let (s, a, b, sweep) = unsafe {
+            (
+                sim_mut(sim)?,
+                read3(a, "a")?,
+                read3(b, "b")?,
+                read3(sweep, "sweep")?,
+            )
+        };
+        let blade = raisov::mesh::cut::Blade::swept(a, b, sweep).map_err(|e| e.to_string())?;
+        let r = s.sim.cut(&blade).map_err(|e| e.to_string())?;
+        let mut report = RaisovCutReport {
+            levels: r.split.len().min(RAISOV_CUT_MAX_LEVELS) as u32,
+            split_total: r.split.iter().map(|&n| n as u64).sum(),
+            nodes: r.nodes as i64,
+            elements: r.elements as i64,
+            seconds: r.seconds,
+            ..RaisovCutReport::default()
+        };
+        for (o, &n) in report.split.iter_mut().zip(&r.split) {
+            *o = n as u64;
+        }
+        // SAFETY: null or a writable report (the caller's contract).
+        if let Some(out) = unsafe { out.as_mut() } {
+            *out = report;
+        }
         Ok(0)
     })
 }
@@ -930,6 +1003,94 @@ duration = 1.0
             assert_eq!(out, [0.0; 3]);
             raisov_haptic_free(h);
             raisov_haptic_free(std::ptr::null_mut());
+        }
+    }
+
+    /// A cut through C splits what the Rust API's same cut splits, the counts grow, the
+    /// surface then has the wound's triangles; a blade that misses changes nothing; bad
+    /// blades and NULLs are errors with the library's message, nothing changed.
+    #[test]
+    fn c_cuts_the_body_as_the_rust_api_does_and_reports_bad_blades() {
+        let (path, sim) = c_cube("cut");
+        let mut rust = Simulation::from_file(&path).unwrap();
+        let (a, b, sweep) = ([0.021, -0.01, 0.05], [0.021, 0.05, 0.05], [0.0, 0.0, -0.03]);
+        let want = rust
+            .cut(&raisov::mesh::cut::Blade::swept(a, b, sweep).unwrap())
+            .unwrap();
+        unsafe {
+            let mut r = RaisovCutReport::default();
+            assert_eq!(
+                raisov_sim_cut(sim, a.as_ptr(), b.as_ptr(), sweep.as_ptr(), &mut r),
+                0,
+                "{}",
+                last_error()
+            );
+            assert_eq!(r.levels, 1);
+            assert_eq!(r.split[0], want.split[0] as u64);
+            assert!(r.split[0] > 0 && r.split_total == r.split[0]);
+            assert_eq!(
+                (r.nodes, r.elements),
+                (want.nodes as i64, want.elements as i64)
+            );
+            assert!(r.nodes > 64);
+            assert_eq!(raisov_sim_num_nodes(sim), r.nodes);
+            let m = raisov_sim_surface_triangle_count(sim);
+            assert_eq!(m, rust.surface_triangles().len() as i64);
+            assert!(m > 108, "the wound's faces: {m} triangles");
+            // The same frames after the same cut: the same positions.
+            for _ in 0..2 {
+                assert_eq!(raisov_sim_step_cycles(sim, 4), 1, "{}", last_error());
+                assert!(rust.step_frame(Budget::Cycles(4)).accepted);
+            }
+            let mut x = vec![0.0; 3 * r.nodes as usize];
+            assert_eq!(
+                raisov_sim_positions(sim, x.as_mut_ptr(), x.len()),
+                3 * r.nodes
+            );
+            assert_eq!(&x[..], rust.positions().as_flattened());
+            // A blade 1 m away: nothing split, nothing changed; the report is optional.
+            let far = [1.0, 1.0, 1.0];
+            let far_b = [1.0, 1.04, 1.0];
+            let mut miss = RaisovCutReport::default();
+            assert_eq!(
+                raisov_sim_cut(sim, far.as_ptr(), far_b.as_ptr(), sweep.as_ptr(), &mut miss),
+                0
+            );
+            assert_eq!((miss.split_total, miss.nodes), (0, r.nodes));
+            assert_eq!(
+                raisov_sim_cut(
+                    sim,
+                    far.as_ptr(),
+                    far_b.as_ptr(),
+                    sweep.as_ptr(),
+                    std::ptr::null_mut()
+                ),
+                0
+            );
+            // Errors: a blade with no area (a = b), NULLs; nothing changed.
+            assert_eq!(
+                raisov_sim_cut(sim, a.as_ptr(), a.as_ptr(), sweep.as_ptr(), &mut miss),
+                -1
+            );
+            assert!(last_error().contains("blade"), "{}", last_error());
+            assert_eq!(
+                raisov_sim_cut(sim, a.as_ptr(), b.as_ptr(), std::ptr::null(), &mut miss),
+                -1
+            );
+            assert!(last_error().contains("`sweep` is NULL"), "{}", last_error());
+            assert_eq!(
+                raisov_sim_cut(
+                    std::ptr::null_mut(),
+                    a.as_ptr(),
+                    b.as_ptr(),
+                    sweep.as_ptr(),
+                    &mut miss
+                ),
+                -1
+            );
+            assert!(last_error().contains("NULL"), "{}", last_error());
+            assert_eq!(raisov_sim_num_nodes(sim), r.nodes);
+            raisov_sim_free(sim);
         }
     }
 

@@ -192,8 +192,9 @@ test('raisov serve: the scalpel cuts the organ and a grasp pulls the wound', { t
     // with more vertices (the wound's faces).
     await page.waitForFunction((n0) => {
       const s = window.raisovState;
+      // Every cut answered, and the topology of the last one arrived (the reply names its counts).
       return s.cutsSent > 0 && s.cutsAnswered === s.cutsSent && s.topologies >= 2 && s.topology.n > n0
-        && s.cuts > 0 && s.firstPositions !== null;
+        && s.cuts > 0 && s.lastCut && s.topology.n === s.lastCut.vertices && s.firstPositions !== null;
     }, before.n, { timeout: 90000 });
     const cut = await page.evaluate(() => {
       const s = window.raisovState;

@@ -53,8 +53,9 @@
 //! the grasp), `pins` (every pin's point and radius, m: sent on connect and whenever they
 //! change), `recording` (the scenario TOML), `cut` (to every client after a cut: the client
 //! that cut, the elements split per level `split`, level 0's `nodes` and `elements` after
-//! it, its wall time `ms`, and the cuts so far `cuts`; a blade that missed splits nothing
-//! and is not counted).
+//! it, its wall time `ms`, the cuts so far `cuts`, and the surface's `vertices` and
+//! `triangles`, the counts of the topology message that follows; a blade that missed splits
+//! nothing and is not counted).
 
 use thiserror::Error;
 

@@ -971,8 +971,9 @@ impl Worker {
                     self.new_topology();
                 }
                 let split: Vec<String> = r.split.iter().map(usize::to_string).collect();
+                let (vertices, triangles) = self.counts();
                 let m = format!(
-                    "{{\"type\":\"cut\",\"client\":{id},\"split\":[{}],\"nodes\":{},\"elements\":{},\"ms\":{},\"cuts\":{}}}",
+                    "{{\"type\":\"cut\",\"client\":{id},\"split\":[{}],\"nodes\":{},\"elements\":{},\"ms\":{},\"cuts\":{},\"vertices\":{vertices},\"triangles\":{triangles}}}",
                     split.join(","),
                     r.nodes,
                     r.elements,

@@ -113,6 +113,10 @@ async fn a_cut_message_splits_elements_and_every_client_gets_the_cut_topology() 
             n > UNCUT.0 && m > UNCUT.1,
             "cut topology {n} vertices, {m} triangles"
         );
+        assert!(
+            report.contains(&format!("\"vertices\":{n},\"triangles\":{m}")),
+            "the cut reply names the topology's counts: {report}"
+        );
         let f = next_frame(ws).await;
         assert_eq!(f.positions.len(), n);
         first.push(f);

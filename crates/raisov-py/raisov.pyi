@@ -182,6 +182,21 @@ class Simulation:
         """Pin the patch grab would take, where it stands."""
     def unpin(self, p: Pin) -> None: ...
     def pin_nodes(self, p: Pin) -> npt.NDArray[np.int64]: ...
+    def cut(self, a: Point, b: Point, sweep: Point) -> dict[str, Any]:
+        """Cut the body with the blade the edge a-b (m) sweeps along sweep (m): the quad a, b,
+        b + sweep, a + sweep, on every level. Returns {"split": [elements split per level],
+        "nodes": int, "elements": int, "seconds": float}; a blade that misses changes nothing.
+        Node and element counts change: read positions, masses(), surface_triangles again.
+        ValueError (nothing changed): a degenerate blade, a membrane, a scheme that cannot cut
+        (RaISoV (paper), the implicit schemes), loads that cannot be cut."""
+    def cut_quad(self, corners: Iterable[Point]) -> dict[str, Any]:
+        """Cut with a planar convex quad blade, corners (4, 3) in order around it (m); as cut."""
+    def cuts(self) -> npt.NDArray[np.float64]:
+        """The blades cut so far, in order: corners (m), shape (k, 4, 3)."""
+    def material_fractions(self) -> npt.NDArray[np.float64]:
+        """Level 0's material fraction per element (1 where no cut split it)."""
+    def masses(self) -> npt.NDArray[np.float64]:
+        """Lumped nodal masses (kg), shape (n,)."""
     def set_max_retries(self, retries: int) -> None: ...
     def describe(self) -> str: ...
     @property
@@ -206,7 +221,7 @@ class Simulation:
     @property
     def surface_triangles(self) -> npt.NDArray[np.int64]:
         """The triangles of surface_positions, shape (m, 3): 0-based vertex indices,
-        counter-clockwise seen from outside. They do not change while the simulation runs."""
+        counter-clockwise seen from outside. They change only when the body is cut."""
     @property
     def nodal_stress(self) -> npt.NDArray[np.float64]:
         """Nodal Cauchy stress (Pa), shape (n, 3, 3)."""

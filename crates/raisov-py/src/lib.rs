@@ -479,6 +479,22 @@ impl Simulation {
             )
         })
     }
+
+    /// Cut with `blade` without the GIL; the report as a dict (`cut`).
+    fn cut_with<'py>(
+        &self,
+        py: Python<'py>,
+        blade: raisov::mesh::cut::Blade,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let r = py.detach(|| self.sim().map(|mut s| s.cut(&blade)))?;
+        let r = r.map_err(to_py)?;
+        let d = PyDict::new(py);
+        d.set_item("split", r.split)?;
+        d.set_item("nodes", r.nodes)?;
+        d.set_item("elements", r.elements)?;
+        d.set_item("seconds", r.seconds)?;
+        Ok(d)
+    }
 }
 
 #[pymethods]
@@ -709,6 +725,77 @@ impl Simulation {
         read_only(nodes.into_pyarray(py))
     }
 
+    /// Cut the body with the blade the edge `a`–`b` (m) sweeps along `sweep` (m): the quad
+    /// with corners a, b, b + sweep, a + sweep (a scalpel drawn on the surface from a to b and
+    /// pushed `|sweep|` deep along `sweep`), on every level (the virtual node algorithm). The
+    /// node and element counts change: read `positions`, `masses()`, `surface_triangles`
+    /// again. Returns `{"split": [elements split per level, finest first], "nodes": level 0's
+    /// nodes after, "elements": level 0's elements after, "seconds": wall time}`; a blade
+    /// that misses splits nothing and changes nothing. `ValueError` with the library's
+    /// message, nothing changed: a degenerate blade, a membrane, a scheme that cannot cut
+    /// (RaISoV (paper), the implicit schemes), loads that cannot be cut.
+    fn cut<'py>(
+        &self,
+        py: Python<'py>,
+        a: &Bound<'_, PyAny>,
+        b: &Bound<'_, PyAny>,
+        sweep: &Bound<'_, PyAny>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let (a, b, sweep) = (point3(a, "a")?, point3(b, "b")?, point3(sweep, "sweep")?);
+        let blade = raisov::mesh::cut::Blade::swept(a, b, sweep).map_err(to_py)?;
+        self.cut_with(py, blade)
+    }
+
+    /// Cut the body with the planar, convex quad blade `corners` (4 points in order around
+    /// it, m; shape (4, 3)); otherwise as `cut`.
+    fn cut_quad<'py>(
+        &self,
+        py: Python<'py>,
+        corners: &Bound<'_, PyAny>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let mut c = [[0.0; 3]; 4];
+        let mut n = 0usize;
+        for item in corners.try_iter()? {
+            let p = point3(&item?, "corners[i]")?;
+            if n < 4 {
+                c[n] = p;
+            }
+            n += 1;
+        }
+        if n != 4 {
+            return Err(PyValueError::new_err(format!(
+                "`corners` must have 4 points (x, y, z in metres, in order around the quad), got {n}"
+            )));
+        }
+        let blade = raisov::mesh::cut::Blade::quad(c).map_err(to_py)?;
+        self.cut_with(py, blade)
+    }
+
+    /// The blades cut so far, in order: their corners (m, shape (k, 4, 3)).
+    fn cuts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let blades = self.sim()?.cuts();
+        let flat: Vec<f64> = blades
+            .iter()
+            .flat_map(|b| b.corners.into_iter().flatten())
+            .collect();
+        let a = Array3::from_shape_vec((blades.len(), 4, 3), flat).expect("12 per blade");
+        read_only(a.into_pyarray(py))
+    }
+
+    /// Level 0's material fraction per element (1 for an element no cut split; the copies of
+    /// a split element sum to 1), float64, shape (elements,).
+    fn material_fractions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let f = self.sim()?.material_fractions();
+        read_only(f.into_pyarray(py))
+    }
+
+    /// The lumped nodal masses (kg, float64, shape (n,)); a read-only copy. A cut shares a
+    /// node's mass among its copies by material: the total is kept.
+    fn masses<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let m = self.sim()?.masses().to_vec();
+        read_only(m.into_pyarray(py))
+    }
+
     /// Retries of a rejected frame, each halving the grasps' sub-moves (default 4).
     fn set_max_retries(&self, retries: u32) -> PyResult<()> {
         self.sim()?.set_max_retries(retries);
@@ -764,7 +851,8 @@ impl Simulation {
 
     /// The triangles of `surface_positions` (int64, shape (m, 3), 0-based vertex indices,
     /// counter-clockwise seen from outside): a tetrahedral mesh's boundary faces, a membrane's
-    /// own triangles, or the visual surface's. They do not change while the simulation runs.
+    /// own triangles, or the visual surface's. They change only when the body is cut (`cut`:
+    /// the wound's faces join them).
     #[getter]
     fn surface_triangles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
         let s = self.sim()?;

@@ -401,3 +401,105 @@ def test_reprs_read_as_python_not_as_rust_debug():
     assert repr(g) == "raisov.Grab(0)" and repr(p) == "raisov.Pin(1)", (repr(g), repr(p))
     r = repr(sim.step_frame(cycles=1))
     assert "rejection=None" in r and "Some(" not in r, r
+
+
+# A 4 cm cube fixed at its base under gravity, explicit dynamics on one level, no damping: a
+# piece cut off falls freely (its weight the only force on it).
+FALLING = """
+gravity = [0, 0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [4, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = { point = [0, 0, 0], normal = [0, 0, 1] }
+[integrator]
+dt = 2e-4
+[run]
+duration = 1.0
+"""
+
+# A horizontal blade at z = 21.3 mm wider than the cube: it cuts the cube through.
+THROUGH = ([-0.01, -0.01, 0.0213], [0.05, -0.01, 0.0213], [0.0, 0.06, 0.0])
+
+
+def test_a_block_cut_through_drops_its_free_part_and_the_fixed_part_stays():
+    sim = raisov.Simulation.from_toml(FALLING)
+    n0, m0, f0 = sim.num_nodes, sim.masses(), sim.material_fractions()
+    assert (f0 == 1.0).all() and len(sim.cuts()) == 0
+    r = sim.cut(*THROUGH)
+    assert set(r) == {"split", "nodes", "elements", "seconds"}
+    assert r["split"][0] > 0 and r["seconds"] >= 0.0
+    assert r["nodes"] == sim.num_nodes > n0
+    # Mass and volume are conserved: the copies of an element share its material.
+    m = sim.masses()
+    assert m.shape == (sim.num_nodes,)
+    assert m.sum() == pytest.approx(m0.sum(), rel=1e-12)
+    f = sim.material_fractions()
+    assert f.shape == (r["elements"],) and r["elements"] > len(f0)
+    assert f.sum() == pytest.approx(len(f0), rel=1e-12)
+    assert ((f > 0) & (f <= 1)).all() and (f < 1).sum() >= 2 * r["split"][0]
+    np.testing.assert_allclose(sim.cuts()[0][0], THROUGH[0])
+    # The wound is on the surface: more triangles, vertices indexing the new nodes.
+    t = sim.surface_triangles
+    assert t.max() < sim.num_nodes and len(t) > 192
+
+    # The top layer (z = 40 mm, one copy each: no element there was split) falls with the
+    # free part; the layer at z = 10 mm stays with the fixed part.
+    rest = sim.rest_positions
+    top = rest[:, 2] > 0.035
+    low = (rest[:, 2] > 0.005) & (rest[:, 2] < 0.015)
+    assert top.sum() == 25 and low.sum() == 25
+    dt, n = 2e-4, 400
+    for _ in range(n // 40):
+        assert sim.step_frame(cycles=40).accepted
+    # Symplectic Euler from rest: z_n - z_0 = g h^2 n (n + 1) / 2, the same for every node of
+    # the free part (it falls as a rigid body).
+    exact = G * dt * dt * n * (n + 1) / 2
+    u = sim.displacements
+    fell = (m[top] * u[top, 2]).sum() / m[top].sum()
+    assert fell == pytest.approx(exact, rel=1e-9), (fell, exact)
+    assert np.abs(u[top, 2] - exact).max() <= 1e-9 * abs(exact)
+    assert np.abs(u[low]).max() < 1e-3, "the fixed part moved"
+
+
+def test_a_blade_that_misses_changes_nothing_and_bad_blades_raise():
+    sim = raisov.Simulation.from_toml(FALLING)
+    twin = raisov.Simulation.from_toml(FALLING)
+    n0, m0 = sim.num_nodes, sim.masses()
+    r = sim.cut([1.0, 1.0, 1.0], [1.04, 1.0, 1.0], [0.0, 0.0, -0.02])
+    assert all(s == 0 for s in r["split"])
+    assert r["nodes"] == n0 == sim.num_nodes
+    np.testing.assert_array_equal(sim.masses(), m0)
+    assert (sim.material_fractions() == 1.0).all()
+    for s in (sim, twin):
+        for _ in range(3):
+            assert s.step_frame(cycles=20).accepted
+    np.testing.assert_array_equal(sim.positions, twin.positions)
+    # A blade with no area, a non-planar quad, a wrong corner count: ValueError with the
+    # library's message, nothing changed.
+    with pytest.raises(ValueError, match="blade"):
+        sim.cut([0.02, 0.0, 0.05], [0.02, 0.0, 0.05], [0.0, 0.0, -0.02])
+    with pytest.raises(ValueError, match="off the plane"):
+        sim.cut_quad([[0, 0, 0.02], [0.04, 0, 0.02], [0.04, 0.04, 0.03], [0, 0.04, 0.02]])
+    with pytest.raises(ValueError, match="4 points"):
+        sim.cut_quad([[0, 0, 0.02], [0.04, 0, 0.02], [0.04, 0.04, 0.02]])
+    assert sim.num_nodes == n0
+    # A quad blade cuts as the swept edge does.
+    q = sim.cut_quad([[-0.01, -0.01, 0.0213], [0.05, -0.01, 0.0213], [0.05, 0.05, 0.0213],
+                      [-0.01, 0.05, 0.0213]])
+    assert q["split"][0] > 0 and sim.num_nodes > n0
+
+
+def test_a_scheme_that_cannot_cut_raises_value_error_naming_it():
+    sim = raisov.Simulation.from_toml(CUBE.replace('scheme = "fas"', 'scheme = "raisov-paper"')
+                                      .replace('coarse = "newton"\n', "")
+                                      .replace("levels = 1", "levels = 2"))
+    n0 = sim.num_nodes
+    with pytest.raises(ValueError, match="cannot cut"):
+        sim.cut(*THROUGH)
+    assert sim.num_nodes == n0

@@ -41,7 +41,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             hi[k] = hi[k].max(p[k]);
         }
     }
-    let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])];
+    let c = [
+        0.5 * (lo[0] + hi[0]),
+        0.5 * (lo[1] + hi[1]),
+        0.5 * (lo[2] + hi[2]),
+    ];
     println!(
         "liver: {} nodes, {} elements, {} surface triangles; FAS, {cycles} V-cycle(s) a frame",
         sim.mesh().num_nodes(),

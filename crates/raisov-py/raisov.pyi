@@ -187,8 +187,8 @@ class Simulation:
         b + sweep, a + sweep, on every level. Returns {"split": [elements split per level],
         "nodes": int, "elements": int, "seconds": float}; a blade that misses changes nothing.
         Node and element counts change: read positions, masses(), surface_triangles again.
-        ValueError (nothing changed): a degenerate blade, a membrane, a scheme that cannot cut
-        (RaISoV (paper), the implicit schemes), loads that cannot be cut."""
+        ValueError (nothing changed): a degenerate blade, a membrane, loads that cannot be cut
+        (pressure, traction, timed loads, tools)."""
     def cut_quad(self, corners: Iterable[Point]) -> dict[str, Any]:
         """Cut with a planar convex quad blade, corners (4, 3) in order around it (m); as cut."""
     def cuts(self) -> npt.NDArray[np.float64]:

@@ -137,8 +137,8 @@ typedef struct RaisovCutReport {
  * |sweep| deep along sweep), on every level (the virtual node algorithm). Node and element
  * counts change: read raisov_sim_num_nodes and the surface counts again. A blade that misses
  * changes nothing (split all zero). Writes *out (NULL: not wanted). 0, or -1 with nothing
- * changed: a degenerate blade, a membrane, a scheme that cannot cut (RaISoV (paper), the
- * implicit schemes), loads that cannot be cut. */
+ * changed: a degenerate blade, a membrane, loads that cannot be cut (pressure, traction,
+ * timed loads, tools). */
 int32_t raisov_sim_cut(RaisovSim *sim, const double *a, const double *b, const double *sweep,
                        RaisovCutReport *out);
 

@@ -279,8 +279,8 @@ pub struct RaisovCutReport {
 /// ([`Simulation::cut`]). The node and element counts change: read the counts again before
 /// copying positions or the surface. A blade that misses the body changes nothing (`split`
 /// all zero). Writes the report into `*out` (NULL: not wanted). 0, or -1 on error with
-/// nothing changed: a degenerate blade, a membrane, a scheme that cannot cut (RaISoV (paper),
-/// the implicit schemes), loads that cannot be cut.
+/// nothing changed: a degenerate blade, a membrane, loads that cannot be cut (pressure,
+/// traction, timed loads, tools).
 ///
 /// # Safety
 /// `sim` must be null or a live handle; `a`, `b`, `sweep` null or 3 readable doubles each;

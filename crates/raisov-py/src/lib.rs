@@ -732,8 +732,8 @@ impl Simulation {
     /// again. Returns `{"split": [elements split per level, finest first], "nodes": level 0's
     /// nodes after, "elements": level 0's elements after, "seconds": wall time}`; a blade
     /// that misses splits nothing and changes nothing. `ValueError` with the library's
-    /// message, nothing changed: a degenerate blade, a membrane, a scheme that cannot cut
-    /// (RaISoV (paper), the implicit schemes), loads that cannot be cut.
+    /// message, nothing changed: a degenerate blade, a membrane, loads that cannot be cut
+    /// (pressure, traction, timed loads, tools).
     fn cut<'py>(
         &self,
         py: Python<'py>,

@@ -495,11 +495,14 @@ def test_a_blade_that_misses_changes_nothing_and_bad_blades_raise():
     assert q["split"][0] > 0 and sim.num_nodes > n0
 
 
-def test_a_scheme_that_cannot_cut_raises_value_error_naming_it():
-    sim = raisov.Simulation.from_toml(CUBE.replace('scheme = "fas"', 'scheme = "raisov-paper"')
-                                      .replace('coarse = "newton"\n', "")
-                                      .replace("levels = 1", "levels = 2"))
+def test_a_model_that_cannot_be_cut_raises_value_error_and_nothing_changes():
+    # A timed nodal load is not carried through a cut (yet): the library refuses the cut.
+    timed = FALLING + (
+        '[[load]]\nat = { point = [0.02, 0.02, 0.04] }\nforce = [0.0, 0.0, -0.001]\n'
+        'time = { kind = "ramp", duration = 0.5 }\n')
+    sim = raisov.Simulation.from_toml(timed)
     n0 = sim.num_nodes
-    with pytest.raises(ValueError, match="cannot cut"):
+    with pytest.raises(ValueError, match="cannot be cut"):
         sim.cut(*THROUGH)
-    assert sim.num_nodes == n0
+    assert sim.num_nodes == n0 and len(sim.cuts()) == 0
+    assert sim.step_frame(cycles=5).accepted

@@ -19,11 +19,13 @@
 //! [`Simulation::cut`]. A cut that split elements changes the surface (its vertex and
 //! triangle counts, the wound's faces): the topology is rebuilt and sent to every client
 //! before the next frame, and every client is told what the cut split (a `cut` message). A
-//! cut that missed changes nothing; one the simulation refuses (RaISoV, the implicit schemes,
-//! loads that cannot be cut) is answered with an error naming why, nothing changed. The
-//! displacement colour stays `|x − X|` across cuts (`X` the reference position, which the
-//! copies of a node share; on a visual surface, the vertex's position when the topology was
-//! built).
+//! cut that missed changes nothing; one the simulation refuses (loads that cannot be cut:
+//! pressure, traction, timed loads, tools) is answered with an error naming why, nothing
+//! changed. The displacement colour stays `|x − X|` across cuts at the nodes (`X` the
+//! reference position, which the copies of a node share); the wound's vertices, and a visual
+//! surface's, are measured from where they were when the topology was built. The stress
+//! colour needs a surface of mesh nodes only: none after a cut (the wound's vertices are not
+//! nodes), when the displacement is shown.
 //!
 //! A reset goes back to the uncut body. A method switch cuts the new simulation with the
 //! blades of the old one ([`Simulation::cuts`]), in order, so the wound stays; a method that
@@ -583,15 +585,20 @@ impl Worker {
             .collect();
         let pos = self.sim.surface_positions();
         self.nodal = std::ptr::eq(pos.as_ptr(), self.sim.positions().as_ptr());
-        // The reference positions X = x − u of mesh nodes; a visual surface's vertices where
-        // they are now.
+        // The leading surface vertices that are mesh nodes: all of them without a visual
+        // surface; a cut body's surface lists the nodes first, then the wound's vertices.
+        let n = self.sim.positions().len();
+        let nodes = match self.nodal || (!self.sim.cuts().is_empty() && pos.len() >= n) {
+            true => n,
+            false => 0,
+        };
+        // The reference positions X = x − u of those nodes; other vertices where they are now.
         let u = self.sim.displacements();
-        let nodal = self.nodal;
         self.rest = used
             .iter()
             .map(|&v| {
                 let (x, v) = (pos[v as usize], v as usize);
-                match nodal {
+                match v < nodes {
                     true => [x[0] - u[3 * v], x[1] - u[3 * v + 1], x[2] - u[3 * v + 2]],
                     false => x,
                 }
@@ -929,7 +936,7 @@ impl Worker {
                 if c == Colour::Stress && !self.nodal {
                     self.error(
                         id,
-                        "stress is shown on meshes without a visual surface only: showing displacement",
+                        "stress is shown where the surface's vertices are the mesh's nodes only (no visual surface, no cut): showing displacement",
                     );
                 } else {
                     self.colour = c;
@@ -982,16 +989,7 @@ impl Worker {
                 );
                 self.broadcast(m);
             }
-            Err(e) => {
-                let m = match self.method {
-                    Method::Raisov => format!(
-                        "{} cannot cut: switch to FAS or single level ({e})",
-                        self.method.label()
-                    ),
-                    _ => format!("cut: {e}"),
-                };
-                self.error(id, m);
-            }
+            Err(e) => self.error(id, format!("cut: {e}")),
         }
     }
 

@@ -1,7 +1,8 @@
 //! The scalpel over the protocol: a cut message splits the cube's elements and every client
 //! gets the cut body's topology (more vertices and triangles) before its next frame; a grasp
-//! on one lip pulls the wound open; a method switch keeps the wound, a method that cannot cut
-//! is refused with a reason, a reset heals the body; the recording writes the cut.
+//! on one lip pulls the wound open; a method switch keeps the wound (every method cuts it
+//! again), a reset heals the body; a cut the simulation cannot take is refused with the
+//! reason, a blade that misses changes nothing; the recording writes the cut.
 
 use futures_util::StreamExt;
 use raisov::sim::Budget;
@@ -171,8 +172,8 @@ async fn a_cut_message_splits_elements_and_every_client_gets_the_cut_topology() 
     assert!(rec.contains("1 cut(s)"), "{rec}");
 }
 
-/// A method switch keeps the wound (FAS takes the blades again: the same surface); a switch
-/// to RaISoV, which cannot cut, is refused and names why; a reset heals the body.
+/// A method switch keeps the wound: FAS and RaISoV take the blades again, giving the same
+/// surface; a cut on RaISoV cuts it further; a reset heals the body.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_method_switch_keeps_the_wound_and_a_reset_heals_it() {
     let (addr, _task) = start().await;
@@ -182,22 +183,17 @@ async fn a_method_switch_keeps_the_wound_and_a_reset_heals_it() {
     let cut = next_topology(&mut ws).await;
     assert!(cut.0 > UNCUT.0);
 
-    send(&mut ws, 2, Command::Method(Method::Fas)).await;
-    let m = next_of(&mut ws, "method").await;
-    assert!(m.contains("\"method\":0"), "{m}");
-    assert_eq!(
-        next_topology(&mut ws).await,
-        cut,
-        "the wound after the switch"
-    );
-
-    send(&mut ws, 3, Command::Method(Method::Raisov)).await;
-    let e = next_of(&mut ws, "error").await;
-    assert!(
-        e.contains("RaISoV (paper) cannot take them") && e.contains("staying with FAS"),
-        "{e}"
-    );
-    // Still FAS, still cut: a second notch cuts the FAS simulation.
+    for (seq, m) in [(2, Method::Fas), (3, Method::Raisov)] {
+        send(&mut ws, seq, Command::Method(m)).await;
+        let t = next_of(&mut ws, "method").await;
+        assert!(t.contains(&format!("\"method\":{}", m.code())), "{t}");
+        assert_eq!(
+            next_topology(&mut ws).await,
+            cut,
+            "the wound after the switch to {m:?}"
+        );
+    }
+    // A second notch, across the first, on RaISoV.
     send(
         &mut ws,
         4,
@@ -221,11 +217,16 @@ async fn a_method_switch_keeps_the_wound_and_a_reset_heals_it() {
     );
 }
 
-/// RaISoV (paper) cannot cut: the cut is answered with the reason and what to do, nothing
-/// changes; a blade that misses the body changes nothing either.
+/// A cut of a body under a timed load (which the library cannot carry through a cut) is
+/// answered with the library's reason, nothing changed; a blade that misses the body changes
+/// nothing either.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_cut_the_method_cannot_take_is_refused_with_a_reason() {
-    let source = Source::from_text(CUBE, PathBuf::from("."), "cube", "cube.toml".as_ref())
+async fn a_cut_the_simulation_cannot_take_is_refused_with_the_reason() {
+    let scenario = format!(
+        "{CUBE}\n[[load]]\nat = {{ point = [0.02, 0.02, 0.04] }}\nforce = [0.0, 0.0, -0.001]\n\
+         time = {{ kind = \"ramp\", duration = 0.5 }}\n"
+    );
+    let source = Source::from_text(&scenario, PathBuf::from("."), "cube", "cube.toml".as_ref())
         .expect("the cube scenario");
     let (addr, _task) = start_session(
         source,
@@ -233,7 +234,7 @@ async fn a_cut_the_method_cannot_take_is_refused_with_a_reason() {
             grab_stiffness: None,
             budget: Budget::Cycles(2),
             max_fps: 200.0,
-            method: Some(Method::Raisov),
+            method: None,
             record_path: None,
         },
     )
@@ -243,15 +244,13 @@ async fn a_cut_the_method_cannot_take_is_refused_with_a_reason() {
     send(&mut ws, 1, notch()).await;
     let e = next_of(&mut ws, "error").await;
     assert!(
-        e.contains("RaISoV (paper) cannot cut: switch to FAS or single level"),
+        e.contains("cut: ") && e.contains("cannot be cut") && e.contains("timed loads"),
         "{e}"
     );
     // A blade 1 m away misses: a cut report of nothing split, no new topology.
-    send(&mut ws, 2, Command::Method(Method::Single)).await;
-    assert_eq!(next_topology(&mut ws).await, UNCUT);
     send(
         &mut ws,
-        3,
+        2,
         Command::Cut {
             a: [1.0, 0.0, 1.0],
             b: [1.0, 0.04, 1.0],
@@ -265,7 +264,72 @@ async fn a_cut_the_method_cannot_take_is_refused_with_a_reason() {
         "{r}"
     );
     let again = tokio::time::timeout(Duration::from_secs(1), next_topology(&mut ws)).await;
-    assert!(again.is_err(), "a blade that missed sent a topology");
+    assert!(
+        again.is_err(),
+        "a refused cut or a blade that missed sent a topology"
+    );
+}
+
+/// A session with a cut, saved (`--record`) and replayed by the library's interactive run
+/// (what `raisov run` calls): the replay makes the cut, its last frame on the cut mesh.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_recorded_cut_replays_with_the_cut() {
+    let dir = tempfile::tempdir().unwrap();
+    let record = dir.path().join("recorded.toml");
+    let source = Source::from_text(CUBE, PathBuf::from("."), "cube", "cube.toml".as_ref())
+        .expect("the cube scenario");
+    let (addr, _task) = start_session(
+        source,
+        SessionConfig {
+            grab_stiffness: None,
+            budget: Budget::Cycles(20),
+            max_fps: 200.0,
+            method: None,
+            record_path: Some(record.clone()),
+        },
+    )
+    .await;
+    let (mut ws, _) = open(&addr).await;
+    for _ in 0..3 {
+        next_frame(&mut ws).await;
+    }
+    send(&mut ws, 1, notch()).await;
+    let r = next_of(&mut ws, "cut").await;
+    let nodes: usize = r
+        .split("\"nodes\":")
+        .nth(1)
+        .and_then(|x| x.split(',').next())
+        .and_then(|x| x.parse().ok())
+        .expect("the cut's node count");
+    next_topology(&mut ws).await;
+    for _ in 0..3 {
+        next_frame(&mut ws).await;
+    }
+    send(&mut ws, 2, Command::Save).await;
+    let saved = next_of(&mut ws, "recording").await;
+    assert!(saved.contains("[[cut]]"), "{saved}");
+    let sc = raisov::scenario::Scenario::load(&record).expect("the recording loads");
+    let stepper = sc.stepper().expect("its stepper");
+    let out = dir.path().join("out");
+    let s = raisov::sim::replay::run_interactive(
+        &sc,
+        stepper,
+        raisov::scenario::RunOptions {
+            out_dir: Some(out.clone()),
+            ..Default::default()
+        },
+    )
+    .expect("the recording replays");
+    let last = out
+        .join("frames")
+        .join(format!("{}_{:06}.vtu", sc.name, s.frames));
+    let (_, u) = raisov::io::read_vtu_array(&last, "displacement").expect("the last frame");
+    assert_eq!(
+        u.len() / 3,
+        nodes,
+        "the replay's last frame is on the cut mesh"
+    );
+    assert!(nodes > 125);
 }
 
 fn dist(p: [f32; 3], q: [f32; 3]) -> f32 {

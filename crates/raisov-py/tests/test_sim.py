@@ -444,9 +444,11 @@ def test_a_block_cut_through_drops_its_free_part_and_the_fixed_part_stays():
     assert f.sum() == pytest.approx(len(f0), rel=1e-12)
     assert ((f > 0) & (f <= 1)).all() and (f < 1).sum() >= 2 * r["split"][0]
     np.testing.assert_allclose(sim.cuts()[0][0], THROUGH[0])
-    # The wound is on the surface: more triangles, vertices indexing the new nodes.
-    t = sim.surface_triangles
-    assert t.max() < sim.num_nodes and len(t) > 192
+    # The wound is on the surface: more triangles; the cut body's surface lists the nodes,
+    # then the wound's vertices (read both again after a cut).
+    t, x = sim.surface_triangles, sim.surface_positions
+    assert len(t) > 192 and t.max() < len(x) and len(x) > sim.num_nodes
+    np.testing.assert_array_equal(x[: sim.num_nodes], sim.positions)
 
     # The top layer (z = 40 mm, one copy each: no element there was split) falls with the
     # free part; the layer at z = 10 mm stays with the fixed part.

@@ -648,7 +648,6 @@ fn backward_euler_runs_on_a_cut_body() {
 
 #[test]
 fn the_wounds_faces_carry_no_traction_and_each_lip_averages_its_own_stress() {
-    use raisov::fem::ForceModel;
     let (fine, _, blade) = notched_levels();
     let mut cut = CutMesh::new(fine.clone()).unwrap();
     cut.cut(&blade).unwrap();

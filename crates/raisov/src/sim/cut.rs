@@ -43,7 +43,7 @@ impl Embedded {
 pub struct CutReport {
     /// Elements the blade split, per level (finest first).
     pub split: Vec<usize>,
-    /// Level 0's nodes and elements after the cut.
+    /// Level 0's nodes after the cut.
     pub nodes: usize,
     /// Level 0's elements after the cut.
     pub elements: usize,
@@ -60,8 +60,9 @@ pub struct CutReport {
 impl Simulation {
     /// Cut the body with `blade` on every level (module docs); returns what it split. A blade
     /// that misses the body changes nothing. Errors, with nothing changed: a membrane, a
-    /// stepper that cannot cut, a force model that cannot be
-    /// cut (pressure, traction, timed loads, tools).
+    /// stepper that cannot cut, a force model that cannot be cut (pressure, traction, timed
+    /// loads, tools: the stepper's and the simulation's own level-0 model are the same kind,
+    /// so both refuse before either changes).
     pub fn cut(&mut self, blade: &Blade) -> Result<CutReport> {
         let start = std::time::Instant::now();
         let mut state = match self.cuts.take() {

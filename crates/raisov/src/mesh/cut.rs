@@ -579,9 +579,9 @@ impl CutMesh {
         self.planes.iter().map(|p| p.blade).collect()
     }
 
-    /// Whether any cut split an element.
+    /// Whether any cut split an element (each split adds an element).
     pub fn is_cut(&self) -> bool {
-        self.sides.iter().any(|s| !s.is_empty())
+        self.mesh.num_elements() > self.base.num_elements()
     }
 
     /// `φ̃` of cut `k` at the four base nodes of base element `e`.

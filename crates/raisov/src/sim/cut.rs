@@ -95,7 +95,7 @@ impl Simulation {
                 self.constraints_changed();
                 return Err(e);
             }
-            self.carry(&hc.levels[0], &state)?;
+            self.carry(&hc.levels[0], &state);
         }
         self.cuts = Some(state);
         Ok(CutReport {
@@ -162,7 +162,7 @@ impl Simulation {
 
     /// Carry the simulation's own parts (its model cut already) to level 0's cut mesh, after
     /// the stepper took the cut.
-    fn carry(&mut self, ch: &TopologyChange, state: &CutState) -> Result<()> {
+    fn carry(&mut self, ch: &TopologyChange, state: &CutState) {
         let n = ch.mesh.num_nodes();
         let mut copies: Vec<Vec<u32>> = vec![Vec::new(); self.mesh.num_nodes()];
         for (a, &o) in ch.node_from.iter().enumerate() {
@@ -238,6 +238,5 @@ impl Simulation {
         });
         // The grasps and pins on the new nodes; the caches at the carried state.
         self.constraints_changed();
-        Ok(())
     }
 }

@@ -46,6 +46,8 @@ pub enum MultigridScheme {
     Fas(FasParams),
     /// `scheme = "raisov-paper"`: the paper's RaISoV cycle ([`crate::multigrid::raisov`]).
     RaisovPaper(RaisovParams),
+    /// `scheme = "newton"`: the frame solver ([`crate::statics::frames`]).
+    Newton(crate::statics::frames::NewtonFramesParams),
 }
 
 /// How the coarser levels are made, level 0 being `[mesh]`.
@@ -176,7 +178,45 @@ pub(super) fn resolve(
             )?;
             MultigridScheme::Fas(fas_params(mg, path)?)
         }
+        Scheme::Newton => {
+            only(
+                &[
+                    ("reading", mg.reading.is_some()),
+                    ("epsilon", mg.epsilon.is_some()),
+                    ("pre_smooth", mg.pre_smooth.is_some()),
+                    ("post_smooth", mg.post_smooth.is_some()),
+                    ("coarse", mg.coarse.is_some()),
+                    ("coarse_time", mg.coarse_time.is_some()),
+                    ("coarse_iterations", mg.coarse_iterations.is_some()),
+                    ("smoother", mg.smoother.is_some()),
+                    ("scaling", mg.scaling.is_some()),
+                    ("transfer", mg.transfer.is_some()),
+                    ("accelerate", mg.accelerate.is_some()),
+                ],
+                "its own scheme (fas or raisov-paper)",
+            )?;
+            let mut p = crate::statics::frames::NewtonFramesParams {
+                smoother: super::StaticSolve::default_smoother(mesh.kind),
+                ..Default::default()
+            };
+            if let Some(cg) = mg.cg_per_step {
+                if cg == 0 {
+                    return Err(err(
+                        path,
+                        "`multigrid.cg_per_step` = 0: give at least 1 (conjugate-gradient iterations per Newton step, default 2)",
+                    ));
+                }
+                p.cg = cg;
+            }
+            MultigridScheme::Newton(p)
+        }
     };
+    if scheme_is_not_newton(&scheme) && mg.cg_per_step.is_some() {
+        return Err(err(
+            path,
+            "`multigrid.cg_per_step` applies to scheme = \"newton\" only",
+        ));
+    }
     Ok(Multigrid {
         scheme,
         meshes,
@@ -186,6 +226,10 @@ pub(super) fn resolve(
 }
 
 /// The FAS settings of `[multigrid]`, [`FasParams::default`] where not given.
+fn scheme_is_not_newton(s: &MultigridScheme) -> bool {
+    !matches!(s, MultigridScheme::Newton(_))
+}
+
 fn fas_params(mg: &MultigridSpec, path: &Path) -> Result<FasParams> {
     let d = FasParams::default();
     if mg.coarse_iterations == Some(0) {
@@ -702,6 +746,18 @@ impl Scenario {
                 },
             )));
         };
+        if let MultigridScheme::Newton(p) = mg.scheme {
+            let coarse = self
+                .pick_level(crate::statics::newton::coarse_level)?
+                .chosen
+                .map(|(_, m)| m);
+            return Ok(Box::new(crate::statics::frames::NewtonFrames::new(
+                sys,
+                self.mesh.clone(),
+                coarse,
+                p,
+            )?));
+        }
         let (levels, links) = self.build_levels()?;
         Ok(match mg.scheme {
             MultigridScheme::RaisovPaper(p) => Box::new(Raisov::new(
@@ -720,6 +776,7 @@ impl Scenario {
                     ..p
                 },
             )),
+            MultigridScheme::Newton(_) => unreachable!("built above"),
         })
     }
 }

@@ -650,6 +650,9 @@ named_enum! {
         Fas = "fas",
         /// The paper's RaISoV cycle as written ([`crate::multigrid::raisov`]).
         RaisovPaper = "raisov-paper",
+        /// The frame solver: chord Newton on a kept tangent, its Galerkin V-cycle over the
+        /// levels ([`crate::statics::frames`]).
+        Newton = "newton",
     }
 }
 
@@ -891,7 +894,7 @@ pub struct ScenarioSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MultigridSpec {
-    /// `scheme`: `"fas"` (default) or `"raisov-paper"`.
+    /// `scheme`: `"fas"` (default), `"raisov-paper"` or `"newton"`.
     pub scheme: Option<Scheme>,
     /// `levels`: the level count, level 0 included, with `[mesh] generate` or `surface`; node
     /// counts a geometric series of ratio `ratio`.
@@ -910,6 +913,9 @@ pub struct MultigridSpec {
     /// `epsilon` (raisov-paper): the switch threshold ε (m) of eqs. 10 and 12, at least 0;
     /// default 1e-3 × level 0's shortest edge.
     pub epsilon: Option<f64>,
+    /// `cg_per_step` (newton): conjugate-gradient iterations per Newton step, at least 1;
+    /// default 2.
+    pub cg_per_step: Option<usize>,
     /// `pre_smooth` (fas): ν1, smoothing steps per level before the coarse correction; default 4.
     pub pre_smooth: Option<usize>,
     /// `post_smooth` (fas): ν2, smoothing steps per level after it; default 4.

@@ -18,6 +18,7 @@
 //! The linear algebra they share (conjugate gradients, the Galerkin hierarchy, smoothers,
 //! coarse factor) is in [`crate::linalg`].
 
+pub mod frames;
 pub mod implicit;
 pub mod krylov;
 pub mod nested;

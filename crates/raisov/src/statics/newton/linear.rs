@@ -137,7 +137,7 @@ impl DirectNewton {
     }
 
     /// `out[i] = x[f(i)]` for every free dof i with free index f, zero on constrained dofs.
-    fn scatter_free(&self, x: &[f64], out: &mut [f64]) {
+    pub(super) fn scatter_free(&self, x: &[f64], out: &mut [f64]) {
         for (i, &f) in self.free.iter().enumerate() {
             out[i] = if f == usize::MAX { 0.0 } else { x[f] };
         }

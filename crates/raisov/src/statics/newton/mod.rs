@@ -118,9 +118,11 @@
 //! few Newton iterations per frame (`max_newton`) carries the regularisation a flat
 //! membrane's first tangent needs from one frame to the next.
 
+mod kept;
 mod linear;
 mod pattern;
 mod shift;
+pub use kept::KeptSolve;
 pub use linear::{TangentSolver, TangentSolves};
 
 use crate::linalg::cg::{pcg, pcg_from, PcgEnd};

@@ -1,0 +1,190 @@
+//! The tangent kept across solves: `K_k = K(u_k)` assembled once at a state `u_k` (the
+//! elements, the model's blocks beyond them and the springs' `k I`, as a Newton iteration
+//! assembles it) with its Galerkin V-cycle over [`DirectNewton::with_levels`]' levels (the
+//! coarsest level factored; without coarser levels the fine level itself), then used for
+//! many truncated solves `K_k x = b` at later states: the chord (lagged-tangent) Newton
+//! iteration of the frame solver ([`crate::statics::frames`]). A refresh at a new state
+//! assembles `K` there again and either rebuilds the whole hierarchy or forms the smoothed
+//! levels' Galerkin operators again and keeps the coarsest factor
+//! ([`GalerkinMultigrid::refresh`]: the cycle stays symmetric and positive definite where the
+//! new operators are).
+
+use super::*;
+
+/// What [`DirectNewton::kept_solve`] did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KeptSolve {
+    /// Conjugate-gradient iterations.
+    pub iterations: usize,
+    /// The solve met a direction of non-positive curvature (the iterate before it kept:
+    /// Steihaug's truncation; none at all at the first iteration).
+    pub truncated: bool,
+}
+
+impl DirectNewton {
+    /// Assemble `K(u)` of `model` plus the `springs`' `k I` and keep it with its Galerkin
+    /// V-cycle (`sweeps` sweeps of `smoother` before and after the coarse correction) for
+    /// [`DirectNewton::kept_solve`].
+    /// The diagonal is shifted by `shift` times its mean, weighted by the lumped mass as the
+    /// Newton iteration's regularisation is (`K + σ d̄ D`). `full`: build the hierarchy anew, its coarsest factor included; otherwise, where one is
+    /// kept, form the smoothed levels' operators again and keep the coarsest factor.
+    ///
+    /// Errors: an element the tangent cannot be evaluated at; a coarsest operator that does
+    /// not factor even shifted; a hierarchy too large for the memory.
+    pub fn keep_tangent(
+        &mut self,
+        model: &dyn ForceModel,
+        springs: &[Spring],
+        u: &[f64],
+        smoother: Smoother,
+        sweeps: usize,
+        full: bool,
+        shift: f64,
+    ) -> Result<(), DirectNewtonError> {
+        let mean = self
+            .assemble(model, springs, u, None)
+            .map_err(DirectNewtonError::Inverted)?;
+        if shift > 0.0 {
+            for (&d, w) in self.diag.iter().zip(&self.weight) {
+                self.vals[d as usize] += shift * mean * w;
+            }
+        }
+        let nf = self.nfree;
+        let scatter = self.scatter.get_or_insert_with(|| {
+            SymScatter::new(nf, self.symbolic.col_ptr(), self.symbolic.row_idx())
+        });
+        if let (false, Some(mg)) = (full, self.mg.as_mut()) {
+            scatter.fill(&self.vals, mg.finest_mut());
+            mg.refresh();
+            return Ok(());
+        }
+        let mut a = scatter.pattern.clone();
+        scatter.fill(&self.vals, &mut a);
+        let mg = GalerkinMultigrid::new(
+            a,
+            self.prolongations.clone(),
+            sweeps,
+            smoother,
+            Precision::Single,
+            &mut self.hierarchy_symbolic,
+        )
+        .map_err(|e| match e {
+            GalerkinError::Memory(m) => DirectNewtonError::Memory(m),
+            GalerkinError::Factor(f) => DirectNewtonError::Factor(format!(
+                "the tangent's coarsest level does not factor at this state ({f})"
+            )),
+        })?;
+        self.mg = Some(mg);
+        Ok(())
+    }
+
+    /// Whether a tangent is kept ([`DirectNewton::keep_tangent`]).
+    pub fn has_kept_tangent(&self) -> bool {
+        self.mg.is_some()
+    }
+
+    /// At most `max_iter` conjugate-gradient iterations on `K x = b` over the free dofs,
+    /// preconditioned by the kept V-cycle, from `x = 0` (`warm`: from `x`). `b` and `x` in all
+    /// dofs' layout (`b`'s constrained entries ignored, `x`'s set to zero). `product(p, q)`:
+    /// `q = K p` over the free dofs (free-index order, [`DirectNewton::free_count`] entries);
+    /// `None`: the kept tangent `K_k` itself. Without a kept tangent `x` is zero and nothing is
+    /// done. An error of `product` ends the solve, `x` the iterate so far.
+    pub fn kept_solve<E>(
+        &self,
+        b: &[f64],
+        x: &mut [f64],
+        max_iter: usize,
+        warm: bool,
+        product: Option<&mut dyn FnMut(&[f64], &mut [f64]) -> Result<(), E>>,
+    ) -> Result<KeptSolve, E> {
+        let Some(mg) = &self.mg else {
+            x.iter_mut().for_each(|v| *v = 0.0);
+            return Ok(KeptSolve {
+                iterations: 0,
+                truncated: false,
+            });
+        };
+        let nf = self.nfree;
+        let mut bf = vec![0.0; nf];
+        let mut xf = vec![0.0; nf];
+        self.gather_free(b, &mut bf);
+        if warm {
+            self.gather_free(x, &mut xf);
+        }
+        let settings = crate::linalg::cg::CgSettings {
+            warm,
+            ..crate::linalg::cg::CgSettings::new(0.0, max_iter)
+        };
+        let end = match product {
+            Some(f) => crate::linalg::cg::solve(
+                |p: &[f64], q: &mut [f64]| f(p, q),
+                |r: &[f64], z: &mut [f64]| {
+                    mg.apply(r, z);
+                    Ok(())
+                },
+                &bf,
+                &mut xf,
+                settings,
+                None,
+            ),
+            None => crate::linalg::cg::solve(
+                |p: &[f64], q: &mut [f64]| {
+                    mg.matrix().matvec(p, q);
+                    Ok(())
+                },
+                |r: &[f64], z: &mut [f64]| {
+                    mg.apply(r, z);
+                    Ok(())
+                },
+                &bf,
+                &mut xf,
+                settings,
+                None,
+            ),
+        };
+        let end = match end {
+            Ok(e) => e,
+            Err(e) => {
+                self.scatter_free(&xf, x);
+                return Err(e);
+            }
+        };
+        let (iterations, truncated) = match end {
+            PcgEnd::Converged(it) => (it, false),
+            PcgEnd::MaxIter => (max_iter, false),
+            PcgEnd::Truncated(it) | PcgEnd::Negative(it, _) => (it, true),
+            PcgEnd::Breakdown(_) => {
+                xf.iter_mut().for_each(|v| *v = 0.0);
+                (1, true)
+            }
+        };
+        self.scatter_free(&xf, x);
+        Ok(KeptSolve {
+            iterations,
+            truncated,
+        })
+    }
+
+    /// `q = K_k p` over the free dofs with the kept tangent (zero without one).
+    pub fn kept_product(&self, p: &[f64], q: &mut [f64]) {
+        match &self.mg {
+            Some(mg) => mg.matrix().matvec(p, q),
+            None => q.iter_mut().for_each(|v| *v = 0.0),
+        }
+    }
+
+    /// The number of free dofs.
+    pub fn free_count(&self) -> usize {
+        self.nfree
+    }
+
+    /// `out[f] = x[i]` for every free dof i with free index f (`x` in all dofs' layout).
+    pub fn free_values(&self, x: &[f64], out: &mut [f64]) {
+        self.gather_free(x, out);
+    }
+
+    /// `out[i] = x[f(i)]` for every free dof i, zero on constrained dofs.
+    pub fn all_values(&self, x: &[f64], out: &mut [f64]) {
+        self.scatter_free(x, out);
+    }
+}

@@ -15,15 +15,21 @@ pub(crate) fn cmd_bench_frames(
     organ: &str,
     cycles: Vec<u32>,
 ) -> anyhow::Result<i32> {
-    use raisov_lab::bench::frames::{self as fr, Grasp, Law, Organ};
+    use raisov_lab::bench::frames::{self as fr, Grasp, Law, Organ, Solver};
     let meshes = meshes.unwrap_or_else(|| PathBuf::from("data"));
     let mut opts = fr::FramesOptions::new(Organ::parse(organ).map_err(BadInput)?, quick);
     let words: Vec<String> = case.iter().map(|w| w.trim().to_lowercase()).collect();
     for w in &words {
-        if !["nh", "snh", "rigid", "springs", "node", "slow", "fast"].contains(&w.as_str()) {
+        if ![
+            "nh", "snh", "rigid", "springs", "node", "slow", "fast", "fas", "newton",
+        ]
+        .contains(&w.as_str())
+        {
             return Err(BadInput(raisov::Error::param(
                 "--case",
-                format!("`{w}`: valid words are NH, SNH, rigid, springs, node, slow, fast"),
+                format!(
+                    "`{w}`: valid words are NH, SNH, rigid, springs, node, slow, fast, fas, newton"
+                ),
             ))
             .into());
         }
@@ -59,6 +65,14 @@ pub(crate) fn cmd_bench_frames(
     }
     if !cycles.is_empty() {
         opts.cycles = cycles;
+    }
+    let solvers: Vec<Solver> = [("fas", Solver::Fas), ("newton", Solver::Newton)]
+        .into_iter()
+        .filter(|(w, _)| has(w))
+        .map(|(_, s)| s)
+        .collect();
+    if !solvers.is_empty() {
+        opts.solvers = solvers;
     }
     fr::frames(&meshes, &opts, &mut |line| println!("{line}"))
         .map_err(BadInput)

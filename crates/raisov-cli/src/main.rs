@@ -135,7 +135,7 @@ enum Cmd {
         /// ("liver mesher 17k", "liver mesher 70k"), which run only when named;
         /// `surface-check`: e.g. "cone 80k,liver".
         /// `frames`: only the cases with these words (comma-separated, of NH, SNH,
-        /// rigid, springs, node, slow, fast; each kind given narrows that kind).
+        /// rigid, springs, node, slow, fast, fas, newton; each kind given narrows that kind).
         #[arg(long, value_delimiter = ',')]
         case: Vec<String>,
         /// `frames`: the organs, one of liver, heart, liver50k, all (default: liver and heart).

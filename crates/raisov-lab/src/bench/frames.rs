@@ -22,12 +22,15 @@
 //!   path time; on the heart a fifth of that pull, (0, −0.002, −0.0034) m (the heart is
 //!   about a fifth of the liver's size: 29 against 150 mm across);
 //! - frame solvers: FAS warm started from the last frame, 1, 2 and 4 V-cycles per frame
-//!   (`[interactive] cycles`), each without and with the frame predictor (`[interactive]
-//!   predictor`: the frame starts from the last frame's change extrapolated,
-//!   [`raisov::sim::frame`]).
+//!   (`[interactive] cycles`), and the Newton frame solver (`[multigrid] scheme = "newton"`,
+//!   [`raisov::statics::frames`]: one Newton step a frame, `newton` in the case's name), each
+//!   without and with the frame predictor (`[interactive] predictor`: the frame starts from
+//!   the last frame's change extrapolated, [`raisov::sim::frame`]; the Newton step's
+//!   conjugate gradients start from it).
 //!
 //! Per case, from [`raisov::scenario::interactive`]'s summary: frames per second of stepper
-//! wall time, the mean and largest relative lag `max_a |u_a − u*_a| / max_a |u*_a|` over the
+//! wall time (`fps`; `fps-1` without the slowest frame, which for the frame solver is a
+//! grasp's first, where it builds its operator), the mean and largest relative lag `max_a |u_a − u*_a| / max_a |u*_a|` over the
 //! free nodes, `u*` the frame's static equilibrium by the project's static Newton solver to
 //! 10⁻⁸ of the frame's force scale (a frame whose reference fails is counted and has no lag),
 //! force evaluations per frame in finest-level units (a count any machine reproduces), the
@@ -136,6 +139,17 @@ impl Law {
     }
 }
 
+/// The frame solvers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Solver {
+    /// FAS V-cycles over the four levels, `cycles` a frame.
+    Fas,
+    /// The frame solver of [`raisov::statics::frames`] (`[multigrid] scheme = "newton"`): one
+    /// Newton step a frame, its Galerkin V-cycle over level 0 and the coarse level the static
+    /// solver takes.
+    Newton,
+}
+
 /// What a run measures (module docs).
 #[derive(Clone, Debug)]
 pub struct FramesOptions {
@@ -148,6 +162,8 @@ pub struct FramesOptions {
     pub cycles: Vec<u32>,
     /// Without and/or with the frame predictor ([`raisov::sim::Simulation::set_predictor`]).
     pub predictor: Vec<bool>,
+    /// The frame solvers; the Newton frame solver runs one step a frame whatever `cycles`.
+    pub solvers: Vec<Solver>,
 }
 
 impl FramesOptions {
@@ -162,6 +178,7 @@ impl FramesOptions {
                 paces: vec![false],
                 cycles: vec![2],
                 predictor: vec![false, true],
+                solvers: vec![Solver::Fas, Solver::Newton],
             }
         } else {
             FramesOptions {
@@ -171,6 +188,7 @@ impl FramesOptions {
                 paces: vec![false, true],
                 cycles: vec![1, 2, 4],
                 predictor: vec![false, true],
+                solvers: vec![Solver::Fas, Solver::Newton],
             }
         }
     }
@@ -180,10 +198,14 @@ impl FramesOptions {
 #[derive(Clone, Debug)]
 pub struct FramesRow {
     pub case: String,
+    pub solver: Solver,
     pub predictor: bool,
     pub cycles: u32,
     pub frames: usize,
     pub fps: f64,
+    /// Frames per second without the slowest frame (a grasp's first frame, where the frame
+    /// solver builds its operator).
+    pub fps_rest: f64,
     pub lag_mean: f64,
     pub lag_max: f64,
     pub evals_per_frame: f64,
@@ -207,6 +229,7 @@ impl FramesRow {
 }
 
 /// The scenario of one case (module docs).
+#[allow(clippy::too_many_arguments)]
 pub fn scenario(
     meshes: &Path,
     organ: Organ,
@@ -215,6 +238,7 @@ pub fn scenario(
     fast: bool,
     cycles: u32,
     predictor: bool,
+    solver: Solver,
 ) -> Result<Scenario> {
     let d = meshes.display();
     let (mesh, cap, point, radius, pull, multigrid) = match organ {
@@ -234,7 +258,11 @@ pub fn scenario(
             [0.12, 0.07, 0.10],
             0.01,
             [0.0, -0.01, -0.017],
-            "scheme = \"fas\"\nlevels = 4\nratio = 0.5\ncoarse = \"newton\"".to_string(),
+            match solver {
+                Solver::Fas => "scheme = \"fas\"\nlevels = 4\nratio = 0.5\ncoarse = \"newton\"",
+                Solver::Newton => "scheme = \"newton\"\nlevels = 4\nratio = 0.5",
+            }
+            .to_string(),
         ),
         Organ::Heart => {
             let m = raisov::io::gmsh::read_msh(&meshes.join("heart_L0.msh"))?.mesh;
@@ -250,6 +278,10 @@ pub fn scenario(
                 ),
             )
         }
+    };
+    let multigrid = match solver {
+        Solver::Fas => multigrid,
+        Solver::Newton => multigrid.replacen("scheme = \"fas\"", "scheme = \"newton\"", 1),
     };
     let radius = if grasp == Grasp::Node { 0.0 } else { radius };
     let stiffness = if grasp == Grasp::Springs {
@@ -361,12 +393,22 @@ pub fn frames(
         for &law in &opts.laws {
             for &grasp in &opts.grasps {
                 for &fast in &opts.paces {
-                    for (&cycles, &predictor) in opts
-                        .cycles
+                    let runs: Vec<(Solver, u32, bool)> = opts
+                        .solvers
                         .iter()
-                        .flat_map(|c| opts.predictor.iter().map(move |p| (c, p)))
-                    {
-                        let sc = scenario(meshes, organ, law, grasp, fast, cycles, predictor)?;
+                        .flat_map(|&solver| {
+                            let cycles = match solver {
+                                Solver::Fas => opts.cycles.clone(),
+                                Solver::Newton => vec![1],
+                            };
+                            cycles.into_iter().flat_map(move |c| {
+                                opts.predictor.iter().map(move |&p| (solver, c, p))
+                            })
+                        })
+                        .collect();
+                    for (solver, cycles, predictor) in runs {
+                        let sc =
+                            scenario(meshes, organ, law, grasp, fast, cycles, predictor, solver)?;
                         if !header {
                             header = true;
                             out(&format!(
@@ -376,10 +418,11 @@ pub fn frames(
                                 viewer_work_ms(&sc)
                             ));
                             out(&format!(
-                                "{:<28} {:>6} {:>7} {:>9} {:>9} {:>11} {:>9} {:>11} {:>5} {:>8}  {}",
+                                "{:<35} {:>6} {:>7} {:>7} {:>9} {:>9} {:>11} {:>9} {:>11} {:>5} {:>8}  {}",
                                 "case",
                                 "cycles",
                                 "fps",
+                                "fps-1",
                                 "mean lag",
                                 "max lag",
                                 "evals/frame",
@@ -391,10 +434,15 @@ pub fn frames(
                             ));
                         }
                         let case = format!(
-                            "{} {} {}{}",
+                            "{} {} {}{}{}",
                             law.name(),
                             grasp.name(),
                             if fast { "fast" } else { "slow" },
+                            if solver == Solver::Newton {
+                                " newton"
+                            } else {
+                                ""
+                            },
                             if predictor { " predicted" } else { "" }
                         );
                         let solution = solve(
@@ -407,18 +455,23 @@ pub fn frames(
                         let Finished::Interactive(s) = &solution.finished else {
                             return Err(Error::param("bench frames", "not an interactive run"));
                         };
-                        if rows
-                            .iter()
-                            .all(|r: &FramesRow| !r.case.starts_with(organ.name()))
-                        {
+                        if rows.iter().all(|r: &FramesRow| {
+                            !r.case.starts_with(organ.name()) || r.solver != solver
+                        }) {
                             out(&format!("stepper: {}", s.stepper));
                         }
                         let row = FramesRow {
                             case: format!("{} {case}", organ.name()),
+                            solver,
                             predictor,
                             cycles,
                             frames: s.frames,
                             fps: s.fps(),
+                            fps_rest: if s.frames > 1 && s.wall > s.wall_max {
+                                (s.frames - 1) as f64 / (s.wall - s.wall_max)
+                            } else {
+                                f64::NAN
+                            },
                             lag_mean: s.lag_rel_mean(),
                             lag_max: s.lag_rel_max,
                             evals_per_frame: s.evals_per_frame(),
@@ -430,7 +483,7 @@ pub fn frames(
                         };
                         let goal = if row.meets() {
                             "met".to_string()
-                        } else {
+                        } else if solver == Solver::Fas {
                             // The evaluations a frame may spend at the target rate.
                             let per_eval = 1.0 / (row.fps * row.evals_per_frame.max(1e-12));
                             format!(
@@ -438,12 +491,32 @@ pub fn frames(
                                 1.0 / (row.target_fps * per_eval),
                                 row.target_fps
                             )
+                        } else {
+                            // The frame solver's work is its CG iterations: say what fails.
+                            let mut why = Vec::new();
+                            if row.fps < row.target_fps {
+                                why.push(format!(
+                                    "{:.2}x too slow",
+                                    row.target_fps / row.fps.max(1e-12)
+                                ));
+                            }
+                            if row.lag_mean > 0.01 {
+                                why.push("mean lag > 1%".to_string());
+                            }
+                            if row.lag_max > 0.03 {
+                                why.push("max lag > 3%".to_string());
+                            }
+                            if row.reference_failures + row.rejected > 0 {
+                                why.push("failed or rejected frames".to_string());
+                            }
+                            format!("missed: {}", why.join(", "))
                         };
                         out(&format!(
-                            "{:<28} {:>6} {:>7.1} {:>8.2}% {:>8.2}% {:>11.1} {:>7.1}ms {:>11.3e} {:>5} {:>8}  {goal}",
+                            "{:<35} {:>6} {:>7.1} {:>7.1} {:>8.2}% {:>8.2}% {:>11.1} {:>7.1}ms {:>11.3e} {:>5} {:>8}  {goal}",
                             case,
                             cycles,
                             row.fps,
+                            row.fps_rest,
                             100.0 * row.lag_mean,
                             100.0 * row.lag_max,
                             row.evals_per_frame,

@@ -1,5 +1,6 @@
-//! The frame solver (`[multigrid] scheme = "newton"`): quasi-static frames by a chord Newton
-//! iteration on a tangent kept across frames, preconditioned by its Galerkin V-cycle.
+//! The frame solver (`[multigrid] scheme = "newton"`): quasi-static frames by Newton steps
+//! whose conjugate gradients are preconditioned by the Galerkin V-cycle of a tangent kept
+//! across frames.
 //!
 //! An interactive frame asks for the static equilibrium `R(u) + S(u) = V` (free dofs; `S` the
 //! springs) after a grasp moved a little, from the last frame's state, which was close to the
@@ -9,29 +10,48 @@
 //! ```text
 //! Δ_C = g_C − u_C                                  (the constrained dofs' move, zero when held)
 //! b_F = V_F − R_F(u) − S_F(u) − K_FC(u) Δ_C        (the move lifted to first order at u)
-//! K_k x = b_F    by at most `cg` conjugate-gradient iterations from 0, preconditioned by
-//!                one Galerkin V-cycle of K_k
+//! K(u) x = b_F   by at most `cg` conjugate-gradient iterations (2 `cg` where the frame
+//!                changed the problem without a predicted start), preconditioned by one
+//!                Galerkin V-cycle of the kept tangent K_k
 //! u_F ← u_F + α x,  u_C ← g_C,   α = 1, halved while an element inverts (at most 8 times)
 //! ```
 //!
-//! `K_k = K(u_k) + Σ k I` is the tangent assembled at the state `u_k` of the last refresh
+//! The products `K(u) p` are those of the tangent at the current state, by finite
+//! differences of the forces, `(F(u + εp) − F(u)) / ε` with `F = R + S` (one force evaluation
+//! each, the packed kernel's where the law has one; `εp`'s largest entry
+//! [`FD_STEP`]`(max|u| + `[`FD_FLOOR`]`)`): the step is a Newton step, and the kept tangent
+//! only preconditions it, so a tangent many frames old costs iterations, not accuracy.
+//! (With [`NewtonFramesParams::current`] off the products are `K_k`'s own: a chord step.
+//! Measured on the liver, the chord steps' lag grew as the grasp pulled, `bench/RESULTS.md`.)
+//! `K_k = K(u_k) + Σ k I` is assembled at the state `u_k` of the last refresh
 //! ([`DirectNewton::keep_tangent`]: the elements, the model's blocks beyond them, the springs),
 //! and its V-cycle runs over level 0 and the coarser `[multigrid]` level the static solver
 //! would take ([`crate::statics::newton::coarse_level`]); without one the fine level is
-//! factored (one iteration solves). The lift is the static solver's first iteration
-//! ([`crate::statics::newton`]): the tangent's response to the prescribed move, so a grasp's
-//! move reaches the whole body in the step that makes it, and the prescribed nodes never move
-//! alone (a patch moved ahead of its neighbours inverts the elements at its edge). `K_FC Δ_C`
-//! is taken element by element at the current state over the elements touching the moved
-//! nodes ([`crate::fem::tangent_products`]).
+//! factored. The lift is the static solver's first iteration ([`crate::statics::newton`]):
+//! the tangent's response to the prescribed move, so a grasp's move reaches the whole body
+//! in the step that makes it, and the prescribed nodes never move alone (a patch moved ahead
+//! of its neighbours inverts the elements at its edge). `K_FC Δ_C` is taken from the element
+//! tangents at the current state of the elements touching a moved node. The frame
+//! predictor ([`Stepper::predict`], [`crate::sim::frame`]) is the conjugate gradients' start
+//! `x`, not a change of the state.
 //!
 //! The tangent is refreshed (assembled at the current state, the smoothed levels' Galerkin
 //! operators formed again, the coarsest factor kept; the whole hierarchy rebuilt every
 //! [`REBUILD_EVERY`] refreshes) before a step when
 //! - the last step reduced the residual 2-norm by less than [`REFRESH_RATIO`] (`‖r_after‖ >
-//!   REFRESH_RATIO ‖b‖`): the chord iteration stalls where the tangent has drifted;
+//!   REFRESH_RATIO ‖b‖`) and by less than the tangent's first step did
+//!   ([`FRESH_FACTOR`]), the tangent having served [`MIN_AGE`] steps, and the residual is
+//!   not converged ([`CONVERGED`]): the preconditioner has drifted from the tangent;
+//! - a step was halved or its conjugate gradients met negative curvature (the tangent is
+//!   then shifted, [`SIGMA_START`]);
 //! - or [`NewtonFramesParams::max_age`] steps were made with it;
-//! - or the constraints or springs changed the operator (a grasp taken or released).
+//! - or the springs changed the operator (a spring grasp taken or released).
+//!
+//! A grasp or pin that changes which dofs are constrained builds the operator's pattern
+//! again and a whole new hierarchy at the next step: about 170 ms on the liver L0, the
+//! grasp's first frame (`bench/RESULTS.md`). Keeping the pattern and decoupling the held
+//! dofs' rows in the kept tangent instead was measured and dropped: the coarse level of the
+//! old pattern preconditions the held problem badly (the first frames' lag 6 times larger).
 //!
 //! Each step evaluates the residual once at its end (kept for the next step: one force
 //! evaluation a step, plus the tangent products over the moved nodes' elements counted by
@@ -55,6 +75,11 @@ pub const REFRESH_RATIO: f64 = 0.5;
 /// The ratio rule refreshes a tangent only after it served this many steps: a fresh one that
 /// reduces the residual slowly is limited by the conjugate gradients, not by its age.
 pub const MIN_AGE: usize = 3;
+
+/// The ratio rule refreshes a tangent only where its step's ratio is this many times the
+/// ratio of its first step: a ratio the fresh tangent had too is the conjugate gradients'
+/// limit, which a refresh does not move.
+pub const FRESH_FACTOR: f64 = 1.5;
 
 /// Every this many refreshes the whole hierarchy is rebuilt, its coarsest factor included.
 pub const REBUILD_EVERY: usize = 8;
@@ -137,6 +162,10 @@ pub struct NewtonFrames {
     lift_elements: Vec<usize>,
     /// The predicted change of the next step ([`Stepper::predict`]): its CG start.
     guess: Option<Vec<f64>>,
+    /// The residual ratio `‖r_after‖ / ‖b‖` of the first step with the kept tangent.
+    fresh_ratio: f64,
+    /// A spring's anchor moved since the last step ([`Stepper::set_runtime_constraints`]).
+    anchors_moved: bool,
     /// The shift of the kept tangent's diagonal, relative to its mean (module docs).
     sigma: f64,
     /// The largest right-hand side 2-norm since the operator was built (N).
@@ -187,6 +216,8 @@ impl NewtonFrames {
             spring_nodes: Vec::new(),
             lift_elements: Vec::new(),
             guess: None,
+            anchors_moved: false,
+            fresh_ratio: 0.0,
             sigma: 0.0,
             scale: 0.0,
             steps: 0,
@@ -271,15 +302,17 @@ impl Stepper for NewtonFrames {
                 )
             })?;
         }
+        // The frame changed the problem: a constrained dof moved, or a spring's anchor.
+        let changed = moved || std::mem::take(&mut self.anchors_moved);
         let warm = match self.guess.take() {
-            Some(g) if moved => {
+            Some(g) if changed => {
                 self.x.copy_from_slice(&g);
                 true
             }
             _ => false,
         };
         // A move met without a predicted start gets twice the iterations.
-        let cg = if moved && !warm {
+        let cg = if changed && !warm {
             2 * self.params.cg
         } else {
             self.params.cg
@@ -339,10 +372,19 @@ impl Stepper for NewtonFrames {
                 10.0 * self.sigma
             };
             self.stale = true;
-        } else if halvings > 0
-            || (self.age + 1 >= MIN_AGE && rn > REFRESH_RATIO * bn && rn > CONVERGED * self.scale)
-        {
-            self.stale = true;
+        } else {
+            let ratio = if bn > 0.0 { rn / bn } else { 0.0 };
+            if self.age == 0 {
+                self.fresh_ratio = ratio;
+            }
+            if halvings > 0
+                || (self.age + 1 >= MIN_AGE
+                    && ratio > REFRESH_RATIO
+                    && ratio > FRESH_FACTOR * self.fresh_ratio
+                    && rn > CONVERGED * self.scale)
+            {
+                self.stale = true;
+            }
         }
         self.age += 1;
         self.steps += 1;
@@ -373,8 +415,10 @@ impl Stepper for NewtonFrames {
             ),
         };
         format!(
-            "newton frames: chord Newton on a kept tangent, at most {} CG iterations a step preconditioned by the {levels}, {} smoothing",
+            "newton frames: Newton steps, at most {} CG iterations a step (tangent products by finite differences) preconditioned by the {levels} of a tangent kept across frames, {}+{} sweeps of {}",
             self.params.cg,
+            self.params.sweeps,
+            self.params.sweeps,
             self.params.smoother.describe()
         )
     }
@@ -406,6 +450,7 @@ impl Stepper for NewtonFrames {
         };
         let was = mask(&self.sys);
         let before = self.state.u.clone();
+        let anchors: Vec<[f64; 3]> = self.sys.springs.iter().map(|s| s.d).collect();
         OwnConstraints::apply_runtime(&mut self.own, &mut self.sys, &mut self.state, c);
         let now = mask(&self.sys);
         // Nodes held before and now: their move is the next step's, lifted there; a node
@@ -421,6 +466,13 @@ impl Stepper for NewtonFrames {
             // worse: `bench/RESULTS.md`).
             self.newton = None;
         }
+        self.anchors_moved |= self.sys.springs.len() != anchors.len()
+            || self
+                .sys
+                .springs
+                .iter()
+                .zip(&anchors)
+                .any(|(s, a)| s.d != *a);
         let springs: Vec<u32> = self.sys.springs.iter().map(|s| s.node).collect();
         if springs != self.spring_nodes {
             self.stale = true;
@@ -442,7 +494,7 @@ impl Stepper for NewtonFrames {
     }
     fn set_kinetic_limit(&mut self, _limit: f64) {}
     /// The next step's conjugate gradients start from `du` (free dofs) where the step moves
-    /// constrained dofs: the lifted solve's start, not a change of the state.
+    /// constrained dofs or springs' anchors: the solve's start, not a change of the state.
     fn predict(&mut self, du: &[f64]) -> bool {
         self.guess = Some(du.to_vec());
         true

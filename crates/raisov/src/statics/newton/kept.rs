@@ -11,6 +11,9 @@
 
 use super::*;
 
+/// `product(p, q)`: `q = K p` over the free dofs ([`DirectNewton::kept_solve`]).
+pub type TangentProduct<'a, E> = &'a mut dyn FnMut(&[f64], &mut [f64]) -> Result<(), E>;
+
 /// What [`DirectNewton::kept_solve`] did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KeptSolve {
@@ -31,6 +34,7 @@ impl DirectNewton {
     ///
     /// Errors: an element the tangent cannot be evaluated at; a coarsest operator that does
     /// not factor even shifted; a hierarchy too large for the memory.
+    #[allow(clippy::too_many_arguments)]
     pub fn keep_tangent(
         &mut self,
         model: &dyn ForceModel,
@@ -95,7 +99,7 @@ impl DirectNewton {
         x: &mut [f64],
         max_iter: usize,
         warm: bool,
-        product: Option<&mut dyn FnMut(&[f64], &mut [f64]) -> Result<(), E>>,
+        product: Option<TangentProduct<'_, E>>,
     ) -> Result<KeptSolve, E> {
         let Some(mg) = &self.mg else {
             x.iter_mut().for_each(|v| *v = 0.0);

@@ -122,7 +122,7 @@ mod kept;
 mod linear;
 mod pattern;
 mod shift;
-pub use kept::KeptSolve;
+pub use kept::{KeptSolve, TangentProduct};
 pub use linear::{TangentSolver, TangentSolves};
 
 use crate::linalg::cg::{pcg, pcg_from, PcgEnd};

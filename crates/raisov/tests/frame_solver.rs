@@ -1,0 +1,196 @@
+//! The frame solver (`[multigrid] scheme = "newton"`, `raisov::statics::frames`): frames that
+//! go on with the grasp held reach the static solver's equilibrium, hard and spring grasps
+//! and pins work, and `Budget::Cycles` frames give the same bits on any thread count.
+
+use raisov::scenario::{RunOptions, Scenario};
+use raisov::sim::{solve, Budget, Finished, Simulation};
+
+/// A 4 × 2 × 2 cm neo-Hookean block held at x = 0, its tip pulled by `pull` over 0.2 s and
+/// held until `duration` (`grasp`: the `[[displace]]`'s extra keys, a spring's stiffness;
+/// `None`: no path, grasps taken at run time); the frame solver over `levels` levels,
+/// `cycles` Newton steps a frame.
+fn block(duration: f64, cycles: usize, grasp: Option<&str>, levels: usize) -> Scenario {
+    let displace = match grasp {
+        Some(g) => format!(
+            r#"[[displace]]
+point = [0.04, 0.01, 0.01]
+radius = 0.006
+start = 0.0
+{g}
+mode = "table"
+table = [[0.0, 0.0, 0.0, 0.0], [0.2, 0.0, 0.004, -0.006], [{duration}, 0.0, 0.004, -0.006]]"#
+        ),
+        None => String::new(),
+    };
+    let text = format!(
+        r#"
+name = "frames"
+[mesh]
+generate = "box"
+size = [0.04, 0.02, 0.02]
+divisions = [8, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5000.0
+poisson = 0.45
+density = 1000.0
+[[fix]]
+plane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
+{displace}
+[run]
+duration = {duration}
+[multigrid]
+scheme = "newton"
+levels = {levels}
+[interactive]
+fps = 30.0
+cycles = {cycles}
+reference_tol = 1e-12
+"#
+    );
+    Scenario::from_toml(&text, std::path::Path::new("frames.toml")).unwrap()
+}
+
+fn interactive(sc: &Scenario) -> raisov::scenario::interactive::InteractiveSummary {
+    let solution = solve(
+        sc,
+        RunOptions {
+            in_memory: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    match solution.finished {
+        Finished::Interactive(s) => s,
+        _ => panic!("not an interactive run"),
+    }
+}
+
+/// Held after the pull, the frames converge to the frame's static equilibrium (the static
+/// solver's, here to 1e-12 of the force scale) within 1e-8 of its largest displacement, for a hard
+/// patch and for one on springs, on two levels and one (the fine level factored).
+#[test]
+fn held_frames_reach_the_static_solver_s_equilibrium() {
+    for (grasp, levels) in [("", 2), ("stiffness = 50.0", 2), ("", 1)] {
+        let sc = block(1.5, 3, Some(grasp), levels);
+        assert!(sc
+            .stepper()
+            .unwrap()
+            .describe()
+            .starts_with("newton frames"));
+        let s = interactive(&sc);
+        assert_eq!(s.reference_failures, 0, "{grasp}: {:?}", s.first_failure);
+        assert_eq!(s.rejected_frames, 0, "{grasp}: {:?}", s.first_rejection);
+        let last = s.last.unwrap();
+        assert!(last.static_max_u > 1e-3, "{grasp}: {}", last.static_max_u);
+        assert!(
+            last.lag_max <= 1e-8 * last.static_max_u,
+            "{grasp} levels {levels}: lag {:.3e} m of max |u*| {:.3e} m",
+            last.lag_max,
+            last.static_max_u
+        );
+        // On the way, every frame within 5 % of its equilibrium (3 steps a frame).
+        assert!(s.lag_rel_max <= 0.05, "{grasp}: {}", s.lag_rel_max);
+    }
+}
+
+/// `Budget::Cycles` frames of a grasped body (a hard grasp moved, a pin, a spring grasp
+/// moved, then released) give the same bits on 1 and 2 threads.
+#[test]
+fn frames_give_the_same_bits_on_any_thread_count() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            // The block without its path: grasps are taken at run time.
+            let sc = block(0.1, 1, None, 2);
+            let mut sim = Simulation::from_scenario(&sc).unwrap();
+            let hard = sim.grab([0.04, 0.01, 0.02], 0.004).unwrap();
+            let mut u = Vec::new();
+            for k in 1..=4 {
+                sim.move_grab(hard, [0.04, 0.01 + 0.001 * k as f64, 0.02])
+                    .unwrap();
+                let r = sim.step_frame(Budget::Cycles(2));
+                assert!(r.accepted, "{:?}", r.rejection);
+            }
+            sim.release(hard).unwrap();
+            let spring = sim
+                .grab_with(
+                    [0.04, 0.0, 0.0],
+                    raisov::sim::GrabOptions::spring(0.004, 100.0),
+                )
+                .unwrap();
+            for k in 1..=4 {
+                sim.move_grab(spring, [0.04, -0.001 * k as f64, 0.0])
+                    .unwrap();
+                let r = sim.step_frame(Budget::Cycles(2));
+                assert!(r.accepted, "{:?}", r.rejection);
+                u.extend_from_slice(sim.displacements());
+            }
+            u
+        })
+    };
+    let (u1, u2) = (run(1), run(2));
+    assert!(u1.iter().any(|&x| x != 0.0));
+    assert!(u1.iter().zip(&u2).all(|(a, b)| a.to_bits() == b.to_bits()));
+}
+
+/// A spring grasp held still: the frames converge to the equilibrium where the tissue's
+/// reaction balances the springs' pull, which is the force the grasp reports.
+#[test]
+fn a_held_spring_grasp_balances_the_tissue() {
+    let sc = block(0.1, 1, None, 2);
+    let mut sim = Simulation::from_scenario(&sc).unwrap();
+    let g = sim
+        .grab_with(
+            [0.04, 0.01, 0.02],
+            raisov::sim::GrabOptions::spring(0.004, 100.0),
+        )
+        .unwrap();
+    sim.move_grab(g, [0.04, 0.01, 0.026]).unwrap();
+    let mut last = f64::INFINITY;
+    for _ in 0..60 {
+        let r = sim.step_frame(Budget::Cycles(2));
+        assert!(r.accepted, "{:?}", r.rejection);
+        last = r.residual;
+    }
+    let f = sim.grab_force(g).unwrap();
+    let pull = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+    assert!(pull > 1e-2, "the springs pull {pull} N");
+    // Converged: the largest nodal out-of-balance force is a tiny share of the pull.
+    assert!(
+        last <= 1e-8 * pull,
+        "residual {last:.3e} N against a pull of {pull:.3e} N"
+    );
+}
+
+/// `[multigrid] cg_per_step` belongs to the frame solver and is at least 1; FAS's keys are
+/// not the frame solver's. Each error names the key.
+#[test]
+fn frame_solver_keys_are_checked_and_named() {
+    let with = |multigrid: &str| {
+        let text = format!(
+            "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.02, 0.02]\ndivisions = [4, 2, 2]\n\
+             [material]\nlaw = \"neo-hookean\"\nyoung = 5000.0\npoisson = 0.45\n\
+             [[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}\n\
+             [run]\nduration = 0.1\n[multigrid]\nlevels = 2\n{multigrid}\n[interactive]\n"
+        );
+        Scenario::from_toml(&text, std::path::Path::new("keys.toml"))
+    };
+    let e = with("scheme = \"fas\"\ncg_per_step = 3")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cg_per_step") && e.contains("newton"), "{e}");
+    let e = with("scheme = \"newton\"\ncg_per_step = 0")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cg_per_step") && e.contains("at least 1"), "{e}");
+    let e = with("scheme = \"newton\"\npre_smooth = 2")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("pre_smooth"), "{e}");
+    let sc = with("scheme = \"newton\"\ncg_per_step = 3").unwrap();
+    assert!(sc.stepper().unwrap().describe().contains("at most 3 CG"));
+}

@@ -584,7 +584,7 @@ fn every_enumerated_key_rejects_an_unknown_value_naming_key_line_and_valid_value
         (format!("{BASE}\n[integrator]\nmethod = \"bogus\""), "integrator.method", "\"forward-euler\", \"symplectic-euler\", \"rk4\", \"central-difference\", \"newton\", \"implicit-euler\", \"bdf2\""),
         (format!("{BASE}\n[integrator]\nprecision = \"bogus\""), "integrator.precision", "\"f64\", \"f32-storage\""),
         (BASE.replace("duration = 0.01", "duration = 0.01\nstop = \"bogus\""), "run.stop", "\"duration\", \"steady\""),
-        (format!("{BASE}\n[multigrid]\nscheme = \"bogus\"\nlevels = 2"), "multigrid.scheme", "\"fas\", \"raisov-paper\""),
+        (format!("{BASE}\n[multigrid]\nscheme = \"bogus\"\nlevels = 2"), "multigrid.scheme", "\"fas\", \"raisov-paper\", \"newton\""),
         (format!("{BASE}\n{paper}reading = \"bogus\""), "multigrid.reading", "\"paper\", \"correction\""),
         (format!("{BASE}\n{mg}smoother = \"bogus\""), "multigrid.smoother", "\"chebyshev\", \"dynamics\""),
         (format!("{BASE}\n{mg}coarse = \"bogus\""), "multigrid.coarse", "\"chebyshev\", \"explicit\", \"newton\""),

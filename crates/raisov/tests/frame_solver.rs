@@ -194,3 +194,32 @@ fn frame_solver_keys_are_checked_and_named() {
     let sc = with("scheme = \"newton\"\ncg_per_step = 3").unwrap();
     assert!(sc.stepper().unwrap().describe().contains("at most 3 CG"));
 }
+
+/// `SimulationBuilder` builds the frame solver too: a cube held at its base, grasped at its
+/// top and lifted, held: the frames reach a residual of 1e-8 of the grasp's pull.
+#[test]
+fn the_builder_s_frame_solver_takes_a_grasp() {
+    use raisov::mesh::generate::{box_tets, BoxPattern};
+    use raisov::sim::{Scheme, SimulationBuilder};
+    let fine = box_tets([0.02; 3], [6, 6, 6], BoxPattern::Six).unwrap();
+    let coarse = box_tets([0.02; 3], [2, 2, 2], BoxPattern::Six).unwrap();
+    let mut sim = SimulationBuilder::new(fine)
+        .levels(vec![coarse])
+        .fix(|p| p[2] <= 0.0)
+        .scheme(Scheme::Newton(Default::default()))
+        .build()
+        .unwrap();
+    assert!(sim.stepper().describe().starts_with("newton frames"));
+    let g = sim.grab([0.01, 0.01, 0.02], 0.004).unwrap();
+    for k in 1..=40 {
+        let z = 0.02 + 0.002 * (k.min(5) as f64);
+        sim.move_grab(g, [0.01, 0.01, z]).unwrap();
+        let r = sim.step_frame(Budget::Cycles(2));
+        assert!(r.accepted, "{:?}", r.rejection);
+    }
+    let f = sim.grab_force(g).unwrap();
+    let pull = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+    let r = sim.step_frame(Budget::Cycles(1)).residual;
+    assert!(pull > 1e-3, "pull {pull}");
+    assert!(r <= 1e-8 * pull, "residual {r:.3e} N, pull {pull:.3e} N");
+}

@@ -133,22 +133,25 @@ pub(super) fn resolve(
             None => Ok(()),
         }
     };
+    // The keys of FAS alone, and of RaISoV alone.
+    let fas_keys = [
+        ("pre_smooth", mg.pre_smooth.is_some()),
+        ("post_smooth", mg.post_smooth.is_some()),
+        ("coarse", mg.coarse.is_some()),
+        ("coarse_time", mg.coarse_time.is_some()),
+        ("coarse_iterations", mg.coarse_iterations.is_some()),
+        ("smoother", mg.smoother.is_some()),
+        ("scaling", mg.scaling.is_some()),
+        ("transfer", mg.transfer.is_some()),
+        ("accelerate", mg.accelerate.is_some()),
+    ];
+    let paper_keys = [
+        ("reading", mg.reading.is_some()),
+        ("epsilon", mg.epsilon.is_some()),
+    ];
     let scheme = match scheme {
         Scheme::RaisovPaper => {
-            only(
-                &[
-                    ("pre_smooth", mg.pre_smooth.is_some()),
-                    ("post_smooth", mg.post_smooth.is_some()),
-                    ("coarse", mg.coarse.is_some()),
-                    ("coarse_time", mg.coarse_time.is_some()),
-                    ("coarse_iterations", mg.coarse_iterations.is_some()),
-                    ("smoother", mg.smoother.is_some()),
-                    ("scaling", mg.scaling.is_some()),
-                    ("transfer", mg.transfer.is_some()),
-                    ("accelerate", mg.accelerate.is_some()),
-                ],
-                "scheme = \"fas\"",
-            )?;
+            only(&fas_keys, "scheme = \"fas\"")?;
             let epsilon = match mg.epsilon {
                 Some(e) if e >= 0.0 => e,
                 Some(e) => {
@@ -169,32 +172,12 @@ pub(super) fn resolve(
             })
         }
         Scheme::Fas => {
-            only(
-                &[
-                    ("reading", mg.reading.is_some()),
-                    ("epsilon", mg.epsilon.is_some()),
-                ],
-                "scheme = \"raisov-paper\"",
-            )?;
+            only(&paper_keys, "scheme = \"raisov-paper\"")?;
             MultigridScheme::Fas(fas_params(mg, path)?)
         }
         Scheme::Newton => {
-            only(
-                &[
-                    ("reading", mg.reading.is_some()),
-                    ("epsilon", mg.epsilon.is_some()),
-                    ("pre_smooth", mg.pre_smooth.is_some()),
-                    ("post_smooth", mg.post_smooth.is_some()),
-                    ("coarse", mg.coarse.is_some()),
-                    ("coarse_time", mg.coarse_time.is_some()),
-                    ("coarse_iterations", mg.coarse_iterations.is_some()),
-                    ("smoother", mg.smoother.is_some()),
-                    ("scaling", mg.scaling.is_some()),
-                    ("transfer", mg.transfer.is_some()),
-                    ("accelerate", mg.accelerate.is_some()),
-                ],
-                "its own scheme (fas or raisov-paper)",
-            )?;
+            only(&paper_keys, "scheme = \"raisov-paper\"")?;
+            only(&fas_keys, "scheme = \"fas\"")?;
             let mut p = crate::statics::frames::NewtonFramesParams {
                 smoother: super::StaticSolve::default_smoother(mesh.kind),
                 ..Default::default()

@@ -31,6 +31,11 @@ pub enum Scheme {
     /// BDF2 on level 0 ([`crate::statics::implicit::ImplicitScheme::Bdf2`]), otherwise as
     /// [`Scheme::ImplicitEuler`]: second order, far less numerical damping.
     Bdf2,
+    /// The frame solver on level 0 ([`crate::statics::frames`]): each step one Newton step
+    /// toward the static equilibrium, its conjugate gradients preconditioned by the Galerkin
+    /// V-cycle (over level 0 and the coarser level [`crate::statics::newton::coarse_level`]
+    /// picks; without one, level 0 factored) of a tangent kept across frames.
+    Newton(crate::statics::frames::NewtonFramesParams),
 }
 
 impl Scheme {
@@ -207,7 +212,9 @@ impl SimulationBuilder {
         params.thickness = self.thickness;
         let method = match &self.scheme {
             Scheme::SingleLevel(m) => *m,
-            Scheme::Fas(_) | Scheme::ImplicitEuler | Scheme::Bdf2 => Method::SymplecticEuler,
+            Scheme::Fas(_) | Scheme::ImplicitEuler | Scheme::Bdf2 | Scheme::Newton(_) => {
+                Method::SymplecticEuler
+            }
         };
         if self.scheme.implicit().is_some() && self.dt.is_none() {
             return Err(Error::param(
@@ -297,6 +304,20 @@ impl SimulationBuilder {
                     ImplicitEuler::with_levels(l.sys, params, down)
                         .map_err(|e| Error::param("scheme", e.to_string()))?,
                 )
+            }
+            Scheme::Newton(p) => {
+                let l = levels.pop().expect("one level");
+                let counts: Vec<usize> = std::iter::once(&self.mesh)
+                    .chain(&self.coarse)
+                    .map(|m| m.num_nodes())
+                    .collect();
+                let coarse = coarse_level(&counts).map(|c| self.coarse[c - 1].clone());
+                Box::new(crate::statics::frames::NewtonFrames::new(
+                    l.sys,
+                    self.mesh.clone(),
+                    coarse,
+                    p,
+                )?)
             }
             Scheme::Fas(p) => {
                 let mut links = Vec::with_capacity(levels.len() - 1);

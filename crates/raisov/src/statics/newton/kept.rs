@@ -64,7 +64,20 @@ impl DirectNewton {
         }
         let mut a = scatter.pattern.clone();
         scatter.fill(&self.vals, &mut a);
-        let mg = GalerkinMultigrid::new(
+        let mg = self.hierarchy(a, sweeps, smoother)?;
+        self.mg = Some(mg);
+        Ok(())
+    }
+
+    /// The Galerkin hierarchy of `a` (the free dofs' tangent, full rows) over the levels of
+    /// [`DirectNewton::with_levels`], its coarsest level factored in `f32`.
+    pub(super) fn hierarchy(
+        &mut self,
+        a: Csr,
+        sweeps: usize,
+        smoother: Smoother,
+    ) -> Result<GalerkinMultigrid, DirectNewtonError> {
+        GalerkinMultigrid::new(
             a,
             self.prolongations.clone(),
             sweeps,
@@ -77,9 +90,7 @@ impl DirectNewton {
             GalerkinError::Factor(f) => DirectNewtonError::Factor(format!(
                 "the tangent's coarsest level does not factor at this state ({f})"
             )),
-        })?;
-        self.mg = Some(mg);
-        Ok(())
+        })
     }
 
     /// Whether a tangent is kept ([`DirectNewton::keep_tangent`]).
@@ -119,33 +130,26 @@ impl DirectNewton {
             warm,
             ..crate::linalg::cg::CgSettings::new(0.0, max_iter)
         };
-        let end = match product {
-            Some(f) => crate::linalg::cg::solve(
-                |p: &[f64], q: &mut [f64]| f(p, q),
-                |r: &[f64], z: &mut [f64]| {
-                    mg.apply(r, z);
-                    Ok(())
-                },
-                &bf,
-                &mut xf,
-                settings,
-                None,
-            ),
-            None => crate::linalg::cg::solve(
-                |p: &[f64], q: &mut [f64]| {
-                    mg.matrix().matvec(p, q);
-                    Ok(())
-                },
-                |r: &[f64], z: &mut [f64]| {
-                    mg.apply(r, z);
-                    Ok(())
-                },
-                &bf,
-                &mut xf,
-                settings,
-                None,
-            ),
+        // Without a product of the caller's, the kept tangent's own.
+        let mut own = |p: &[f64], q: &mut [f64]| -> Result<(), E> {
+            mg.matrix().matvec(p, q);
+            Ok(())
         };
+        let product: TangentProduct<'_, E> = match product {
+            Some(f) => f,
+            None => &mut own,
+        };
+        let end = crate::linalg::cg::solve(
+            product,
+            |r: &[f64], z: &mut [f64]| {
+                mg.apply(r, z);
+                Ok(())
+            },
+            &bf,
+            &mut xf,
+            settings,
+            None,
+        );
         let end = match end {
             Ok(e) => e,
             Err(e) => {

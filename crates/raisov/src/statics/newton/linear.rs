@@ -88,20 +88,7 @@ impl DirectNewton {
                 });
                 let mut a = scatter.pattern.clone();
                 scatter.fill(&self.vals, &mut a);
-                let mg = GalerkinMultigrid::new(
-                    a,
-                    self.prolongations.clone(),
-                    MultigridPcg::default().sweeps,
-                    smoother,
-                    Precision::Single,
-                    &mut self.hierarchy_symbolic,
-                )
-                .map_err(|e| match e {
-                    GalerkinError::Memory(m) => DirectNewtonError::Memory(m),
-                    GalerkinError::Factor(f) => DirectNewtonError::Factor(format!(
-                        "the tangent's coarsest level does not factor at this state ({f})"
-                    )),
-                })?;
+                let mg = self.hierarchy(a, MultigridPcg::default().sweeps, smoother)?;
                 out.setups += 1;
                 for (bj, xj) in columns.iter_mut() {
                     self.gather_free(bj, &mut b);

@@ -104,8 +104,8 @@ const HALVINGS: usize = 8;
 /// Settings of [`NewtonFrames`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NewtonFramesParams {
-    /// Conjugate-gradient iterations per step at most (twice as many in a step that moves
-    /// constrained dofs without a predicted start). Default 2.
+    /// Conjugate-gradient iterations per step at most (twice as many in a step whose frame
+    /// moved a constrained dof or a spring's anchor, without a predicted start). Default 2.
     pub cg: usize,
     /// Steps with one tangent at most before it is refreshed. Default 10.
     pub max_age: usize,

@@ -204,7 +204,7 @@ enum Cmd {
         /// Cap on the simulation's frame rate (1/s; 0: none).
         #[arg(long, default_value_t = 60.0)]
         max_fps: f64,
-        /// Start with this method: fas, raisov or single (default: the scenario's).
+        /// Start with this method: newton (the frame solver), fas, raisov or single (default: the scenario's).
         #[arg(long)]
         method: Option<String>,
         /// Also write the recorded scenario here when the page saves it.

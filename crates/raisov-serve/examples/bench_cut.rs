@@ -1,5 +1,5 @@
 //! Bench of the scalpel in the live viewer (prints numbers; not a test): the liver of
-//! `examples/liver_interactive.toml` (L1 finest, L2, L3; FAS, the viewer's default method)
+//! `examples/liver_interactive.toml` (L1 finest, L2, L3) under FAS
 //! served as the viewer builds it, cut the way the page cuts it from its starting view —
 //! `CUTS` short blades along a horizontal line across the front of the organ's middle, each
 //! the edge between two points 1 cm apart (2 mm in front of the surface) swept 2.2 cm along

@@ -121,7 +121,7 @@ pub struct ServeArgs {
     pub budget_ms: f64,
     /// Frame-rate cap of the simulation thread (1/s, 0: none).
     pub max_fps: f64,
-    /// Start with this method: "fas", "raisov" or "single".
+    /// Start with this method: "newton", "fas", "raisov" or "single".
     pub method: Option<String>,
     /// `save` also writes the recorded scenario here.
     pub record: Option<PathBuf>,
@@ -172,9 +172,10 @@ pub fn run(args: &ServeArgs) -> Result<(), ServeError> {
         Some("fas") => Some(protocol::Method::Fas),
         Some("raisov") => Some(protocol::Method::Raisov),
         Some("single") => Some(protocol::Method::Single),
+        Some("newton") => Some(protocol::Method::Newton),
         Some(m) => {
             return Err(ServeError::Scenario(format!(
-                "--method {m}: valid are fas, raisov, single"
+                "--method {m}: valid are newton, fas, raisov, single"
             )))
         }
     };

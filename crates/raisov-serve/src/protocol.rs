@@ -130,17 +130,22 @@ pub enum Method {
     Raisov,
     /// Explicit dynamics on the finest level alone.
     Single,
+    /// The frame solver (`scheme = "newton"`): a Newton step toward each frame's static
+    /// equilibrium, preconditioned by a Galerkin V-cycle kept across frames
+    /// ([`raisov::statics::frames`]).
+    Newton,
 }
 
 impl Method {
     /// Every method, in code order.
-    pub const ALL: [Method; 3] = [Method::Fas, Method::Raisov, Method::Single];
+    pub const ALL: [Method; 4] = [Method::Fas, Method::Raisov, Method::Single, Method::Newton];
     /// The wire code.
     pub fn code(self) -> u32 {
         match self {
             Method::Fas => 0,
             Method::Raisov => 1,
             Method::Single => 2,
+            Method::Newton => 3,
         }
     }
     /// The method of a wire code.
@@ -153,6 +158,7 @@ impl Method {
             Method::Fas => "FAS multigrid",
             Method::Raisov => "RaISoV (paper)",
             Method::Single => "single level",
+            Method::Newton => "frame solver (Newton)",
         }
     }
 }

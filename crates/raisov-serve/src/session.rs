@@ -106,6 +106,8 @@ const FAS_ONLY: &[&str] = &[
 ];
 /// Keys of `[multigrid]` only the raisov-paper scheme accepts.
 const RAISOV_ONLY: &[&str] = &["reading", "epsilon"];
+/// Keys of `[multigrid]` only the frame solver (`scheme = "newton"`) accepts.
+const NEWTON_ONLY: &[&str] = &["cg_per_step"];
 
 impl Source {
     /// A scenario file (the TOML of `raisov run`).
@@ -150,6 +152,7 @@ impl Source {
             None if table.contains_key("multigrid") => Method::Fas,
             None => Method::Single,
             Some(s) if s.as_str() == Some("raisov-paper") => Method::Raisov,
+            Some(s) if s.as_str() == Some("newton") => Method::Newton,
             Some(_) => Method::Fas,
         };
         let name = table
@@ -166,7 +169,7 @@ impl Source {
     }
 
     /// A closed triangle surface meshed at load (`[mesh] surface`): `nodes` at level 0,
-    /// three FAS levels, coordinates times `scale` in m, neo-Hookean liver-like tissue
+    /// three levels under the frame solver (`scheme = "newton"`), coordinates times `scale` in m, neo-Hookean liver-like tissue
     /// (E = 5 kPa, ν = 0.45, ρ = 1060 kg/m³, α = 30 1/s), held on the top 5 % of its height.
     pub fn from_surface(path: &Path, scale: f64, nodes: usize) -> Result<Source, ServeError> {
         let s = raisov::io::load_surface(path)?;
@@ -194,7 +197,7 @@ impl Source {
              [damping]\nalpha = 30.0\n\
              [[fix]]\nplane = {{ point = [0.0, 0.0, {cap:e}], normal = [0.0, 0.0, -1.0] }}\n\
              [run]\nduration = 1.0\n\
-             [multigrid]\nscheme = \"fas\"\nlevels = 3\ncoarse = \"newton\"\n",
+             [multigrid]\nscheme = \"newton\"\nlevels = 3\n",
             name = protocol::json_string(&stem),
             file = protocol::json_string(&abs.display().to_string()),
         );
@@ -205,14 +208,15 @@ impl Source {
         Self::from_text(&text, base, &stem, path)
     }
 
-    /// The scenario table for `method`: `[multigrid] scheme = "fas"` (keys of raisov-paper
-    /// dropped), `"raisov-paper"` (FAS keys dropped), or no `[multigrid]` (single level).
+    /// The scenario table for `method`: `[multigrid] scheme = "newton"`, `"fas"` or
+    /// `"raisov-paper"` (the keys of the other two schemes dropped), or no `[multigrid]`
+    /// (single level).
     ///
     /// A scenario integrated by backward Euler or BDF2 (`[integrator] method =
     /// "implicit-euler"` or `"bdf2"`) is served as `Method::Single` with its `[multigrid]`
-    /// levels kept (they precondition its Newton solves); switched to FAS or RaISoV, it drops
-    /// its integrator keys ([`IMPLICIT_ONLY`]) and `[damping] beta`, and is stepped
-    /// explicitly at the scheme's own stable step.
+    /// levels kept (they precondition its Newton solves); switched to a multigrid method, it
+    /// drops its integrator keys ([`IMPLICIT_ONLY`]) and `[damping] beta`, and is stepped at
+    /// the scheme's own step (the frame solver's frames are quasi-static).
     pub fn table_for(&self, method: Method) -> toml::Table {
         let mut t = self.table.clone();
         match method {
@@ -221,7 +225,7 @@ impl Source {
             Method::Single => {
                 t.remove("multigrid");
             }
-            Method::Fas | Method::Raisov => {
+            Method::Fas | Method::Raisov | Method::Newton => {
                 if implicit(&t) {
                     // The explicit schemes take their own stable step: the keys of backward
                     // Euler do not apply to them.
@@ -250,13 +254,13 @@ impl Source {
                         // A one-level scenario: generate a second, coarser level.
                         mg.insert("levels".into(), toml::Value::Integer(2));
                     }
-                    let (name, drop) = if method == Method::Fas {
-                        ("fas", RAISOV_ONLY)
-                    } else {
-                        ("raisov-paper", FAS_ONLY)
+                    let (name, drop): (_, &[&[&str]]) = match method {
+                        Method::Fas => ("fas", &[RAISOV_ONLY, NEWTON_ONLY]),
+                        Method::Newton => ("newton", &[RAISOV_ONLY, FAS_ONLY]),
+                        _ => ("raisov-paper", &[FAS_ONLY, NEWTON_ONLY]),
                     };
                     mg.insert("scheme".into(), toml::Value::String(name.into()));
-                    for k in drop {
+                    for k in drop.iter().copied().flatten() {
                         mg.remove(*k);
                     }
                 }

@@ -76,6 +76,27 @@ async fn open(addr: &str) -> (Client, (usize, usize)) {
     (ws, topo.unwrap())
 }
 
+/// The next text message of `kind` and the next topology, which the server may send in
+/// either order (the reply and the published frame travel on separate channels).
+async fn text_and_topology(ws: &mut Client, kind: &str) -> (String, (usize, usize)) {
+    let tag = format!("\"type\":\"{kind}\"");
+    let (mut text, mut topo) = (None, None);
+    while text.is_none() || topo.is_none() {
+        until(ws, |m| match m {
+            Ws::Text(t) if t.contains(&tag) => {
+                text = Some(t.to_string());
+                Some(())
+            }
+            Ws::Binary(b) => protocol::decode_topology(b).map(|(n, t)| {
+                topo = Some((n, t.len()));
+            }),
+            _ => None,
+        })
+        .await;
+    }
+    (text.unwrap(), topo.unwrap())
+}
+
 /// The next text message of `kind` (`"cut"`, `"error"`, …).
 async fn next_of(ws: &mut Client, kind: &str) -> String {
     let tag = format!("\"type\":\"{kind}\"");
@@ -96,7 +117,7 @@ async fn a_cut_message_splits_elements_and_every_client_gets_the_cut_topology() 
     let rest = next_frame(&mut a).await;
 
     send(&mut a, 1, notch()).await;
-    let report = next_of(&mut a, "cut").await;
+    let (report, topo_a) = text_and_topology(&mut a, "cut").await;
     assert!(report.contains("\"cuts\":1"), "{report}");
     let split: usize = report
         .split("\"split\":[")
@@ -108,8 +129,12 @@ async fn a_cut_message_splits_elements_and_every_client_gets_the_cut_topology() 
     // Both clients get the cut body's surface: the wound's faces add vertices and
     // triangles; the next frame has the new vertex count.
     let mut first = Vec::new();
-    for ws in [&mut a, &mut b] {
-        let (n, m) = next_topology(ws).await;
+    for (k, ws) in [&mut a, &mut b].into_iter().enumerate() {
+        let (n, m) = if k == 0 {
+            topo_a
+        } else {
+            next_topology(ws).await
+        };
         assert!(
             n > UNCUT.0 && m > UNCUT.1,
             "cut topology {n} vertices, {m} triangles"
@@ -172,8 +197,8 @@ async fn a_cut_message_splits_elements_and_every_client_gets_the_cut_topology() 
     assert!(rec.contains("1 cut(s)"), "{rec}");
 }
 
-/// A method switch keeps the wound: FAS and RaISoV take the blades again, giving the same
-/// surface; a cut on RaISoV cuts it further; a reset heals the body.
+/// A method switch keeps the wound: FAS, the frame solver and RaISoV take the blades again,
+/// giving the same surface; a cut on RaISoV cuts it further; a reset heals the body.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_method_switch_keeps_the_wound_and_a_reset_heals_it() {
     let (addr, _task) = start().await;
@@ -183,20 +208,16 @@ async fn a_method_switch_keeps_the_wound_and_a_reset_heals_it() {
     let cut = next_topology(&mut ws).await;
     assert!(cut.0 > UNCUT.0);
 
-    for (seq, m) in [(2, Method::Fas), (3, Method::Raisov)] {
+    for (seq, m) in [(2, Method::Fas), (3, Method::Newton), (4, Method::Raisov)] {
         send(&mut ws, seq, Command::Method(m)).await;
-        let t = next_of(&mut ws, "method").await;
+        let (t, topo) = text_and_topology(&mut ws, "method").await;
         assert!(t.contains(&format!("\"method\":{}", m.code())), "{t}");
-        assert_eq!(
-            next_topology(&mut ws).await,
-            cut,
-            "the wound after the switch to {m:?}"
-        );
+        assert_eq!(topo, cut, "the wound after the switch to {m:?}");
     }
     // A second notch, across the first, on RaISoV.
     send(
         &mut ws,
-        4,
+        5,
         Command::Cut {
             a: [-0.005, 0.011, 0.045],
             b: [0.045, 0.011, 0.045],
@@ -204,12 +225,11 @@ async fn a_method_switch_keeps_the_wound_and_a_reset_heals_it() {
         },
     )
     .await;
-    let r = next_of(&mut ws, "cut").await;
+    let (r, twice) = text_and_topology(&mut ws, "cut").await;
     assert!(r.contains("\"cuts\":2"), "{r}");
-    let twice = next_topology(&mut ws).await;
     assert!(twice.0 > cut.0, "{twice:?} after {cut:?}");
 
-    send(&mut ws, 5, Command::Reset).await;
+    send(&mut ws, 6, Command::Reset).await;
     assert_eq!(
         next_topology(&mut ws).await,
         UNCUT,
@@ -294,14 +314,13 @@ async fn a_recorded_cut_replays_with_the_cut() {
         next_frame(&mut ws).await;
     }
     send(&mut ws, 1, notch()).await;
-    let r = next_of(&mut ws, "cut").await;
+    let (r, _) = text_and_topology(&mut ws, "cut").await;
     let nodes: usize = r
         .split("\"nodes\":")
         .nth(1)
         .and_then(|x| x.split(',').next())
         .and_then(|x| x.parse().ok())
         .expect("the cut's node count");
-    next_topology(&mut ws).await;
     for _ in 0..3 {
         next_frame(&mut ws).await;
     }

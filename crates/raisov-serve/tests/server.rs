@@ -278,26 +278,31 @@ async fn method_switch_keeps_the_grasp() {
         },
     )
     .await;
-    // FAS on one generated level (no coarser levels in the cube scenario).
-    send(&mut ws, 3, Command::Method(Method::Fas)).await;
-    loop {
-        let t = next_text(&mut ws).await;
-        assert!(!t.contains("error"), "{t}");
-        if t.contains("\"type\":\"method\"") {
-            assert!(t.contains("\"method\":0"), "{t}");
-            break;
+    // FAS, then the frame solver, on the cube's generated levels (a second one made for them).
+    for (seq, m) in [(3, Method::Fas), (4, Method::Newton)] {
+        send(&mut ws, seq, Command::Method(m)).await;
+        loop {
+            let t = next_text(&mut ws).await;
+            assert!(!t.contains("error"), "{t}");
+            if t.contains("\"type\":\"method\"") {
+                assert!(t.contains(&format!("\"method\":{}", m.code())), "{t}");
+                break;
+            }
         }
-    }
-    let mut ok = false;
-    for _ in 0..200 {
-        let f = next_frame(&mut ws).await;
-        if f.stats[protocol::STAT_METHOD] == 0.0
-            && f.stats[STAT_HOLDER] >= 0.0
-            && (f.stats[STAT_GRASP + 2] - 0.043).abs() < 1e-6
-        {
-            ok = true;
-            break;
+        let mut ok = false;
+        for _ in 0..200 {
+            let f = next_frame(&mut ws).await;
+            if f.stats[protocol::STAT_METHOD] == m.code() as f32
+                && f.stats[STAT_HOLDER] >= 0.0
+                && (f.stats[STAT_GRASP + 2] - 0.043).abs() < 1e-6
+            {
+                ok = true;
+                break;
+            }
         }
+        assert!(
+            ok,
+            "after the switch to {m:?} the grasp holds at its target"
+        );
     }
-    assert!(ok, "after the switch the grasp holds at its target");
 }

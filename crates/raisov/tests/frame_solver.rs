@@ -223,3 +223,135 @@ fn the_builder_s_frame_solver_takes_a_grasp() {
     assert!(pull > 1e-3, "pull {pull}");
     assert!(r <= 1e-8 * pull, "residual {r:.3e} N, pull {pull:.3e} N");
 }
+
+/// The frame solver cuts: a notch cut half-way into the grasped block splits elements on
+/// both of its levels, the grasp goes on holding the cut body, and held frames converge to
+/// the cut body's equilibrium: a residual of 1e-8 of the pull, and the same displacements
+/// (within 1e-8 of the largest) as FAS, run to convergence on the same cut.
+#[test]
+fn the_frame_solver_cuts_and_converges_on_the_cut_body() {
+    let run = |fas: bool| {
+        let sc = if fas {
+            fas_block()
+        } else {
+            block(0.1, 1, None, 2)
+        };
+        let mut sim = Simulation::from_scenario(&sc).unwrap();
+        let g = sim
+            .grab_with(
+                [0.04, 0.01, 0.02],
+                raisov::sim::GrabOptions::spring(0.004, 100.0),
+            )
+            .unwrap();
+        sim.move_grab(g, [0.04, 0.01, 0.026]).unwrap();
+        let cycles = if fas { 40 } else { 2 };
+        let settle = |sim: &mut Simulation| {
+            let mut last = f64::INFINITY;
+            for _ in 0..60 {
+                let r = sim.step_frame(Budget::Cycles(cycles));
+                assert!(r.accepted, "{:?}", r.rejection);
+                last = r.residual;
+            }
+            let f = sim.grab_force(g).unwrap();
+            ((f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt(), last)
+        };
+        settle(&mut sim);
+        // A notch from the top face down to half the height, across the width, at x = 1.5 cm.
+        let blade = raisov::mesh::cut::Blade::quad([
+            [0.015, -1.0, 0.01],
+            [0.015, 1.0, 0.01],
+            [0.015, 1.0, 1.0],
+            [0.015, -1.0, 1.0],
+        ])
+        .unwrap();
+        let report = sim.cut(&blade).unwrap();
+        assert_eq!(report.split.len(), 2, "{:?}", report.split);
+        assert!(report.split.iter().all(|&s| s > 0), "{:?}", report.split);
+        let (pull, last) = settle(&mut sim);
+        assert!(
+            last <= 1e-8 * pull,
+            "fas {fas}: residual {last:.3e} N against a pull of {pull:.3e} N"
+        );
+        sim.displacements().to_vec()
+    };
+    let (newton, fas) = (run(false), run(true));
+    assert_eq!(newton.len(), fas.len());
+    let umax = fas.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = newton
+        .iter()
+        .zip(&fas)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(umax > 1e-3, "max |u| {umax}");
+    assert!(
+        diff <= 1e-8 * umax,
+        "the frame solver's cut body differs from FAS's by {diff:.3e} m (max |u| {umax:.3e} m)"
+    );
+}
+
+/// [`block`] without a path under FAS (the reference of the cut test).
+fn fas_block() -> Scenario {
+    let text = r#"
+[mesh]
+generate = "box"
+size = [0.04, 0.02, 0.02]
+divisions = [8, 4, 4]
+[material]
+law = "neo-hookean"
+young = 5000.0
+poisson = 0.45
+density = 1000.0
+[[fix]]
+plane = { point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }
+[run]
+duration = 0.1
+[multigrid]
+scheme = "fas"
+levels = 2
+[interactive]
+fps = 30.0
+"#;
+    Scenario::from_toml(text, std::path::Path::new("fas.toml")).unwrap()
+}
+
+/// A `Budget::Millis` frame of the frame solver stops once it has settled at the frame's
+/// equilibrium instead of spending the whole budget: a minute's budget, a spring grasp moved
+/// once, and the frame ends after a few dozen steps with the displacements within 1e-5 of
+/// the equilibrium's largest (the frames converged after it); a held frame then takes one
+/// step.
+#[test]
+fn a_wall_time_frame_stops_once_the_frame_solver_settles() {
+    let sc = block(0.1, 1, None, 2);
+    let mut sim = Simulation::from_scenario(&sc).unwrap();
+    let g = sim
+        .grab_with(
+            [0.04, 0.01, 0.02],
+            raisov::sim::GrabOptions::spring(0.004, 100.0),
+        )
+        .unwrap();
+    sim.move_grab(g, [0.04, 0.01, 0.026]).unwrap();
+    let r = sim.step_frame(Budget::Millis(60_000.0));
+    assert!(r.accepted, "{:?}", r.rejection);
+    assert!(
+        r.cycles < 200,
+        "{} steps: the frame did not stop at its equilibrium",
+        r.cycles
+    );
+    let settled = sim.displacements().to_vec();
+    // Held, the next frame has nothing to do: one step.
+    let r = sim.step_frame(Budget::Millis(60_000.0));
+    assert_eq!(r.cycles, 1);
+    for _ in 0..30 {
+        sim.step_frame(Budget::Cycles(2));
+    }
+    let u = sim.displacements();
+    let umax = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = u
+        .iter()
+        .zip(&settled)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(umax > 1e-3, "max |u| {umax}");
+    assert!(
+        diff <= 1e-5 * umax,
+        "settled {diff:.3e} m from the equilibrium (max |u| {umax:.3e} m)"
+    );
+}

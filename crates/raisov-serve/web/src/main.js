@@ -36,7 +36,7 @@ const VIRIDIS = (() => {
 const state = {
   webgl: false, client: null, holder: null, topology: null, frames: 0, firstPositions: null,
   positions: null, forceN: 0, force: [0, 0, 0], bytesPerFrame: 0, errors: [], simFps: 0,
-  displayFps: 0, latencyMs: null, serverLagMs: null, residuals: [], method: 0, stress: false,
+  displayFps: 0, latencyMs: null, latencySamples: [], serverLagMs: null, residuals: [], method: 0, stress: false,
   resting: false, stuck: false, diverged: false, budget: null, maxFps: 0, pins: [],
   legendStress: null, legendMax: 0, budgetUsed: null,
   // Topology messages received (the first, then one after each cut, switch or reset), the
@@ -294,6 +294,11 @@ function onFrame(dv, bytes) {
     if (sentAt.has(s)) {
       const ms = performance.now() - sentAt.get(s);
       state.latencyMs = state.latencyMs === null ? ms : 0.8 * state.latencyMs + 0.2 * ms;
+      // Every sample, for the browser test: end to end, the server's part, the frame period.
+      if (state.latencySamples.length < 10000) {
+        state.latencySamples.push({ e2e: ms, server: st[STAT.inputLag], frameMs: st[STAT.frameMs],
+          period: st[STAT.simFps] > 0 ? 1000 / st[STAT.simFps] : null, method: st[STAT.method] });
+      }
       sentAt.delete(s);
       $('e2e').textContent = `${state.latencyMs.toFixed(1)} ms`;
     }

@@ -132,6 +132,13 @@ pub trait Stepper: Send {
     fn finest_forces(&self) -> Option<&[f64]> {
         None
     }
+    /// Whether the last step left the state at its equilibrium to the stepper's own
+    /// tolerance, with nothing changed since, so that more steps in this frame would not move
+    /// it: a [`crate::sim::Budget::Millis`] frame then stops early. `false` (the default)
+    /// for steppers that do not measure it: they spend the whole budget.
+    fn settled(&self) -> bool {
+        false
+    }
     /// The links between the levels (`[i]`: levels `i` and `i + 1`), for a stepper of several
     /// levels; `None` (the default) for one level.
     fn level_links(&self) -> Option<&[crate::hierarchy::Correspondence]> {

@@ -78,7 +78,8 @@ use std::time::Instant;
 pub enum Budget {
     /// This many steps (single level) or V-cycles (multigrid) per frame.
     Cycles(usize),
-    /// As many as fit in this wall time (s) per frame, at least one.
+    /// As many as fit in this wall time (s) per frame, at least one; fewer once the stepper
+    /// has settled at the frame's equilibrium ([`crate::integrate::Stepper::settled`]).
     Wall(f64),
 }
 
@@ -453,7 +454,7 @@ impl FrameStepper for Plain<'_> {
                     let now = start.elapsed().as_secs_f64();
                     let last = now - last_end;
                     last_end = now;
-                    now + last <= w
+                    now + last <= w && !stepper.settled()
                 }
             };
             if !more {

@@ -44,7 +44,10 @@ pub const DIVERGED_EXTENTS: f64 = 10.0;
 pub enum Budget {
     /// This many stepper steps (one integrator step or one V-cycle each).
     Cycles(u32),
-    /// Steps until this much wall time (ms) has passed since the frame began, at least one.
+    /// Steps until this much wall time (ms) has passed since the frame began, at least one,
+    /// or until the stepper has settled at the frame's equilibrium
+    /// ([`crate::integrate::Stepper::settled`]: the frame solver's residual within
+    /// [`crate::statics::frames::SETTLED`] of its load), whichever comes first.
     Millis(f64),
 }
 
@@ -255,7 +258,7 @@ impl Simulation {
                     loop {
                         self.stepper.advance().map_err(|d| self.described(d))?;
                         *cycles += 1;
-                        if start.elapsed() >= until {
+                        if start.elapsed() >= until || self.stepper.settled() {
                             break;
                         }
                     }

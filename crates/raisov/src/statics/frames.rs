@@ -62,7 +62,7 @@
 
 use super::newton::{DirectNewton, DirectNewtonError, Smoother};
 use crate::error::{Divergence, DivergenceCause};
-use crate::hierarchy::Transfer;
+use crate::hierarchy::{Correspondence, Transfer};
 use crate::integrate::{
     hold, Checkpoint, OwnConstraints, RuntimeConstraints, State, Stepper, System,
 };
@@ -87,6 +87,11 @@ pub const REBUILD_EVERY: usize = 8;
 /// A step whose residual 2-norm is below this share of the largest right-hand side since the
 /// operator was built counts as converged: it does not refresh the tangent for its ratio.
 pub const CONVERGED: f64 = 1e-4;
+
+/// A frame's steps may stop once the residual 2-norm is below this share of the largest
+/// right-hand side since the operator was built ([`Stepper::settled`]): far below what a
+/// frame shows (`bench frames` measures lags of 1e-4 and less there).
+pub const SETTLED: f64 = 1e-6;
 
 /// The first shift of an indefinite kept tangent, relative to its mean diagonal; each
 /// further truncated solve multiplies it by 10, each refresh divides it by 10.
@@ -137,8 +142,9 @@ pub struct NewtonFrames {
     state: State,
     /// Level 0's mesh and the coarse level's (the V-cycle's), where there is one.
     meshes: Vec<Mesh>,
-    /// Level 0's nodes located in the coarse mesh (empty without one).
-    down: Vec<Transfer>,
+    /// The link between level 0 and the coarse level (empty without one): its `down`
+    /// transfer (level 0's nodes located in the coarse mesh) builds the V-cycle.
+    links: Vec<Correspondence>,
     params: NewtonFramesParams,
     /// The operator's pattern for the current constraints, and the kept tangent.
     newton: Option<DirectNewton>,
@@ -170,6 +176,8 @@ pub struct NewtonFrames {
     sigma: f64,
     /// The largest right-hand side 2-norm since the operator was built (N).
     scale: f64,
+    /// The residual 2-norm at the end of the last step (N; infinite before one).
+    last_residual: f64,
     steps: u64,
     evaluations: f64,
     cg_iterations: u64,
@@ -191,16 +199,16 @@ impl NewtonFrames {
         let mut state = State::at_rest(n);
         sys.impose(0.0, &mut state.u, &mut state.v);
         let mut meshes = vec![mesh];
-        let mut down = Vec::new();
+        let mut links = Vec::new();
         if let Some(c) = coarse {
-            down.push(Transfer::build(&meshes[0].nodes, &c)?);
+            links.push(Correspondence::build(&meshes[0], &c)?);
             meshes.push(c);
         }
         let mut s = NewtonFrames {
             sys,
             state,
             meshes,
-            down,
+            links,
             params,
             newton: None,
             stale: true,
@@ -220,6 +228,7 @@ impl NewtonFrames {
             fresh_ratio: 0.0,
             sigma: 0.0,
             scale: 0.0,
+            last_residual: f64::INFINITY,
             steps: 0,
             evaluations: 0.0,
             cg_iterations: 0,
@@ -364,6 +373,7 @@ impl Stepper for NewtonFrames {
         }
         let (bn, rn) = (norm(&self.b), norm(&self.r));
         self.scale = self.scale.max(bn);
+        self.last_residual = rn;
         if solve.truncated {
             // The kept tangent is not positive definite here: shift it.
             self.sigma = if self.sigma == 0.0 {
@@ -442,6 +452,49 @@ impl Stepper for NewtonFrames {
     }
     fn level_mesh(&self, level: usize) -> Option<&Mesh> {
         self.meshes.get(level)
+    }
+    fn level_links(&self) -> Option<&[Correspondence]> {
+        (!self.links.is_empty()).then_some(&self.links[..])
+    }
+    /// Level 0 and the coarse level cut, the state carried (a new node starts with the
+    /// displacement of the node it copies), the operator's pattern and hierarchy built again
+    /// on the cut levels at the next step; the counters kept.
+    fn cut(&mut self, cut: &crate::hierarchy::cut::HierarchyCut) -> crate::Result<()> {
+        let Some(ch) = cut.levels.first() else {
+            return Ok(());
+        };
+        self.set_runtime_constraints(&RuntimeConstraints::default());
+        self.own = None;
+        self.sys.cut(ch)?;
+        self.state.u = ch.carry(&self.state.u, 3);
+        self.state.v = ch.carry(&self.state.v, 3);
+        self.meshes = cut.levels.iter().map(|l| l.mesh.clone()).collect();
+        self.links = cut.links.clone();
+        let n = 3 * self.sys.num_nodes();
+        for v in [
+            &mut self.r,
+            &mut self.target,
+            &mut self.lift,
+            &mut self.b,
+            &mut self.x,
+            &mut self.before,
+        ] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+        self.guess = None;
+        self.valid = false;
+        self.newton = None;
+        self.spring_nodes.clear();
+        Ok(())
+    }
+    /// The last step ended with the residual 2-norm within [`SETTLED`] of the largest
+    /// right-hand side since the operator was built, and no change of the problem since.
+    fn settled(&self) -> bool {
+        self.valid
+            && self.newton.is_some()
+            && !self.anchors_moved
+            && self.last_residual <= SETTLED * self.scale
     }
     fn set_runtime_constraints(&mut self, c: &RuntimeConstraints) {
         let n = self.sys.num_nodes();
@@ -639,11 +692,12 @@ impl NewtonFrames {
 
     /// The operator for the current constraints and its first tangent, at the current state.
     fn prepare(&mut self) -> Result<(), Divergence> {
+        let down: Vec<Transfer> = self.links.iter().map(|l| l.down.clone()).collect();
         let newton = DirectNewton::with_levels(
             &*self.sys.force,
             &self.sys.mass,
             &self.sys.constraints,
-            &self.down,
+            &down,
         )
         .map_err(|e| self.solver_failure(e))?;
         self.newton = Some(newton);

@@ -19,7 +19,10 @@
 //!    `--coarse chebyshev`, held on the same cap), in place of the shipped levels: the
 //!    ≈ 50k-node organ of the live viewer's goal is `--organ 50000` (item 2 is skipped).
 //!
-//! `cargo run --release -p raisov-serve --example bench_serve [-- CYCLES] [--organ NODES [--coarse newton|chebyshev]]`
+//! 4. With `--scheme newton`: the frame solver (`Method::Newton`, the viewer's default) in
+//!    place of FAS, `CYCLES` its Newton steps per frame, in every item.
+//!
+//! `cargo run --release -p raisov-serve --example bench_serve [-- CYCLES] [--scheme fas|newton] [--organ NODES [--coarse newton|chebyshev]]`
 
 use futures_util::{SinkExt, StreamExt};
 use raisov::integrate::hold;
@@ -50,8 +53,8 @@ method = "symplectic-euler"
 duration = 1.0
 "#;
 
-/// The shipped liver levels L0..L3 (items 1 and 2).
-fn liver() -> String {
+/// The shipped liver levels L0..L3 (items 1 and 2) under `scheme`.
+fn liver(scheme: &str) -> String {
     format!(
         r#"
 name = "liver-L0"
@@ -60,7 +63,7 @@ file = "../data/liver_L0.msh"
 scale = 0.001
 {PHYSICS}
 [multigrid]
-scheme = "fas"
+scheme = "{scheme}"
 files = ["../data/liver_L1.msh", "../data/liver_L2.msh", "../data/liver_L3.msh"]
 "#
     )
@@ -79,8 +82,13 @@ fn examples_dir() -> PathBuf {
 }
 
 /// The liver meshed at load from its surface, level 0 of about `nodes` nodes, FAS with the
-/// coarsest solve `coarse` (item 3).
-fn organ(nodes: usize, coarse: &str) -> String {
+/// coarsest solve `coarse`, or the frame solver (item 3).
+fn organ(nodes: usize, coarse: &str, scheme: &str) -> String {
+    let coarse = if scheme == "fas" {
+        format!("coarse = \"{coarse}\"")
+    } else {
+        String::new()
+    };
     format!(
         r#"
 name = "liver-surface-{nodes}"
@@ -90,10 +98,10 @@ scale = 0.001
 nodes = {nodes}
 {PHYSICS}
 [multigrid]
-scheme = "fas"
+scheme = "{scheme}"
 levels = 4
 ratio = 0.5
-coarse = "{coarse}"
+{coarse}
 "#
     )
 }
@@ -101,12 +109,16 @@ coarse = "{coarse}"
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut cycles: u32 = 2;
-    let mut scene = liver();
-    let mut label = "liver L0..L3 (FAS".to_string();
+    let mut scheme = "fas".to_string();
     let (mut organ_nodes, mut coarse) = (None, "newton".to_string());
     let mut it = args.iter();
     while let Some(a) = it.next() {
-        if a == "--organ" {
+        if a == "--scheme" {
+            scheme = it.next().ok_or("--scheme needs fas | newton")?.clone();
+            if scheme != "fas" && scheme != "newton" {
+                return Err(format!("--scheme {scheme}: valid are fas, newton").into());
+            }
+        } else if a == "--organ" {
             organ_nodes = Some(it.next().ok_or("--organ needs a node count")?.parse()?);
         } else if a == "--coarse" {
             coarse = it
@@ -117,11 +129,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             cycles = a.parse()?;
         }
     }
+    let (method, what, steps) = if scheme == "fas" {
+        (Method::Fas, "FAS".to_string(), "V-cycles")
+    } else {
+        (Method::Newton, "the frame solver".to_string(), "Newton steps")
+    };
+    let mut scene = liver(&scheme);
+    let mut label = format!("liver L0..L3 ({what}");
     if let Some(nodes) = organ_nodes {
-        scene = organ(nodes, &coarse);
-        label = format!(
-            "liver meshed from data/liver_surface.obj, 4 levels (FAS, coarsest solve {coarse}"
-        );
+        scene = organ(nodes, &coarse, &scheme);
+        let solver = if scheme == "fas" {
+            format!("FAS, coarsest solve {coarse}")
+        } else {
+            what
+        };
+        label = format!("liver meshed from data/liver_surface.obj, 4 levels ({solver}");
     }
     let base = examples_dir();
     rayon::ThreadPoolBuilder::new()
@@ -133,7 +155,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (fps, lag_mean, lag_max, n_nodes) =
         rayon::scope(|_| sim_thread(&scene, &base, cycles)).map_err(|e| e.to_string())?;
     println!(
-        "{label}, {n_nodes} nodes at L0, {threads} threads), {cycles} V-cycles/frame, 30 frames:"
+        "{label}, {n_nodes} nodes at L0, {threads} threads), {cycles} {steps}/frame, 30 frames:"
     );
     println!("  simulation thread: {fps:.1} frames/s (step_frame + surface read + encoding)");
     println!(
@@ -151,7 +173,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .worker_threads(1)
         .enable_all()
         .build()?;
-    let (bytes, lat) = rt.block_on(wire(&scene, &base, cycles))?;
+    let (bytes, lat) = rt.block_on(wire(&scene, &base, cycles, method))?;
     let mut sorted = lat.clone();
     sorted.sort_by(f64::total_cmp);
     let mean = lat.iter().sum::<f64>() / lat.len().max(1) as f64;
@@ -265,6 +287,7 @@ async fn wire(
     scene: &str,
     base: &std::path::Path,
     cycles: u32,
+    method: Method,
 ) -> Result<(usize, Vec<f64>), Box<dyn std::error::Error>> {
     let source = Source::from_text(scene, base.to_path_buf(), "liver", "bench.toml".as_ref())?;
     let session = Session::spawn(
@@ -273,7 +296,7 @@ async fn wire(
             grab_stiffness: None,
             budget: Budget::Cycles(cycles),
             max_fps: 0.0,
-            method: Some(Method::Fas),
+            method: Some(method),
             record_path: None,
         },
     )?;

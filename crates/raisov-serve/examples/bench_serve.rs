@@ -132,7 +132,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (method, what, steps) = if scheme == "fas" {
         (Method::Fas, "FAS".to_string(), "V-cycles")
     } else {
-        (Method::Newton, "the frame solver".to_string(), "Newton steps")
+        (
+            Method::Newton,
+            "the frame solver".to_string(),
+            "Newton steps",
+        )
     };
     let mut scene = liver(&scheme);
     let mut label = format!("liver L0..L3 ({what}");

@@ -16,8 +16,7 @@ use crate::{Error, Result};
 #[derive(Clone, Debug, PartialEq)]
 pub enum Scheme {
     /// The FAS multigrid over the levels ([`crate::multigrid::fas`]): each step is one
-    /// V-cycle towards the static equilibrium (one level: the coarsest solve alone). The
-    /// default, with [`FasParams::default`].
+    /// V-cycle towards the static equilibrium (one level: the coarsest solve alone).
     Fas(FasParams),
     /// Explicit dynamics on level 0 alone with this integrator, one step per cycle (coarser
     /// levels are ignored).
@@ -34,7 +33,10 @@ pub enum Scheme {
     /// The frame solver on level 0 ([`crate::statics::frames`]): each step one Newton step
     /// toward the static equilibrium, its conjugate gradients preconditioned by the Galerkin
     /// V-cycle (over level 0 and the coarser level [`crate::statics::newton::coarse_level`]
-    /// picks; without one, level 0 factored) of a tangent kept across frames.
+    /// picks; without one, level 0 factored) of a tangent kept across frames. The default,
+    /// with [`crate::statics::frames::NewtonFramesParams::default`] (its smoother the one the
+    /// static solver takes for the mesh's elements): measured against FAS, it keeps the tissue
+    /// far closer to each frame's equilibrium at a higher frame rate (`bench/RESULTS.md`).
     Newton(crate::statics::frames::NewtonFramesParams),
 }
 
@@ -57,8 +59,9 @@ type Region = Box<dyn Fn([f64; 3]) -> bool>;
 /// Defaults (SI units): the stable neo-Hookean law ([`StableNeoHookean`]: finite energy and
 /// forces for inverted elements, so an interactive grasp that inverts some recovers) with
 /// Young's modulus 5 kPa and Poisson ratio 0.45 (soft tissue), density 1000 kg/m³, membrane thickness 1 mm, no gravity, no damping
-/// (α = 0 1/s; FAS smooths without it), nothing fixed, [`Scheme::Fas`] with its defaults, the
-/// time step half the estimated critical step of each level.
+/// (α = 0 1/s; the quasi-static schemes need none), nothing fixed, [`Scheme::Newton`] (the
+/// frame solver) with its defaults, the time step half the estimated critical step of each
+/// level (for the explicit schemes).
 ///
 /// ```
 /// use raisov::mesh::generate::{box_tets, BoxPattern};
@@ -106,6 +109,7 @@ pub struct SimulationBuilder {
 impl SimulationBuilder {
     /// Start from level 0's mesh (reference positions in m), with the defaults above.
     pub fn new(mesh: Mesh) -> Self {
+        let smoother = crate::scenario::StaticSolve::default_smoother(mesh.kind);
         SimulationBuilder {
             mesh,
             coarse: Vec::new(),
@@ -116,7 +120,10 @@ impl SimulationBuilder {
             alpha: 0.0,
             beta: 0.0,
             fixed: Vec::new(),
-            scheme: Scheme::Fas(FasParams::default()),
+            scheme: Scheme::Newton(crate::statics::frames::NewtonFramesParams {
+                smoother,
+                ..Default::default()
+            }),
             dt: None,
         }
     }
@@ -200,11 +207,16 @@ impl SimulationBuilder {
             ));
         }
         if matches!(self.material, Material::NeoHookeanVisco(_))
-            && matches!(self.scheme, Scheme::Fas(_))
+            && matches!(self.scheme, Scheme::Fas(_) | Scheme::Newton(_))
         {
+            let name = if matches!(self.scheme, Scheme::Fas(_)) {
+                "Scheme::Fas: the multigrid cycles do"
+            } else {
+                "Scheme::Newton: the frame solver's quasi-static steps do"
+            };
             return Err(Error::param(
                 "material",
-                "neo-hookean-visco does not run on Scheme::Fas: the multigrid cycles do not advance the law's internal variables (use Scheme::ImplicitEuler, which takes the levels as its preconditioner, or Scheme::SingleLevel)",
+                format!("neo-hookean-visco does not run on {name} not advance the law's internal variables (use Scheme::ImplicitEuler, which takes the levels as its preconditioner, or Scheme::SingleLevel)"),
             ));
         }
         let mut params = FemParams::new(self.material.clone());

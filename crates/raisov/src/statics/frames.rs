@@ -47,11 +47,15 @@
 //! - or [`NewtonFramesParams::max_age`] steps were made with it;
 //! - or the springs changed the operator (a spring grasp taken or released).
 //!
-//! A grasp or pin that changes which dofs are constrained builds the operator's pattern
-//! again and a whole new hierarchy at the next step: about 170 ms on the liver L0, the
-//! grasp's first frame (`bench/RESULTS.md`). Keeping the pattern and decoupling the held
-//! dofs' rows in the kept tangent instead was measured and dropped: the coarse level of the
-//! old pattern preconditions the held problem badly (the first frames' lag 6 times larger).
+//! The operator's pattern is built once, for the stepper's own constraints. A grasp or pin
+//! that changes which dofs are constrained holds them in it ([`DirectNewton::mask`]): their
+//! rows and columns decoupled in the kept tangent, their prolongation rows zeroed, so that
+//! the V-cycle's coarse operator is that of the other dofs, `P_Fᵀ K_FF P_F`, as a pattern
+//! built for the new constraints would give; the whole hierarchy is formed again at the next
+//! step on the kept patterns and symbolic factorisation (about 100 ms on the liver L0, the
+//! grasp's first frame, against about 180 ms with a new pattern: `bench/RESULTS.md`). An
+//! earlier variant that kept the old hierarchy's coarse level for the held problem was
+//! measured and dropped (the first frames' lag 6 times larger).
 //!
 //! Each step evaluates the residual once at its end (kept for the next step: one force
 //! evaluation a step, plus the tangent products over the moved nodes' elements counted by
@@ -146,8 +150,12 @@ pub struct NewtonFrames {
     /// transfer (level 0's nodes located in the coarse mesh) builds the V-cycle.
     links: Vec<Correspondence>,
     params: NewtonFramesParams,
-    /// The operator's pattern for the current constraints, and the kept tangent.
+    /// The operator's pattern for the stepper's own constraints (`base`), the run-time ones
+    /// masked in it ([`DirectNewton::mask`]), and the kept tangent.
     newton: Option<DirectNewton>,
+    /// The constraints the pattern is built for: the stepper's own, without run-time grasps
+    /// and pins.
+    base: crate::integrate::Constraints,
     /// Refresh the tangent before the next step.
     stale: bool,
     /// Steps with the kept tangent; refreshes since the last full rebuild.
@@ -204,7 +212,9 @@ impl NewtonFrames {
             links.push(Correspondence::build(&meshes[0], &c)?);
             meshes.push(c);
         }
+        let base = sys.constraints.clone();
         let mut s = NewtonFrames {
+            base,
             sys,
             state,
             meshes,
@@ -466,6 +476,7 @@ impl Stepper for NewtonFrames {
         self.set_runtime_constraints(&RuntimeConstraints::default());
         self.own = None;
         self.sys.cut(ch)?;
+        self.base = self.sys.constraints.clone();
         self.state.u = ch.carry(&self.state.u, 3);
         self.state.v = ch.carry(&self.state.v, 3);
         self.meshes = cut.levels.iter().map(|l| l.mesh.clone()).collect();
@@ -514,10 +525,21 @@ impl Stepper for NewtonFrames {
             }
         }
         if now != was {
-            // Another set of free dofs: a new pattern and tangent at the next step (a tangent
-            // kept for the old set, its held dofs decoupled, preconditions the new problem
-            // worse: `bench/RESULTS.md`).
-            self.newton = None;
+            // Another set of free dofs: held in the kept pattern (`DirectNewton::mask`), the
+            // whole hierarchy built again at the next step; a new pattern where one the
+            // pattern left out is free now.
+            let masked = self
+                .newton
+                .as_mut()
+                .is_some_and(|n| n.mask(&self.sys.constraints));
+            if masked {
+                self.lift_elements = Self::constrained_elements(&self.sys);
+                self.stale = true;
+                self.scale = 0.0;
+                self.since_rebuild = 0;
+            } else {
+                self.newton = None;
+            }
         }
         self.anchors_moved |= self.sys.springs.len() != anchors.len()
             || self
@@ -693,13 +715,16 @@ impl NewtonFrames {
     /// The operator for the current constraints and its first tangent, at the current state.
     fn prepare(&mut self) -> Result<(), Divergence> {
         let down: Vec<Transfer> = self.links.iter().map(|l| l.down.clone()).collect();
-        let newton = DirectNewton::with_levels(
-            &*self.sys.force,
-            &self.sys.mass,
-            &self.sys.constraints,
-            &down,
-        )
-        .map_err(|e| self.solver_failure(e))?;
+        let mut newton =
+            DirectNewton::with_levels(&*self.sys.force, &self.sys.mass, &self.base, &down)
+                .map_err(|e| self.solver_failure(e))?;
+        if !newton.mask(&self.sys.constraints) {
+            // The stepper's own constraints no longer hold (a cut moved them): a pattern for
+            // the current ones.
+            self.base = self.sys.constraints.clone();
+            newton = DirectNewton::with_levels(&*self.sys.force, &self.sys.mass, &self.base, &down)
+                .map_err(|e| self.solver_failure(e))?;
+        }
         self.newton = Some(newton);
         self.lift_elements = Self::constrained_elements(&self.sys);
         self.stale = true;

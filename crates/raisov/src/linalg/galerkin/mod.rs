@@ -113,7 +113,13 @@ pub struct Prolongations {
     /// Level l's dofs (`3 node + component` of each row of `A_l`), for each level but the
     /// coarsest.
     pub dofs: Vec<Vec<usize>>,
+    /// The patterns' identity: the same for [`Prolongations::masked`] copies (same patterns,
+    /// other values), new for each [`Prolongations::new`]; 0 for the empty default.
+    pattern: u64,
 }
+
+/// The next [`Prolongations::pattern`] identity.
+static NEXT_PATTERN: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 impl Prolongations {
     /// From the transfers `down[l]` (level l's nodes in level l + 1's mesh, limited here to
@@ -132,7 +138,40 @@ impl Prolongations {
             ));
             levels.push((p, pt));
         }
-        Prolongations { levels, dofs: all }
+        Prolongations::from_levels(levels, all)
+    }
+
+    /// From the pairs `(P_l, P_lᵀ)` and level l's dofs (a new pattern identity).
+    pub fn from_levels(levels: Vec<(Csr, Csr)>, dofs: Vec<Vec<usize>>) -> Prolongations {
+        Prolongations {
+            levels,
+            dofs,
+            pattern: NEXT_PATTERN.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+        }
+    }
+
+    /// These prolongations with level 0's rows `r` where `rows[r]` zeroed (and the matching
+    /// entries of `P_0ᵀ`), the patterns kept: dofs held at run time, decoupled in the finest
+    /// operator, then reach no coarser level, and the Galerkin operators are those of the
+    /// other dofs alone (`P_Fᵀ A_FF P_F`) on the same patterns, so that a
+    /// [`GalerkinSymbolic`] of the unmasked prolongations serves them.
+    pub fn masked(&self, rows: &[bool]) -> Prolongations {
+        let mut m = self.clone();
+        if let Some((p, pt)) = m.levels.first_mut() {
+            for (r, &held) in rows.iter().enumerate().take(p.rows) {
+                if held {
+                    p.val[p.ptr[r]..p.ptr[r + 1]]
+                        .iter_mut()
+                        .for_each(|v| *v = 0.0);
+                }
+            }
+            for (c, v) in pt.col.iter().zip(pt.val.iter_mut()) {
+                if rows.get(*c as usize).copied().unwrap_or(false) {
+                    *v = 0.0;
+                }
+            }
+        }
+        m
     }
 
     /// Whether there is no coarser level.
@@ -165,10 +204,12 @@ impl ProductPattern {
         for &i in &self.empty {
             val[self.c.ptr[i]] = 1.0;
         }
-        Csr {
+        let mut c = Csr {
             val,
             ..self.c.clone()
-        }
+        };
+        unit_zero_diagonal(&mut c);
+        c
     }
 }
 
@@ -181,8 +222,8 @@ impl ProductPattern {
 /// same rows and entries per row is a caller's error.
 #[derive(Default)]
 pub struct GalerkinSymbolic {
-    /// The prolongations and the finest pattern's row starts these are for.
-    key: Option<(Arc<Prolongations>, Vec<usize>)>,
+    /// The prolongations' pattern identity and the finest pattern's row starts these are for.
+    key: Option<(u64, Vec<usize>)>,
     products: Option<Arc<Vec<ProductPattern>>>,
     colourings: Option<Arc<Vec<Colouring>>>,
     orders: Option<Arc<Vec<ColourOrder>>>,
@@ -192,10 +233,10 @@ pub struct GalerkinSymbolic {
 impl GalerkinSymbolic {
     /// Start afresh unless this was filled for `p` and a finest pattern with `a0`'s rows.
     fn check(&mut self, a0: &Csr, p: &Arc<Prolongations>) {
-        let same = matches!(&self.key, Some((kp, ptr)) if Arc::ptr_eq(kp, p) && *ptr == a0.ptr);
+        let same = matches!(&self.key, Some((kp, ptr)) if *kp == p.pattern && *ptr == a0.ptr);
         if !same {
             *self = GalerkinSymbolic {
-                key: Some((p.clone(), a0.ptr.clone())),
+                key: Some((p.pattern, a0.ptr.clone())),
                 ..Default::default()
             };
         }
@@ -502,12 +543,27 @@ fn galerkin_product(a: &Csr, pl: &Csr, pt: &Csr) -> (Csr, ProductPattern) {
     let ap = a.product(pl);
     let mut c = pt.product(&ap);
     let empty = unit_empty_diagonal(&mut c);
+    unit_zero_diagonal(&mut c);
     let pat = ProductPattern {
         ap: ap.pattern(),
         c: c.pattern(),
         empty,
     };
     (c, pat)
+}
+
+/// Give every row whose diagonal is zero a unit one: a coarse dof that only fine dofs
+/// [`Prolongations::masked`] reach has a row of zeros on its pattern (none otherwise: an
+/// operator's diagonal is positive).
+fn unit_zero_diagonal(c: &mut Csr) {
+    for i in 0..c.rows {
+        let (lo, hi) = (c.ptr[i], c.ptr[i + 1]);
+        if let Ok(k) = c.col[lo..hi].binary_search(&(i as u32)) {
+            if c.val[lo + k] == 0.0 {
+                c.val[lo + k] = 1.0;
+            }
+        }
+    }
 }
 
 /// Give every row without a positive diagonal (a coarse dof that only fixed fine dofs see)

@@ -119,10 +119,10 @@ fn scatter_fills_the_full_rows_and_refresh_keeps_the_coarsest_operator() {
         val: vec![1.0; n],
     };
     let pt = p.transpose();
-    let levels = Arc::new(Prolongations {
-        levels: vec![(p, pt)],
-        dofs: vec![(0..n).collect()],
-    });
+    let levels = Arc::new(Prolongations::from_levels(
+        vec![(p, pt)],
+        vec![(0..n).collect()],
+    ));
     let l = laplace(n);
     let mut mg = GalerkinMultigrid::new(
         l.clone(),
@@ -149,10 +149,7 @@ fn two_grid_v_cycle_is_symmetric_and_reduces_the_error() {
     let a = laplace(n);
     let p = interpolation(n, 15, 0);
     let pt = p.transpose();
-    let levels = Prolongations {
-        levels: vec![(p, pt)],
-        dofs: vec![(0..n).collect()],
-    };
+    let levels = Prolongations::from_levels(vec![(p, pt)], vec![(0..n).collect()]);
     let smoothers = [
         Smoother::GaussSeidel,
         Smoother::ColouredBlock,
@@ -248,10 +245,10 @@ fn kept_galerkin_patterns_give_the_bits_of_a_fresh_build() {
     let (p1, p2) = (interpolation(31, 15, 1), interpolation(16, 8, 0));
     let levels = |p1: &Csr| {
         let (p1t, p2t) = (p1.transpose(), p2.transpose());
-        Arc::new(Prolongations {
-            levels: vec![(p1.clone(), p1t), (p2.clone(), p2t)],
-            dofs: vec![(0..n).collect(), (0..16).collect()],
-        })
+        Arc::new(Prolongations::from_levels(
+            vec![(p1.clone(), p1t), (p2.clone(), p2t)],
+            vec![(0..n).collect(), (0..16).collect()],
+        ))
     };
     let p = levels(&p1);
     // The same pattern, other values: a varying diagonal.
@@ -311,6 +308,102 @@ fn kept_galerkin_patterns_give_the_bits_of_a_fresh_build() {
     }
 }
 
+/// Masked prolongations ([`Prolongations::masked`]) over a finest operator whose masked rows
+/// and columns are decoupled give, on the unmasked patterns (kept from a build without the
+/// mask), the coarse operator of the other rows alone, `P_Fᵀ A_FF P_F`, to round-off; a
+/// coarse dof that only masked rows reach gets a unit diagonal, as an empty row does.
+#[test]
+fn masked_prolongations_give_the_free_rows_coarse_operator_on_the_kept_patterns() {
+    let n = 31;
+    let p1 = interpolation(31, 15, 0);
+    let a = |masked: &[bool]| {
+        let mut a = laplace(n);
+        for i in 0..n {
+            let (lo, hi) = (a.ptr[i], a.ptr[i + 1]);
+            for k in lo..hi {
+                let j = a.col[k] as usize;
+                a.val[k] += 0.01 * (1.0 + (i + j) as f64 * 0.3).sin();
+                if masked[i] || masked[j] {
+                    a.val[k] = if i == j { 3.0 } else { 0.0 };
+                }
+            }
+        }
+        a
+    };
+    // Rows 0, 1 and 2 are the only ones that reach the first coarse dof: masked, none does.
+    let mut masked = vec![false; n];
+    for m in [0, 1, 2, 3, 17, 18] {
+        masked[m] = true;
+    }
+    let base = Arc::new(Prolongations::from_levels(
+        vec![(p1.clone(), p1.transpose())],
+        vec![(0..n).collect()],
+    ));
+    let mut kept = GalerkinSymbolic::default();
+    let first = GalerkinMultigrid::new(
+        a(&vec![false; n]),
+        base.clone(),
+        1,
+        Smoother::BlockJacobi,
+        Precision::Double,
+        &mut kept,
+    )
+    .unwrap();
+    let m = GalerkinMultigrid::new(
+        a(&masked),
+        Arc::new(base.masked(&masked)),
+        1,
+        Smoother::BlockJacobi,
+        Precision::Double,
+        &mut kept,
+    )
+    .unwrap();
+    assert!(Arc::ptr_eq(&first.products, &m.products), "patterns kept");
+    // The reference: the free rows' operator and prolongation alone, fresh.
+    let free: Vec<usize> = (0..n).filter(|&i| !masked[i]).collect();
+    let dense = |c: &Csr| {
+        let mut d = vec![vec![0.0; c.cols]; c.rows];
+        for i in 0..c.rows {
+            let (cc, v) = c.row(i);
+            for (&k, &x) in cc.iter().zip(v) {
+                d[i][k as usize] += x;
+            }
+        }
+        d
+    };
+    let (da, dp) = (dense(&a(&masked)), dense(&p1));
+    let nc = p1.cols;
+    let mut want = vec![vec![0.0; nc]; nc];
+    for i in 0..nc {
+        for j in 0..nc {
+            for &r in &free {
+                for &q in &free {
+                    want[i][j] += dp[r][i] * da[r][q] * dp[q][j];
+                }
+            }
+        }
+    }
+    let got = dense(&m.a[1]);
+    let mut unit = 0;
+    for i in 0..nc {
+        if want[i][i] == 0.0 {
+            assert!(want[i].iter().all(|&x| x == 0.0));
+            assert_eq!(got[i][i], 1.0, "row {i}: a unit diagonal");
+            unit += 1;
+            continue;
+        }
+        for j in 0..nc {
+            assert!(
+                (got[i][j] - want[i][j]).abs() <= 1e-12 * want[i][i].abs(),
+                "({i}, {j}): {} against {}",
+                got[i][j],
+                want[i][j]
+            );
+        }
+    }
+    assert!(unit >= 1, "no coarse dof was reached by masked rows alone");
+}
+
 /// The interpolation reproduces a linear field at every fine node of the liver L1 in the
 /// liver L3 (independent meshes; about a third of L1's nodes lie outside L3), to
 /// round-off, so linearised rigid motions are in the coarse space. With convex weights it
@@ -356,14 +449,14 @@ fn interpolation_reproduces_linear_fields_outside_the_coarse_mesh() {
         limited < 1e-12,
         "limited weights: relative error {limited:.3e}"
     );
-    let convex = Prolongations {
-        levels: vec![{
+    let convex = Prolongations::from_levels(
+        vec![{
             let p = prolongation(&t.convex(), &all);
             let pt = p.transpose();
             (p, pt)
         }],
-        dofs: vec![all.clone()],
-    };
+        vec![all.clone()],
+    );
     let convex = error(&convex);
     assert!(convex > 1e-3, "convex weights: relative error {convex:.3e}");
 }

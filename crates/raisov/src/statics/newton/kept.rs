@@ -53,6 +53,7 @@ impl DirectNewton {
                 self.vals[d as usize] += shift * mean * w;
             }
         }
+        self.decouple_masked(mean);
         let nf = self.nfree;
         let scatter = self.scatter.get_or_insert_with(|| {
             SymScatter::new(nf, self.symbolic.col_ptr(), self.symbolic.row_idx())
@@ -93,6 +94,52 @@ impl DirectNewton {
         })
     }
 
+    /// Hold the free dofs that `constraints` constrain beyond the pattern's own (grasps and
+    /// pins taken at run time) without a new pattern: in the kept tangent their rows and
+    /// columns are decoupled (a diagonal of the mean, nothing else), their prolongation rows
+    /// zeroed ([`Prolongations::masked`]), and [`DirectNewton::kept_solve`] keeps them at zero,
+    /// so the solve is that of the other dofs and the V-cycle's coarse operator is
+    /// `P_Fᵀ K_FF P_F`, as with a pattern built for the new constraints, while the pattern,
+    /// the Galerkin products' and the coarse factor's symbolic phases are kept. The kept
+    /// tangent is dropped: the next [`DirectNewton::keep_tangent`] builds the whole hierarchy.
+    /// `false`, nothing changed, where a dof the pattern left out is free under
+    /// `constraints` (the caller builds a new pattern).
+    pub fn mask(&mut self, constraints: &Constraints) -> bool {
+        if (0..self.free.len()).any(|i| self.free[i] == usize::MAX && !fixed_dof(constraints, i)) {
+            return false;
+        }
+        let mut masked = vec![false; self.nfree];
+        for (i, &f) in self.free.iter().enumerate() {
+            if f != usize::MAX && fixed_dof(constraints, i) {
+                masked[f] = true;
+            }
+        }
+        if masked.iter().any(|&m| m) {
+            self.prolongations = Arc::new(self.base_prolongations.masked(&masked));
+            self.masked = Some(masked);
+        } else {
+            self.prolongations = self.base_prolongations.clone();
+            self.masked = None;
+        }
+        self.mg = None;
+        true
+    }
+
+    /// Decouple the masked dofs in the assembled values ([`DirectNewton::mask`]): their
+    /// entries zero, their diagonal `diagonal`.
+    fn decouple_masked(&mut self, diagonal: f64) {
+        let Some(masked) = &self.masked else { return };
+        let (cp, ri) = (self.symbolic.col_ptr(), self.symbolic.row_idx());
+        for j in 0..self.nfree {
+            for k in cp[j]..cp[j + 1] {
+                let i = ri[k];
+                if masked[i] || masked[j] {
+                    self.vals[k] = if i == j { diagonal } else { 0.0 };
+                }
+            }
+        }
+    }
+
     /// Whether a tangent is kept ([`DirectNewton::keep_tangent`]).
     pub fn has_kept_tangent(&self) -> bool {
         self.mg.is_some()
@@ -126,6 +173,18 @@ impl DirectNewton {
         if warm {
             self.gather_free(x, &mut xf);
         }
+        let masked = self.masked.as_deref();
+        let zero_masked = |v: &mut [f64]| {
+            if let Some(m) = masked {
+                for (v, &m) in v.iter_mut().zip(m) {
+                    if m {
+                        *v = 0.0;
+                    }
+                }
+            }
+        };
+        zero_masked(&mut bf);
+        zero_masked(&mut xf);
         let settings = crate::linalg::cg::CgSettings {
             warm,
             ..crate::linalg::cg::CgSettings::new(0.0, max_iter)
@@ -139,10 +198,17 @@ impl DirectNewton {
             Some(f) => f,
             None => &mut own,
         };
+        // The masked dofs stay at zero: their rows of every product are dropped.
+        let mut held = |p: &[f64], q: &mut [f64]| -> Result<(), E> {
+            product(p, q)?;
+            zero_masked(q);
+            Ok(())
+        };
         let end = crate::linalg::cg::solve(
-            product,
+            &mut held,
             |r: &[f64], z: &mut [f64]| {
                 mg.apply(r, z);
+                zero_masked(z);
                 Ok(())
             },
             &bf,

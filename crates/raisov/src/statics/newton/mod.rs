@@ -373,8 +373,13 @@ pub struct DirectNewton {
     weight: Vec<f64>,
     /// The last numeric factorisation, kept as the conjugate-gradient preconditioner.
     llt: Option<Llt<usize, f64>>,
-    /// The interpolations of [`DirectNewton::with_levels`] (empty without).
+    /// The interpolations of [`DirectNewton::with_levels`] (empty without), level 0's rows of
+    /// masked dofs zeroed ([`DirectNewton::mask`]).
     prolongations: Arc<Prolongations>,
+    /// The same, unmasked.
+    base_prolongations: Arc<Prolongations>,
+    /// Free dofs held at run time ([`DirectNewton::mask`]), by free index; `None`: none.
+    masked: Option<Vec<bool>>,
     /// What the Galerkin hierarchies keep from one build to the next (the pattern and the
     /// prolongations are fixed).
     hierarchy_symbolic: GalerkinSymbolic,
@@ -439,6 +444,8 @@ impl DirectNewton {
             weight,
             llt: None,
             prolongations: Arc::new(Prolongations::default()),
+            base_prolongations: Arc::new(Prolongations::default()),
+            masked: None,
             hierarchy_symbolic: GalerkinSymbolic::default(),
             standing: Standing::Settled,
             mg: None,
@@ -472,6 +479,7 @@ impl DirectNewton {
             .filter(|&i| s.free[i] != usize::MAX)
             .collect();
         s.prolongations = Arc::new(Prolongations::new(down, &free_dofs));
+        s.base_prolongations = s.prolongations.clone();
         Ok(s)
     }
 

@@ -862,6 +862,11 @@ fn problem_scale(sys: &mut System, t: f64, u: &[f64]) -> f64 {
     loads.max(from_rest).max(springs).max(start)
 }
 
+/// A frame whose force scale ([`problem_scale`]) is below this (N) has nothing acting on
+/// the body: its residual left at rest is round-off, and the reference solve asks for an
+/// absolute 1e-14 N instead of a share of it.
+const UNLOADED: f64 = 1e-12;
+
 /// Factorisation reuses of the direct reference solve before it refactors (as the static
 /// solve's `"direct"`).
 const REFERENCE_PCG_MAX: usize = 20;
@@ -959,10 +964,11 @@ impl Reference {
                 let Some((solver, _)) = newton.as_mut() else {
                     unreachable!("built above")
                 };
-                // The rule has no absolute floor but where nothing loads the body: a
-                // tolerance below round-off fails, as it should.
+                // The rule has no absolute floor but where nothing loads the body (a force
+                // scale below UNLOADED N: round-off of a body at rest): a tolerance below
+                // round-off fails, as it should.
                 let scale = problem_scale(sys, t, u);
-                let target = if scale > 0.0 { tol * scale } else { 1e-14 };
+                let target = if scale > UNLOADED { tol * scale } else { 1e-14 };
                 let params = DirectNewtonParams {
                     rel_tol: 0.0,
                     abs_tol: target,

@@ -205,6 +205,7 @@ fn the_builtin_and_example_scenarios_resolve() {
         "membrane_drape.toml",
         "membrane_drape_multigrid.toml",
         "liver_interactive.toml",
+        "liver_frames.toml",
         "cantilever.toml",
         "liver_grasp.toml",
         "visco_block.toml",

@@ -137,12 +137,10 @@ fn frames_give_the_same_bits_on_any_thread_count() {
     assert!(u1.iter().zip(&u2).all(|(a, b)| a.to_bits() == b.to_bits()));
 }
 
-/// A spring grasp held still: the frames converge to the equilibrium where the tissue's
-/// reaction balances the springs' pull, which is the force the grasp reports.
-#[test]
-fn a_held_spring_grasp_balances_the_tissue() {
-    let sc = block(0.1, 1, None, 2);
-    let mut sim = Simulation::from_scenario(&sc).unwrap();
+/// The simulation of `sc` with the block's top tip grasped through springs of 100 N/m over
+/// a 4 mm patch, the grasp's target moved 6 mm up (not yet stepped).
+fn spring_pulled(sc: &Scenario) -> (Simulation, raisov::sim::GrabId) {
+    let mut sim = Simulation::from_scenario(sc).unwrap();
     let g = sim
         .grab_with(
             [0.04, 0.01, 0.02],
@@ -150,6 +148,15 @@ fn a_held_spring_grasp_balances_the_tissue() {
         )
         .unwrap();
     sim.move_grab(g, [0.04, 0.01, 0.026]).unwrap();
+    (sim, g)
+}
+
+/// A spring grasp held still: the frames converge to the equilibrium where the tissue's
+/// reaction balances the springs' pull, which is the force the grasp reports.
+#[test]
+fn a_held_spring_grasp_balances_the_tissue() {
+    let sc = block(0.1, 1, None, 2);
+    let (mut sim, g) = spring_pulled(&sc);
     let mut last = f64::INFINITY;
     for _ in 0..60 {
         let r = sim.step_frame(Budget::Cycles(2));
@@ -236,14 +243,7 @@ fn the_frame_solver_cuts_and_converges_on_the_cut_body() {
         } else {
             block(0.1, 1, None, 2)
         };
-        let mut sim = Simulation::from_scenario(&sc).unwrap();
-        let g = sim
-            .grab_with(
-                [0.04, 0.01, 0.02],
-                raisov::sim::GrabOptions::spring(0.004, 100.0),
-            )
-            .unwrap();
-        sim.move_grab(g, [0.04, 0.01, 0.026]).unwrap();
+        let (mut sim, g) = spring_pulled(&sc);
         let cycles = if fas { 40 } else { 2 };
         let settle = |sim: &mut Simulation| {
             let mut last = f64::INFINITY;
@@ -321,14 +321,7 @@ fps = 30.0
 #[test]
 fn a_wall_time_frame_stops_once_the_frame_solver_settles() {
     let sc = block(0.1, 1, None, 2);
-    let mut sim = Simulation::from_scenario(&sc).unwrap();
-    let g = sim
-        .grab_with(
-            [0.04, 0.01, 0.02],
-            raisov::sim::GrabOptions::spring(0.004, 100.0),
-        )
-        .unwrap();
-    sim.move_grab(g, [0.04, 0.01, 0.026]).unwrap();
+    let (mut sim, g) = spring_pulled(&sc);
     let r = sim.step_frame(Budget::Millis(60_000.0));
     assert!(r.accepted, "{:?}", r.rejection);
     assert!(

@@ -73,11 +73,11 @@ pub mod coarse_factor {
 }
 
 pub use constraints::{Constraints, Motion};
-pub(crate) use stepper::OwnConstraints;
 pub use stepper::{
     check_state, energy_limit, energy_limit_for, hold, moves, prediction, Checkpoint,
     RuntimeConstraints, SingleLevel, Stepper, StepperParams, SwitchCounts,
 };
+pub(crate) use stepper::{cut_level0, OwnConstraints};
 
 use crate::fem::{ElementFailure, ForceModel};
 use rayon::prelude::*;

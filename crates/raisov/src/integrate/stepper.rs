@@ -438,6 +438,24 @@ impl SingleLevel {
     }
 }
 
+/// Level 0 of a stepper carried through a cut ([`Stepper::cut`]): its run-time constraints
+/// dropped (the caller sets them again on the new nodes) and its own forgotten, its system cut
+/// ([`System::cut`]), its state carried (each new node starts with the displacement and
+/// velocity of the node it copies). The steppers' cuts share it; each then rebuilds its own.
+pub(crate) fn cut_level0(
+    sys: &mut System,
+    state: &mut State,
+    own: &mut Option<OwnConstraints>,
+    ch: &crate::mesh::cut::TopologyChange,
+) -> crate::Result<()> {
+    OwnConstraints::apply_runtime(own, sys, state, &RuntimeConstraints::default());
+    *own = None;
+    sys.cut(ch)?;
+    state.u = ch.carry(&state.u, 3);
+    state.v = ch.carry(&state.v, 3);
+    Ok(())
+}
+
 impl Stepper for SingleLevel {
     fn state(&self) -> &State {
         &self.state
@@ -446,11 +464,7 @@ impl Stepper for SingleLevel {
         let Some(ch) = cut.levels.first() else {
             return Ok(());
         };
-        self.set_runtime_constraints(&RuntimeConstraints::default());
-        self.own = None;
-        self.sys.cut(ch)?;
-        self.state.u = ch.carry(&self.state.u, 3);
-        self.state.v = ch.carry(&self.state.v, 3);
+        cut_level0(&mut self.sys, &mut self.state, &mut self.own, ch)?;
         self.integrator = self.integrator.method().build(ch.mesh.num_nodes());
         Ok(())
     }

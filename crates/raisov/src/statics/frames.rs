@@ -473,12 +473,8 @@ impl Stepper for NewtonFrames {
         let Some(ch) = cut.levels.first() else {
             return Ok(());
         };
-        self.set_runtime_constraints(&RuntimeConstraints::default());
-        self.own = None;
-        self.sys.cut(ch)?;
+        crate::integrate::cut_level0(&mut self.sys, &mut self.state, &mut self.own, ch)?;
         self.base = self.sys.constraints.clone();
-        self.state.u = ch.carry(&self.state.u, 3);
-        self.state.v = ch.carry(&self.state.v, 3);
         self.meshes = cut.levels.iter().map(|l| l.mesh.clone()).collect();
         self.links = cut.links.clone();
         let n = 3 * self.sys.num_nodes();

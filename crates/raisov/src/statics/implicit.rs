@@ -698,17 +698,13 @@ impl Stepper for ImplicitEuler {
         let Some(ch) = cut.levels.first() else {
             return Ok(());
         };
-        self.set_runtime_constraints(&RuntimeConstraints::default());
-        self.own = None;
-        self.sys.cut(ch)?;
+        crate::integrate::cut_level0(&mut self.sys, &mut self.state, &mut self.own, ch)?;
         let n = ch.mesh.num_nodes();
         self.down.clear();
         self.params.multigrid = None;
         self.solver = build_solver(&self.sys, &self.down)
             .map_err(|e| crate::Error::param("cut", e.to_string()))?;
         self.key = PatternKey::of(&self.sys);
-        self.state.u = ch.carry(&self.state.u, 3);
-        self.state.v = ch.carry(&self.state.v, 3);
         if !self.prev.0.is_empty() {
             self.prev = (ch.carry(&self.prev.0, 3), ch.carry(&self.prev.1, 3));
         }

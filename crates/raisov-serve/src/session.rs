@@ -149,7 +149,19 @@ impl Source {
         let method = match table.get("multigrid").and_then(|m| m.get("scheme")) {
             // Backward Euler on one level, its levels preconditioning the Newton solves.
             _ if implicit(&table) => Method::Single,
-            None if table.contains_key("multigrid") => Method::Fas,
+            // Levels without a scheme: the frame solver, as an interactive scenario takes
+            // them, unless FAS's own keys say FAS.
+            None if table.contains_key("multigrid") => {
+                let fas = table
+                    .get("multigrid")
+                    .and_then(|m| m.as_table())
+                    .is_some_and(|m| FAS_ONLY.iter().any(|k| m.contains_key(*k)));
+                if fas {
+                    Method::Fas
+                } else {
+                    Method::Newton
+                }
+            }
             None => Method::Single,
             Some(s) if s.as_str() == Some("raisov-paper") => Method::Raisov,
             Some(s) if s.as_str() == Some("newton") => Method::Newton,
@@ -1229,6 +1241,32 @@ fn implicit(t: &toml::Table) -> bool {
 mod tests {
     use super::*;
     use raisov::sim::Budget;
+
+    /// A scenario whose `[multigrid]` names no scheme is served with the frame solver, unless
+    /// it sets FAS's own keys; the frame solver's table drops the keys of the other schemes.
+    #[test]
+    fn levels_without_a_scheme_are_served_with_the_frame_solver() {
+        let cube = |multigrid: &str| {
+            let text = format!(
+                "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.04, 0.04]\ndivisions = [4, 4, 4]\n\
+                 [material]\nlaw = \"neo-hookean\"\nyoung = 5e3\npoisson = 0.45\n\
+                 [[fix]]\nplane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}\n\
+                 [run]\nduration = 1.0\n[multigrid]\nlevels = 2\n{multigrid}\n"
+            );
+            Source::from_text(&text, PathBuf::from("."), "cube", Path::new("cube.toml")).unwrap()
+        };
+        let src = cube("");
+        assert_eq!(src.method, Method::Newton);
+        let sim = src.build(Method::Newton).unwrap();
+        assert!(sim.stepper().describe().starts_with("newton frames"));
+        assert_eq!(cube("coarse = \"newton\"").method, Method::Fas);
+        let t = cube("cg_per_step = 3\nreading = \"paper\"").table_for(Method::Newton);
+        let mg = t.get("multigrid").and_then(|m| m.as_table()).unwrap();
+        assert!(mg.contains_key("cg_per_step") && !mg.contains_key("reading"));
+        let t = cube("cg_per_step = 3").table_for(Method::Fas);
+        let mg = t.get("multigrid").and_then(|m| m.as_table()).unwrap();
+        assert!(!mg.contains_key("cg_per_step"));
+    }
 
     /// A BDF2 scenario with stiffness-proportional damping is served as backward Euler's
     /// (one level, its levels the preconditioner); switched to FAS it drops `damping.beta`,

@@ -321,7 +321,7 @@ fps = 30.0
 #[test]
 fn a_wall_time_frame_stops_once_the_frame_solver_settles() {
     let sc = block(0.1, 1, None, 2);
-    let (mut sim, g) = spring_pulled(&sc);
+    let (mut sim, _) = spring_pulled(&sc);
     let r = sim.step_frame(Budget::Millis(60_000.0));
     assert!(r.accepted, "{:?}", r.rejection);
     assert!(
@@ -364,4 +364,32 @@ fn an_unloaded_body_s_reference_does_not_fail() {
     let last = s.last.unwrap();
     assert!(last.static_max_u < 1e-9, "{}", last.static_max_u);
     assert!(last.lag_max < 1e-9, "{}", last.lag_max);
+}
+
+/// Without `scheme`, an interactive scenario's levels run the frame solver, unless FAS's own
+/// keys are set; a scenario without `[interactive]` keeps FAS.
+#[test]
+fn an_interactive_scenario_s_levels_default_to_the_frame_solver() {
+    let with = |multigrid: &str, interactive: bool| {
+        let text = format!(
+            "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.02, 0.02]\ndivisions = [4, 2, 2]\n\
+             [material]\nlaw = \"neo-hookean\"\nyoung = 5000.0\npoisson = 0.45\n\
+             [[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}\n\
+             [run]\nduration = 0.1\n[multigrid]\nlevels = 2\n{multigrid}\n{}",
+            if interactive { "[interactive]\n" } else { "" }
+        );
+        Scenario::from_toml(&text, std::path::Path::new("default.toml"))
+            .unwrap()
+            .stepper()
+            .unwrap()
+            .describe()
+    };
+    assert!(
+        with("", true).starts_with("newton frames"),
+        "{}",
+        with("", true)
+    );
+    assert!(with("cg_per_step = 3", true).contains("at most 3 CG"));
+    assert!(with("pre_smooth = 2", true).starts_with("fas"));
+    assert!(with("", false).starts_with("fas"), "{}", with("", false));
 }

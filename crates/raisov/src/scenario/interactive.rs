@@ -1218,6 +1218,7 @@ radius = 0.008
 mode = "table"
 table = [[0.0, 0, 0, 0], [0.3, 0, 0, 0.004]]
 [multigrid]
+scheme = "fas"
 levels = 2
 [run]
 duration = 0.3

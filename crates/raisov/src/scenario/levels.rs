@@ -80,6 +80,7 @@ impl LevelMeshes {
 
 /// Check a `[multigrid]` section and resolve it; `mesh` is level 0, `surface_files` the
 /// coarser levels generated from `[mesh] surface`.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn resolve(
     mg: &MultigridSpec,
     mesh_spec: &MeshSpec,
@@ -88,6 +89,7 @@ pub(super) fn resolve(
     path: &Path,
     base: &Path,
     surface_files: Option<Vec<std::path::PathBuf>>,
+    interactive: bool,
 ) -> Result<Multigrid> {
     // Levels generated from `[mesh] surface` (checked there) are files by now.
     let meshes = match surface_files {
@@ -126,7 +128,6 @@ pub(super) fn resolve(
             ))
         }
     };
-    let scheme = mg.scheme.unwrap_or_default();
     let only = |keys: &[(&str, bool)], what: &str| -> Result<()> {
         match keys.iter().find(|(_, set)| *set) {
             Some((k, _)) => Err(err(path, format!("`multigrid.{k}` applies to {what} only"))),
@@ -149,6 +150,16 @@ pub(super) fn resolve(
         ("reading", mg.reading.is_some()),
         ("epsilon", mg.epsilon.is_some()),
     ];
+    // Without `scheme`: the frame solver for an interactive scenario (frames toward static
+    // equilibria, what it measures best at), unless FAS's own keys say FAS; FAS otherwise.
+    let fas_set = fas_keys.iter().any(|(_, set)| *set);
+    let scheme = mg
+        .scheme
+        .unwrap_or(if interactive && (mg.cg_per_step.is_some() || !fas_set) {
+            Scheme::Newton
+        } else {
+            Scheme::default()
+        });
     let scheme = match scheme {
         Scheme::RaisovPaper => {
             only(&fas_keys, "scheme = \"fas\"")?;

@@ -1013,7 +1013,16 @@ impl Scenario {
             .as_ref()
             .map(|mg| {
                 let surface_files = surface_levels.as_ref().map(|sl| sl.files[1..].to_vec());
-                levels::resolve(mg, &spec.mesh, &mesh, method, path, base, surface_files)
+                levels::resolve(
+                    mg,
+                    &spec.mesh,
+                    &mesh,
+                    method,
+                    path,
+                    base,
+                    surface_files,
+                    spec.interactive.is_some(),
+                )
             })
             .transpose()?;
         let interactive = spec

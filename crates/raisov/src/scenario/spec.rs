@@ -290,6 +290,8 @@
 //!
 //! [multigrid]                     # optional: integrate over a hierarchy of independent meshes
 //! scheme = "fas"                  # "fas" (default; converges) | "raisov-paper" (the literal method)
+//!                                 # | "newton" (the frame solver; the default with [interactive]
+//!                                 # unless FAS's own keys are set)
 //! levels = 4                      # with [mesh] generate or surface: level count, node counts
 //!                                 # a geometric series (surface without [multigrid]: 1 level)
 //! ratio = 0.5                     # node-count ratio between levels, default 0.5 (the paper's)

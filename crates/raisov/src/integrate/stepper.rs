@@ -154,7 +154,7 @@ pub trait Stepper: Send {
         Err(crate::Error::param(
             "cut",
             format!(
-                "{} cannot cut the body: cutting runs on the explicit and implicit integrators and the multigrid cycles (FAS, RaISoV)",
+                "{} cannot cut the body: cutting runs on the explicit and implicit integrators, the multigrid cycles (FAS, RaISoV) and the frame solver",
                 self.describe()
             ),
         ))

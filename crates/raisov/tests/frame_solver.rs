@@ -51,6 +51,30 @@ reference_tol = 1e-12
     Scenario::from_toml(&text, std::path::Path::new("frames.toml")).unwrap()
 }
 
+/// A 4 × 2 × 2 cm neo-Hookean block held at x = 0 on two levels, `multigrid` added to its
+/// `[multigrid]`, with an `[interactive]` section where `interactive`: scenario text.
+fn small_block(multigrid: &str, interactive: bool) -> String {
+    format!(
+        "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.02, 0.02]\ndivisions = [4, 2, 2]\n\
+         [material]\nlaw = \"neo-hookean\"\nyoung = 5000.0\npoisson = 0.45\n\
+         [[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}\n\
+         [run]\nduration = 0.1\n[multigrid]\nlevels = 2\n{multigrid}\n{}",
+        if interactive { "[interactive]\n" } else { "" }
+    )
+}
+
+/// The largest |x|.
+fn max_abs(x: &[f64]) -> f64 {
+    x.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+/// The largest |a − b|.
+fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+}
+
 fn interactive(sc: &Scenario) -> raisov::scenario::interactive::InteractiveSummary {
     let solution = solve(
         sc,
@@ -178,13 +202,10 @@ fn a_held_spring_grasp_balances_the_tissue() {
 #[test]
 fn frame_solver_keys_are_checked_and_named() {
     let with = |multigrid: &str| {
-        let text = format!(
-            "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.02, 0.02]\ndivisions = [4, 2, 2]\n\
-             [material]\nlaw = \"neo-hookean\"\nyoung = 5000.0\npoisson = 0.45\n\
-             [[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}\n\
-             [run]\nduration = 0.1\n[multigrid]\nlevels = 2\n{multigrid}\n[interactive]\n"
-        );
-        Scenario::from_toml(&text, std::path::Path::new("keys.toml"))
+        Scenario::from_toml(
+            &small_block(multigrid, true),
+            std::path::Path::new("keys.toml"),
+        )
     };
     let e = with("scheme = \"fas\"\ncg_per_step = 3")
         .unwrap_err()
@@ -276,11 +297,7 @@ fn the_frame_solver_cuts_and_converges_on_the_cut_body() {
     };
     let (newton, fas) = (run(false), run(true));
     assert_eq!(newton.len(), fas.len());
-    let umax = fas.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let diff = newton
-        .iter()
-        .zip(&fas)
-        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let (umax, diff) = (max_abs(&fas), max_abs_diff(&newton, &fas));
     assert!(umax > 1e-3, "max |u| {umax}");
     assert!(
         diff <= 1e-8 * umax,
@@ -337,11 +354,7 @@ fn a_wall_time_frame_stops_once_the_frame_solver_settles() {
         sim.step_frame(Budget::Cycles(2));
     }
     let u = sim.displacements();
-    let umax = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let diff = u
-        .iter()
-        .zip(&settled)
-        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let (umax, diff) = (max_abs(u), max_abs_diff(u, &settled));
     assert!(umax > 1e-3, "max |u| {umax}");
     assert!(
         diff <= 1e-5 * umax,
@@ -371,18 +384,14 @@ fn an_unloaded_body_s_reference_does_not_fail() {
 #[test]
 fn an_interactive_scenario_s_levels_default_to_the_frame_solver() {
     let with = |multigrid: &str, interactive: bool| {
-        let text = format!(
-            "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.02, 0.02]\ndivisions = [4, 2, 2]\n\
-             [material]\nlaw = \"neo-hookean\"\nyoung = 5000.0\npoisson = 0.45\n\
-             [[fix]]\nplane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}\n\
-             [run]\nduration = 0.1\n[multigrid]\nlevels = 2\n{multigrid}\n{}",
-            if interactive { "[interactive]\n" } else { "" }
-        );
-        Scenario::from_toml(&text, std::path::Path::new("default.toml"))
-            .unwrap()
-            .stepper()
-            .unwrap()
-            .describe()
+        Scenario::from_toml(
+            &small_block(multigrid, interactive),
+            std::path::Path::new("default.toml"),
+        )
+        .unwrap()
+        .stepper()
+        .unwrap()
+        .describe()
     };
     assert!(
         with("", true).starts_with("newton frames"),

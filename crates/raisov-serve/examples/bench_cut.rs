@@ -12,7 +12,7 @@
 
 use raisov::mesh::cut::Blade;
 use raisov::sim::{Budget, Simulation};
-use raisov_serve::protocol::Method;
+use raisov::SchemeKind;
 use raisov_serve::session::Source;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -32,7 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cycles: u32 = args.get(1).map_or(Ok(2), |a| a.parse())?;
     let root = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."));
     let source = Source::from_scenario_file(&root.join(raisov_serve::DEFAULT_SCENARIO))?;
-    let mut sim = source.build(Method::Fas)?;
+    let mut sim = source.build(SchemeKind::Fas)?;
     let budget = Budget::Cycles(cycles);
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for p in sim.positions() {

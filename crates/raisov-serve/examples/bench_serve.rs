@@ -19,7 +19,7 @@
 //!    `--coarse chebyshev`, held on the same cap), in place of the shipped levels: the
 //!    ≈ 50k-node organ of the live viewer's goal is `--organ 50000` (item 2 is skipped).
 //!
-//! 4. With `--scheme newton`: the frame solver (`Method::Newton`, the viewer's default) in
+//! 4. With `--scheme newton`: the frame solver (`SchemeKind::Newton`, the viewer's default) in
 //!    place of FAS, `CYCLES` its Newton steps per frame, in every item.
 //!
 //! `cargo run --release -p raisov-serve --example bench_serve [-- CYCLES] [--scheme fas|newton] [--organ NODES [--coarse newton|chebyshev]]`
@@ -30,7 +30,8 @@ use raisov::scenario::Scenario;
 use raisov::sim::{Budget, Simulation};
 use raisov::statics::krylov::{NewtonParams, NewtonSolver};
 use raisov::statics::relax::fictitious_mass;
-use raisov_serve::protocol::{self, Command, Message, Method};
+use raisov::SchemeKind;
+use raisov_serve::protocol::{self, Command, Message};
 use raisov_serve::session::{Session, SessionConfig, Source};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -130,10 +131,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let (method, what, steps) = if scheme == "fas" {
-        (Method::Fas, "FAS".to_string(), "V-cycles")
+        (SchemeKind::Fas, "FAS".to_string(), "V-cycles")
     } else {
         (
-            Method::Newton,
+            SchemeKind::Newton,
             "the frame solver".to_string(),
             "Newton steps",
         )
@@ -291,7 +292,7 @@ async fn wire(
     scene: &str,
     base: &std::path::Path,
     cycles: u32,
-    method: Method,
+    method: SchemeKind,
 ) -> Result<(usize, Vec<f64>), Box<dyn std::error::Error>> {
     let source = Source::from_text(scene, base.to_path_buf(), "liver", "bench.toml".as_ref())?;
     let session = Session::spawn(

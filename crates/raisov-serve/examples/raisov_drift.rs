@@ -7,7 +7,7 @@
 //!
 //! `cargo run --release -p raisov-serve --example raisov_drift`
 
-use raisov_serve::protocol::Method;
+use raisov::SchemeKind;
 use raisov_serve::session::Source;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -25,7 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         t.insert("epsilon".into(), toml::Value::Float(e));
                     }
                 }
-                let mut sim = src.build(Method::Raisov)?;
+                let mut sim = src.build(SchemeKind::RaisovPaper)?;
                 let mut line = String::new();
                 for k in 0..400 {
                     let r = sim.step_frame(raisov::sim::Budget::Cycles(40));

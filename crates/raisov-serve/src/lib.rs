@@ -169,10 +169,10 @@ pub fn run(args: &ServeArgs) -> Result<(), ServeError> {
     };
     let method = match args.method.as_deref() {
         None => None,
-        Some("fas") => Some(protocol::Method::Fas),
-        Some("raisov") => Some(protocol::Method::Raisov),
-        Some("single") => Some(protocol::Method::Single),
-        Some("newton") => Some(protocol::Method::Newton),
+        Some("fas") => Some(raisov::SchemeKind::Fas),
+        Some("raisov") => Some(raisov::SchemeKind::RaisovPaper),
+        Some("single") => Some(raisov::SchemeKind::SingleLevel),
+        Some("newton") => Some(raisov::SchemeKind::Newton),
         Some(m) => {
             return Err(ServeError::Scenario(format!(
                 "--method {m}: valid are newton, fas, raisov, single"

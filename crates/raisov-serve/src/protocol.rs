@@ -16,7 +16,8 @@
 //!   3 release  —                                      8
 //!   4 pin      point x y z (m), radius (m)           24
 //!   5 reset    —                                      8
-//!   6 method   u32: 0 FAS, 1 RaISoV (paper), 2 single level         12
+//!   6 method   u32: 0 FAS, 1 RaISoV (paper), 2 single level, 3 frame solver   12
+//!              (code i: the raisov::SchemeKind METHODS[i])
 //!   7 colour   u32: 0 displacement magnitude (m), 1 von Mises stress (Pa)  12
 //!   8 save     — (reply: a text message with the recorded scenario)  8
 //!   9 cut      edge point a x y z, edge point b x y z, sweep x y z (m)  44
@@ -57,6 +58,7 @@
 //! `triangles`, the counts of the topology message that follows; a blade that missed splits
 //! nothing and is not counted).
 
+use raisov::SchemeKind;
 use thiserror::Error;
 
 /// The largest client message accepted by the WebSocket layer (bytes); larger ones close
@@ -106,7 +108,7 @@ pub const STAT_FORCE: usize = 5;
 pub const STAT_GRASP: usize = 8;
 /// Stat index: the largest scalar of the frame (m or Pa).
 pub const STAT_SCALAR_MAX: usize = 11;
-/// Stat index: the method ([`Method::code`]).
+/// Stat index: the method ([`method_code`]).
 pub const STAT_METHOD: usize = 12;
 /// Stat index: the seq of the holder's newest message applied in this frame (exact in f32
 /// up to 2^24).
@@ -121,44 +123,84 @@ pub const STAT_REJECTED_TRIES: usize = 16;
 /// ([`raisov::sim::FrameReport::rejected_cycles`]).
 pub const STAT_REJECTED_STEPS: usize = 17;
 
-/// The simulation scheme the viewer runs.
+/// The schemes the page offers, in wire-code order: code `i` is `METHODS[i]`.
+pub const METHODS: [SchemeKind; 4] = [
+    SchemeKind::Fas,
+    SchemeKind::RaisovPaper,
+    SchemeKind::SingleLevel,
+    SchemeKind::Newton,
+];
+
+/// The wire code of a scheme: its place in [`METHODS`]. Backward Euler and BDF2 are served
+/// as the page's single level (code 2): a scenario integrated by them runs on level 0, its
+/// levels preconditioning the Newton solves (`session::Source::table_for`).
+pub fn method_code(k: SchemeKind) -> u32 {
+    match k {
+        SchemeKind::Fas => 0,
+        SchemeKind::RaisovPaper => 1,
+        SchemeKind::SingleLevel | SchemeKind::ImplicitEuler | SchemeKind::Bdf2 => 2,
+        SchemeKind::Newton => 3,
+    }
+}
+
+/// The scheme of a wire code, `None` past [`METHODS`].
+pub fn method_from_code(c: u32) -> Option<SchemeKind> {
+    METHODS.get(c as usize).copied()
+}
+
+/// The name the page shows for a scheme (the label of its [`method_code`]).
+pub fn method_label(k: SchemeKind) -> &'static str {
+    match method_code(k) {
+        0 => "FAS multigrid",
+        1 => "RaISoV (paper)",
+        3 => "frame solver (Newton)",
+        _ => "single level",
+    }
+}
+
+/// The simulation scheme the viewer runs, by its old names.
+#[deprecated(
+    note = "the protocol speaks `raisov::SchemeKind`: `METHODS`, `method_code`, \
+                     `method_from_code`, `method_label`"
+)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
-    /// The FAS multigrid (each cycle a V-cycle towards static equilibrium).
+    /// [`SchemeKind::Fas`].
     Fas,
-    /// The paper's multigrid of explicit integrators (`scheme = "raisov-paper"`).
+    /// [`SchemeKind::RaisovPaper`].
     Raisov,
-    /// Explicit dynamics on the finest level alone.
+    /// [`SchemeKind::SingleLevel`].
     Single,
-    /// The frame solver (`scheme = "newton"`): a Newton step toward each frame's static
-    /// equilibrium, preconditioned by a Galerkin V-cycle kept across frames
-    /// ([`raisov::statics::frames`]).
+    /// [`SchemeKind::Newton`].
     Newton,
 }
 
+#[allow(deprecated)]
 impl Method {
     /// Every method, in code order.
     pub const ALL: [Method; 4] = [Method::Fas, Method::Raisov, Method::Single, Method::Newton];
-    /// The wire code.
+    /// The wire code ([`method_code`]).
     pub fn code(self) -> u32 {
-        match self {
-            Method::Fas => 0,
-            Method::Raisov => 1,
-            Method::Single => 2,
-            Method::Newton => 3,
-        }
+        method_code(self.into())
     }
-    /// The method of a wire code.
+    /// The method of a wire code ([`method_from_code`]).
     pub fn from_code(c: u32) -> Option<Method> {
         Method::ALL.get(c as usize).copied()
     }
-    /// The name the page shows.
+    /// The name the page shows ([`method_label`]).
     pub fn label(self) -> &'static str {
-        match self {
-            Method::Fas => "FAS multigrid",
-            Method::Raisov => "RaISoV (paper)",
-            Method::Single => "single level",
-            Method::Newton => "frame solver (Newton)",
+        method_label(self.into())
+    }
+}
+
+#[allow(deprecated)]
+impl From<Method> for SchemeKind {
+    fn from(m: Method) -> SchemeKind {
+        match m {
+            Method::Fas => SchemeKind::Fas,
+            Method::Raisov => SchemeKind::RaisovPaper,
+            Method::Single => SchemeKind::SingleLevel,
+            Method::Newton => SchemeKind::Newton,
         }
     }
 }
@@ -198,8 +240,8 @@ pub enum Command {
     },
     /// Back to the rest state, no grasp, no pins.
     Reset,
-    /// Switch the scheme.
-    Method(Method),
+    /// Switch the scheme (one of [`METHODS`]).
+    Method(SchemeKind),
     /// Switch the colour map.
     Colour(Colour),
     /// Send back the recorded scenario.
@@ -398,10 +440,10 @@ pub fn parse(b: &[u8]) -> Result<Message, ProtocolError> {
         5 => Command::Reset,
         6 => {
             let c = u32_at(b, 8);
-            Command::Method(Method::from_code(c).ok_or(ProtocolError::Code {
+            Command::Method(method_from_code(c).ok_or(ProtocolError::Code {
                 what: "method",
                 code: c,
-                valid: "0 FAS, 1 RaISoV, 2 single level",
+                valid: "0 FAS, 1 RaISoV, 2 single level, 3 frame solver",
             })?)
         }
         7 => Command::Colour(match u32_at(b, 8) {
@@ -430,7 +472,7 @@ pub fn encode(m: &Message) -> Vec<u8> {
         Command::Release => (3, vec![]),
         Command::Pin { point, radius } => (4, vec![point[0], point[1], point[2], radius]),
         Command::Reset => (5, vec![]),
-        Command::Method(x) => (6, vec![f32::from_bits(x.code())]),
+        Command::Method(x) => (6, vec![f32::from_bits(method_code(x))]),
         Command::Colour(c) => (
             7,
             vec![f32::from_bits(match c {
@@ -603,7 +645,7 @@ mod tests {
                 radius: 0.0,
             },
             Command::Reset,
-            Command::Method(Method::Raisov),
+            Command::Method(SchemeKind::RaisovPaper),
             Command::Colour(Colour::Stress),
             Command::Save,
             Command::Cut {
@@ -619,6 +661,62 @@ mod tests {
             };
             assert_eq!(parse(&encode(&m)), Ok(m));
         }
+    }
+
+    /// The wire codes and page labels stay as they were, now on `raisov::SchemeKind`:
+    /// code i is `METHODS[i]`; backward Euler and BDF2 are served as the single level.
+    #[test]
+    #[allow(deprecated)]
+    fn method_codes_and_labels_are_unchanged_on_the_one_scheme_kind() {
+        let table = [
+            (0, SchemeKind::Fas, "FAS multigrid", Method::Fas),
+            (1, SchemeKind::RaisovPaper, "RaISoV (paper)", Method::Raisov),
+            (2, SchemeKind::SingleLevel, "single level", Method::Single),
+            (
+                3,
+                SchemeKind::Newton,
+                "frame solver (Newton)",
+                Method::Newton,
+            ),
+        ];
+        for (code, kind, label, old) in table {
+            assert_eq!(METHODS[code as usize], kind);
+            assert_eq!(method_code(kind), code);
+            assert_eq!(method_from_code(code), Some(kind));
+            assert_eq!(method_label(kind), label);
+            // The deprecated enum reads the same.
+            assert_eq!(SchemeKind::from(old), kind);
+            assert_eq!((old.code(), old.label()), (code, label));
+            assert_eq!(Method::from_code(code), Some(old));
+        }
+        for kind in [SchemeKind::ImplicitEuler, SchemeKind::Bdf2] {
+            assert_eq!(method_code(kind), 2);
+            assert_eq!(method_label(kind), "single level");
+        }
+        assert_eq!(method_from_code(4), None);
+    }
+
+    /// A bad method code's error listed codes 0 to 2 only; code 3, the frame solver, is
+    /// valid too.
+    #[test]
+    fn a_bad_method_code_lists_the_frame_solver() {
+        let mut m = encode(&Message {
+            seq: 1,
+            command: Command::Method(SchemeKind::Newton),
+        });
+        assert_eq!(
+            parse(&m).map(|m| m.command),
+            Ok(Command::Method(SchemeKind::Newton))
+        );
+        m[8] = 4;
+        assert_eq!(
+            parse(&m),
+            Err(ProtocolError::Code {
+                what: "method",
+                code: 4,
+                valid: "0 FAS, 1 RaISoV, 2 single level, 3 frame solver",
+            })
+        );
     }
 
     #[test]
@@ -655,7 +753,7 @@ mod tests {
         }
         let mut m = encode(&Message {
             seq: 1,
-            command: Command::Method(Method::Fas),
+            command: Command::Method(SchemeKind::Fas),
         });
         m[8] = 7;
         assert!(matches!(parse(&m), Err(ProtocolError::Code { .. })));

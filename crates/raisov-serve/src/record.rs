@@ -61,9 +61,10 @@
 //! At most [`MAX_EVENTS`] events are kept; the recording then ends at the frame the last one
 //! acted on (the header says so).
 
-use crate::protocol::Method;
+use crate::protocol;
 use crate::session::Source;
 use raisov::sim::Budget;
+use raisov::SchemeKind;
 use std::path::Path;
 use std::time::Instant;
 
@@ -325,7 +326,7 @@ impl Recorder {
     pub fn scenario(
         &self,
         source: &Source,
-        method: Method,
+        method: SchemeKind,
         budget: Budget,
         nodes: usize,
     ) -> String {
@@ -465,7 +466,7 @@ impl Recorder {
             paths.cuts.len(),
             paths.frames,
             nodes,
-            method.label()
+            protocol::method_label(method)
         )
     }
 }
@@ -601,7 +602,7 @@ mod tests {
                 start: 3
             }]
         );
-        let text = r.scenario(&source, Method::Single, Budget::Cycles(2), 27);
+        let text = r.scenario(&source, SchemeKind::SingleLevel, Budget::Cycles(2), 27);
         assert!(text.contains("1 cut(s)"), "{text}");
         let t: toml::Table = text.parse().unwrap();
         let cuts = t["cut"].as_array().unwrap();

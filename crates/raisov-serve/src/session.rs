@@ -58,14 +58,16 @@
 //! same frame for ever.
 
 use crate::protocol::{
-    self, Colour, Command, Method, STATS, STAT_APPLIED_SEQ, STAT_CYCLES, STAT_FORCE, STAT_FRAME_MS,
+    self, Colour, Command, STATS, STAT_APPLIED_SEQ, STAT_CYCLES, STAT_FORCE, STAT_FRAME_MS,
     STAT_GRASP, STAT_GRASPED, STAT_HOLDER, STAT_INPUT_LAG_MS, STAT_METHOD, STAT_RESIDUAL,
     STAT_SCALAR_MAX, STAT_SIM_FPS,
 };
 use crate::record::{Event, Recorder};
 use crate::ServeError;
 use raisov::mesh::cut::Blade;
+use raisov::scenario::spec::Named;
 use raisov::sim::{Budget, GrabId, GrabOptions, Simulation};
+use raisov::SchemeKind;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
 use std::sync::Arc;
@@ -88,8 +90,8 @@ pub struct Source {
     pub base_dir: PathBuf,
     /// The scenario's name (the file stem or its `name`).
     pub name: String,
-    /// The method the scenario names.
-    pub method: Method,
+    /// The scheme the scenario names, as the page offers it (one of [`protocol::METHODS`]).
+    pub method: SchemeKind,
 }
 
 /// Keys of `[multigrid]` only the FAS scheme accepts.
@@ -148,7 +150,7 @@ impl Source {
         table.remove("interactive");
         let method = match table.get("multigrid").and_then(|m| m.get("scheme")) {
             // Backward Euler on one level, its levels preconditioning the Newton solves.
-            _ if implicit(&table) => Method::Single,
+            _ if implicit(&table) => SchemeKind::SingleLevel,
             // Levels without a scheme: the frame solver, as an interactive scenario takes
             // them, unless FAS's own keys say FAS.
             None if table.contains_key("multigrid") => {
@@ -157,15 +159,17 @@ impl Source {
                     .and_then(|m| m.as_table())
                     .is_some_and(|m| FAS_ONLY.iter().any(|k| m.contains_key(*k)));
                 if fas {
-                    Method::Fas
+                    SchemeKind::Fas
                 } else {
-                    Method::Newton
+                    SchemeKind::Newton
                 }
             }
-            None => Method::Single,
-            Some(s) if s.as_str() == Some("raisov-paper") => Method::Raisov,
-            Some(s) if s.as_str() == Some("newton") => Method::Newton,
-            Some(_) => Method::Fas,
+            None => SchemeKind::SingleLevel,
+            // The words of `[multigrid] scheme`; another value is the resolver's error.
+            Some(s) => s
+                .as_str()
+                .and_then(<SchemeKind as Named>::from_name)
+                .unwrap_or(SchemeKind::Fas),
         };
         let name = table
             .get("name")
@@ -225,19 +229,19 @@ impl Source {
     /// (single level).
     ///
     /// A scenario integrated by backward Euler or BDF2 (`[integrator] method =
-    /// "implicit-euler"` or `"bdf2"`) is served as `Method::Single` with its `[multigrid]`
+    /// "implicit-euler"` or `"bdf2"`) is served as `SchemeKind::SingleLevel` with its `[multigrid]`
     /// levels kept (they precondition its Newton solves); switched to a multigrid method, it
     /// drops its integrator keys ([`IMPLICIT_ONLY`]) and `[damping] beta`, and is stepped at
     /// the scheme's own step (the frame solver's frames are quasi-static).
-    pub fn table_for(&self, method: Method) -> toml::Table {
+    pub fn table_for(&self, method: SchemeKind) -> toml::Table {
         let mut t = self.table.clone();
         match method {
             // A backward-Euler scenario keeps its levels: they precondition its Newton solves.
-            Method::Single if implicit(&t) => {}
-            Method::Single => {
+            k if !k.is_multigrid() && implicit(&t) => {}
+            k if !k.is_multigrid() => {
                 t.remove("multigrid");
             }
-            Method::Fas | Method::Raisov | Method::Newton => {
+            _ => {
                 if implicit(&t) {
                     // The explicit schemes take their own stable step: the keys of backward
                     // Euler do not apply to them.
@@ -266,12 +270,12 @@ impl Source {
                         // A one-level scenario: generate a second, coarser level.
                         mg.insert("levels".into(), toml::Value::Integer(2));
                     }
-                    let (name, drop): (_, &[&[&str]]) = match method {
-                        Method::Fas => ("fas", &[RAISOV_ONLY, NEWTON_ONLY]),
-                        Method::Newton => ("newton", &[RAISOV_ONLY, FAS_ONLY]),
-                        _ => ("raisov-paper", &[FAS_ONLY, NEWTON_ONLY]),
+                    let drop: &[&[&str]] = match method {
+                        SchemeKind::Fas => &[RAISOV_ONLY, NEWTON_ONLY],
+                        SchemeKind::Newton => &[RAISOV_ONLY, FAS_ONLY],
+                        _ => &[FAS_ONLY, NEWTON_ONLY],
                     };
-                    mg.insert("scheme".into(), toml::Value::String(name.into()));
+                    mg.insert("scheme".into(), toml::Value::String(method.name().into()));
                     for k in drop.iter().copied().flatten() {
                         mg.remove(*k);
                     }
@@ -297,12 +301,12 @@ impl Source {
     }
 
     /// The scenario text for `method` ([`Source::table_for`]).
-    pub fn text_for(&self, method: Method) -> String {
+    pub fn text_for(&self, method: SchemeKind) -> String {
         toml::to_string(&self.table_for(method)).unwrap_or_default()
     }
 
     /// Build the simulation of `method`.
-    pub fn build(&self, method: Method) -> Result<Simulation, ServeError> {
+    pub fn build(&self, method: SchemeKind) -> Result<Simulation, ServeError> {
         Ok(Simulation::from_toml(
             &self.text_for(method),
             &self.base_dir,
@@ -334,7 +338,7 @@ pub struct SessionConfig {
     /// Cap on the frame rate (1/s); 0 for none.
     pub max_fps: f64,
     /// The method to start with (default: the scenario's).
-    pub method: Option<Method>,
+    pub method: Option<SchemeKind>,
     /// Where `save` also writes the recorded scenario.
     pub record_path: Option<PathBuf>,
     /// Total stiffness of the grasp's coupling springs (N/m); `None` holds the patch rigidly.
@@ -360,7 +364,7 @@ pub struct Published {
     /// Who holds the grasp (client id), if anyone.
     pub holder: Option<u64>,
     /// The method running now.
-    pub method: Method,
+    pub method: SchemeKind,
 }
 
 /// A command to the simulation thread.
@@ -473,7 +477,7 @@ struct Held {
 struct Worker {
     source: Source,
     config: SessionConfig,
-    method: Method,
+    method: SchemeKind,
     sim: Simulation,
     /// Surface vertices the triangles use (indices of `surface_positions`).
     used: Vec<u32>,
@@ -526,7 +530,7 @@ impl Worker {
     fn new(
         source: Source,
         config: SessionConfig,
-        method: Method,
+        method: SchemeKind,
     ) -> Result<(Worker, watch::Receiver<Arc<Published>>), ServeError> {
         let sim = source.build(method)?;
         let uncut_nodes = sim.mesh().num_nodes();
@@ -687,7 +691,7 @@ impl Worker {
                     .as_deref()
                     .unwrap_or("the frame was rejected");
                 let why = why.strip_prefix("diverged ").unwrap_or(why);
-                let hint = if self.method == Method::Raisov {
+                let hint = if self.method == SchemeKind::RaisovPaper {
                     " (the paper's scheme does not settle on organ hierarchies: it grows from \
                      rounding errors at every step tried)"
                 } else {
@@ -696,7 +700,7 @@ impl Worker {
                 let m = format!(
                     "{} diverged {why}{hint}: the state before it is kept and the simulation \
                      waits; press reset to start again from rest, or switch the method",
-                    self.method.label()
+                    protocol::method_label(self.method)
                 );
                 self.broadcast(protocol::error_json(&m));
             }
@@ -815,9 +819,9 @@ impl Worker {
                 if self.clients.len() < 256 {
                     self.clients.push((id, reply));
                 }
-                let methods: Vec<String> = Method::ALL
+                let methods: Vec<String> = protocol::METHODS
                     .iter()
-                    .map(|m| protocol::json_string(m.label()))
+                    .map(|&m| protocol::json_string(protocol::method_label(m)))
                     .collect();
                 let budget = match self.config.budget {
                     Budget::Cycles(c) => format!("{{\"cycles\":{c}}}"),
@@ -827,7 +831,7 @@ impl Worker {
                     "{{\"type\":\"hello\",\"client\":{id},\"name\":{},\"methods\":[{}],\"method\":{},\"holder\":{},\"stress\":{},\"budget\":{budget},\"max_fps\":{}}}",
                     protocol::json_string(&self.source.name),
                     methods.join(","),
-                    self.method.code(),
+                    protocol::method_code(self.method),
                     self.held.as_ref().map_or("null".to_string(), |h| h.client.to_string()),
                     self.nodal,
                     json_number(self.config.max_fps),
@@ -1012,7 +1016,7 @@ impl Worker {
     /// Rebuild the simulation with `method`; `keep` re-applies the cuts, the pins and the
     /// grasp (a method that cannot cut the body again is refused, the old simulation kept).
     /// The recording starts again with them (the frames before were of another simulation).
-    fn rebuild(&mut self, id: u64, method: Method, keep: bool) {
+    fn rebuild(&mut self, id: u64, method: SchemeKind, keep: bool) {
         let built = self.source.build(method).map_err(|e| e.to_string());
         let built = match (built, keep) {
             (Ok(mut sim), true) => {
@@ -1024,8 +1028,8 @@ impl Worker {
                     Err(e) => Err(format!(
                         "the body has {n} cut(s) and {} cannot take them ({e}): staying with {}; \
                          reset to switch to it with the body uncut",
-                        method.label(),
-                        self.method.label()
+                        protocol::method_label(method),
+                        protocol::method_label(self.method)
                     )),
                 }
             }
@@ -1088,7 +1092,7 @@ impl Worker {
                 }
                 let m = format!(
                     "{{\"type\":\"method\",\"method\":{},\"stress\":{}}}",
-                    method.code(),
+                    protocol::method_code(method),
                     self.nodal
                 );
                 self.broadcast(m);
@@ -1097,7 +1101,10 @@ impl Worker {
                     self.broadcast(pins);
                 }
             }
-            Err(e) => self.error(id, format!("switching to {}: {e}", method.label())),
+            Err(e) => self.error(
+                id,
+                format!("switching to {}: {e}", protocol::method_label(method)),
+            ),
         }
     }
 
@@ -1171,7 +1178,7 @@ impl Worker {
             stats[STAT_GRASPED] = self.sim.grab_nodes(h.id).map_or(0, |n| n.len()) as f32;
         }
         stats[STAT_SCALAR_MAX] = self.scalar.iter().copied().fold(0.0, f32::max);
-        stats[STAT_METHOD] = self.method.code() as f32;
+        stats[STAT_METHOD] = protocol::method_code(self.method) as f32;
         stats[STAT_APPLIED_SEQ] = self.applied_seq as f32;
         let flag = |on: bool, f: u32| if on { f } else { 0 };
         let flags = flag(self.held.is_some(), protocol::FLAG_HELD)
@@ -1256,16 +1263,41 @@ mod tests {
             Source::from_text(&text, PathBuf::from("."), "cube", Path::new("cube.toml")).unwrap()
         };
         let src = cube("");
-        assert_eq!(src.method, Method::Newton);
-        let sim = src.build(Method::Newton).unwrap();
+        assert_eq!(src.method, SchemeKind::Newton);
+        let sim = src.build(SchemeKind::Newton).unwrap();
         assert!(sim.stepper().describe().starts_with("newton frames"));
-        assert_eq!(cube("coarse = \"newton\"").method, Method::Fas);
-        let t = cube("cg_per_step = 3\nreading = \"paper\"").table_for(Method::Newton);
+        assert_eq!(cube("coarse = \"newton\"").method, SchemeKind::Fas);
+        let t = cube("cg_per_step = 3\nreading = \"paper\"").table_for(SchemeKind::Newton);
         let mg = t.get("multigrid").and_then(|m| m.as_table()).unwrap();
         assert!(mg.contains_key("cg_per_step") && !mg.contains_key("reading"));
-        let t = cube("cg_per_step = 3").table_for(Method::Fas);
+        let t = cube("cg_per_step = 3").table_for(SchemeKind::Fas);
         let mg = t.get("multigrid").and_then(|m| m.as_table()).unwrap();
         assert!(!mg.contains_key("cg_per_step"));
+    }
+
+    /// Each word of `[multigrid] scheme` is served as its `SchemeKind`, and each kind's
+    /// table names it by the same word.
+    #[test]
+    fn every_scheme_word_is_served_as_its_kind() {
+        for kind in SchemeKind::MULTIGRID {
+            let text = format!(
+                "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.04, 0.04]\ndivisions = [4, 4, 4]\n\
+                 [material]\nlaw = \"neo-hookean\"\nyoung = 5e3\npoisson = 0.45\n\
+                 [run]\nduration = 1.0\n[multigrid]\nlevels = 2\nscheme = \"{}\"\n",
+                kind.name()
+            );
+            let src = Source::from_text(&text, PathBuf::from("."), "cube", Path::new("cube.toml"))
+                .unwrap();
+            assert_eq!(src.method, kind);
+            for other in SchemeKind::MULTIGRID {
+                let t = src.table_for(other);
+                let word = t["multigrid"]["scheme"].as_str();
+                assert_eq!(word, Some(other.name()));
+            }
+            assert!(!src
+                .table_for(SchemeKind::SingleLevel)
+                .contains_key("multigrid"));
+        }
     }
 
     /// A BDF2 scenario with stiffness-proportional damping is served as backward Euler's
@@ -1298,17 +1330,17 @@ duration = 1.0
 "#;
         let src =
             Source::from_text(text, PathBuf::from("."), "cube", Path::new("cube.toml")).unwrap();
-        assert_eq!(src.method, Method::Single);
-        let mut sim = src.build(Method::Single).unwrap();
+        assert_eq!(src.method, SchemeKind::SingleLevel);
+        let mut sim = src.build(SchemeKind::SingleLevel).unwrap();
         assert!(sim.stepper().describe().contains("bdf2"));
         for _ in 0..2 {
             let r = sim.step_frame(Budget::Cycles(1));
             assert!(r.accepted, "{r:?}");
         }
-        let t = src.table_for(Method::Fas);
+        let t = src.table_for(SchemeKind::Fas);
         let d = t.get("damping").and_then(|d| d.as_table()).unwrap();
         assert!(!d.contains_key("beta") && d.contains_key("alpha"));
-        let sim = src.build(Method::Fas).unwrap();
+        let sim = src.build(SchemeKind::Fas).unwrap();
         assert!(!sim.stepper().describe().contains("bdf2"));
     }
 
@@ -1341,19 +1373,19 @@ duration = 1.0
 "#;
         let src =
             Source::from_text(text, PathBuf::from("."), "cube", Path::new("cube.toml")).unwrap();
-        assert_eq!(src.method, Method::Single);
-        let t = src.table_for(Method::Single);
+        assert_eq!(src.method, SchemeKind::SingleLevel);
+        let t = src.table_for(SchemeKind::SingleLevel);
         assert!(
             t.contains_key("multigrid"),
             "the levels precondition the solves"
         );
-        let mut sim = src.build(Method::Single).unwrap();
+        let mut sim = src.build(SchemeKind::SingleLevel).unwrap();
         assert!(sim.stepper().describe().contains("implicit-euler"));
         let r = sim.step_frame(Budget::Cycles(1));
         assert!(r.accepted, "{r:?}");
         // One step of 1/60 s: the cube sags under gravity.
         assert!(sim.displacements().chunks(3).any(|u| u[2] < -1e-7));
-        for m in [Method::Fas, Method::Raisov] {
+        for m in [SchemeKind::Fas, SchemeKind::RaisovPaper] {
             let t = src.table_for(m);
             let i = t.get("integrator").and_then(|i| i.as_table());
             assert!(i.is_none_or(|i| IMPLICIT_ONLY.iter().all(|k| !i.contains_key(*k))));

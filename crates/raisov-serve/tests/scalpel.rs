@@ -6,7 +6,8 @@
 
 use futures_util::StreamExt;
 use raisov::sim::Budget;
-use raisov_serve::protocol::{self, Command, Method};
+use raisov::SchemeKind;
+use raisov_serve::protocol::{self, Command};
 use raisov_serve::session::{SessionConfig, Source};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -208,10 +209,17 @@ async fn a_method_switch_keeps_the_wound_and_a_reset_heals_it() {
     let cut = next_topology(&mut ws).await;
     assert!(cut.0 > UNCUT.0);
 
-    for (seq, m) in [(2, Method::Fas), (3, Method::Newton), (4, Method::Raisov)] {
+    for (seq, m) in [
+        (2, SchemeKind::Fas),
+        (3, SchemeKind::Newton),
+        (4, SchemeKind::RaisovPaper),
+    ] {
         send(&mut ws, seq, Command::Method(m)).await;
         let (t, topo) = text_and_topology(&mut ws, "method").await;
-        assert!(t.contains(&format!("\"method\":{}", m.code())), "{t}");
+        assert!(
+            t.contains(&format!("\"method\":{}", protocol::method_code(m))),
+            "{t}"
+        );
         assert_eq!(topo, cut, "the wound after the switch to {m:?}");
     }
     // A second notch, across the first, on RaISoV.

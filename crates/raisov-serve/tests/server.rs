@@ -5,8 +5,9 @@
 //! reach its target are in `hostile_clients.rs`.
 
 use futures_util::{SinkExt, StreamExt};
+use raisov::SchemeKind;
 use raisov_serve::protocol::{
-    self, Command, Message, Method, STAT_FORCE, STAT_GRASP, STAT_GRASPED, STAT_HOLDER,
+    self, Command, Message, STAT_FORCE, STAT_GRASP, STAT_GRASPED, STAT_HOLDER,
 };
 use std::time::Duration;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -279,20 +280,23 @@ async fn method_switch_keeps_the_grasp() {
     )
     .await;
     // FAS, then the frame solver, on the cube's generated levels (a second one made for them).
-    for (seq, m) in [(3, Method::Fas), (4, Method::Newton)] {
+    for (seq, m) in [(3, SchemeKind::Fas), (4, SchemeKind::Newton)] {
         send(&mut ws, seq, Command::Method(m)).await;
         loop {
             let t = next_text(&mut ws).await;
             assert!(!t.contains("error"), "{t}");
             if t.contains("\"type\":\"method\"") {
-                assert!(t.contains(&format!("\"method\":{}", m.code())), "{t}");
+                assert!(
+                    t.contains(&format!("\"method\":{}", protocol::method_code(m))),
+                    "{t}"
+                );
                 break;
             }
         }
         let mut ok = false;
         for _ in 0..200 {
             let f = next_frame(&mut ws).await;
-            if f.stats[protocol::STAT_METHOD] == m.code() as f32
+            if f.stats[protocol::STAT_METHOD] == protocol::method_code(m) as f32
                 && f.stats[STAT_HOLDER] >= 0.0
                 && (f.stats[STAT_GRASP + 2] - 0.043).abs() < 1e-6
             {

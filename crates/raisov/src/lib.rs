@@ -34,6 +34,10 @@
 //! stability), [`hierarchy`] (levels, host elements, weights), [`multigrid`] (RaISoV and the
 //! FAS multigrid), [`metrics`], [`scenario`] (TOML scenes, typed once), [`sim`] (the frame-loop API for a
 //! host program: grasps, pins, tool forces).
+//!
+//! What advances a simulation is named by one enum, [`Scheme`] (its kinds [`SchemeKind`]):
+//! a scenario resolves to one ([`scenario::Scenario::scheme`]), and
+//! [`sim::SimulationBuilder::scheme`] takes one.
 
 // `!(x > 0.0)` is written on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -61,3 +65,4 @@ pub mod statics;
 pub mod time;
 
 pub use error::{Error, Result};
+pub use scenario::{Scheme, SchemeKind};

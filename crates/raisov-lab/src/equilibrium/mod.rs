@@ -103,13 +103,14 @@ pub use frames::{frame_budgets, frames_to_markdown, newton_frame_budgets, FrameR
 use raisov::hierarchy::Transfer;
 use raisov::integrate::hold;
 use raisov::integrate::stability::lambda_max_bound;
-use raisov::scenario::{MultigridScheme, Scenario};
+use raisov::scenario::Scenario;
 use raisov::statics::nested::{nested_start, start_levels, BetweenSolve, CoarseStart};
 use raisov::statics::newton::{
     solve_system, DirectNewton, DirectNewtonParams, DirectStatic, MultigridPcg, Smoother,
 };
 use raisov::statics::relax::adaptive::adaptive_relax;
 use raisov::statics::relax::chebyshev::chebyshev_relax;
+use raisov::Scheme;
 use raisov::{Error, Result};
 use std::path::Path;
 use std::time::Instant;
@@ -704,7 +705,7 @@ fn newton_mg_run(
 fn fas_run(case: &Case, target: f64, smooth: usize, ends: &[[f64; 3]]) -> Result<(Row, Vec<f64>)> {
     let mut sc = case.scenario.clone();
     if let Some(mg) = sc.multigrid.as_mut() {
-        if let MultigridScheme::Fas(p) = &mut mg.scheme {
+        if let Scheme::Fas(p) = &mut mg.scheme {
             p.pre_smooth = smooth;
             p.post_smooth = smooth;
         }

@@ -4,9 +4,10 @@
 
 use futures_util::{SinkExt, StreamExt};
 use raisov::sim::Budget;
+use raisov::SchemeKind;
 use raisov_serve::access::Access;
 use raisov_serve::conn::Limits;
-use raisov_serve::protocol::{self, Command, Message, Method};
+use raisov_serve::protocol::{self, Command, Message};
 use raisov_serve::session::{Session, SessionConfig, Source};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -49,7 +50,7 @@ pub async fn start_with(
 ) -> (SocketAddr, tokio::task::JoinHandle<()>, Access) {
     let source = Source::from_text(scenario, PathBuf::from("."), "cube", "cube.toml".as_ref())
         .expect("the cube scenario");
-    assert_eq!(source.method, Method::Single);
+    assert_eq!(source.method, SchemeKind::SingleLevel);
     let session = Session::spawn(
         source,
         SessionConfig {

@@ -33,6 +33,10 @@
 //! overrides the `F` forms: [`StableNeoHookean`]). Identities used by the laws' tangents:
 //! `d(C⁻¹) = −C⁻¹ dC C⁻¹`, `d det C = det C tr(C⁻¹ dC)`, `d ln J = tr(C⁻¹ dC)/2`.
 //!
+//! The valid range of each law's constants is checked in one place, [`ranges`]: the scenario
+//! resolver checks `[material]`'s keys by it, `SimulationBuilder` the law it is given
+//! ([`Material::validate`]).
+//!
 //! Each law lives in its own file; the test macro `material_tests!` checks, for every law and
 //! form, that S equals twice the central finite-difference derivative of W, that dS equals
 //! the central difference of S along dC, that P and dP equal the differences of W and P in F
@@ -47,6 +51,7 @@ mod hgo;
 mod mooney_rivlin;
 mod neo_hookean;
 mod neo_hookean_visco;
+pub mod ranges;
 mod stable_neo_hookean;
 mod stvk;
 mod ti_neo_hookean;

@@ -5,9 +5,8 @@
 //! list is carried by nearest node); a prescribed displacement of level 0 goes to the node of
 //! each coarser level nearest to level 0's prescribed node (paper section 3.1).
 
-use super::spec::{
-    defaults, Accelerate, CoarseKind, MeshSpec, MultigridSpec, Scheme, SmootherKind,
-};
+use super::scheme::{Scheme, SchemeKind};
+use super::spec::{defaults, Accelerate, CoarseKind, MeshSpec, MultigridSpec, SmootherKind};
 use super::{build_system, err, positive, select, BoxCells, Scenario, Selector, Shape};
 use crate::error::Result;
 use crate::hierarchy::Correspondence;
@@ -19,6 +18,7 @@ use crate::mesh::Mesh;
 use crate::multigrid::fas::{CoarseSolve, Fas, FasParams, Smoother};
 use crate::multigrid::raisov::{Raisov, RaisovParams};
 use crate::multigrid::Level;
+use crate::statics::implicit::ImplicitScheme;
 use crate::statics::nested::{NestedLevels, StartLevel};
 use std::path::Path;
 
@@ -28,26 +28,16 @@ const MIN_LEVEL_NODES: usize = 4;
 /// The resolved `[multigrid]` section.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Multigrid {
-    /// `[multigrid] scheme` with its settings.
-    pub scheme: MultigridScheme,
+    /// `[multigrid] scheme` with its settings: [`Scheme::Fas`], [`Scheme::RaisovPaper`] or
+    /// [`Scheme::Newton`] (a multigrid's `kinetic_limit` is set from the system when the
+    /// stepper is built).
+    pub scheme: Scheme,
     /// The coarser levels' meshes.
     pub meshes: LevelMeshes,
     /// Integrator of each level, level 0 first.
     pub methods: Vec<Method>,
     /// Step of each level (s), level 0 first, where `level_dt` gives them.
     pub level_dt: Option<Vec<f64>>,
-}
-
-/// The multigrid method and its settings (`kinetic_limit` is set from the system when the
-/// stepper is built).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum MultigridScheme {
-    /// `scheme = "fas"`: the full-approximation-scheme multigrid ([`crate::multigrid::fas`]).
-    Fas(FasParams),
-    /// `scheme = "raisov-paper"`: the paper's RaISoV cycle ([`crate::multigrid::raisov`]).
-    RaisovPaper(RaisovParams),
-    /// `scheme = "newton"`: the frame solver ([`crate::statics::frames`]).
-    Newton(crate::statics::frames::NewtonFramesParams),
 }
 
 /// How the coarser levels are made, level 0 being `[mesh]`.
@@ -153,15 +143,15 @@ pub(super) fn resolve(
     // Without `scheme`: the frame solver for an interactive scenario (frames toward static
     // equilibria, what it measures best at), unless FAS's own keys say FAS; FAS otherwise.
     let fas_set = fas_keys.iter().any(|(_, set)| *set);
-    let scheme = mg
+    let kind = mg
         .scheme
         .unwrap_or(if interactive && (mg.cg_per_step.is_some() || !fas_set) {
-            Scheme::Newton
+            SchemeKind::Newton
         } else {
-            Scheme::default()
+            defaults::SCHEME
         });
-    let scheme = match scheme {
-        Scheme::RaisovPaper => {
+    let scheme = match kind {
+        SchemeKind::RaisovPaper => {
             only(&fas_keys, "scheme = \"fas\"")?;
             let epsilon = match mg.epsilon {
                 Some(e) if e >= 0.0 => e,
@@ -176,17 +166,17 @@ pub(super) fn resolve(
                 }
                 None => defaults::EPSILON_PER_EDGE * mesh.edge_range().0,
             };
-            MultigridScheme::RaisovPaper(RaisovParams {
+            Scheme::RaisovPaper(RaisovParams {
                 epsilon,
                 reading: mg.reading.unwrap_or(defaults::READING),
                 kinetic_limit: f64::INFINITY,
             })
         }
-        Scheme::Fas => {
+        SchemeKind::Fas => {
             only(&paper_keys, "scheme = \"raisov-paper\"")?;
-            MultigridScheme::Fas(fas_params(mg, path)?)
+            Scheme::Fas(fas_params(mg, path)?)
         }
-        Scheme::Newton => {
+        SchemeKind::Newton => {
             only(&paper_keys, "scheme = \"raisov-paper\"")?;
             only(&fas_keys, "scheme = \"fas\"")?;
             let mut p = crate::statics::frames::NewtonFramesParams {
@@ -202,10 +192,20 @@ pub(super) fn resolve(
                 }
                 p.cg = cg;
             }
-            MultigridScheme::Newton(p)
+            Scheme::Newton(p)
+        }
+        // `[multigrid] scheme` parses the words of `SchemeKind::MULTIGRID` only.
+        SchemeKind::SingleLevel | SchemeKind::ImplicitEuler | SchemeKind::Bdf2 => {
+            return Err(err(
+                path,
+                format!(
+                    "`multigrid.scheme` = \"{}\": valid are \"fas\", \"raisov-paper\", \"newton\"",
+                    kind.name()
+                ),
+            ))
         }
     };
-    if scheme_is_not_newton(&scheme) && mg.cg_per_step.is_some() {
+    if kind != SchemeKind::Newton && mg.cg_per_step.is_some() {
         return Err(err(
             path,
             "`multigrid.cg_per_step` applies to scheme = \"newton\" only",
@@ -220,10 +220,6 @@ pub(super) fn resolve(
 }
 
 /// The FAS settings of `[multigrid]`, [`FasParams::default`] where not given.
-fn scheme_is_not_newton(s: &MultigridScheme) -> bool {
-    !matches!(s, MultigridScheme::Newton(_))
-}
-
 fn fas_params(mg: &MultigridSpec, path: &Path) -> Result<FasParams> {
     let d = FasParams::default();
     if mg.coarse_iterations == Some(0) {
@@ -686,7 +682,7 @@ impl Scenario {
             Some(mg) => (
                 mg.methods.clone(),
                 mg.level_dt.clone(),
-                matches!(mg.scheme, MultigridScheme::RaisovPaper(_)),
+                matches!(mg.scheme, Scheme::RaisovPaper(_)),
             ),
             None => (vec![self.method; m], None, false),
         };
@@ -721,56 +717,83 @@ impl Scenario {
         Ok((levels, links))
     }
 
-    /// The stepper this scenario asks for: single level (explicit, or backward Euler with the
+    /// The scheme [`Scenario::stepper`] builds: backward Euler or BDF2 (`[integrator] method =
+    /// "implicit-euler"`, `"bdf2"`; its levels, if any, precondition the Newton solves), else
+    /// `[multigrid] scheme` over the levels, else `[integrator] method`'s explicit integrator
+    /// on one level. A static solve (`method = "newton"`, [`Scenario::statics`]) is run by
+    /// [`super::run_static`], not by a stepper: its scheme is that of its levels, or the
+    /// default integrator on one level.
+    pub fn scheme(&self) -> Scheme {
+        match (&self.implicit, &self.multigrid) {
+            (Some(i), _) => match i.scheme {
+                ImplicitScheme::BackwardEuler => Scheme::ImplicitEuler,
+                ImplicitScheme::Bdf2 => Scheme::Bdf2,
+            },
+            (None, Some(mg)) => mg.scheme,
+            (None, None) => Scheme::SingleLevel(self.method),
+        }
+    }
+
+    /// The stepper of [`Scenario::scheme`]: single level (explicit, or backward Euler with the
     /// levels as the Newton solver's preconditioner), or a multigrid over its levels.
     pub fn stepper(&self) -> Result<Box<dyn Stepper>> {
-        if self.implicit.is_some() {
-            return Ok(Box::new(self.implicit_euler()?));
-        }
-        let sys = self.build_system()?;
-        let limit = energy_limit_for(&sys, &self.mesh, self.blowup_factor)
-            + self.blowup_factor * self.model_load_work(&self.mesh);
-        let Some(mg) = &self.multigrid else {
-            return Ok(Box::new(SingleLevel::new(
-                sys,
-                self.method,
-                StepperParams {
-                    dt: self.dt,
-                    kinetic_limit: limit,
-                },
-            )));
+        // Level 0's system and the kinetic-energy ceiling of its loads.
+        let level0 = || -> Result<(System, f64)> {
+            let sys = self.build_system()?;
+            let limit = energy_limit_for(&sys, &self.mesh, self.blowup_factor)
+                + self.blowup_factor * self.model_load_work(&self.mesh);
+            Ok((sys, limit))
         };
-        if let MultigridScheme::Newton(p) = mg.scheme {
-            let coarse = self
-                .pick_level(crate::statics::newton::coarse_level)?
-                .chosen
-                .map(|(_, m)| m);
-            return Ok(Box::new(crate::statics::frames::NewtonFrames::new(
-                sys,
-                self.mesh.clone(),
-                coarse,
-                p,
-            )?));
-        }
-        let (levels, links) = self.build_levels()?;
-        Ok(match mg.scheme {
-            MultigridScheme::RaisovPaper(p) => Box::new(Raisov::new(
-                levels,
-                links,
-                RaisovParams {
-                    kinetic_limit: limit,
-                    ..p
-                },
-            )),
-            MultigridScheme::Fas(p) => Box::new(Fas::new(
-                levels,
-                links,
-                FasParams {
-                    kinetic_limit: limit,
-                    ..p
-                },
-            )),
-            MultigridScheme::Newton(_) => unreachable!("built above"),
+        Ok(match self.scheme() {
+            Scheme::ImplicitEuler | Scheme::Bdf2 => Box::new(self.implicit_euler()?),
+            Scheme::SingleLevel(method) => {
+                let (sys, limit) = level0()?;
+                Box::new(SingleLevel::new(
+                    sys,
+                    method,
+                    StepperParams {
+                        dt: self.dt,
+                        kinetic_limit: limit,
+                    },
+                ))
+            }
+            Scheme::Newton(p) => {
+                let (sys, _) = level0()?;
+                let coarse = self
+                    .pick_level(crate::statics::newton::coarse_level)?
+                    .chosen
+                    .map(|(_, m)| m);
+                Box::new(crate::statics::frames::NewtonFrames::new(
+                    sys,
+                    self.mesh.clone(),
+                    coarse,
+                    p,
+                )?)
+            }
+            Scheme::RaisovPaper(p) => {
+                let (_, limit) = level0()?;
+                let (levels, links) = self.build_levels()?;
+                Box::new(Raisov::new(
+                    levels,
+                    links,
+                    RaisovParams {
+                        kinetic_limit: limit,
+                        ..p
+                    },
+                ))
+            }
+            Scheme::Fas(p) => {
+                let (_, limit) = level0()?;
+                let (levels, links) = self.build_levels()?;
+                Box::new(Fas::new(
+                    levels,
+                    links,
+                    FasParams {
+                        kinetic_limit: limit,
+                        ..p
+                    },
+                ))
+            }
         })
     }
 }

@@ -33,13 +33,14 @@ mod mesh_source;
 mod patch;
 mod resolve;
 pub mod run;
+mod scheme;
 pub mod spec;
 pub mod surface;
 
 use crate::error::{Error, Result};
 use crate::fem::{FemModel, FemParams, Precision};
 use crate::geometry::{norm, sub};
-use crate::integrate::stability::critical_step_estimate;
+use crate::integrate::stability::{critical_step_estimate, step_too_large};
 use crate::integrate::{Constraints, Method, System};
 use crate::io::VtuFormat;
 use crate::linalg::smoother::Smoother;
@@ -49,7 +50,7 @@ use crate::numbers::{compact, rounded};
 use crate::statics::implicit::ImplicitScheme;
 use crate::time::Motion;
 use crate::time::TimeFunction;
-pub use levels::{LevelConstraints, LevelMeshes, Multigrid, MultigridScheme, PickedLevel};
+pub use levels::{LevelConstraints, LevelMeshes, Multigrid, PickedLevel};
 use mesh_source::resolve_mesh_source;
 pub use mesh_source::{BoxCells, MeshSource, Shape};
 pub use resolve::select;
@@ -59,9 +60,16 @@ pub use run::{
     describe_static, run, run_static, run_static_keeping, run_with, RunOptions, RunSummary,
     StaticSummary, StopReason,
 };
+pub use scheme::{Scheme, SchemeKind};
 use spec::{defaults, Named, Stop};
 pub use spec::{NewtonSmoother, ScenarioSpec, StaticSolver};
 use std::path::{Path, PathBuf};
+
+/// The multigrid schemes of `[multigrid] scheme`, now variants of the one [`Scheme`].
+#[deprecated(
+    note = "use `raisov::Scheme` (`Scheme::Fas`, `Scheme::RaisovPaper`, `Scheme::Newton`)"
+)]
+pub type MultigridScheme = Scheme;
 
 /// How a run ends.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -939,14 +947,10 @@ impl Scenario {
             && spec
                 .multigrid
                 .as_ref()
-                .is_none_or(|m| m.scheme == Some(spec::Scheme::RaisovPaper));
-        if explicit_limit && dt > TOO_LARGE_STEP * dt_crit {
+                .is_none_or(|m| m.scheme == Some(SchemeKind::RaisovPaper));
+        if let Some(w) = step_too_large(dt, dt_crit, method).filter(|_| explicit_limit) {
             warnings.push(format!(
-                "integrator.dt = {dt:.3e} s is {} times the estimated critical step \
-                 {dt_crit:.3e} s of {}: an explicit run this coarse usually diverges \
-                 (leave `dt` out to take {} of the estimate)",
-                rounded(dt / dt_crit, 1),
-                method.name(),
+                "integrator.{w} (leave `dt` out to take {} of the estimate)",
                 compact(safety)
             ));
         }
@@ -1225,8 +1229,6 @@ pub fn build_system(
     Ok(sys)
 }
 
-/// A given `dt` above this many estimated critical steps warns.
-const TOO_LARGE_STEP: f64 = 2.0;
 /// Node-steps per second of a fast single thread (the standard force pass measures 2-4e7,
 /// `raisov bench`): the rate behind the "too long" warning.
 const NODE_STEPS_PER_SECOND: f64 = 2e7;

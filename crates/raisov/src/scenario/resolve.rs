@@ -6,6 +6,7 @@
 use super::{err, loading, positive, spec, Fixing, Selector, Shape};
 use crate::error::Result;
 use crate::geometry::{dot, norm, sub};
+use crate::material::ranges::{self, OutOfRange};
 use crate::material::{
     lame, HolzapfelGasserOgden, Material, MooneyRivlin, NeoHookean, NeoHookeanVisco,
     StVenantKirchhoff, StableNeoHookean, TiNeoHookean, VerondaWestmann,
@@ -268,22 +269,13 @@ pub(super) fn resolve_material(
         match (kind, v) {
             (ElementKind::Tri3, None) => Ok(0.0),
             (ElementKind::Tri3, Some(_)) => Err(err(path, "[material]: `kappa` is not used by membranes (they are incompressible in plane stress)")),
-            (ElementKind::Tet4, v) => positive(path, "material.kappa", need("kappa", v)?),
+            (ElementKind::Tet4, v) => in_range(path, ranges::positive("kappa", need("kappa", v)?)),
         }
     };
     let young_poisson = || -> Result<(f64, f64)> {
-        let e = positive(path, "material.young", need("young", m.young)?)?;
-        let nu = need("poisson", m.poisson)?;
-        if !(-1.0 < nu && nu < 0.5) {
-            return Err(err(
-                path,
-                format!(
-                    "`material.poisson` = {}: must be in (-1, 0.5)",
-                    crate::numbers::compact(nu)
-                ),
-            ));
-        }
-        Ok((e, nu))
+        let e = need("young", m.young)?;
+        in_range(path, ranges::positive("young", e))?;
+        in_range(path, ranges::young_poisson(e, need("poisson", m.poisson)?))
     };
     Ok(match chosen {
         Law::StVenantKirchhoff => {
@@ -301,20 +293,13 @@ pub(super) fn resolve_material(
             only(&["c1", "c2", "kappa"])?;
             let c1 = need("c1", m.c1)?;
             let c2 = need("c2", m.c2)?;
-            if !(c1 + c2 > 0.0 && c1 >= 0.0 && c2 >= 0.0) {
-                return Err(err(
-                    path,
-                    format!(
-                        "[material]: c1 = {c1}, c2 = {c2}: need c1, c2 >= 0 with c1 + c2 > 0 (Pa)"
-                    ),
-                ));
-            }
+            in_range(path, ranges::mooney_rivlin(c1, c2))?;
             Material::MooneyRivlin(MooneyRivlin::new(c1, c2, kappa(m.kappa)?))
         }
         Law::VerondaWestmann => {
             only(&["c1", "gamma", "kappa"])?;
-            let c1 = positive(path, "material.c1", need("c1", m.c1)?)?;
-            let gamma = positive(path, "material.gamma", need("gamma", m.gamma)?)?;
+            let c1 = in_range(path, ranges::positive("c1", need("c1", m.c1)?))?;
+            let gamma = in_range(path, ranges::positive("gamma", need("gamma", m.gamma)?))?;
             Material::VerondaWestmann(VerondaWestmann::new(c1, gamma, kappa(m.kappa)?))
         }
         Law::StableNeoHookean => {
@@ -353,8 +338,8 @@ pub(super) fn resolve_material(
                     (e / (2.0 * (1.0 + nu)), e / (3.0 * (1.0 - 2.0 * nu)))
                 }
                 _ => (
-                    positive(path, "material.mu", need("mu", m.mu)?)?,
-                    positive(path, "material.kappa", need("kappa", m.kappa)?)?,
+                    in_range(path, ranges::positive("mu", need("mu", m.mu)?))?,
+                    in_range(path, ranges::positive("kappa", need("kappa", m.kappa)?))?,
                 ),
             };
             if chosen == Law::NeoHookeanVisco {
@@ -382,21 +367,8 @@ pub(super) fn resolve_material(
                 // own is never used.
                 Some(_) => Vector3::x(),
             };
-            let non_negative = |key: &str, v: f64| -> Result<f64> {
-                if v >= 0.0 && v.is_finite() {
-                    Ok(v)
-                } else {
-                    Err(err(
-                        path,
-                        format!(
-                            "`material.{key}` = {}: must be a number >= 0",
-                            crate::numbers::compact(v)
-                        ),
-                    ))
-                }
-            };
             if chosen == Law::TiNeoHookean {
-                let eta = non_negative("eta", need("eta", m.eta)?)?;
+                let eta = in_range(path, ranges::non_negative("eta", need("eta", m.eta)?))?;
                 Material::TiNeoHookean(TiNeoHookean {
                     mu,
                     kappa,
@@ -404,12 +376,9 @@ pub(super) fn resolve_material(
                     fibre,
                 })
             } else {
-                let k1 = non_negative("k1", need("k1", m.k1)?)?;
-                let k2 = non_negative("k2", need("k2", m.k2)?)?;
-                let dispersion = m.dispersion.unwrap_or(0.0);
-                if !(0.0..=1.0 / 3.0).contains(&dispersion) {
-                    return Err(err(path, format!("`material.dispersion` = {}: must be in [0, 1/3] (0: aligned fibres, 1/3: isotropic)", crate::numbers::compact(dispersion))));
-                }
+                let k1 = in_range(path, ranges::non_negative("k1", need("k1", m.k1)?))?;
+                let k2 = in_range(path, ranges::non_negative("k2", need("k2", m.k2)?))?;
+                let dispersion = in_range(path, ranges::dispersion(m.dispersion.unwrap_or(0.0)))?;
                 Material::HolzapfelGasserOgden(HolzapfelGasserOgden {
                     mu,
                     kappa,
@@ -420,6 +389,22 @@ pub(super) fn resolve_material(
                 })
             }
         }
+    })
+}
+
+/// A `[material]` constant out of its range ([`ranges`]) as the scenario's error:
+/// ``"`material.poisson` = 0.5: must be in (-1, 0.5)"``.
+fn in_range<T>(path: &Path, r: std::result::Result<T, OutOfRange>) -> Result<T> {
+    r.map_err(|e| {
+        err(
+            path,
+            format!(
+                "`material.{}` = {}: {}",
+                e.key,
+                crate::numbers::compact(e.value),
+                e.rule
+            ),
+        )
     })
 }
 

@@ -341,6 +341,7 @@
 //!                                 # change, extrapolated (crate::sim::frame); default true
 //! ```
 
+use super::scheme::SchemeKind;
 use super::Reference;
 use crate::error::{Error, Result};
 use crate::fem::Precision;
@@ -356,7 +357,7 @@ use std::path::{Path, PathBuf};
 /// The default of every scenario key that has one (the FAS settings default to
 /// [`crate::multigrid::fas::FasParams::default`]). The module documentation lists them per key.
 pub mod defaults {
-    use super::{Law, StaticSolver};
+    use super::{Law, SchemeKind, StaticSolver};
     use crate::integrate::Method;
     use crate::mesh::generate::BoxPattern;
     use crate::multigrid::raisov::Reading;
@@ -395,6 +396,9 @@ pub mod defaults {
     pub const NEWTON_TOL: f64 = 1e-7;
     /// `[integrator] method`.
     pub const METHOD: Method = Method::SymplecticEuler;
+    /// `[multigrid] scheme` of a scenario without `[interactive]` (with it, the frame
+    /// solver, unless FAS's own keys are set).
+    pub const SCHEME: SchemeKind = SchemeKind::Fas;
     /// `[integrator] safety`: the fraction of the estimated critical step taken where no
     /// `dt` is given (and on the coarser FAS levels without `level_dt`).
     pub const SAFETY: f64 = 0.5;
@@ -643,20 +647,19 @@ named_enum! {
     }
 }
 
-named_enum! {
-    /// `[multigrid] scheme`.
-    #[derive(Default)]
-    pub enum Scheme {
-        /// The full-approximation-scheme multigrid ([`crate::multigrid::fas`]).
-        #[default]
-        Fas = "fas",
-        /// The paper's RaISoV cycle as written ([`crate::multigrid::raisov`]).
-        RaisovPaper = "raisov-paper",
-        /// The frame solver: chord Newton on a kept tangent, its Galerkin V-cycle over the
-        /// levels ([`crate::statics::frames`]).
-        Newton = "newton",
+/// `[multigrid] scheme`: a kind of the one [`super::Scheme`], spelled `"fas"`,
+/// `"raisov-paper"` or `"newton"` ([`SchemeKind::MULTIGRID`]; the single-level kinds are
+/// named by `[integrator] method`).
+impl Named for SchemeKind {
+    const ALL: &'static [Self] = &SchemeKind::MULTIGRID;
+    fn name(self) -> &'static str {
+        SchemeKind::name(self)
     }
 }
+
+/// The words of `[multigrid] scheme`, now the kinds of the one scheme enum.
+#[deprecated(note = "use `raisov::SchemeKind` (the kinds of the one `raisov::Scheme`)")]
+pub type Scheme = SchemeKind;
 
 named_enum! {
     /// `[multigrid] smoother` (fas).
@@ -800,6 +803,7 @@ deserialize_named!(
     Solve,
     Method,
     Precision,
+    SchemeKind,
     Reading,
     Scaling,
     TransferWeights,
@@ -897,7 +901,7 @@ pub struct ScenarioSpec {
 #[serde(deny_unknown_fields)]
 pub struct MultigridSpec {
     /// `scheme`: `"fas"` (default), `"raisov-paper"` or `"newton"`.
-    pub scheme: Option<Scheme>,
+    pub scheme: Option<SchemeKind>,
     /// `levels`: the level count, level 0 included, with `[mesh] generate` or `surface`; node
     /// counts a geometric series of ratio `ratio`.
     pub levels: Option<usize>,

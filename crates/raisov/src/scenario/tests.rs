@@ -640,7 +640,7 @@ fn named_values_read_back() {
     round_trip::<TransferWeights>();
     round_trip::<crate::multigrid::raisov::Reading>();
     round_trip::<spec::Law>();
-    round_trip::<spec::Scheme>();
+    round_trip::<SchemeKind>();
     assert_eq!(
         spec::Law::from_name("st-venant-kirchhoff"),
         Some(spec::Law::StVenantKirchhoff)
@@ -730,7 +730,7 @@ fn multigrid_settings_resolve_to_typed_parameters() {
         assert_eq!(mg.methods, vec![sc.method; 3]);
         assert_eq!(sc.num_levels(), 3);
         match mg.scheme {
-            MultigridScheme::Fas(p) => p,
+            Scheme::Fas(p) => p,
             s => panic!("{s:?}"),
         }
     };
@@ -759,7 +759,7 @@ fn multigrid_settings_resolve_to_typed_parameters() {
     ))
     .unwrap();
     match sc.multigrid.unwrap().scheme {
-        MultigridScheme::RaisovPaper(p) => {
+        Scheme::RaisovPaper(p) => {
             assert_eq!(p.reading, crate::multigrid::raisov::Reading::Paper);
             assert_eq!(p.epsilon, 1e-3 * sc.mesh.edge_range().0);
         }
@@ -847,7 +847,7 @@ fn documented_defaults_are_the_applied_ones() {
         ("integrator", "precision", Precision::default().name()),
         ("run", "stop", spec::Stop::default().name()),
         ("output", "reference", "none"),
-        ("multigrid", "scheme", spec::Scheme::default().name()),
+        ("multigrid", "scheme", defaults::SCHEME.name()),
         ("multigrid", "reading", defaults::READING.name()),
         ("multigrid", "smoother", "chebyshev"),
         ("multigrid", "coarse", "chebyshev"),
@@ -1247,6 +1247,7 @@ fn triangles_under_tets_name_the_level_file() {
 
 mod fibres;
 mod implicit;
+mod scheme;
 mod statics;
 mod visco;
 

@@ -3,53 +3,17 @@
 use super::Simulation;
 use crate::fem::{FemModel, FemParams};
 use crate::hierarchy::{Correspondence, Transfer};
+use crate::integrate::stability::{lambda_max_bound, step_too_large};
 use crate::integrate::{Constraints, Method, SingleLevel, Stepper, StepperParams, System};
-use crate::material::{Material, StableNeoHookean};
+use crate::material::{ranges, Material, StableNeoHookean};
 use crate::mesh::Mesh;
-use crate::multigrid::fas::{Fas, FasParams};
+use crate::multigrid::fas::Fas;
+use crate::multigrid::raisov::Raisov;
 use crate::multigrid::Level;
-use crate::statics::implicit::{ImplicitEuler, ImplicitParams, ImplicitScheme};
+use crate::scenario::Scheme;
+use crate::statics::implicit::{ImplicitEuler, ImplicitParams};
 use crate::statics::newton::{coarse_level, MultigridPcg};
 use crate::{Error, Result};
-
-/// How the builder's simulation advances.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Scheme {
-    /// The FAS multigrid over the levels ([`crate::multigrid::fas`]): each step is one
-    /// V-cycle towards the static equilibrium (one level: the coarsest solve alone).
-    Fas(FasParams),
-    /// Explicit dynamics on level 0 alone with this integrator, one step per cycle (coarser
-    /// levels are ignored).
-    SingleLevel(Method),
-    /// Backward Euler on level 0 ([`crate::statics::implicit`]), one step per cycle at
-    /// [`SimulationBuilder::dt`] (required: any step is stable; choose it for accuracy). With
-    /// coarser levels each Newton system is solved by conjugate gradients preconditioned by
-    /// the Galerkin V-cycle over level 0 and the coarser level
-    /// [`crate::statics::newton::coarse_level`] picks; without, by sparse Cholesky.
-    ImplicitEuler,
-    /// BDF2 on level 0 ([`crate::statics::implicit::ImplicitScheme::Bdf2`]), otherwise as
-    /// [`Scheme::ImplicitEuler`]: second order, far less numerical damping.
-    Bdf2,
-    /// The frame solver on level 0 ([`crate::statics::frames`]): each step one Newton step
-    /// toward the static equilibrium, its conjugate gradients preconditioned by the Galerkin
-    /// V-cycle (over level 0 and the coarser level [`crate::statics::newton::coarse_level`]
-    /// picks; without one, level 0 factored) of a tangent kept across frames. The default,
-    /// with [`crate::statics::frames::NewtonFramesParams::default`] (its smoother the one the
-    /// static solver takes for the mesh's elements): measured against FAS, it keeps the tissue
-    /// far closer to each frame's equilibrium at a higher frame rate (`bench/RESULTS.md`).
-    Newton(crate::statics::frames::NewtonFramesParams),
-}
-
-impl Scheme {
-    /// The implicit scheme, where this is one.
-    fn implicit(&self) -> Option<ImplicitScheme> {
-        match self {
-            Scheme::ImplicitEuler => Some(ImplicitScheme::BackwardEuler),
-            Scheme::Bdf2 => Some(ImplicitScheme::Bdf2),
-            _ => None,
-        }
-    }
-}
 
 /// A fixed region: a predicate on reference positions (m), selected on every level.
 type Region = Box<dyn Fn([f64; 3]) -> bool>;
@@ -60,8 +24,18 @@ type Region = Box<dyn Fn([f64; 3]) -> bool>;
 /// forces for inverted elements, so an interactive grasp that inverts some recovers) with
 /// Young's modulus 5 kPa and Poisson ratio 0.45 (soft tissue), density 1000 kg/m³, membrane thickness 1 mm, no gravity, no damping
 /// (α = 0 1/s; the quasi-static schemes need none), nothing fixed, [`Scheme::Newton`] (the
-/// frame solver) with its defaults, the time step half the estimated critical step of each
-/// level (for the explicit schemes).
+/// frame solver) with [`crate::statics::frames::NewtonFramesParams::default`] and the
+/// smoother the static solver takes for the mesh's elements (measured against FAS, it keeps
+/// the tissue far closer to each frame's equilibrium at a higher frame rate:
+/// `bench/RESULTS.md`), the time step half the estimated critical step of each level (for
+/// the explicit schemes; [`Scheme::RaisovPaper`] takes level 0's step on every level, as the
+/// paper does).
+///
+/// [`SimulationBuilder::build`] checks what a scenario's resolver checks, by the same rules:
+/// the material's constants ([`crate::material::ranges`]: Poisson's ratio in (−1, 0.5),
+/// ...), and an explicit step ([`Scheme::SingleLevel`], [`Scheme::RaisovPaper`]) given by
+/// [`SimulationBuilder::dt`] above twice the estimated critical step
+/// ([`crate::integrate::stability::step_too_large`]; a scenario warns, the builder refuses).
 ///
 /// ```
 /// use raisov::mesh::generate::{box_tets, BoxPattern};
@@ -104,6 +78,8 @@ pub struct SimulationBuilder {
     fixed: Vec<Region>,
     scheme: Scheme,
     dt: Option<f64>,
+    /// The pair [`SimulationBuilder::young_poisson`] was given, checked at build.
+    young_poisson: Option<(f64, f64)>,
 }
 
 impl SimulationBuilder {
@@ -125,6 +101,7 @@ impl SimulationBuilder {
                 ..Default::default()
             }),
             dt: None,
+            young_poisson: None,
         }
     }
     /// Coarser levels for the multigrid, next-coarser first (independent meshes of the same
@@ -133,16 +110,19 @@ impl SimulationBuilder {
         self.coarse = coarse;
         self
     }
-    /// The material law.
+    /// The material law; its constants are checked at build ([`Material::validate`]).
     pub fn material(mut self, m: Material) -> Self {
         self.material = m;
+        self.young_poisson = None;
         self
     }
     /// The default law (stable neo-Hookean) from Young's modulus (Pa) and Poisson's ratio
     /// (the usual Lamé mapping); [`Self::material`] sets any other law, e.g. the classic
-    /// compressible [`crate::material::NeoHookean`].
+    /// compressible [`crate::material::NeoHookean`]. Checked at build as a scenario's
+    /// `young` and `poisson` are ([`ranges::young_poisson`]: E > 0, ν in (−1, 0.5)).
     pub fn young_poisson(mut self, young: f64, poisson: f64) -> Self {
         self.material = Material::StableNeoHookean(StableNeoHookean::from_young(young, poisson));
+        self.young_poisson = Some((young, poisson));
         self
     }
     /// Mass density (kg/m³).
@@ -181,15 +161,17 @@ impl SimulationBuilder {
         self.scheme = s;
         self
     }
-    /// Level 0's time step (s) instead of half the estimated critical step.
+    /// Level 0's time step (s) instead of half the estimated critical step; an explicit step
+    /// above twice the estimate is refused at build.
     pub fn dt(mut self, dt: f64) -> Self {
         self.dt = Some(dt);
         self
     }
 
     /// Build: a force model and system per level, the correspondences, the stepper.
-    /// Errors: a non-positive density, thickness or step, negative damping, a fixed region
-    /// that selects no node on some level, a mesh the force model rejects.
+    /// Errors: a non-positive density, thickness or step, negative damping, a material
+    /// constant out of its range, an explicit step above twice the estimated critical step,
+    /// a fixed region that selects no node on some level, a mesh the force model rejects.
     pub fn build(self) -> Result<Simulation> {
         for (name, v) in [
             ("density", self.density),
@@ -206,13 +188,23 @@ impl SimulationBuilder {
                 format!("{}: must be >= 0 (1/s)", self.alpha),
             ));
         }
+        match self.young_poisson {
+            Some((young, poisson)) => {
+                ranges::young_poisson(young, poisson)
+                    .map_err(|e| Error::param("young_poisson", e.to_string()))?;
+            }
+            None => self.material.validate(self.mesh.kind)?,
+        }
         if matches!(self.material, Material::NeoHookeanVisco(_))
-            && matches!(self.scheme, Scheme::Fas(_) | Scheme::Newton(_))
+            && matches!(
+                self.scheme,
+                Scheme::Fas(_) | Scheme::RaisovPaper(_) | Scheme::Newton(_)
+            )
         {
-            let name = if matches!(self.scheme, Scheme::Fas(_)) {
-                "Scheme::Fas: the multigrid cycles do"
-            } else {
-                "Scheme::Newton: the frame solver's quasi-static steps do"
+            let name = match self.scheme {
+                Scheme::Fas(_) => "Scheme::Fas: the multigrid cycles do",
+                Scheme::RaisovPaper(_) => "Scheme::RaisovPaper: the multigrid cycles do",
+                _ => "Scheme::Newton: the frame solver's quasi-static steps do",
             };
             return Err(Error::param(
                 "material",
@@ -224,9 +216,11 @@ impl SimulationBuilder {
         params.thickness = self.thickness;
         let method = match &self.scheme {
             Scheme::SingleLevel(m) => *m,
-            Scheme::Fas(_) | Scheme::ImplicitEuler | Scheme::Bdf2 | Scheme::Newton(_) => {
-                Method::SymplecticEuler
-            }
+            Scheme::Fas(_)
+            | Scheme::RaisovPaper(_)
+            | Scheme::ImplicitEuler
+            | Scheme::Bdf2
+            | Scheme::Newton(_) => Method::SymplecticEuler,
         };
         if self.scheme.implicit().is_some() && self.dt.is_none() {
             return Err(Error::param(
@@ -247,10 +241,10 @@ impl SimulationBuilder {
             ));
         }
         let mut meshes = vec![self.mesh.clone()];
-        if matches!(self.scheme, Scheme::Fas(_)) {
+        if matches!(self.scheme, Scheme::Fas(_) | Scheme::RaisovPaper(_)) {
             meshes.extend(self.coarse.iter().cloned());
         }
-        let mut levels = Vec::with_capacity(meshes.len());
+        let mut levels: Vec<Level> = Vec::with_capacity(meshes.len());
         for (l, mesh) in meshes.into_iter().enumerate() {
             let fixed: Vec<u32> = (0..mesh.num_nodes() as u32)
                 .filter(|&a| self.fixed.iter().any(|r| r(mesh.nodes[a as usize])))
@@ -272,13 +266,23 @@ impl SimulationBuilder {
                 Constraints::new(fixed, vec![]),
             );
             sys.add_gravity(self.gravity);
-            let lambda_max = self.material.stability_modulus(mesh.kind) / self.density
-                * crate::fem::gradient_sums(&mesh)
-                    .into_iter()
-                    .fold(0.0, f64::max);
+            let lambda_max = lambda_max_bound(&mesh, &self.material, self.density);
+            // The estimated critical step (`stability::critical_step_estimate`).
             let critical = method.stability_bound() / lambda_max.sqrt();
             let dt = match self.dt {
-                Some(dt) if l == 0 => dt,
+                Some(dt) if l == 0 => {
+                    if let Some(w) =
+                        step_too_large(dt, critical, method).filter(|_| self.scheme.explicit_step())
+                    {
+                        return Err(Error::param(
+                            "dt",
+                            format!("{w} (leave `dt` out to take half the estimate)"),
+                        ));
+                    }
+                    dt
+                }
+                // The paper's cycle takes level 0's step on every level.
+                _ if l > 0 && matches!(self.scheme, Scheme::RaisovPaper(_)) => levels[0].dt,
                 _ => 0.5 * critical,
             };
             levels.push(Level::new(mesh, sys, method, dt, lambda_max));
@@ -331,14 +335,26 @@ impl SimulationBuilder {
                     p,
                 )?)
             }
+            Scheme::RaisovPaper(p) => {
+                let links = links_of(&levels)?;
+                Box::new(Raisov::new(levels, links, p))
+            }
             Scheme::Fas(p) => {
-                let mut links = Vec::with_capacity(levels.len() - 1);
-                for w in levels.windows(2) {
-                    links.push(Correspondence::build(&w[0].mesh, &w[1].mesh)?);
-                }
+                let links = links_of(&levels)?;
                 Box::new(Fas::new(levels, links, p))
             }
         };
         Simulation::assemble(stepper, self.mesh, None, params)
     }
 }
+
+/// The correspondences of consecutive levels.
+fn links_of(levels: &[Level]) -> Result<crate::multigrid::Links> {
+    levels
+        .windows(2)
+        .map(|w| Correspondence::build(&w[0].mesh, &w[1].mesh))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

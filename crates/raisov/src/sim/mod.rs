@@ -125,7 +125,8 @@ pub mod replay;
 pub mod solve;
 pub mod tangent;
 
-pub use builder::{Scheme, SimulationBuilder};
+pub use crate::scenario::Scheme;
+pub use builder::SimulationBuilder;
 pub use cut::CutReport;
 pub use frame::{Budget, FrameReport};
 pub use grab::{Coupling, GrabOptions, Grip};

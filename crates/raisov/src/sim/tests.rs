@@ -326,7 +326,7 @@ fn cycles_frames_give_the_same_bits_on_one_and_two_threads() {
         (Scheme::Fas(FasParams::default()), true, false),
         (Scheme::Fas(FasParams::default()), true, true),
     ] {
-        let a = run(1, scheme.clone(), coarse, predictor);
+        let a = run(1, scheme, coarse, predictor);
         let b = run(2, scheme, coarse, predictor);
         assert!(
             a.0 == b.0 && a.1 == b.1,

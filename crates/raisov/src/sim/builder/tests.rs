@@ -1,0 +1,247 @@
+//! The builder's checks, taken from the scenario resolver's rules (a material constant's
+//! range, an explicit step above the critical estimate, visco under the multigrid schemes),
+//! and the paper's cycle built from code as the scenario builds it.
+
+use super::*;
+use crate::integrate::stability::critical_step_estimate;
+use crate::material::{HolzapfelGasserOgden, MooneyRivlin, NeoHookean};
+use crate::mesh::generate::{box_tets, BoxPattern};
+use crate::multigrid::raisov::{RaisovParams, Reading};
+use crate::scenario::Scenario;
+use crate::sim::Budget;
+
+const G: [f64; 3] = [0.0, 0.0, -9.81];
+
+fn cube(div: usize) -> Mesh {
+    box_tets([0.04; 3], [div; 3], BoxPattern::Six).unwrap()
+}
+
+/// The error of a build that must fail.
+fn refused(b: SimulationBuilder) -> String {
+    b.build().err().expect("the build is refused").to_string()
+}
+
+/// `young_poisson(E, 0.5)` built a simulation with an infinite Lamé λ; now refused by the
+/// rule the scenario's `[material] poisson` is checked by, as are ν = −1 and a non-positive
+/// E. Inside the range it builds.
+#[test]
+fn builder_refuses_poisson_ratio_at_one_half() {
+    let with = |e: f64, nu: f64| SimulationBuilder::new(cube(2)).young_poisson(e, nu);
+    assert_eq!(
+        refused(with(5e3, 0.5)),
+        "invalid parameter `young_poisson`: poisson = 0.5: must be in (-1, 0.5)"
+    );
+    assert_eq!(
+        refused(with(5e3, -1.0)),
+        "invalid parameter `young_poisson`: poisson = -1: must be in (-1, 0.5)"
+    );
+    assert_eq!(
+        refused(with(0.0, 0.3)),
+        "invalid parameter `young_poisson`: young = 0: must be a positive number"
+    );
+    assert!(with(5e3, 0.499).build().is_ok());
+    assert!(with(5e3, -0.99).build().is_ok());
+    // A law set afterwards replaces the pair, and is checked by its own constants.
+    let (lambda, mu) = crate::material::lame(5e3, 0.45);
+    let law = Material::NeoHookean(NeoHookean { lambda, mu });
+    assert!(with(5e3, 0.5).material(law).build().is_ok());
+}
+
+/// A law given with `material` had its constants unchecked; now each is held to the range a
+/// scenario's `[material]` key is, the error naming the key.
+#[test]
+fn builder_refuses_a_law_with_constants_out_of_range() {
+    let with = |m: Material| refused(SimulationBuilder::new(cube(2)).material(m));
+    // λ + 2μ/3 < 0: a Poisson's ratio above 0.5.
+    let e = with(Material::NeoHookean(NeoHookean {
+        lambda: -1e4,
+        mu: 1e3,
+    }));
+    assert!(
+        e.starts_with("invalid parameter `material.lambda`: -10000 need a finite bulk modulus")
+            && e.ends_with("(law \"neo-hookean\")"),
+        "{e}"
+    );
+    let e = with(Material::NeoHookean(NeoHookean {
+        lambda: 1e4,
+        mu: 0.0,
+    }));
+    assert!(
+        e.starts_with("invalid parameter `material.mu`: 0 must be a positive number"),
+        "{e}"
+    );
+    let e = with(Material::MooneyRivlin(MooneyRivlin::new(1e3, -1.0, 1e5)));
+    assert!(
+        e.starts_with("invalid parameter `material.c2`: -1 need c1, c2 >= 0"),
+        "{e}"
+    );
+    let e = with(Material::MooneyRivlin(MooneyRivlin::new(1e3, 1e3, 0.0)));
+    assert!(e.starts_with("invalid parameter `material.kappa`"), "{e}");
+    let hgo = |dispersion: f64| {
+        Material::HolzapfelGasserOgden(
+            HolzapfelGasserOgden::new(1e3, 1e5, 1e3, 1.0, dispersion, nalgebra::Vector3::x())
+                .unwrap(),
+        )
+    };
+    let e = with(hgo(0.5));
+    assert!(
+        e.starts_with("invalid parameter `material.dispersion`: 0.5 must be in [0, 1/3]"),
+        "{e}"
+    );
+    assert!(SimulationBuilder::new(cube(2))
+        .material(hgo(0.1))
+        .build()
+        .is_ok());
+}
+
+/// `Scheme::SingleLevel` with `.dt(..)` far above the estimated critical step built a
+/// simulation that diverges; now refused by the rule the scenario warns by. Below twice the
+/// estimate it builds; FAS (a smoother's step) and the frame solver are not bound by it, the
+/// paper's cycle (explicit steps on every level) is.
+#[test]
+fn builder_refuses_an_explicit_step_above_twice_the_critical_estimate() {
+    let mesh = cube(3);
+    let material = Material::StableNeoHookean(StableNeoHookean::from_young(5e3, 0.45));
+    let crit = critical_step_estimate(&mesh, &material, 1000.0, Method::SymplecticEuler);
+    let with = |scheme: Scheme, dt: f64| {
+        SimulationBuilder::new(mesh.clone())
+            .levels(vec![cube(2)])
+            .fix(|p| p[2] <= 0.0)
+            .scheme(scheme)
+            .dt(dt)
+    };
+    let single = Scheme::SingleLevel(Method::SymplecticEuler);
+    assert_eq!(
+        refused(with(single, 3.0 * crit)),
+        format!(
+            "invalid parameter `dt`: dt = {:.3e} s is 3.0 times the estimated critical step \
+             {crit:.3e} s of symplectic-euler: an explicit run this coarse usually diverges \
+             (leave `dt` out to take half the estimate)",
+            3.0 * crit
+        )
+    );
+    assert!(with(single, 1.9 * crit).build().is_ok());
+    let paper = Scheme::RaisovPaper(RaisovParams {
+        epsilon: 1e-6,
+        reading: Reading::Correction,
+        kinetic_limit: f64::INFINITY,
+    });
+    assert!(refused(with(paper, 3.0 * crit)).contains("times the estimated critical step"));
+    assert!(with(Scheme::Fas(Default::default()), 3.0 * crit)
+        .build()
+        .is_ok());
+    assert!(with(Scheme::Newton(Default::default()), 3.0 * crit)
+        .build()
+        .is_ok());
+}
+
+/// `Scheme::RaisovPaper` builds the paper's cycle over the levels as a scenario with
+/// `scheme = "raisov-paper"` does: fed the scenario's level meshes and its resolved scheme,
+/// the builder's simulation moves through the same bits frame after frame.
+#[test]
+fn builder_builds_the_papers_cycle_as_the_scenario_does() {
+    let text = r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [4, 4, 4]
+[material]
+law = "stable-neo-hookean"
+young = 5e3
+poisson = 0.45
+[damping]
+alpha = 5.0
+[[fix]]
+plane = { point = [0, 0, 0], normal = [0, 0, 1] }
+[run]
+duration = 1.0
+[multigrid]
+scheme = "raisov-paper"
+levels = 2
+"#;
+    let sc = Scenario::from_toml(text, std::path::Path::new("paper.toml")).unwrap();
+    assert!(matches!(sc.scheme(), Scheme::RaisovPaper(_)));
+    let mut from_file = Simulation::from_scenario(&sc).unwrap();
+    let meshes = sc.level_meshes().unwrap();
+    let mut from_code = SimulationBuilder::new(meshes[0].clone())
+        .levels(meshes[1..].to_vec())
+        .young_poisson(5e3, 0.45)
+        .damping(5.0)
+        .gravity(G)
+        .fix(|p| p[2] <= 0.0)
+        .scheme(sc.scheme())
+        .build()
+        .unwrap();
+    assert_eq!(
+        from_code.stepper().describe(),
+        from_file.stepper().describe()
+    );
+    assert!(from_code.stepper().describe().starts_with("raisov"));
+    for _ in 0..4 {
+        let a = from_file.step_frame(Budget::Cycles(5));
+        let b = from_code.step_frame(Budget::Cycles(5));
+        assert!(a.accepted && b.accepted, "{a:?} {b:?}");
+        assert_eq!(from_file.positions(), from_code.positions());
+    }
+    // The top sinks under gravity.
+    let top = from_code
+        .positions()
+        .iter()
+        .map(|p| p[2])
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(top < 0.04, "{top}");
+}
+
+/// neo-hookean-visco under the paper's cycle, as under FAS: the cycles do not advance the
+/// law's internal variables (a scenario refuses `[multigrid]` with it for the same reason).
+#[test]
+fn builder_refuses_visco_under_the_papers_cycle() {
+    let visco = crate::material::NeoHookeanVisco::new(
+        1e3,
+        2e4,
+        vec![crate::material::Prony {
+            alpha: 0.3,
+            tau: 0.05,
+        }],
+    )
+    .unwrap();
+    let e = refused(
+        SimulationBuilder::new(cube(3))
+            .levels(vec![cube(2)])
+            .material(Material::NeoHookeanVisco(visco))
+            .scheme(Scheme::RaisovPaper(RaisovParams {
+                epsilon: 1e-6,
+                reading: Reading::Correction,
+                kinetic_limit: f64::INFINITY,
+            })),
+    );
+    assert!(e.contains("Scheme::RaisovPaper"), "{e}");
+}
+
+/// Without coarser levels the paper's cycle is its integrator's step on level 0: the same
+/// bits as `Scheme::SingleLevel` at the same (default) step.
+#[test]
+fn the_papers_cycle_on_one_level_is_its_integrator_alone() {
+    let build = |scheme: Scheme| {
+        SimulationBuilder::new(cube(3))
+            .gravity(G)
+            .fix(|p| p[2] <= 0.0)
+            .scheme(scheme)
+            .build()
+            .unwrap()
+    };
+    let mut paper = build(Scheme::RaisovPaper(RaisovParams {
+        epsilon: 1e-6,
+        reading: Reading::Correction,
+        kinetic_limit: f64::INFINITY,
+    }));
+    let mut single = build(Scheme::SingleLevel(Method::SymplecticEuler));
+    for _ in 0..3 {
+        assert!(paper.step_frame(Budget::Cycles(5)).accepted);
+        assert!(single.step_frame(Budget::Cycles(5)).accepted);
+        assert_eq!(paper.positions(), single.positions());
+    }
+    // Gravity moved it.
+    assert!(paper.displacements().iter().any(|&u| u != 0.0));
+}

@@ -21,14 +21,25 @@ pub(crate) fn cmd_bench_frames(
     let words: Vec<String> = case.iter().map(|w| w.trim().to_lowercase()).collect();
     for w in &words {
         if ![
-            "nh", "snh", "rigid", "springs", "node", "slow", "fast", "fas", "newton",
+            "nh",
+            "snh",
+            "rigid",
+            "springs",
+            "node",
+            "slow",
+            "fast",
+            "fas",
+            "newton",
+            "rapier",
+            "rapier-sweep",
         ]
         .contains(&w.as_str())
         {
             return Err(BadInput(raisov::Error::param(
                 "--case",
                 format!(
-                    "`{w}`: valid words are NH, SNH, rigid, springs, node, slow, fast, fas, newton"
+                    "`{w}`: valid words are NH, SNH, rigid, springs, node, slow, fast, fas, newton, \
+                     rapier, rapier-sweep"
                 ),
             ))
             .into());
@@ -66,14 +77,21 @@ pub(crate) fn cmd_bench_frames(
     if !cycles.is_empty() {
         opts.cycles = cycles;
     }
-    let solvers: Vec<Solver> = [("fas", Solver::Fas), ("newton", Solver::Newton)]
-        .into_iter()
-        .filter(|(w, _)| has(w))
-        .map(|(_, s)| s)
-        .collect();
+    // `rapier-sweep`: rapier's row by the sweep of the rule that chose its settings.
+    opts.rapier_sweep = has("rapier-sweep");
+    let solvers: Vec<Solver> = [
+        ("fas", Solver::Fas),
+        ("newton", Solver::Newton),
+        ("rapier", Solver::Rapier),
+    ]
+    .into_iter()
+    .filter(|(w, _)| has(w) || (*w == "rapier" && opts.rapier_sweep))
+    .map(|(_, s)| s)
+    .collect();
     if !solvers.is_empty() {
         opts.solvers = solvers;
     }
+    fr::check(&opts).map_err(BadInput)?;
     fr::frames(&meshes, &opts, &mut |line| println!("{line}"))
         .map_err(BadInput)
         .with_context(|| format!("the organ meshes from {}", meshes.display()))?;

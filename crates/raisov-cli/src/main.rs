@@ -135,7 +135,10 @@ enum Cmd {
         /// ("liver mesher 17k", "liver mesher 70k"), which run only when named;
         /// `surface-check`: e.g. "cone 80k,liver".
         /// `frames`: only the cases with these words (comma-separated, of NH, SNH,
-        /// rigid, springs, node, slow, fast, fas, newton; each kind given narrows that kind).
+        /// rigid, springs, node, slow, fast, fas, newton, rapier; each kind given narrows
+        /// that kind; `rapier`, a solver word not among the defaults, is the outside peer,
+        /// rapier's FEM soft body, and `rapier-sweep` runs the rule that chose its settings:
+        /// both need the cargo feature `rapier`).
         #[arg(long, value_delimiter = ',')]
         case: Vec<String>,
         /// `frames`: the organs, one of liver, heart, liver50k, all (default: liver and heart).

@@ -26,7 +26,12 @@
 //!   [`raisov::statics::frames`]: one Newton step a frame, `newton` in the case's name), each
 //!   without and with the frame predictor (`[interactive] predictor`: the frame starts from
 //!   the last frame's change extrapolated, [`raisov::sim::frame`]; the Newton step's
-//!   conjugate gradients start from it).
+//!   conjugate gradients start from it); and, named (`--case ...,rapier`) and built with the
+//!   cargo feature `rapier`, the outside peer: rapier's FEM soft body on level 0, one implicit
+//!   Euler step a frame at the settings its rule chose (module `rapier_peer`; its row's name
+//!   ends in `rapier SxC aA`: S substeps of at most C CG iterations, linear damping A /s, and
+//!   its table has no evaluation count or residual), followed by its lag against its own
+//!   equilibria; `rapier-sweep` runs that rule instead, a row per setting.
 //!
 //! Per case, from [`raisov::scenario::interactive`]'s summary: frames per second of stepper
 //! wall time (`fps`; `fps-1` without the slowest frame, which for the frame solver is a
@@ -150,6 +155,9 @@ pub enum Solver {
     /// Newton step a frame, its Galerkin V-cycle over level 0 and the coarse level the static
     /// solver takes.
     Newton,
+    /// The outside peer: rapier's FEM soft body on level 0, one implicit Euler step a frame
+    /// (`rapier_peer`, built with the cargo feature `rapier`).
+    Rapier,
 }
 
 /// What a run measures (module docs).
@@ -164,8 +172,12 @@ pub struct FramesOptions {
     pub cycles: Vec<u32>,
     /// Without and/or with the frame predictor ([`raisov::sim::Simulation::set_predictor`]).
     pub predictor: Vec<bool>,
-    /// The frame solvers; the Newton frame solver runs one step a frame whatever `cycles`.
+    /// The frame solvers; the Newton frame solver runs one step a frame whatever `cycles`,
+    /// rapier one step of its chosen settings.
     pub solvers: Vec<Solver>,
+    /// With [`Solver::Rapier`]: instead of its chosen settings, the sweep of the rule that
+    /// chose them (`rapier_peer` module docs), a row per setting.
+    pub rapier_sweep: bool,
 }
 
 impl FramesOptions {
@@ -181,6 +193,7 @@ impl FramesOptions {
                 cycles: vec![2],
                 predictor: vec![false, true],
                 solvers: vec![Solver::Fas, Solver::Newton],
+                rapier_sweep: false,
             }
         } else {
             FramesOptions {
@@ -191,6 +204,7 @@ impl FramesOptions {
                 cycles: vec![1, 2, 4],
                 predictor: vec![false, true],
                 solvers: vec![Solver::Fas, Solver::Newton],
+                rapier_sweep: false,
             }
         }
     }
@@ -261,7 +275,9 @@ pub fn scenario(
             0.01,
             [0.0, -0.01, -0.017],
             match solver {
-                Solver::Fas => "scheme = \"fas\"\nlevels = 4\nratio = 0.5\ncoarse = \"newton\"",
+                Solver::Fas | Solver::Rapier => {
+                    "scheme = \"fas\"\nlevels = 4\nratio = 0.5\ncoarse = \"newton\""
+                }
                 Solver::Newton => "scheme = \"newton\"\nlevels = 4\nratio = 0.5",
             }
             .to_string(),
@@ -281,8 +297,9 @@ pub fn scenario(
             )
         }
     };
+    // rapier's case is FAS's: its hierarchy is only the reference solve's coarse level.
     let multigrid = match solver {
-        Solver::Fas => multigrid,
+        Solver::Fas | Solver::Rapier => multigrid,
         Solver::Newton => multigrid.replacen("scheme = \"fas\"", "scheme = \"newton\"", 1),
     };
     let radius = if grasp == Grasp::Node { 0.0 } else { radius };
@@ -378,12 +395,28 @@ fn viewer_work_ms(sc: &Scenario) -> f64 {
     1e3 * best
 }
 
-/// Run the cases of `opts` on the meshes of `meshes`, a line of the table at a time to `out`.
+/// Whether this build runs every case `opts` asks for: the rapier peer needs the cargo
+/// feature `rapier` (an error saying how to build with it).
+pub fn check(opts: &FramesOptions) -> Result<()> {
+    if opts.solvers.contains(&Solver::Rapier) && !cfg!(feature = "rapier") {
+        return Err(Error::param(
+            "--case rapier",
+            "this raisov was built without the rapier peer: build it with the cargo feature \
+             `rapier`, e.g. `cargo run --release -p raisov-cli --features rapier -- bench \
+             frames --case NH,rigid,slow,rapier`",
+        ));
+    }
+    Ok(())
+}
+
+/// Run the cases of `opts` on the meshes of `meshes`, a line of the table at a time to `out`
+/// ([`check`] first).
 pub fn frames(
     meshes: &Path,
     opts: &FramesOptions,
     out: &mut dyn FnMut(&str),
 ) -> Result<Vec<FramesRow>> {
+    check(opts)?;
     out(&format!(
         "raisov bench frames: {} thread(s); each case's lag against its frames' static \
          equilibria to 1e-8 of the force scale",
@@ -401,10 +434,15 @@ pub fn frames(
                         .flat_map(|&solver| {
                             let cycles = match solver {
                                 Solver::Fas => opts.cycles.clone(),
-                                Solver::Newton => vec![1],
+                                Solver::Newton | Solver::Rapier => vec![1],
+                            };
+                            // rapier takes no prediction from raisov: one row.
+                            let predictor = match solver {
+                                Solver::Rapier => vec![false],
+                                _ => opts.predictor.clone(),
                             };
                             cycles.into_iter().flat_map(move |c| {
-                                opts.predictor.iter().map(move |&p| (solver, c, p))
+                                predictor.clone().into_iter().map(move |p| (solver, c, p))
                             })
                         })
                         .collect();
@@ -440,13 +478,17 @@ pub fn frames(
                             law.name(),
                             grasp.name(),
                             if fast { "fast" } else { "slow" },
-                            if solver == Solver::Newton {
-                                " newton"
-                            } else {
-                                ""
+                            match solver {
+                                Solver::Fas => "",
+                                Solver::Newton => " newton",
+                                Solver::Rapier => " rapier",
                             },
                             if predictor { " predicted" } else { "" }
                         );
+                        if solver == Solver::Rapier {
+                            rows.extend(rapier_rows(&sc, organ, &case, opts.rapier_sweep, out)?);
+                            continue;
+                        }
                         let solution = solve(
                             &sc,
                             RunOptions {
@@ -495,39 +537,7 @@ pub fn frames(
                             )
                         } else {
                             // The frame solver's work is its CG iterations: say what fails.
-                            let mut why = Vec::new();
-                            if row.fps < row.target_fps {
-                                // Where the time goes: the slowest frame (a grasp's first,
-                                // where the operator is built) against the others.
-                                let frames = row.frames.max(1) as f64;
-                                let mean_ms = 1e3 / row.fps.max(1e-12);
-                                let rest_ms = if row.frames > 1 {
-                                    (mean_ms * frames - row.slowest_ms) / (frames - 1.0)
-                                } else {
-                                    f64::NAN
-                                };
-                                why.push(format!(
-                                    "{:.2}x too slow ({:.1} ms a frame fit, {:.1} spent: the \
-                                     slowest {:.0} ms is {:.0}% of the run, the others {:.1} ms \
-                                     on average)",
-                                    row.target_fps / row.fps.max(1e-12),
-                                    1e3 / row.target_fps,
-                                    mean_ms,
-                                    row.slowest_ms,
-                                    100.0 * row.slowest_ms / (mean_ms * frames),
-                                    rest_ms,
-                                ));
-                            }
-                            if row.lag_mean > 0.01 {
-                                why.push("mean lag > 1%".to_string());
-                            }
-                            if row.lag_max > 0.03 {
-                                why.push("max lag > 3%".to_string());
-                            }
-                            if row.reference_failures + row.rejected > 0 {
-                                why.push("failed or rejected frames".to_string());
-                            }
-                            format!("missed: {}", why.join(", "))
+                            goal_of(&row)
                         };
                         out(&format!(
                             "{:<35} {:>6} {:>7.1} {:>7.1} {:>8.2}% {:>8.2}% {:>11.1} {:>7.1}ms {:>11.3e} {:>5} {:>8}  {goal}",
@@ -550,4 +560,139 @@ pub fn frames(
         }
     }
     Ok(rows)
+}
+
+/// The goal column of a row that is not FAS's: what fails, or `met`.
+fn goal_of(row: &FramesRow) -> String {
+    if row.meets() {
+        return "met".to_string();
+    }
+    let mut why = Vec::new();
+    if row.fps < row.target_fps {
+        // Where the time goes: the slowest frame (for the frame solver a grasp's first, where
+        // the operator is built) against the others.
+        let frames = row.frames.max(1) as f64;
+        let mean_ms = 1e3 / row.fps.max(1e-12);
+        let rest_ms = if row.frames > 1 {
+            (mean_ms * frames - row.slowest_ms) / (frames - 1.0)
+        } else {
+            f64::NAN
+        };
+        why.push(format!(
+            "{:.2}x too slow ({:.1} ms a frame fit, {:.1} spent: the slowest {:.0} ms is {:.0}% \
+             of the run, the others {:.1} ms on average)",
+            row.target_fps / row.fps.max(1e-12),
+            1e3 / row.target_fps,
+            mean_ms,
+            row.slowest_ms,
+            100.0 * row.slowest_ms / (mean_ms * frames),
+            rest_ms,
+        ));
+    }
+    if row.lag_mean > 0.01 {
+        why.push("mean lag > 1%".to_string());
+    }
+    if row.lag_max > 0.03 {
+        why.push("max lag > 3%".to_string());
+    }
+    if row.reference_failures + row.rejected > 0 {
+        why.push("failed or rejected frames".to_string());
+    }
+    format!("missed: {}", why.join(", "))
+}
+
+/// rapier's rows of a case (`rapier_peer`): its chosen settings, or the sweep that chose
+/// them; each followed by its lags against its own equilibria.
+#[cfg(feature = "rapier")]
+fn rapier_rows(
+    sc: &Scenario,
+    organ: Organ,
+    case: &str,
+    sweep: bool,
+    out: &mut dyn FnMut(&str),
+) -> Result<Vec<FramesRow>> {
+    use super::rapier_peer::{self as rp, RapierSettings};
+    let fps = sc.interactive.map_or(30.0, |i| i.fps);
+    // rapier's own equilibria of the frames: the same for every setting.
+    let rest = rp::rest(sc)?;
+    let mut rows = Vec::new();
+    let row_of = |run: &rp::PeerRun, out: &mut dyn FnMut(&str)| {
+        let s = &run.summary;
+        let (fps, fps_rest) = run.fps();
+        let row = FramesRow {
+            case: format!("{} {case}", organ.name()),
+            solver: Solver::Rapier,
+            predictor: false,
+            cycles: run.settings.substeps as u32,
+            frames: s.frames,
+            fps,
+            fps_rest,
+            lag_mean: s.lag_rel_mean(),
+            lag_max: s.lag_rel_max,
+            evals_per_frame: f64::NAN,
+            slowest_ms: 1e3 * run.wall.iter().copied().fold(0.0, f64::max),
+            residual: f64::NAN,
+            reference_failures: s.reference_failures,
+            rejected: s.rejected_frames,
+            target_fps: organ.target_fps(),
+        };
+        out(&format!("stepper: {}", s.stepper));
+        let st = &run.settings;
+        out(&format!(
+            "{:<35} {:>6} {:>7.1} {:>7.1} {:>8.2}% {:>8.2}% {:>11} {:>7.1}ms {:>11} {:>5} {:>8}  {}",
+            format!("{case} {}x{} a{}", st.substeps, st.cg_max, st.damping),
+            "-",
+            row.fps,
+            row.fps_rest,
+            100.0 * row.lag_mean,
+            100.0 * row.lag_max,
+            "-",
+            row.slowest_ms,
+            "-",
+            format!("{}/{}", row.frames - row.reference_failures, row.frames),
+            row.rejected,
+            goal_of(&row),
+        ));
+        out(&format!(
+            "  against rapier's own equilibria: mean {:.2}%, max {:.2}%",
+            100.0 * run.own_mean,
+            100.0 * run.own_max,
+        ));
+        row
+    };
+    out(&format!(
+        "rapier's own equilibria (each frame run to rest, {:.1} implicit steps of 100 s on \
+         average{}) against raisov's u*, the law's difference: mean {:.2}%, max {:.2}%",
+        rest.mean_steps,
+        if rest.unsettled > 0 {
+            format!("; {} frames missed the rule", rest.unsettled)
+        } else {
+            String::new()
+        },
+        100.0 * rest.summary.lag_rel_mean(),
+        100.0 * rest.summary.lag_rel_max
+    ));
+    if sweep {
+        let chosen = rp::sweep(sc, &rest, &mut |run| rows.push(row_of(run, out)))?;
+        out(&format!("rapier: the rule chose {}", chosen.describe()));
+    } else {
+        let run = rp::peer(sc, RapierSettings::chosen(fps), &rest)?;
+        rows.push(row_of(&run, out));
+    }
+    Ok(rows)
+}
+
+/// Without the cargo feature `rapier`: refused ([`frames`] refuses before any case).
+#[cfg(not(feature = "rapier"))]
+fn rapier_rows(
+    _sc: &Scenario,
+    _organ: Organ,
+    _case: &str,
+    _sweep: bool,
+    _out: &mut dyn FnMut(&str),
+) -> Result<Vec<FramesRow>> {
+    Err(Error::param(
+        "--case rapier",
+        "this raisov was built without the rapier peer (cargo feature `rapier`)",
+    ))
 }

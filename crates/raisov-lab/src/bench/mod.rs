@@ -57,6 +57,8 @@ mod api;
 pub mod cut;
 pub mod frames;
 mod implicit;
+#[cfg(feature = "rapier")]
+pub mod rapier_peer;
 pub use api::api;
 pub use implicit::implicit;
 pub mod surface_check;

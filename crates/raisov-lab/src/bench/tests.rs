@@ -304,3 +304,24 @@ fn quick_run_produces_rows() {
     assert!(to_csv(&rows).lines().count() == rows.len() + 1);
     assert!(to_markdown(&rows).contains("node-updates/s"));
 }
+
+/// Without the cargo feature `rapier`, asking `bench frames` for the rapier peer is refused
+/// before any case runs, saying how to build with it.
+#[cfg(not(feature = "rapier"))]
+#[test]
+fn frames_without_rapier_refuses_the_peer() {
+    use super::frames::{frames, FramesOptions, Organ, Solver};
+    let mut opts = FramesOptions::new(vec![Organ::Liver], true);
+    opts.solvers = vec![Solver::Rapier];
+    let mut lines = Vec::new();
+    let e = frames(std::path::Path::new("no-such-dir"), &opts, &mut |l| {
+        lines.push(l.to_string())
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("--case rapier") && e.contains("--features rapier"),
+        "{e}"
+    );
+    assert!(lines.is_empty(), "{lines:?}");
+}

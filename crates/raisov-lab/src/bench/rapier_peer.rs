@@ -49,11 +49,12 @@
 //!
 //! Steps 2 and 3 give the cheapest setting at which more of rapier's own work no longer
 //! buys a smaller lag: its best lag at the least cost (a budget rule, the most it can do in
-//! raisov's frame time, would leave it at 1 substep and CG ≤ 20, itself several times slower
-//! than real time on these organs). The constants are the rule's outcome on the liver L0,
-//! neo-Hookean, rigid grasp, slow path: α = 3 /s, 4 substeps, CG ≤ 20, rapier's defaults
-//! and a light damping. `raisov bench frames --organ liver --case NH,rigid,slow,rapier-sweep`
-//! runs the rule on that case (or any other) and prints a row per setting it tries.
+//! raisov's frame time, would pin it to its cheapest setting wherever that alone takes longer
+//! than raisov's frames, and say nothing of its lag). The constants are the rule's outcome
+//! on the liver L0, neo-Hookean, rigid grasp, slow path: α = 3 /s, 4 substeps, CG ≤ 20,
+//! rapier's defaults and a light damping; every case runs with them. `raisov bench frames
+//! --organ liver --case NH,rigid,slow,rapier-sweep` runs the rule on that case (or any
+//! other) and prints a row per setting it tries.
 //!
 //! The law. rapier's neo-Hookean cell is the stable neo-Hookean of Smith et al. 2018 in Kim &
 //! Eberle 2020's form without the logarithm, written on the corotated stretch `S = Rᵀ F`

@@ -94,7 +94,12 @@ pub(crate) fn cmd_bench_frames(
     fr::check(&opts).map_err(BadInput)?;
     fr::frames(&meshes, &opts, &mut |line| println!("{line}"))
         .map_err(BadInput)
-        .with_context(|| format!("the organ meshes from {}", meshes.display()))?;
+        .with_context(|| {
+            format!(
+                "raisov bench frames (organ meshes from {})",
+                meshes.display()
+            )
+        })?;
     Ok(0)
 }
 

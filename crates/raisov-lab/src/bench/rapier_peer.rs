@@ -854,36 +854,27 @@ pub fn sweep(
             chosen.damping = alpha;
         }
     }
-    for (i, &s) in SUBSTEPS.iter().enumerate() {
-        chosen.substeps = s;
-        let here = lag(chosen, report)?;
-        let more = lag(
-            RapierSettings {
-                substeps: 4 * s,
-                ..chosen
-            },
-            report,
-        )?;
-        if here <= WITHIN * more || i + 1 == SUBSTEPS.len() {
-            break;
-        }
-    }
-    for (i, &c) in CG_CAPS.iter().enumerate() {
-        chosen.cg_max = c;
-        let here = lag(chosen, report)?;
-        let more = lag(
-            RapierSettings {
-                cg_max: 4 * c,
-                ..chosen
-            },
-            report,
-        )?;
-        if here <= WITHIN * more || i + 1 == CG_CAPS.len() {
-            break;
+    // Each budget knob in turn: the first rung within WITHIN of the lag at 4× the rung.
+    let knobs: [(&[usize], Knob); 2] = [
+        (&SUBSTEPS, |s| &mut s.substeps),
+        (&CG_CAPS, |s| &mut s.cg_max),
+    ];
+    for (ladder, knob) in knobs {
+        for (i, &rung) in ladder.iter().enumerate() {
+            *knob(&mut chosen) = rung;
+            let here = lag(chosen, report)?;
+            let mut more = chosen;
+            *knob(&mut more) = 4 * rung;
+            if here <= WITHIN * lag(more, report)? || i + 1 == ladder.len() {
+                break;
+            }
         }
     }
     Ok(chosen)
 }
+
+/// A budget knob of [`RapierSettings`] that [`sweep`] climbs.
+type Knob = fn(&mut RapierSettings) -> &mut usize;
 
 /// The ladders of [`sweep`] and its margin.
 const DAMPINGS: [f64; 6] = [0.0, 3.0, 10.0, 30.0, 100.0, 300.0];

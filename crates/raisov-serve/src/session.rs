@@ -65,7 +65,7 @@ use crate::protocol::{
 use crate::record::{Event, Recorder};
 use crate::ServeError;
 use raisov::mesh::cut::Blade;
-use raisov::scenario::spec::Named;
+use raisov::scenario::spec::{MultigridSpec, FAS_KEYS, NEWTON_KEYS, PAPER_KEYS};
 use raisov::sim::{Budget, GrabId, GrabOptions, Simulation};
 use raisov::SchemeKind;
 use std::path::{Path, PathBuf};
@@ -93,23 +93,6 @@ pub struct Source {
     /// The scheme the scenario names, as the page offers it (one of [`protocol::METHODS`]).
     pub method: SchemeKind,
 }
-
-/// Keys of `[multigrid]` only the FAS scheme accepts.
-const FAS_ONLY: &[&str] = &[
-    "pre_smooth",
-    "post_smooth",
-    "smoother",
-    "coarse",
-    "coarse_time",
-    "coarse_iterations",
-    "scaling",
-    "transfer",
-    "accelerate",
-];
-/// Keys of `[multigrid]` only the raisov-paper scheme accepts.
-const RAISOV_ONLY: &[&str] = &["reading", "epsilon"];
-/// Keys of `[multigrid]` only the frame solver (`scheme = "newton"`) accepts.
-const NEWTON_ONLY: &[&str] = &["cg_per_step"];
 
 impl Source {
     /// A scenario file (the TOML of `raisov run`).
@@ -148,28 +131,17 @@ impl Source {
         table.remove("pin");
         table.remove("cut");
         table.remove("interactive");
-        let method = match table.get("multigrid").and_then(|m| m.get("scheme")) {
-            // Backward Euler on one level, its levels preconditioning the Newton solves.
+        // The scheme a viewer's frames run: the resolver's own rule for an interactive
+        // scenario (`MultigridSpec::scheme_kind`); backward Euler on one level, its levels
+        // preconditioning the Newton solves. A `[multigrid]` the resolver would refuse is
+        // offered as FAS, and the resolver then says what is wrong with it.
+        let method = match table.get("multigrid") {
             _ if implicit(&table) => SchemeKind::SingleLevel,
-            // Levels without a scheme: the frame solver, as an interactive scenario takes
-            // them, unless FAS's own keys say FAS.
-            None if table.contains_key("multigrid") => {
-                let fas = table
-                    .get("multigrid")
-                    .and_then(|m| m.as_table())
-                    .is_some_and(|m| FAS_ONLY.iter().any(|k| m.contains_key(*k)));
-                if fas {
-                    SchemeKind::Fas
-                } else {
-                    SchemeKind::Newton
-                }
-            }
             None => SchemeKind::SingleLevel,
-            // The words of `[multigrid] scheme`; another value is the resolver's error.
-            Some(s) => s
-                .as_str()
-                .and_then(<SchemeKind as Named>::from_name)
-                .unwrap_or(SchemeKind::Fas),
+            Some(mg) => mg
+                .clone()
+                .try_into::<MultigridSpec>()
+                .map_or(SchemeKind::Fas, |mg| mg.scheme_kind(true)),
         };
         let name = table
             .get("name")
@@ -271,9 +243,9 @@ impl Source {
                         mg.insert("levels".into(), toml::Value::Integer(2));
                     }
                     let drop: &[&[&str]] = match method {
-                        SchemeKind::Fas => &[RAISOV_ONLY, NEWTON_ONLY],
-                        SchemeKind::Newton => &[RAISOV_ONLY, FAS_ONLY],
-                        _ => &[FAS_ONLY, NEWTON_ONLY],
+                        SchemeKind::Fas => &[PAPER_KEYS, NEWTON_KEYS],
+                        SchemeKind::Newton => &[PAPER_KEYS, FAS_KEYS],
+                        _ => &[FAS_KEYS, NEWTON_KEYS],
                     };
                     mg.insert("scheme".into(), toml::Value::String(method.name().into()));
                     for k in drop.iter().copied().flatten() {
@@ -1273,6 +1245,40 @@ mod tests {
         let t = cube("cg_per_step = 3").table_for(SchemeKind::Fas);
         let mg = t.get("multigrid").and_then(|m| m.as_table()).unwrap();
         assert!(!mg.contains_key("cg_per_step"));
+    }
+
+    /// The viewer serves the scheme the resolver resolves for the same `[multigrid]` of an
+    /// interactive scenario: one rule (`MultigridSpec::scheme_kind`), not a copy of it.
+    #[test]
+    fn the_viewer_serves_the_scheme_the_resolver_resolves() {
+        for multigrid in [
+            "",
+            "coarse = \"newton\"",
+            "smoother = \"dynamics\"\npre_smooth = 2",
+            "cg_per_step = 3",
+            "scheme = \"fas\"",
+            "scheme = \"raisov-paper\"",
+            "scheme = \"newton\"",
+        ] {
+            let text = format!(
+                "[mesh]\ngenerate = \"box\"\nsize = [0.04, 0.04, 0.04]\ndivisions = [4, 4, 4]\n\
+                 [material]\nlaw = \"neo-hookean\"\nyoung = 5e3\npoisson = 0.45\n\
+                 [[fix]]\nplane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}\n\
+                 [run]\nduration = 0.1\n[multigrid]\nlevels = 2\n{multigrid}\n"
+            );
+            let served =
+                Source::from_text(&text, PathBuf::from("."), "cube", Path::new("cube.toml"))
+                    .unwrap()
+                    .method;
+            let resolved = raisov::scenario::Scenario::from_toml(
+                &format!("{text}[interactive]\nfps = 30\n"),
+                Path::new("cube.toml"),
+            )
+            .unwrap()
+            .scheme()
+            .kind();
+            assert_eq!(served, resolved, "{multigrid:?}");
+        }
     }
 
     /// Each word of `[multigrid] scheme` is served as its `SchemeKind`, and each kind's

@@ -325,3 +325,45 @@ fn frames_without_rapier_refuses_the_peer() {
     );
     assert!(lines.is_empty(), "{lines:?}");
 }
+
+/// A row that misses the frame goal says by how much each bound is missed: the rate (with
+/// where the time went) and each lag against its bound; a row within every bound says `met`.
+#[test]
+fn a_missed_frame_goal_says_by_how_much_each_bound_is_missed() {
+    use super::frames::{goal_of, FramesRow, Solver};
+    let mut row = FramesRow {
+        case: "liver L0 NH rigid slow".into(),
+        solver: Solver::Newton,
+        predictor: true,
+        cycles: 1,
+        frames: 30,
+        fps: 30.0,
+        fps_rest: 40.0,
+        lag_mean: 0.02,
+        lag_max: 0.06,
+        evals_per_frame: 4.0,
+        slowest_ms: 100.0,
+        residual: 1e-6,
+        reference_failures: 0,
+        rejected: 0,
+        target_fps: 60.0,
+    };
+    let g = goal_of(&row);
+    assert!(
+        g.starts_with("missed: 2.00x too slow (16.7 ms a frame fit, 33.3 spent"),
+        "{g}"
+    );
+    // 30 frames of 33.3 ms: the slowest 100 ms is 10 % of the run, the 29 others 31.0 ms.
+    assert!(
+        g.contains("the slowest 100 ms is 10% of the run, the others 31.0 ms"),
+        "{g}"
+    );
+    assert!(g.contains("mean lag 2.00x its 1% bound"), "{g}");
+    assert!(g.contains("max lag 2.00x its 3% bound"), "{g}");
+    row.fps = 61.0;
+    row.lag_mean = 0.01;
+    row.lag_max = 0.03;
+    assert_eq!(goal_of(&row), "met");
+    row.lag_max = 0.045;
+    assert_eq!(goal_of(&row), "missed: max lag 1.50x its 3% bound");
+}

@@ -6,7 +6,9 @@
 //! each coarser level nearest to level 0's prescribed node (paper section 3.1).
 
 use super::scheme::{Scheme, SchemeKind};
-use super::spec::{defaults, Accelerate, CoarseKind, MeshSpec, MultigridSpec, SmootherKind};
+use super::spec::{
+    defaults, Accelerate, CoarseKind, MeshSpec, MultigridSpec, SmootherKind, FAS_KEYS, PAPER_KEYS,
+};
 use super::{build_system, err, positive, select, BoxCells, Scenario, Selector, Shape};
 use crate::error::Result;
 use crate::hierarchy::Correspondence;
@@ -125,31 +127,12 @@ pub(super) fn resolve(
         }
     };
     // The keys of FAS alone, and of RaISoV alone.
-    let fas_keys = [
-        ("pre_smooth", mg.pre_smooth.is_some()),
-        ("post_smooth", mg.post_smooth.is_some()),
-        ("coarse", mg.coarse.is_some()),
-        ("coarse_time", mg.coarse_time.is_some()),
-        ("coarse_iterations", mg.coarse_iterations.is_some()),
-        ("smoother", mg.smoother.is_some()),
-        ("scaling", mg.scaling.is_some()),
-        ("transfer", mg.transfer.is_some()),
-        ("accelerate", mg.accelerate.is_some()),
-    ];
-    let paper_keys = [
-        ("reading", mg.reading.is_some()),
-        ("epsilon", mg.epsilon.is_some()),
-    ];
-    // Without `scheme`: the frame solver for an interactive scenario (frames toward static
-    // equilibria, what it measures best at), unless FAS's own keys say FAS; FAS otherwise.
-    let fas_set = fas_keys.iter().any(|(_, set)| *set);
-    let kind = mg
-        .scheme
-        .unwrap_or(if interactive && (mg.cg_per_step.is_some() || !fas_set) {
-            SchemeKind::Newton
-        } else {
-            defaults::SCHEME
-        });
+    let keys = |names: &[&'static str]| -> Vec<(&'static str, bool)> {
+        names.iter().map(|k| (*k, mg.sets(k))).collect()
+    };
+    let fas_keys = keys(FAS_KEYS);
+    let paper_keys = keys(PAPER_KEYS);
+    let kind = mg.scheme_kind(interactive);
     let scheme = match kind {
         SchemeKind::RaisovPaper => {
             only(&fas_keys, "scheme = \"fas\"")?;

@@ -900,7 +900,8 @@ pub struct ScenarioSpec {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MultigridSpec {
-    /// `scheme`: `"fas"` (default), `"raisov-paper"` or `"newton"`.
+    /// `scheme`: `"fas"`, `"raisov-paper"` or `"newton"`; without it
+    /// [`MultigridSpec::scheme_kind`] decides.
     pub scheme: Option<SchemeKind>,
     /// `levels`: the level count, level 0 included, with `[mesh] generate` or `surface`; node
     /// counts a geometric series of ratio `ratio`.
@@ -948,6 +949,59 @@ pub struct MultigridSpec {
     /// `level_dt`: the step of each level (s), level 0 first; default: raisov-paper level 0's
     /// step on every level, fas each level's `safety` × its estimated critical step.
     pub level_dt: Option<Vec<f64>>,
+}
+
+/// The keys of `[multigrid]` only FAS (`scheme = "fas"`) takes.
+pub const FAS_KEYS: &[&str] = &[
+    "pre_smooth",
+    "post_smooth",
+    "coarse",
+    "coarse_time",
+    "coarse_iterations",
+    "smoother",
+    "scaling",
+    "transfer",
+    "accelerate",
+];
+/// The keys of `[multigrid]` only the paper's cycle (`scheme = "raisov-paper"`) takes.
+pub const PAPER_KEYS: &[&str] = &["reading", "epsilon"];
+/// The keys of `[multigrid]` only the frame solver (`scheme = "newton"`) takes.
+pub const NEWTON_KEYS: &[&str] = &["cg_per_step"];
+
+impl MultigridSpec {
+    /// Whether the section sets `key` (one of [`FAS_KEYS`], [`PAPER_KEYS`] or
+    /// [`NEWTON_KEYS`]; false for any other name).
+    pub fn sets(&self, key: &str) -> bool {
+        match key {
+            "pre_smooth" => self.pre_smooth.is_some(),
+            "post_smooth" => self.post_smooth.is_some(),
+            "coarse" => self.coarse.is_some(),
+            "coarse_time" => self.coarse_time.is_some(),
+            "coarse_iterations" => self.coarse_iterations.is_some(),
+            "smoother" => self.smoother.is_some(),
+            "scaling" => self.scaling.is_some(),
+            "transfer" => self.transfer.is_some(),
+            "accelerate" => self.accelerate.is_some(),
+            "reading" => self.reading.is_some(),
+            "epsilon" => self.epsilon.is_some(),
+            "cg_per_step" => self.cg_per_step.is_some(),
+            _ => false,
+        }
+    }
+
+    /// The scheme the section runs: `scheme`, or without it the frame solver where the
+    /// scenario is interactive (`[interactive]`, or served by the viewer) and the section sets
+    /// `cg_per_step` or none of FAS's own keys ([`FAS_KEYS`]), else FAS ([`defaults::SCHEME`]).
+    /// The one rule of the resolver and the viewer.
+    pub fn scheme_kind(&self, interactive: bool) -> SchemeKind {
+        let fas_set = FAS_KEYS.iter().any(|k| self.sets(k));
+        self.scheme
+            .unwrap_or(if interactive && (self.cg_per_step.is_some() || !fas_set) {
+                SchemeKind::Newton
+            } else {
+                defaults::SCHEME
+            })
+    }
 }
 
 /// `[interactive]`: a fixed budget per frame while the prescribed displacements move along

@@ -72,6 +72,8 @@ pub struct SimulationBuilder {
     material: Material,
     density: f64,
     thickness: f64,
+    /// [`SimulationBuilder::thickness`] was called.
+    thickness_set: bool,
     gravity: [f64; 3],
     alpha: f64,
     beta: f64,
@@ -92,6 +94,7 @@ impl SimulationBuilder {
             material: Material::StableNeoHookean(StableNeoHookean::from_young(5e3, 0.45)),
             density: 1000.0,
             thickness: 1e-3,
+            thickness_set: false,
             gravity: [0.0; 3],
             alpha: 0.0,
             beta: 0.0,
@@ -130,9 +133,11 @@ impl SimulationBuilder {
         self.density = rho;
         self
     }
-    /// Membrane thickness (m); ignored for tetrahedra.
+    /// Membrane thickness (m); refused at build on tetrahedra, as a scenario refuses
+    /// `[material] thickness` there.
     pub fn thickness(mut self, h: f64) -> Self {
         self.thickness = h;
+        self.thickness_set = true;
         self
     }
     /// Gravity (m/s²).
@@ -169,7 +174,8 @@ impl SimulationBuilder {
     }
 
     /// Build: a force model and system per level, the correspondences, the stepper.
-    /// Errors: a non-positive density, thickness or step, negative damping, a material
+    /// Errors: a non-positive density, thickness or step, a thickness given for tetrahedra,
+    /// negative damping, a material
     /// constant out of its range, an explicit step above twice the estimated critical step,
     /// a fixed region that selects no node on some level, a mesh the force model rejects.
     pub fn build(self) -> Result<Simulation> {
@@ -181,6 +187,12 @@ impl SimulationBuilder {
             if !(v > 0.0 && v.is_finite()) {
                 return Err(Error::param(name, format!("{v}: must be positive")));
             }
+        }
+        if self.thickness_set && self.mesh.kind == crate::mesh::ElementKind::Tet4 {
+            return Err(Error::param(
+                "thickness",
+                "applies to membranes (triangle meshes) only; level 0 is tetrahedral",
+            ));
         }
         if !(self.alpha >= 0.0 && self.alpha.is_finite()) {
             return Err(Error::param(

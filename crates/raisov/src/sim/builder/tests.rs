@@ -245,3 +245,20 @@ fn the_papers_cycle_on_one_level_is_its_integrator_alone() {
     // Gravity moved it.
     assert!(paper.displacements().iter().any(|&u| u != 0.0));
 }
+
+/// The builder ignored a thickness given for tetrahedra, where a scenario refuses
+/// `[material] thickness` on a tetrahedral mesh; now refused, naming the key. A membrane
+/// takes it.
+#[test]
+fn builder_refuses_a_thickness_on_tetrahedra() {
+    assert_eq!(
+        refused(SimulationBuilder::new(cube(2)).thickness(2e-3)),
+        "invalid parameter `thickness`: applies to membranes (triangle meshes) only; level 0 is tetrahedral"
+    );
+    let membrane = crate::mesh::generate::rectangle_membrane(0.1, 0.1, 40).unwrap();
+    assert!(SimulationBuilder::new(membrane)
+        .thickness(2e-3)
+        .fix(|p| p[0] <= 0.0)
+        .build()
+        .is_ok());
+}

@@ -118,14 +118,17 @@
 //! few Newton iterations per frame (`max_newton`) carries the regularisation a flat
 //! membrane's first tangent needs from one frame to the next.
 
+mod direction;
 mod kept;
 mod linear;
 mod pattern;
+mod search;
 mod shift;
 pub use kept::{KeptSolve, TangentProduct};
 pub use linear::{TangentSolver, TangentSolves};
 
 use crate::linalg::cg::{pcg, pcg_from, PcgEnd};
+use search::Residual;
 use shift::{raise_sigma, shift_needed, sigma_after_full_step};
 
 use crate::fem::{ElementFailure, ForceModel};
@@ -746,27 +749,11 @@ impl DirectNewton {
         let mut prev_norm: Option<f64> = None;
         let eta0 = params.first_forcing.clamp(f64::MIN_POSITIVE, 0.5);
         let mut eta_prev = eta0;
-        // Residual on the free dofs at load factor s; returns (2-norm, largest nodal norm).
-        let residual = |model: &mut dyn ForceModel,
-                        u: &[f64],
-                        s: f64,
-                        r: &mut [f64],
-                        fint: &mut [f64]|
-         -> Result<(f64, f64), ElementFailure> {
-            // The loads and tools the model carries take the load factor too.
-            model.set_load_factor(s);
-            model.internal_forces(u, fint)?;
-            add_springs(springs, u, fint);
-            for i in 0..n {
-                r[i] = if fixed_dof(constraints, i) {
-                    0.0
-                } else {
-                    s * f_ext[i] - fint[i]
-                };
-            }
-            let two = r.iter().map(|x| x * x).sum::<f64>().sqrt();
-            let max = (0..n / 3).map(|a| node_norm(r, a)).fold(0.0f64, f64::max);
-            Ok((two, max))
+        // Residual on the free dofs at load factor s: (2-norm, largest nodal norm).
+        let res = Residual {
+            springs,
+            constraints,
+            f_ext,
         };
         {
             let mut full = u.to_vec();
@@ -777,7 +764,8 @@ impl DirectNewton {
             }
             // For the record only: with a prescribed displacement this state has the
             // constrained nodes at their end and the rest at rest, which may invert elements.
-            out.initial_residual = residual(model, &full, 1.0, &mut r, &mut fint)
+            out.initial_residual = res
+                .eval(model, &full, 1.0, &mut r, &mut fint)
                 .map_or(f64::INFINITY, |(_, max)| max);
             out.force_evaluations += 1;
         }
@@ -800,8 +788,9 @@ impl DirectNewton {
             } else {
                 params.rel_tol.max(1e-6) * s * vmax + params.abs_tol
             };
-            let (mut norm, mut max) =
-                residual(model, u, s, &mut r, &mut fint).map_err(DirectNewtonError::Inverted)?;
+            let (mut norm, mut max) = res
+                .eval(model, u, s, &mut r, &mut fint)
+                .map_err(DirectNewtonError::Inverted)?;
             out.force_evaluations += 1;
             out.history.clear();
             let mut pi_at: Option<f64> = None;
@@ -834,305 +823,48 @@ impl DirectNewton {
                 if let Some(mgp) = params.multigrid {
                     let eta = forcing_term(prev_norm, norm, eta_prev, tol, max, eta0);
                     eta_prev = eta;
-                    let scatter = self.scatter.get_or_insert_with(|| {
-                        SymScatter::new(
-                            self.nfree,
-                            self.symbolic.col_ptr(),
-                            self.symbolic.row_idx(),
-                        )
-                    });
-                    if self.standing == Standing::Rebuild {
-                        // Counted only where the provisional hierarchy is still kept: one the
-                        // stale rule dropped at the same step is rebuilt anyway.
-                        self.standing = Standing::Settled;
-                        if self.mg.take().is_some() {
-                            out.provisional_rebuilds += 1;
-                        }
-                    }
-                    let mut warm = false;
-                    let mut stale = false;
-                    // A direction of non-positive curvature met after the first.
-                    let mut negative: Vec<f64> = Vec::new();
-                    while !solved {
-                        let shift = sigma * dbar;
-                        let full = |out: &mut Csr| {
-                            scatter.fill(&self.vals, out);
-                            for (&d, w) in self.diag.iter().zip(&self.weight) {
-                                out.val[scatter.position(d as usize)] += shift * w;
-                            }
-                        };
-                        let reused = self.mg.is_some();
-                        // The current matrix: the hierarchy's finest operator, unless the
-                        // whole earlier hierarchy is kept.
-                        let mut current = None;
-                        match (self.mg.as_mut(), mgp.keep) {
-                            (Some(mg), false) => {
-                                let clock = std::time::Instant::now();
-                                full(mg.finest_mut());
-                                mg.refresh();
-                                out.setup_s += clock.elapsed().as_secs_f64();
-                            }
-                            (Some(_), true) => {
-                                let mut a = scatter.pattern.clone();
-                                full(&mut a);
-                                current = Some(a);
-                            }
-                            (None, _) => {
-                                let clock = std::time::Instant::now();
-                                let mut a = scatter.pattern.clone();
-                                full(&mut a);
-                                out.multigrid_setups += 1;
-                                let built = GalerkinMultigrid::new(
-                                    a,
-                                    self.prolongations.clone(),
-                                    mgp.sweeps,
-                                    mgp.smoother,
-                                    mgp.coarse_precision,
-                                    &mut self.hierarchy_symbolic,
-                                );
-                                out.setup_s += clock.elapsed().as_secs_f64();
-                                self.mg = match built {
-                                    Ok(mg) => {
-                                        built_now = true;
-                                        Some(mg)
-                                    }
-                                    Err(GalerkinError::Memory(m)) => {
-                                        return Err(DirectNewtonError::Memory(m))
-                                    }
-                                    Err(GalerkinError::Factor(_)) => None,
-                                };
-                            }
-                        }
-                        let end = match &self.mg {
-                            Some(mg) => pcg_from(
-                                |x, y| current.as_ref().unwrap_or(mg.matrix()).matvec(x, y),
-                                |r, z| mg.apply(r, z),
-                                &b,
-                                &mut rhs,
-                                std::mem::take(&mut warm),
-                                eta * bnorm,
-                                mgp.max_iter,
-                                Some(&mut negative),
-                            ),
-                            None => PcgEnd::Breakdown(None),
-                        };
-                        if let PcgEnd::Converged(it) = end {
-                            // A kept hierarchy close to missing η is rebuilt before the
-                            // next Newton iteration, not after it has failed one.
-                            stale = reused && STALE_SHARE * it as f64 > mgp.max_iter as f64;
-                        }
-                        match end {
-                            PcgEnd::Converged(it) | PcgEnd::Truncated(it) => {
-                                out.cg_iterations += it;
-                                solved = true;
-                            }
-                            PcgEnd::MaxIter if !reused => {
-                                out.cg_iterations += mgp.max_iter;
-                                solved = true;
-                            }
-                            PcgEnd::Negative(it, pq) => {
-                                // Not Steihaug's truncation (module docs): the iterate before
-                                // this direction can be a huge step along a nearly singular
-                                // one. Raise σ past the shift at which p's curvature vanishes
-                                // and solve again, the hierarchy kept (its operators take the
-                                // new shift).
-                                out.cg_iterations += it;
-                                let needed = shift_needed(&self.weight, sigma, dbar, pq, &negative);
-                                sigma = raise_sigma(sigma, params.sigma_min, needed)?;
-                            }
-                            PcgEnd::Breakdown(None) if reused => {
-                                // The kept cycle is not positive on this residual: rebuild
-                                // it at the current state, same σ.
-                                self.mg = None;
-                            }
-                            PcgEnd::MaxIter if reused => {
-                                // Rebuild the hierarchy at the current state, same σ, and
-                                // go on from the iterate so far.
-                                out.cg_iterations += mgp.max_iter;
-                                self.mg = None;
-                                warm = true;
-                            }
-                            _ => {
-                                // A fresh hierarchy's breakdown, or a first direction of
-                                // non-positive curvature: raise σ. A kept hierarchy stays (it
-                                // is positive definite, built where K was); one built at this
-                                // indefinite state would need its coarsest operator shifted.
-                                if !reused {
-                                    self.mg = None;
-                                }
-                                // Each new σ costs a hierarchy: jump past the first
-                                // direction's σ* at once.
-                                let needed = match end {
-                                    PcgEnd::Breakdown(Some(pq)) => {
-                                        shift_needed(&self.weight, sigma, dbar, pq, &rhs)
-                                    }
-                                    _ => 0.0,
-                                };
-                                sigma = raise_sigma(sigma, params.sigma_min, needed)?;
-                            }
-                        }
-                    }
-                    if stale {
-                        self.mg = None;
-                    }
+                    (solved, built_now) = self.multigrid_direction(
+                        mgp, &b, bnorm, eta, dbar, &mut sigma, params, &mut rhs, &mut out,
+                    )?;
                 } else if params.pcg_max > 0 && self.llt.is_some() {
                     let eta = forcing_term(prev_norm, norm, eta_prev, tol, max, eta0);
                     eta_prev = eta;
-                    let a = self
-                        .matrix(sigma * dbar)
-                        .map_err(DirectNewtonError::Factor)?;
-                    match pcg(
-                        |x, y| sym_lower_matvec(&a, x, y),
-                        |r, z| {
-                            z.copy_from_slice(r);
-                            self.apply_factor(z);
-                        },
-                        &b,
-                        &mut rhs,
-                        eta * bnorm,
-                        params.pcg_max,
-                    ) {
-                        PcgEnd::Converged(it) | PcgEnd::Truncated(it) | PcgEnd::Negative(it, _) => {
-                            out.cg_iterations += it;
-                            solved = true;
-                        }
-                        PcgEnd::MaxIter | PcgEnd::Breakdown(_) => {
-                            out.cg_iterations += params.pcg_max
-                        }
-                    }
+                    solved = self.factor_pcg_direction(
+                        &b, bnorm, eta, dbar, sigma, params, &mut rhs, &mut out,
+                    )?;
                 }
                 prev_norm = Some(norm);
                 // Factor, raising σ until K + σ d̄ D is positive definite.
                 if !solved {
-                    self.prepare_factor()?;
-                }
-                while !solved {
-                    rhs.copy_from_slice(&b);
-                    out.factorizations += 1;
-                    let clock = std::time::Instant::now();
-                    let factored = self.factor_solve(sigma * dbar, &mut rhs);
-                    out.setup_s += clock.elapsed().as_secs_f64();
-                    match factored {
-                        Ok(()) => {
-                            solved = true;
-                        }
-                        Err(e) => {
-                            if sigma > 1e6 {
-                                return Err(DirectNewtonError::Factor(e));
-                            }
-                            sigma = (10.0 * sigma).max(params.sigma_min);
-                        }
-                    }
+                    self.factor_direction(&b, dbar, &mut sigma, params, &mut rhs, &mut out)?;
                 }
                 out.factor_s += clock.elapsed().as_secs_f64();
                 if lifting {
-                    // The lifted step: the constrained dofs in full, the free ones by the
-                    // largest α = 1, ½, … (at most 12 halvings) whose state inverts no element
-                    // and whose residual 2-norm is at most that of the motion imposed alone
-                    // (α = 0), else α = 0. Π is no merit here (the constrained dofs move).
                     lifting = false;
                     out.lifted_steps += 1;
-                    for i in 0..n {
-                        u[i] += pending[i];
-                    }
-                    out.force_evaluations += 1;
-                    let alone = residual(model, u, s, &mut r, &mut fint);
-                    let bound = alone.as_ref().map_or(f64::INFINITY, |&(tn, _)| tn);
-                    let mut alpha = 1.0;
-                    let mut accepted = false;
-                    for _ in 0..=12 {
-                        self.step_to(u, alpha, &rhs, &mut trial);
-                        out.force_evaluations += 1;
-                        if let Ok((tn, tm)) = residual(model, &trial, s, &mut r, &mut fint) {
-                            if tn <= bound {
-                                u.copy_from_slice(&trial);
-                                (norm, max) = (tn, tm);
-                                accepted = true;
-                                break;
-                            }
-                        }
-                        alpha *= 0.5;
-                    }
-                    self.mark_provisional(
-                        built_now,
-                        accepted && alpha == 1.0,
-                        out.provisional_rebuilds,
-                    );
-                    if !accepted {
-                        alone.map_err(DirectNewtonError::Inverted)?;
-                        (norm, max) = residual(model, u, s, &mut r, &mut fint)
-                            .map_err(DirectNewtonError::Inverted)?;
-                        out.force_evaluations += 1;
-                    }
+                    (norm, max) = self.lifted_step(
+                        &res, model, u, &pending, s, &rhs, &mut trial, &mut r, &mut fint,
+                        built_now, &mut out,
+                    )?;
                     out.history.push(max);
                     continue;
                 }
-                // Backtracking line search on Π, on the residual norm where Π is flat.
-                let slope = self.dot_free(&r, &rhs);
-                // Π at u: the last accepted trial's, where the last step was a line search's
-                // at this load factor.
-                let pi0 = match pi_at.take() {
-                    Some(pi) => pi,
-                    None => {
-                        out.energy_evaluations += 1;
-                        potential(model, springs, u, s, f_ext)
-                    }
-                };
-                let mut alpha = 1.0;
-                let mut accepted = false;
-                let mut secants = SECANT_STEPS;
-                for _ in 0..=12 {
-                    self.step_to(u, alpha, &rhs, &mut trial);
-                    let pi = potential(model, springs, &trial, s, f_ext);
-                    out.energy_evaluations += 1;
-                    let armijo = pi <= pi0 - 1e-4 * alpha * slope;
-                    let flat = pi.is_finite()
-                        && ((pi - pi0).abs() <= 1e-9 * pi0.abs() || max <= params.flat_below);
-                    if !(armijo || flat) {
-                        alpha *= 0.5;
-                        continue;
-                    }
-                    out.force_evaluations += 1;
-                    if let Ok((tn, tm)) = residual(model, &trial, s, &mut r, &mut fint) {
-                        if armijo && secants > 0 && slope > 0.0 {
-                            // Π'(α) = −r(u + αδ)·δ: past the minimum along δ and still
-                            // climbing steeply, step back to the secant's estimate of it.
-                            let climb = -self.dot_free(&r, &rhs);
-                            if climb > CURVATURE * slope {
-                                secants -= 1;
-                                alpha = (alpha * slope / (slope + climb)).max(0.1 * alpha);
-                                continue;
-                            }
-                        }
-                        if armijo || tn < norm {
-                            pi_at = Some(pi);
-                            u.copy_from_slice(&trial);
-                            norm = tn;
-                            max = tm;
-                            accepted = true;
-                            break;
-                        }
-                    }
-                    alpha *= 0.5;
-                }
-                self.mark_provisional(
+                (norm, max) = self.line_search(
+                    &res,
+                    model,
+                    u,
+                    s,
+                    &rhs,
+                    &mut trial,
+                    &mut r,
+                    &mut fint,
+                    (norm, max),
+                    &mut pi_at,
+                    &mut sigma,
+                    params,
                     built_now,
-                    accepted && alpha == 1.0,
-                    out.provisional_rebuilds,
-                );
-                if accepted {
-                    if alpha == 1.0 {
-                        out.full_steps += 1;
-                        sigma = sigma_after_full_step(sigma, params);
-                    }
-                } else {
-                    // Keep u; restore its residual and regularise harder.
-                    out.rejected_steps += 1;
-                    residual(model, u, s, &mut r, &mut fint)
-                        .map_err(DirectNewtonError::Inverted)?;
-                    out.force_evaluations += 1;
-                    sigma = (100.0 * sigma).max(1e3 * params.sigma_min);
-                }
+                    &mut out,
+                )?;
                 out.history.push(max);
             }
             out.residual = max;

@@ -47,7 +47,8 @@
 //! Slow: `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
 
 use raisov::metrics::reactions;
-use raisov::scenario::{run, run_static, RunOptions, Scenario, StaticSolver, StopReason};
+use raisov::runner::{run, run_static, RunOptions, StopReason};
+use raisov::scenario::{Scenario, StaticSolver};
 use raisov::statics::newton::{solve_system, DirectNewtonParams};
 use std::path::{Path, PathBuf};
 

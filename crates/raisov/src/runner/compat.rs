@@ -35,7 +35,7 @@ pub fn run_static(sc: &Scenario, opts: RunOptions) -> Result<StaticSummary> {
 pub fn run_static_keeping(
     sc: &Scenario,
     opts: RunOptions,
-) -> Result<(StaticSummary, Box<dyn Stepper>)> {
+) -> Result<(StaticSummary, crate::integrate::SingleLevel)> {
     super::run_static_keeping(sc, opts)
 }
 

@@ -59,7 +59,7 @@ use crate::integrate::Stepper;
 use crate::io::{write_atomic, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
 use crate::metrics::{Meter, Sample};
 use crate::scenario::surface::SurfaceFrames;
-use crate::scenario::{mesh_index_of_file, Reference, Scenario, StopRule};
+use crate::scenario::{mesh_index_of_file, read_nodal_stress, Reference, Scenario, StopRule};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

@@ -79,6 +79,7 @@ impl Interactive {
 /// Moved to [`crate::runner`] ([`crate::runner::frames`]): the frame runner, its rows and
 /// summary.
 #[doc(hidden)]
+#[allow(deprecated)]
 #[deprecated(since = "0.2.0", note = "use `raisov::runner::frames`")]
 pub mod moved {
     pub use crate::runner::compat::read_frames_csv;

@@ -60,6 +60,7 @@ pub(crate) use nodal_stress::mesh_index_of_file;
 pub use nodal_stress::read_nodal_stress;
 /// Moved to [`crate::runner`]: the run in time ([`crate::runner::dynamic`]) and the static
 /// solve ([`crate::runner::statics`]).
+#[allow(deprecated)]
 #[deprecated(since = "0.2.0", note = "use `raisov::runner`")]
 pub mod run {
     pub use crate::runner::compat::describe_static;

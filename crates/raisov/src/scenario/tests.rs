@@ -2,7 +2,7 @@
 
 use super::spec::{defaults, Named};
 use super::*;
-use crate::runner::{run, run_static, run_with, RunOptions, StopReason};
+use crate::runner::{run, RunOptions, StopReason};
 use crate::error::Error;
 use crate::material::StableNeoHookean;
 use crate::multigrid::fas::{CoarseSolve, FasParams, Scaling, Smoother, TransferWeights};

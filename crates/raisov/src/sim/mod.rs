@@ -130,12 +130,14 @@ pub use frame::{Budget, FrameReport};
 pub use grab::{Coupling, GrabOptions, Grip};
 pub use haptic::{HapticForce, HapticFrame, HapticLimits, HapticProxy};
 /// Moved to [`crate::runner::replay`].
+#[allow(deprecated)]
 #[deprecated(since = "0.2.0", note = "use `raisov::runner::replay`")]
 pub mod replay {
     pub use crate::runner::compat::replay_run_interactive as run_interactive;
     pub use crate::runner::Replay;
 }
 /// Moved to [`crate::runner::solve`].
+#[allow(deprecated)]
 #[deprecated(since = "0.2.0", note = "use `raisov::runner::solve`")]
 pub mod solve {
     pub use crate::runner::compat::solve;

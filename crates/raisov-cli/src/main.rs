@@ -8,8 +8,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use raisov::io::{load_mesh, write_msh22, write_vtu};
 use raisov::mesh::generate::{box_tets, box_tets_target, polygon_membrane, rectangle_membrane};
 use raisov::mesh::Mesh;
-use raisov::scenario::spec::{box_pattern, defaults};
 use raisov::runner::RunOptions;
+use raisov::scenario::spec::{box_pattern, defaults};
 use raisov::scenario::Scenario;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -675,8 +675,8 @@ fn cmd_run(
     // An [interactive] scenario plays its paths frame by frame (its grasps and pins taken
     // during the run included); any other runs in time.
     let res = raisov::runner::solve_with(&sc, stepper, opts).map(|s| {
-        use raisov::runner::StopReason as R;
         use raisov::runner::Finished;
+        use raisov::runner::StopReason as R;
         let code = match &s.finished {
             Finished::Interactive(i) if i.interrupted => EXIT_INTERRUPTED,
             Finished::Dynamic(d) => match d.reason {

@@ -519,7 +519,8 @@ pub fn run_with(
         }
         match cuts.make_due(sc, stepper.state().t, 1e-9 * dt, stepper) {
             Ok(true) => {
-                let cut = crate::scenario::cuts::CutFrame::of(sc, cuts.level0().expect("a cut was made"));
+                let cut =
+                    crate::scenario::cuts::CutFrame::of(sc, cuts.level0().expect("a cut was made"));
                 // |T − T∞| compares with the uncut body's nodes: not measured after a cut.
                 meter = Meter::new(cut.mesh.num_nodes(), None);
                 frames.cut(cut);

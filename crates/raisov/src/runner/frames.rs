@@ -66,9 +66,9 @@ use super::RunOptions;
 use crate::error::{Error, Result};
 use crate::integrate::System;
 use crate::integrate::{hold, Stepper};
+use crate::io::{write_vtu_as, Field, FieldData, PvdWriter, RowFile};
 use crate::scenario::interactive::{Budget, Interactive};
 use crate::scenario::{Scenario, StopRule};
-use crate::io::{write_vtu_as, Field, FieldData, PvdWriter, RowFile};
 use crate::statics::krylov::{NewtonParams, NewtonSolver};
 use crate::statics::newton::{
     axis_of, coarse_level, fixed_dof, DirectNewton, DirectNewtonError, DirectNewtonParams,

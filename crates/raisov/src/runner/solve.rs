@@ -31,13 +31,13 @@
 //! The same scenario gives the same bits whatever the number of threads, except where a
 //! wall-clock budget (`[interactive] ms`) decides how much work a frame does.
 
+use super::{
+    run_frames, run_static_keeping, run_with, FrameStepper, InteractiveSummary, Replay, RunOptions,
+    RunSummary, StaticSummary,
+};
 use crate::error::Result;
 use crate::integrate::Stepper;
 use crate::metrics::{Meter, Sample};
-use super::{
-    run_frames, run_static_keeping, run_with, FrameStepper, InteractiveSummary, Replay,
-    RunOptions, RunSummary, StaticSummary,
-};
 use crate::scenario::Scenario;
 
 /// How a run ended: the summary of its kind.

@@ -30,9 +30,9 @@ pub mod interactive;
 mod levels;
 pub mod loading;
 mod mesh_source;
+mod nodal_stress;
 mod patch;
 mod resolve;
-mod nodal_stress;
 mod scheme;
 pub mod spec;
 pub mod surface;
@@ -53,11 +53,11 @@ use crate::time::TimeFunction;
 pub use levels::{LevelConstraints, LevelMeshes, Multigrid, PickedLevel};
 use mesh_source::resolve_mesh_source;
 pub use mesh_source::{BoxCells, MeshSource, Shape};
+pub(crate) use nodal_stress::mesh_index_of_file;
+pub use nodal_stress::read_nodal_stress;
 pub use resolve::select;
 pub(crate) use resolve::select_fixed;
 use resolve::{resolve_fixing, resolve_material, resolve_motion, resolve_selector, NodeIds};
-pub(crate) use nodal_stress::mesh_index_of_file;
-pub use nodal_stress::read_nodal_stress;
 /// Moved to [`crate::runner`]: the run in time ([`crate::runner::dynamic`]) and the static
 /// solve ([`crate::runner::statics`]).
 #[allow(deprecated)]

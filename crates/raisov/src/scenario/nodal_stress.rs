@@ -149,4 +149,3 @@ pub fn read_nodal_stress(path: &Path, sc: &Scenario) -> Result<Vec<f64>> {
     }
     Ok(t)
 }
-

@@ -2,10 +2,10 @@
 
 use super::spec::{defaults, Named};
 use super::*;
-use crate::runner::{run, RunOptions, StopReason};
 use crate::error::Error;
 use crate::material::StableNeoHookean;
 use crate::multigrid::fas::{CoarseSolve, FasParams, Scaling, Smoother, TransferWeights};
+use crate::runner::{run, RunOptions, StopReason};
 
 const BASE: &str = r#"
 [mesh]

@@ -116,3 +116,54 @@ pub fn solve(sc: &Scenario, opts: RunOptions) -> Result<Solution> {
 pub fn solve_with(sc: &Scenario, stepper: Box<dyn Stepper>, opts: RunOptions) -> Result<Solution> {
     super::solve_with(sc, stepper, opts)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The old `scenario::interactive::run_interactive` (a borrowed stepper) plays the same
+    /// frames as [`crate::runner::run_interactive`] and leaves the run's final state in the
+    /// stepper it was given.
+    #[test]
+    fn the_borrowing_run_interactive_plays_the_same_frames_and_hands_the_state_back() {
+        let text = r#"
+[mesh]
+generate = "rectangle"
+size = [0.1, 0.1]
+nodes = 60
+[material]
+law = "mooney-rivlin"
+c1 = 1000.0
+c2 = 1000.0
+[[fix]]
+boundary = true
+[[displace]]
+point = [0.0, 0.0, 0.0]
+mode = "table"
+table = [[0.0, 0.0, 0.0, 0.0], [0.2, 0.0, 0.0, 0.01]]
+[multigrid]
+scheme = "fas"
+levels = 2
+[run]
+duration = 0.2
+[interactive]
+cycles = 2
+"#;
+        let sc = Scenario::from_toml(text, Path::new("compat.toml")).unwrap();
+        let mem = || RunOptions {
+            in_memory: true,
+            ..Default::default()
+        };
+        let mut replay = super::super::Replay::new(&sc, sc.stepper().unwrap()).unwrap();
+        let new = super::super::run_frames(&sc, &mut replay, mem()).unwrap();
+        let mut st = sc.stepper().unwrap();
+        let old = run_interactive(&sc, st.as_mut(), mem()).unwrap();
+        assert_eq!(new.frames, 6);
+        assert_eq!(new.last.map(|r| r.lag_max), old.last.map(|r| r.lag_max));
+        assert_eq!(
+            &st.state().u,
+            &super::super::FrameStepper::stepper(&mut replay).state().u
+        );
+        assert!(st.state().u.iter().any(|&x| x != 0.0));
+    }
+}

@@ -106,7 +106,7 @@ pub enum StopRule {
         /// `[run] duration`: the cap on simulated time (s), default 60.
         max: f64,
         /// Checks (rows of `measures.csv`) without progress after which the run gives up;
-        /// 0 never (see [`run`](fn@run)).
+        /// 0 never (see [`run`](fn@crate::runner::run)).
         stagnation: u64,
     },
 }

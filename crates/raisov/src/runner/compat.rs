@@ -105,7 +105,7 @@ pub fn replay_run_interactive(
     super::run_interactive(sc, stepper, opts)
 }
 
-/// [`crate::runner::solve`].
+/// [`crate::runner::solve()`].
 #[deprecated(since = "0.2.0", note = "use `raisov::runner::solve`")]
 pub fn solve(sc: &Scenario, opts: RunOptions) -> Result<Solution> {
     super::solve(sc, opts)

@@ -1,7 +1,7 @@
 //! The runners: a resolved [`Scenario`](crate::scenario::Scenario) run to its end, its
 //! measures, frames and summary written (or kept in memory, [`RunOptions::in_memory`]).
 //!
-//! What runs is what the scenario says ([`solve`], as `raisov run` and Python's
+//! What runs is what the scenario says ([`solve()`], as `raisov run` and Python's
 //! `raisov.solve`):
 //!
 //! - a run in time ([`dynamic`]: [`run`], [`run_with`]): the stepper advanced until the stop

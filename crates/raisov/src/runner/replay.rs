@@ -1,6 +1,7 @@
 //! The frames of an interactive run stepped through a [`Simulation`], as a host program or
 //! the viewer steps its own ([`crate::sim::frame`]): each frame holds the scenario's
-//! prescribed displacements at the frame's values ([`Simulation::hold_prescribed`]), makes
+//! prescribed displacements at the frame's values (their moves counted in the frame
+//! predictor's, [`crate::sim::frame`]), makes
 //! the cuts, lets go of the grasps, takes the pins and the grasps before the frames the
 //! scenario says (what `raisov serve` records; the rules of [`crate::scenario::grasps`]),
 //! moves the grasps along their paths, and runs the frame's budget
@@ -8,8 +9,7 @@
 //!
 //! A scenario that takes nothing during the run is run as its own stepper would run it alone:
 //! the stepper keeps the scenario's kinetic-energy ceiling and a diverging step ends the run
-//! ([`crate::Error::Diverged`]) instead of being rejected and retried
-//! ([`Simulation::step_frame_strict`]).
+//! ([`crate::Error::Diverged`]) instead of being rejected and retried.
 
 use super::frames::{no_interactive, run_frames, FrameStepper, InteractiveSummary};
 use super::RunOptions;
@@ -23,7 +23,7 @@ use crate::sim::{Budget, Coupling, GrabId, GrabOptions, Simulation};
 use std::path::PathBuf;
 
 /// Run the scenario interactively with `stepper` (the scenario's, [`Scenario::stepper`]), what
-/// `raisov run` does: its frames stepped through a [`Simulation`](crate::sim::Simulation)
+/// `raisov run` does: its frames stepped through a [`Simulation`]
 /// ([`Replay`], [`run_frames`]), which takes, moves and lets go of the grasps and takes the pins and cuts the
 /// scenario says, if any. Errors: the scenario has no `[interactive]` section, a diverging
 /// stepper in a scenario that takes nothing during the run (with step and element), a grasp

@@ -136,7 +136,7 @@ pub mod replay {
     pub use crate::runner::compat::replay_run_interactive as run_interactive;
     pub use crate::runner::Replay;
 }
-/// Moved to [`crate::runner::solve`].
+/// Moved to [`mod@crate::runner::solve`].
 #[allow(deprecated)]
 #[deprecated(since = "0.2.0", note = "use `raisov::runner::solve`")]
 pub mod solve {

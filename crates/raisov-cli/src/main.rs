@@ -8,8 +8,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use raisov::io::{load_mesh, write_msh22, write_vtu};
 use raisov::mesh::generate::{box_tets, box_tets_target, polygon_membrane, rectangle_membrane};
 use raisov::mesh::Mesh;
+use raisov::runner::RunOptions;
 use raisov::scenario::spec::{box_pattern, defaults};
-use raisov::scenario::{RunOptions, Scenario};
+use raisov::scenario::Scenario;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
@@ -651,7 +652,7 @@ fn cmd_run(
             out_dir: out,
             ..Default::default()
         };
-        let s = raisov::sim::solve(&sc, opts)
+        let s = raisov::runner::solve(&sc, opts)
             .with_context(|| format!("static solve of {} stopped", sc.name))?;
         println!("{}", s.finished);
         if !s.finished.success() {
@@ -673,9 +674,9 @@ fn cmd_run(
     };
     // An [interactive] scenario plays its paths frame by frame (its grasps and pins taken
     // during the run included); any other runs in time.
-    let res = raisov::sim::solve_with(&sc, stepper, opts).map(|s| {
-        use raisov::scenario::StopReason as R;
-        use raisov::sim::Finished;
+    let res = raisov::runner::solve_with(&sc, stepper, opts).map(|s| {
+        use raisov::runner::Finished;
+        use raisov::runner::StopReason as R;
         let code = match &s.finished {
             Finished::Interactive(i) if i.interrupted => EXIT_INTERRUPTED,
             Finished::Dynamic(d) => match d.reason {
@@ -945,7 +946,7 @@ fn cmd_check(path: &Path) -> Result<()> {
     }
     if sc.statics.is_some() {
         // A static solve: no time stepping, no stop rule, no FAS stepper.
-        let how = raisov::scenario::describe_static(&sc).map_err(BadInput)?;
+        let how = raisov::runner::describe_static(&sc).map_err(BadInput)?;
         line("integrator", &how);
     } else {
         let integrator = match &sc.implicit {

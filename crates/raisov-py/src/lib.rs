@@ -946,13 +946,13 @@ struct Solution {
 }
 
 impl Solution {
-    fn new(sc: &raisov::scenario::Scenario, s: raisov::sim::Solution) -> Solution {
+    fn new(sc: &raisov::scenario::Scenario, s: raisov::runner::Solution) -> Solution {
         let neg = |v: [f64; 3]| v.map(|x| -x);
         let n = sc.mesh.num_nodes();
         let out_dir = match &s.finished {
-            raisov::sim::Finished::Static(x) => x.out_dir.clone(),
-            raisov::sim::Finished::Dynamic(x) => x.out_dir.clone(),
-            raisov::sim::Finished::Interactive(x) => x.out_dir.clone(),
+            raisov::runner::Finished::Static(x) => x.out_dir.clone(),
+            raisov::runner::Finished::Dynamic(x) => x.out_dir.clone(),
+            raisov::runner::Finished::Interactive(x) => x.out_dir.clone(),
         };
         Solution {
             kind: s.finished.kind(),
@@ -1176,13 +1176,13 @@ fn solve(
             std::fs::read_to_string(&scenario).map_err(|e| raisov::Error::io(&scenario, e))?;
         let text = raisov::sim::overrides::merge(&text, &overrides, &scenario)?;
         let sc = raisov::scenario::Scenario::from_toml(&text, &scenario)?;
-        let opts = raisov::scenario::RunOptions {
+        let opts = raisov::runner::RunOptions {
             in_memory: out.is_none(),
             out_dir: out.clone(),
             stop: Some(&stop),
             progress: None,
         };
-        let s = raisov::sim::solve(&sc, opts)?;
+        let s = raisov::runner::solve(&sc, opts)?;
         Ok(Solution::new(&sc, s))
     };
     let run = || match &pool {

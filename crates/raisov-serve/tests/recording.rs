@@ -4,7 +4,8 @@
 //! run (what `raisov run` calls), and the replay passes through the frames the session
 //! showed; the recording loads wherever it is saved.
 
-use raisov::scenario::{RunOptions, Scenario};
+use raisov::runner::RunOptions;
+use raisov::scenario::Scenario;
 use raisov::sim::Budget;
 use raisov_serve::protocol::{self, Command, FLAG_REST, STAT_APPLIED_SEQ};
 use raisov_serve::session::{SessionConfig, Source};
@@ -141,7 +142,7 @@ async fn scripted_session(record: &Path) -> (Vec<protocol::Frame>, String) {
 fn replay(file: &Path, out: &Path) -> Vec<Vec<[f64; 3]>> {
     let sc = Scenario::load(file).expect("the recording loads");
     let stepper = sc.stepper().expect("its stepper");
-    let s = raisov::sim::replay::run_interactive(
+    let s = raisov::runner::run_interactive(
         &sc,
         stepper,
         RunOptions {

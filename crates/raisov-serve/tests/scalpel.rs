@@ -338,10 +338,10 @@ async fn a_recorded_cut_replays_with_the_cut() {
     let sc = raisov::scenario::Scenario::load(&record).expect("the recording loads");
     let stepper = sc.stepper().expect("its stepper");
     let out = dir.path().join("out");
-    let s = raisov::sim::replay::run_interactive(
+    let s = raisov::runner::run_interactive(
         &sc,
         stepper,
-        raisov::scenario::RunOptions {
+        raisov::runner::RunOptions {
             out_dir: Some(out.clone()),
             ..Default::default()
         },

@@ -18,7 +18,8 @@
 //! Running a scenario (a TOML file, see [`scenario::spec`]) from Rust:
 //!
 //! ```no_run
-//! use raisov::scenario::{run, RunOptions, Scenario};
+//! use raisov::runner::{run, RunOptions};
+//! use raisov::scenario::Scenario;
 //!
 //! let sc = Scenario::load(std::path::Path::new("examples/cantilever.toml"))?;
 //! let summary = run(&sc, RunOptions::default())?;
@@ -33,7 +34,8 @@
 //! (rigid tools in penalty contact), [`integrate`] (explicit integrators, constraints, statics,
 //! stability), [`hierarchy`] (levels, host elements, weights), [`multigrid`] (RaISoV and the
 //! FAS multigrid), [`metrics`], [`scenario`] (TOML scenes, typed once), [`sim`] (the frame-loop API for a
-//! host program: grasps, pins, tool forces).
+//! host program: grasps, pins, tool forces), [`runner`] (a scenario run to its end: in time,
+//! static, or interactive through a `sim::Simulation`).
 //!
 //! What advances a simulation is named by one enum, [`Scheme`] (its kinds [`SchemeKind`]):
 //! a scenario resolves to one ([`scenario::Scenario::scheme`]), and
@@ -59,6 +61,7 @@ pub mod mesh;
 pub mod metrics;
 pub mod multigrid;
 pub mod numbers;
+pub mod runner;
 pub mod scenario;
 pub mod sim;
 pub mod statics;

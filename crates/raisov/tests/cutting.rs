@@ -478,9 +478,9 @@ frame_interval = 0.02
     );
     assert_eq!(sc.cuts.len(), 1);
     let out = temp_out("time");
-    let sol = raisov::sim::solve(
+    let sol = raisov::runner::solve(
         &sc,
-        raisov::scenario::RunOptions {
+        raisov::runner::RunOptions {
             out_dir: Some(out.clone()),
             ..Default::default()
         },
@@ -534,9 +534,9 @@ cycles = 20
 "#,
     );
     let out = temp_out("interactive");
-    let sol = raisov::sim::solve(
+    let sol = raisov::runner::solve(
         &sc,
-        raisov::scenario::RunOptions {
+        raisov::runner::RunOptions {
             out_dir: Some(out.clone()),
             ..Default::default()
         },
@@ -616,9 +616,9 @@ sweep = [0.0, 0.0, -0.04]
 {run}
 "#
     ));
-    let sol = raisov::sim::solve(
+    let sol = raisov::runner::solve(
         &sc,
-        raisov::scenario::RunOptions {
+        raisov::runner::RunOptions {
             in_memory: true,
             ..Default::default()
         },

@@ -7,7 +7,8 @@
 //! state and retrying with conservative Jacobi steps from a raised bound, estimates refreshed
 //! on every level.
 
-use raisov::scenario::{run, RunOptions, Scenario, StopReason};
+use raisov::runner::{run, RunOptions, StopReason};
+use raisov::scenario::Scenario;
 use std::path::Path;
 
 #[test]

@@ -2,8 +2,9 @@
 //! go on with the grasp held reach the static solver's equilibrium, hard and spring grasps
 //! and pins work, and `Budget::Cycles` frames give the same bits on any thread count.
 
-use raisov::scenario::{RunOptions, Scenario};
-use raisov::sim::{solve, Budget, Finished, Simulation};
+use raisov::runner::{solve, Finished, RunOptions};
+use raisov::scenario::Scenario;
+use raisov::sim::{Budget, Simulation};
 
 /// A 4 × 2 × 2 cm neo-Hookean block held at x = 0, its tip pulled by `pull` over 0.2 s and
 /// held until `duration` (`grasp`: the `[[displace]]`'s extra keys, a spring's stiffness;
@@ -75,7 +76,7 @@ fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
 }
 
-fn interactive(sc: &Scenario) -> raisov::scenario::interactive::InteractiveSummary {
+fn interactive(sc: &Scenario) -> raisov::runner::InteractiveSummary {
     let solution = solve(
         sc,
         RunOptions {

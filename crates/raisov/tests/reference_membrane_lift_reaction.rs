@@ -19,7 +19,7 @@
 //! (`statics::newton`, 10 load steps, largest nodal residual 1e-12 N), on the system
 //! of the scenario without `[multigrid]`; (2) for the example as shipped, also the scenario with
 //! `[integrator] method = "newton"` and `solver = "krylov"` (matrix-free Newton-Krylov, 10
-//! increments, relative residual 1e-10; `scenario::run_static`). Under gravity that solve
+//! increments, relative residual 1e-10; `runner::run_static`). Under gravity that solve
 //! does not converge: it stalls at a relative residual of 7.6 after 34 Newton steps (its
 //! summary says so and `raisov run` exits with status 3), 15 % of the lift away from the
 //! equilibrium that FAS and direct Newton agree on, so the second test leaves it out; (3) in
@@ -47,7 +47,8 @@
 //! Slow: `#[ignore]`d in the fast loop, run in CI by `cargo test --workspace -- --ignored`.
 
 use raisov::metrics::reactions;
-use raisov::scenario::{run, run_static, RunOptions, Scenario, StaticSolver, StopReason};
+use raisov::runner::{run, run_static, RunOptions, StopReason};
+use raisov::scenario::{Scenario, StaticSolver};
 use raisov::statics::newton::{solve_system, DirectNewtonParams};
 use std::path::{Path, PathBuf};
 

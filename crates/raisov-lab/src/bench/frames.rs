@@ -51,8 +51,8 @@
 //! the time a frame may take against the time spent, split into the slowest frame (a grasp's
 //! first, where the operator is built) and the mean of the others.
 
-use raisov::scenario::{RunOptions, Scenario};
-use raisov::sim::{solve, Finished};
+use raisov::runner::{solve, Finished, RunOptions};
+use raisov::scenario::Scenario;
 use raisov::{Error, Result};
 use std::path::Path;
 use std::time::Instant;

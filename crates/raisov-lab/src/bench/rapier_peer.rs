@@ -8,7 +8,7 @@
 //! forms the same Lamé μ, λ), no structural edges, volume constraint or shape matching, no
 //! collider, no gravity (the benchmark has none). The nodes of the case's fixed cap are pinned
 //! particles; the grasp is taken by raisov's own frame loop, so the patch, its nodes and its
-//! path are raisov's rows' own ([`raisov::sim::replay::Replay`] drives a [`RapierStepper`]):
+//! path are raisov's rows' own ([`raisov::runner::Replay`] drives a [`RapierStepper`]):
 //! a rigid grasp's nodes (`rigid`, `node`) are pinned particles moved each frame by
 //! `set_particle_kinematic_target` to `X_a + d_a`, `d_a` the displacement the grasp holds
 //! node `a` at; a spring grasp (`springs`) is rapier's springs, its edges: rapier's FEM
@@ -73,11 +73,11 @@
 //!
 //! - `lag`: `max_a |u_a − u*_a| / max_a |u*_a|` over the free nodes, rapier's frame `u`
 //!   against raisov's static equilibrium of the frame (the lag raisov's rows have, by the
-//!   same code: [`raisov::scenario::interactive::run_frames`]);
+//!   same code: [`raisov::runner::run_frames`]);
 //! - `own lag`: rapier's frame `u` against `u^R`, rapier's own equilibrium of the frame (its
 //!   body run to rest with the frame's grasp held: [`RapierStepper::to_rest`]);
 //! - `model`: `u^R` against `u*` (the law and rapier's corotated element against raisov's),
-//!   also by [`raisov::scenario::interactive::run_frames`].
+//!   also by [`raisov::runner::run_frames`].
 //!
 //! Each is the mean and the largest over the frames, as raisov's rows give theirs.
 
@@ -85,9 +85,8 @@ use raisov::integrate::{
     check_state, hold, Checkpoint, Constraints, Motion, RuntimeConstraints, State, Stepper, System,
 };
 use raisov::material::Material;
-use raisov::scenario::interactive::{run_frames, InteractiveSummary};
-use raisov::scenario::{RunOptions, Scenario};
-use raisov::sim::replay::Replay;
+use raisov::runner::{run_frames, InteractiveSummary, Replay, RunOptions};
+use raisov::scenario::Scenario;
 use raisov::{Error, Result};
 use rapier3d_f64::prelude::{
     PhysicsWorld, SoftBodyBuilder, SoftBodyCellModel, SoftBodyHandle, SoftBodyMaterial,
@@ -935,7 +934,7 @@ cycles = 1
         let frames = 12;
         let motion = &sc.grasps[0].motion;
         for k in 1..=frames {
-            use raisov::scenario::interactive::FrameStepper;
+            use raisov::runner::FrameStepper;
             let t = k as f64 / fps;
             assert_eq!(replay.frame(k, t, &[]).unwrap(), None, "frame {k}");
             let d = motion.displacement(t);

@@ -1,6 +1,6 @@
 //! Grasps and pins taken during an interactive run: `[[displace]]` entries with `start`,
 //! `release` or `stiffness`, and `[[pin]]` (keys in [`super::spec`]). They are what
-//! `raisov serve` records; [`crate::sim::replay`] replays them through a
+//! `raisov serve` records; [`crate::runner::Replay`] replays them through a
 //! [`crate::sim::Simulation`], frame by frame, as the viewer steps its own, under these rules.
 //!
 //! A time `s` (a grasp's `start` or `release`, a pin's `start`) acts before frame

@@ -30,9 +30,9 @@ pub mod interactive;
 mod levels;
 pub mod loading;
 mod mesh_source;
+mod nodal_stress;
 mod patch;
 mod resolve;
-pub mod run;
 mod scheme;
 pub mod spec;
 pub mod surface;
@@ -53,9 +53,29 @@ use crate::time::TimeFunction;
 pub use levels::{LevelConstraints, LevelMeshes, Multigrid, PickedLevel};
 use mesh_source::resolve_mesh_source;
 pub use mesh_source::{BoxCells, MeshSource, Shape};
+pub(crate) use nodal_stress::mesh_index_of_file;
+pub use nodal_stress::read_nodal_stress;
 pub use resolve::select;
 pub(crate) use resolve::select_fixed;
 use resolve::{resolve_fixing, resolve_material, resolve_motion, resolve_selector, NodeIds};
+/// Moved to [`crate::runner`]: the run in time ([`crate::runner::dynamic`]) and the static
+/// solve ([`crate::runner::statics`]).
+#[allow(deprecated)]
+#[deprecated(since = "0.2.0", note = "use `raisov::runner`")]
+pub mod run {
+    pub use crate::runner::compat::describe_static;
+    pub use crate::runner::compat::run;
+    pub use crate::runner::compat::run_static;
+    pub use crate::runner::compat::run_static_keeping;
+    pub use crate::runner::compat::run_with;
+    pub use crate::runner::Progress;
+    pub use crate::runner::RunOptions;
+    pub use crate::runner::RunSummary;
+    pub use crate::runner::StaticSummary;
+    pub use crate::runner::StopReason;
+    pub use crate::scenario::read_nodal_stress;
+}
+#[allow(deprecated)]
 pub use run::{
     describe_static, run, run_static, run_static_keeping, run_with, RunOptions, RunSummary,
     StaticSummary, StopReason,
@@ -86,7 +106,7 @@ pub enum StopRule {
         /// `[run] duration`: the cap on simulated time (s), default 60.
         max: f64,
         /// Checks (rows of `measures.csv`) without progress after which the run gives up;
-        /// 0 never (see [`run`](fn@run)).
+        /// 0 never (see [`run`](fn@crate::runner::run)).
         stagnation: u64,
     },
 }
@@ -247,7 +267,7 @@ pub struct Scenario {
     /// frame ([`surface`]); `None` for other meshes.
     pub surface: Option<surface::VisualSurface>,
     /// `[integrator] method = "newton"`: solve for static equilibrium instead of integrating
-    /// ([`run::run_static`]); `None` for a dynamic run.
+    /// ([`crate::runner::run_static`]); `None` for a dynamic run.
     pub statics: Option<StaticSolve>,
     /// `[integrator] method = "implicit-euler"` or `"bdf2"`: backward Euler or BDF2
     /// ([`crate::statics::implicit`]) instead of [`Scenario::method`]; `None` for the explicit
@@ -365,7 +385,7 @@ pub struct StaticSolve {
     /// 1 for the others ([`StaticSolve::increments`]).
     pub increments: Option<usize>,
     /// `[integrator] solver`, default [`StaticSolver::Auto`] (resolved when the system is
-    /// built: [`run::run_static`]).
+    /// built: [`crate::runner::run_static`]).
     pub solver: StaticSolver,
     /// `[integrator] coarse_start`: [`StaticSolver::Multigrid`] starts from the coarse level's
     /// equilibrium, interpolated ([`crate::statics::nested::coarse_start`]). Default
@@ -1120,7 +1140,7 @@ impl Scenario {
         cuts::check(&sc)?;
         // A reference file is read (and its numbers checked) now, not when the run needs it.
         if let Reference::File(p) = &sc.reference {
-            run::read_nodal_stress(p, &sc)?;
+            read_nodal_stress(p, &sc)?;
         }
         Ok(sc)
     }

@@ -343,7 +343,8 @@ mod tests {
     use super::*;
     use crate::io::{read_vtp, read_vtu_array};
     use crate::mesh::surface_check::tests::icosphere;
-    use crate::scenario::{run, RunOptions, Scenario};
+    use crate::runner::{run, RunOptions};
+    use crate::scenario::Scenario;
     use std::fmt::Write as _;
 
     /// A unit icosphere as OBJ text (radius 1; the scenarios scale it to 5 cm), with its
@@ -605,10 +606,8 @@ frame_interval = 0.016
                [interactive]\nfps = 30.0\ncycles = 2\nreference = \"none\"\n";
         std::fs::write(&p, text).unwrap();
         let sc = Scenario::load(&p).unwrap();
-        let mut st = sc.stepper().unwrap();
-        let s =
-            crate::scenario::interactive::run_interactive(&sc, st.as_mut(), RunOptions::default())
-                .unwrap();
+        let st = sc.stepper().unwrap();
+        let s = crate::runner::run_interactive(&sc, st, RunOptions::default()).unwrap();
         assert_eq!(s.frames, 3);
         let frames = dir.path().join("out/frames");
         let vtp = frames.join("ball_surface_000003.vtp");

@@ -5,6 +5,7 @@ use super::*;
 use crate::error::Error;
 use crate::material::StableNeoHookean;
 use crate::multigrid::fas::{CoarseSolve, FasParams, Scaling, Smoother, TransferWeights};
+use crate::runner::{run, RunOptions, StopReason};
 
 const BASE: &str = r#"
 [mesh]
@@ -472,8 +473,8 @@ fn renumbered_file_mesh_moves_like_the_file_order() {
             .collect()
     };
     assert_eq!(columns(&pr), columns(&pf), "node ids and positions per row");
-    let tr = super::run::read_nodal_stress(&pr, &sr).unwrap();
-    let tf = super::run::read_nodal_stress(&pf, &sf).unwrap();
+    let tr = read_nodal_stress(&pr, &sr).unwrap();
+    let tf = read_nodal_stress(&pf, &sf).unwrap();
     let tscale = tf.iter().fold(0.0f64, |a, &x| a.max(x.abs()));
     assert!(tscale > 0.0);
     for (k, &a) in ids.iter().enumerate() {
@@ -1025,7 +1026,7 @@ fn node_ids_are_the_files_own() {
         .collect();
     assert_eq!(ids, ["1", "2", "3", "4", "5", "6", "7", "8"]);
     // The file reads back as a reference of the same mesh.
-    run::read_nodal_stress(&out.join("nodal_stress.csv"), &sc).unwrap();
+    read_nodal_stress(&out.join("nodal_stress.csv"), &sc).unwrap();
 }
 
 /// At steady state the reactions balance the applied loads and body force:

@@ -18,10 +18,12 @@
 //! After the frame, accepted or not, every attached [`crate::sim::HapticProxy`] gets the
 //! grasp's new position, force and stiffness.
 //!
-//! Predictor ([`Simulation::set_predictor`]): a frame whose grasps move starts, on its first
-//! try, from `u + s Δu`, `Δu` the change of level 0's displacements over the last accepted
-//! frame (free nodes only), `s` how much of the last frame's grasp moves this frame repeats
-//! (`Σ g·g' / Σ |g'|²` over the grasps, clamped to [0, 2]) and at most `m / max_a |Δu_a|`
+//! Predictor ([`Simulation::set_predictor`]): a frame whose grasps (or a scenario's
+//! prescribed displacements, its `[[displace]]` paths held at each frame's values by the
+//! interactive runner) move starts, on its first try, from `u + s Δu`, `Δu` the change of
+//! level 0's displacements over the last accepted frame (free nodes only), `s` how much of
+//! the last frame's moves this frame repeats (`Σ g·g' / Σ |g'|²` over the grasps and the
+//! prescribed points, clamped to [0, 2]) and at most `m / max_a |Δu_a|`
 //! ([`crate::integrate::prediction`]): a grasp pulled at a steady speed has the tissue follow
 //! at the speed it followed (`s = 1`), a reversed or turned one is not extrapolated, no node
 //! is predicted to move further than the grasps move (`m` their largest move), and a held
@@ -44,10 +46,12 @@ pub const DIVERGED_EXTENTS: f64 = 10.0;
 pub enum Budget {
     /// This many stepper steps (one integrator step or one V-cycle each).
     Cycles(u32),
-    /// Steps until this much wall time (ms) has passed since the frame began, at least one,
-    /// or until the stepper has settled at the frame's equilibrium
+    /// As many steps as fit in this much wall time (ms) since the frame began, at least one:
+    /// another starts only while the time so far plus the last step's duration stays within
+    /// it (a frame overruns only when a step is slower than the one before), and none once
+    /// the stepper has settled at the frame's equilibrium
     /// ([`crate::integrate::Stepper::settled`]: the frame solver's residual within
-    /// [`crate::statics::frames::SETTLED`] of its load), whichever comes first.
+    /// [`crate::statics::frames::SETTLED`] of its load).
     Millis(f64),
 }
 
@@ -77,16 +81,49 @@ impl Simulation {
     /// Run one frame (module docs of [`crate::sim::frame`]): warm-started from the last
     /// frame, the grasps moved to their targets, recovery from a rejected try.
     pub fn step_frame(&mut self, budget: Budget) -> FrameReport {
+        match self.frame(budget, false) {
+            Ok(report) => report,
+            Err(d) => unreachable!("a frame that may be rejected returns no divergence: {d}"),
+        }
+    }
+
+    /// [`Simulation::step_frame`] for a scenario's own run, taking nothing during it (a
+    /// simulation built `strict`, [`Simulation::with_stepper`]): one try, the state at its end
+    /// not checked, and a diverging step the caller's error (the state as it diverged).
+    pub(crate) fn step_frame_strict(
+        &mut self,
+        budget: Budget,
+    ) -> Result<FrameReport, crate::error::Divergence> {
+        let strict = self.strict;
+        self.frame(budget, strict)
+    }
+
+    /// The frame of [`Simulation::step_frame`]; `strict`: of
+    /// [`Simulation::step_frame_strict`] (`Err` only then).
+    fn frame(
+        &mut self,
+        budget: Budget,
+        strict: bool,
+    ) -> Result<FrameReport, crate::error::Divergence> {
         let start = Instant::now();
         let ids: Vec<_> = self.grabs.keys().copied().collect();
         let from: Vec<[f64; 3]> = self.grabs.values().map(|g| g.position).collect();
         let to: Vec<[f64; 3]> = self.grabs.values().map(|g| g.target).collect();
         let moving = from != to;
-        let this_moves = crate::integrate::moves(&from, &to);
+        // What the frame moves: the grasps, then the prescribed displacements.
+        let mut this_moves = crate::integrate::moves(&from, &to);
+        this_moves.extend_from_slice(&self.prescribed_moves);
+        self.prescribed_moves.fill([0.0; 3]);
         let steps_any = !matches!(budget, Budget::Cycles(0));
         let before: Option<Vec<f64>> = self.predictor.then(|| self.stepper.state().u.clone());
-        self.stepper.save(&mut self.checkpoint);
-        let tries = if moving { self.max_retries + 1 } else { 1 };
+        if !strict {
+            self.stepper.save(&mut self.checkpoint);
+        }
+        let tries = if moving && !strict {
+            self.max_retries + 1
+        } else {
+            1
+        };
         let mut report = FrameReport {
             cycles: 0,
             rejected_cycles: 0,
@@ -98,8 +135,8 @@ impl Simulation {
             wall: Duration::ZERO,
         };
         for attempt in 0..tries {
+            // Nothing moved: `prediction` predicts nothing.
             if attempt == 0
-                && moving
                 && steps_any
                 && self.predictor
                 && !self.last_delta.is_empty()
@@ -114,7 +151,17 @@ impl Simulation {
             let subs = 1u32 << attempt.min(16);
             let mut cycles = 0u64;
             let result = self.try_frame(budget, subs, &ids, &from, &to, start, &mut cycles);
+            if strict {
+                result?;
+                report.cycles = cycles;
+                report.accepted = true;
+                report.target_reached = true;
+                // Not checked: the caches follow the state as far as they can.
+                let _ = self.observe();
+                break;
+            }
             let result = result
+                .map_err(|d| self.described(d))
                 .and_then(|()| {
                     self.observe().map_err(|f| {
                         format!(
@@ -163,7 +210,7 @@ impl Simulation {
         report.residual = self.residual;
         self.publish_haptics();
         report.wall = start.elapsed();
-        report
+        Ok(report)
     }
 
     /// Whether the observed state at a frame's end has diverged without an inverted element
@@ -219,9 +266,11 @@ impl Simulation {
         to: &[[f64; 3]],
         start: Instant,
         cycles: &mut u64,
-    ) -> Result<(), String> {
+    ) -> Result<(), crate::error::Divergence> {
         let moving = from != to;
         let mut p = from.to_vec();
+        // The end of the last step (s since `start`).
+        let mut last_end = 0.0;
         for j in 1..=subs {
             if moving {
                 let s = j as f64 / subs as f64;
@@ -248,17 +297,20 @@ impl Simulation {
                         k = k.max(1);
                     }
                     for _ in 0..k {
-                        self.stepper.advance().map_err(|d| self.described(d))?;
+                        self.stepper.advance()?;
                         *cycles += 1;
                     }
                 }
                 Budget::Millis(ms) => {
                     let until = ms.max(0.0) * 1e-3 * j as f64 / subs as f64;
-                    let until = Duration::from_secs_f64(until);
                     loop {
-                        self.stepper.advance().map_err(|d| self.described(d))?;
+                        self.stepper.advance()?;
                         *cycles += 1;
-                        if start.elapsed() >= until || self.stepper.settled() {
+                        // Start another only if one more like the last still fits.
+                        let now = start.elapsed().as_secs_f64();
+                        let last = now - last_end;
+                        last_end = now;
+                        if now + last > until || self.stepper.settled() {
                             break;
                         }
                     }

@@ -121,8 +121,6 @@ pub mod frame;
 mod grab;
 pub mod haptic;
 pub mod overrides;
-pub mod replay;
-pub mod solve;
 pub mod tangent;
 
 pub use crate::scenario::Scheme;
@@ -131,6 +129,23 @@ pub use cut::CutReport;
 pub use frame::{Budget, FrameReport};
 pub use grab::{Coupling, GrabOptions, Grip};
 pub use haptic::{HapticForce, HapticFrame, HapticLimits, HapticProxy};
+/// Moved to [`crate::runner::replay`].
+#[allow(deprecated)]
+#[deprecated(since = "0.2.0", note = "use `raisov::runner::replay`")]
+pub mod replay {
+    pub use crate::runner::compat::replay_run_interactive as run_interactive;
+    pub use crate::runner::Replay;
+}
+/// Moved to [`mod@crate::runner::solve`].
+#[allow(deprecated)]
+#[deprecated(since = "0.2.0", note = "use `raisov::runner::solve`")]
+pub mod solve {
+    pub use crate::runner::compat::solve;
+    pub use crate::runner::compat::solve_with;
+    pub use crate::runner::Finished;
+    pub use crate::runner::Solution;
+}
+#[allow(deprecated)]
 pub use solve::{solve, solve_with, Finished, Solution};
 pub use tangent::{TangentPreconditioner, TangentStats};
 
@@ -200,6 +215,14 @@ pub struct Simulation {
     last_delta: Vec<f64>,
     last_moves: Vec<[f64; 3]>,
     last_grabs: Vec<GrabId>,
+    /// The scenario's prescribed displacements held now (its `[[displace]]` paths from
+    /// `t = 0`, in file order), and their move since the last frame: with the grasps' moves,
+    /// what the frame predictor extrapolates from.
+    prescribed: Vec<[f64; 3]>,
+    prescribed_moves: Vec<[f64; 3]>,
+    /// A scenario's own run, taking nothing during it (`runner::replay`): the stepper keeps
+    /// its kinetic-energy ceiling, and a frame is neither checked at its end nor retried.
+    strict: bool,
     /// Retries of a rejected frame (each halving the grasps' sub-moves). Default 4.
     max_retries: u32,
     /// The work of the last `grab_stiffness`.
@@ -267,12 +290,21 @@ impl Simulation {
     /// nothing of the work run-time grasps do; a frame is rejected on a non-finite value or an
     /// inverted element instead, as with [`SimulationBuilder`].
     pub fn from_scenario(sc: &Scenario) -> Result<Simulation> {
-        Self::with_stepper(sc, sc.stepper()?)
+        Self::with_stepper(sc, sc.stepper()?, false)
     }
 
-    /// [`Simulation::from_scenario`] with the scenario's `stepper`, built already.
-    pub(crate) fn with_stepper(sc: &Scenario, mut stepper: Box<dyn Stepper>) -> Result<Simulation> {
-        stepper.set_kinetic_limit(f64::INFINITY);
+    /// [`Simulation::from_scenario`] with the scenario's `stepper`, built already. `strict`:
+    /// the scenario's own run, which takes nothing during it (`runner::replay`): the stepper
+    /// keeps the scenario's kinetic-energy ceiling, and frames are stepped by
+    /// [`Simulation::step_frame_strict`].
+    pub(crate) fn with_stepper(
+        sc: &Scenario,
+        mut stepper: Box<dyn Stepper>,
+        strict: bool,
+    ) -> Result<Simulation> {
+        if !strict {
+            stepper.set_kinetic_limit(f64::INFINITY);
+        }
         let mut sim = Self::assemble(
             stepper,
             sc.mesh.clone(),
@@ -282,6 +314,14 @@ impl Simulation {
         if let Some(i) = &sc.interactive {
             sim.set_predictor(i.predictor);
         }
+        // Where the paths start (the stepper holds the prescribed nodes there from rest).
+        sim.prescribed = sc
+            .prescribed
+            .iter()
+            .map(|(_, m)| m.displacement(0.0))
+            .collect();
+        sim.prescribed_moves = vec![[0.0; 3]; sim.prescribed.len()];
+        sim.strict = strict;
         if sc.has_model_loads() {
             // The stepper's level 0 carries the scenario's pressure, traction, timed loads and
             // tools in its force model; the simulation's own evaluations (frame forces when
@@ -360,6 +400,9 @@ impl Simulation {
             last_delta: Vec::new(),
             last_moves: Vec::new(),
             last_grabs: Vec::new(),
+            prescribed: Vec::new(),
+            prescribed_moves: Vec::new(),
+            strict: false,
             max_retries: 4,
             tangent_stats: TangentStats::default(),
             tangent_preconditioner: TangentPreconditioner::default(),
@@ -412,6 +455,28 @@ impl Simulation {
     /// The stepper (for what this API does not cover: its description, diagnostics).
     pub fn stepper(&self) -> &dyn Stepper {
         &*self.stepper
+    }
+
+    /// The stepper, to read its finest level after a frame (the runners).
+    pub(crate) fn stepper_mut(&mut self) -> &mut dyn Stepper {
+        &mut *self.stepper
+    }
+
+    /// Hold the scenario's prescribed displacements (its `[[displace]]` paths from `t = 0`,
+    /// in file order) at `values` (m) from now on ([`Stepper::hold_prescribed`]); their move
+    /// since the last values counts, with the grasps' moves, in the next frame's predictor
+    /// ([`frame`] module docs).
+    pub(crate) fn hold_prescribed(&mut self, values: &[[f64; 3]]) {
+        for ((m, p), v) in self
+            .prescribed_moves
+            .iter_mut()
+            .zip(&mut self.prescribed)
+            .zip(values)
+        {
+            *m = [v[0] - p[0], v[1] - p[1], v[2] - p[2]];
+            *p = *v;
+        }
+        self.stepper.hold_prescribed(values);
     }
 
     /// Level 0's mesh (reference configuration).

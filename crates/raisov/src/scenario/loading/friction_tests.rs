@@ -4,7 +4,7 @@
 //! on 1 and 2 threads, and `friction = 0` bit for bit frictionless.
 
 use super::super::*;
-use crate::sim::solve::solve;
+use crate::runner::{run, solve, RunOptions, StopReason};
 
 /// A 2 cm neo-Hookean cube on a fixed base (z = 0), 4³ cells, critically damped.
 const BLOCK: &str = r#"
@@ -52,7 +52,7 @@ fn error_of(text: &str) -> String {
 }
 
 /// Run in memory; the final state and measures.
-fn solved(text: &str) -> crate::sim::solve::Solution {
+fn solved(text: &str) -> crate::runner::Solution {
     let sc = parse(text).unwrap();
     solve(
         &sc,

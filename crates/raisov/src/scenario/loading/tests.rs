@@ -3,6 +3,7 @@
 
 use super::super::*;
 use crate::error::Error;
+use crate::runner::{run, RunOptions, StopReason};
 
 /// A 2 cm neo-Hookean cube on a fixed base (z = 0).
 const BLOCK: &str = r#"
@@ -34,10 +35,10 @@ fn error_of(text: &str) -> String {
     s
 }
 
-fn static_run(text: &str) -> (run::StaticSummary, tempfile::TempDir) {
+fn static_run(text: &str) -> (crate::runner::StaticSummary, tempfile::TempDir) {
     let sc = parse(text).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let s = run::run_static(
+    let s = crate::runner::run_static(
         &sc,
         RunOptions {
             out_dir: Some(dir.path().join("out")),

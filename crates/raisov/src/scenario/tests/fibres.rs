@@ -187,7 +187,7 @@ fn uniaxial_box_matches_the_closed_form_along_and_across_the_fibres() {
                 ([a[1], a[0], a[2]], closed.cauchy(a)[1] * a[0] * a[2])
             };
             let sc = parse(&uniaxial_block(&spec, p)).unwrap();
-            let (s, stepper) = crate::scenario::run_static_keeping(
+            let (s, stepper) = crate::runner::run_static_keeping(
                 &sc,
                 RunOptions {
                     in_memory: true,
@@ -238,7 +238,7 @@ fn fibre_block_example_stretches_as_its_comment_says() {
     let sc = Scenario::load(p).unwrap();
     let l = Closed::of(&sc.material).along(1.25);
     assert!((l[1] - 0.9142).abs() < 5e-5, "{l:?}");
-    let (s, stepper) = crate::scenario::run_static_keeping(
+    let (s, stepper) = crate::runner::run_static_keeping(
         &sc,
         RunOptions {
             in_memory: true,
@@ -329,7 +329,7 @@ fn rotated_pull(file: &str, q: &Matrix3<f64>, material: &str, f: f64, extra: &st
 /// Solve `text` (a scenario in `dir`) statically; its level-0 displacement.
 fn solve_in(dir: &Path, text: &str) -> (Scenario, Vec<f64>) {
     let sc = Scenario::from_toml(text, &dir.join("test.toml")).unwrap();
-    let (s, stepper) = crate::scenario::run_static_keeping(
+    let (s, stepper) = crate::runner::run_static_keeping(
         &sc,
         RunOptions {
             in_memory: true,
@@ -896,7 +896,7 @@ fn frames_carry_the_fibre_field_as_cell_data() {
     for (name, text) in [("field", text.to_string()), ("constant", text.replace("fibre = { helix = { axis = [0, 0, 1], centre = [-0.03, 0.005, 0], inner_radius = 0.03, outer_radius = 0.04, endo = 60.0, epi = -60.0 } }", "fibre = [1, 0, 0]"))] {
         let sc = Scenario::from_toml(&text, &dir.path().join(format!("{name}.toml"))).unwrap();
         let out = dir.path().join(format!("out-{name}"));
-        let s = crate::scenario::run_static(
+        let s = crate::runner::run_static(
             &sc,
             RunOptions {
                 out_dir: Some(out.clone()),
@@ -953,7 +953,7 @@ fn fibre_wall_example_twists_as_its_comment_says() {
     let text = std::fs::read_to_string(p).unwrap();
     let run = |text: &str| {
         let sc = Scenario::from_toml(text, p).unwrap();
-        let (s, stepper) = crate::scenario::run_static_keeping(
+        let (s, stepper) = crate::runner::run_static_keeping(
             &sc,
             RunOptions {
                 in_memory: true,

@@ -52,7 +52,7 @@ fn implicit_euler_scenario_settles_at_the_static_solution() {
         "gravity = [0.0, -9.81, 0.0]\n{}",
         cube("[integrator]\nmethod = \"newton\"\n[run]\nresidual_tol = 1e-10\n")
     );
-    let s = super::run::run_static(
+    let s = crate::runner::run_static(
         &parse(&statics).unwrap(),
         RunOptions {
             out_dir: Some(dir.path().join("s")),
@@ -185,7 +185,7 @@ fn bdf2_scenario_with_stiffness_damping_settles_at_the_static_solution() {
         "gravity = [0.0, -9.81, 0.0]\n{}",
         cube("[integrator]\nmethod = \"newton\"\n[run]\nresidual_tol = 1e-10\n")
     );
-    let s = super::run::run_static(
+    let s = crate::runner::run_static(
         &parse(&statics).unwrap(),
         RunOptions {
             out_dir: Some(dir.path().join("s")),

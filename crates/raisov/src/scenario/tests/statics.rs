@@ -29,7 +29,7 @@ fn newton_static_solve_matches_the_steady_dynamic_run() {
     let d = run(&parse(&dynamic).unwrap(), opts("d")).unwrap();
     assert_eq!(d.reason, StopReason::Steady, "{d}");
     let sc = parse(&statics).unwrap();
-    let s = super::run::run_static(&sc, opts("s")).unwrap();
+    let s = crate::runner::run_static(&sc, opts("s")).unwrap();
     assert!(s.converged(), "{s}");
     let text = s.to_string();
     assert!(
@@ -103,7 +103,7 @@ fn static_solvers_reach_one_equilibrium() {
     let solve = |solver: &str, levels: bool| {
         let sc = parse(&text(solver, levels)).unwrap();
         let sub = format!("{solver}-{levels}");
-        let s = super::run::run_static(
+        let s = crate::runner::run_static(
             &sc,
             RunOptions {
                 out_dir: Some(dir.path().join(&sub)),
@@ -253,7 +253,7 @@ residual_tol = 1e-11
     let dir = tempfile::tempdir().unwrap();
     let solve = |increments: usize| {
         let sc = parse(&text(increments)).unwrap();
-        super::run::run_static(
+        crate::runner::run_static(
             &sc,
             RunOptions {
                 out_dir: Some(dir.path().join(increments.to_string())),

@@ -225,7 +225,7 @@ fn static_solve_of_a_visco_law_is_the_long_term_equilibrium() {
                   [integrator]\nmethod = \"newton\"\n[run]\nresidual_tol = 1e-12";
     let solve = |mat: &str| {
         let sc = parse(&block(mat, [4, 2, 2], newton)).unwrap();
-        let (s, st) = crate::scenario::run_static_keeping(
+        let (s, st) = crate::runner::run_static_keeping(
             &sc,
             RunOptions {
                 in_memory: true,
@@ -507,11 +507,11 @@ fn interactive_creep_is_measured_against_the_frame_s_internal_state() {
         ),
     );
     let sc = parse(&text).unwrap();
-    let mut st = sc.stepper().unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let s = crate::scenario::interactive::run_interactive(
+    let mut replay = crate::runner::Replay::new(&sc, sc.stepper().unwrap()).unwrap();
+    let s = crate::runner::run_frames(
         &sc,
-        st.as_mut(),
+        &mut replay,
         RunOptions {
             out_dir: Some(dir.path().to_path_buf()),
             ..Default::default()
@@ -525,7 +525,7 @@ fn interactive_creep_is_measured_against_the_frame_s_internal_state() {
     let tip = (0..sc.mesh.num_nodes())
         .find(|&a| (sc.mesh.nodes[a][0] - 0.02).abs() < 1e-12)
         .unwrap();
-    let got = st.state().u[3 * tip] / 0.02;
+    let got = replay.simulation().displacements()[3 * tip] / 0.02;
     assert!(
         (got - eps_inf).abs() <= 1e-2 * eps_inf,
         "{got} vs long-term {eps_inf}"

@@ -18,9 +18,12 @@
 //! Nothing else is touched: other scenarios' frames and collections, the level caches, the
 //! lock file and every file of another name stay.
 
+use super::RunOptions;
 use crate::error::{Error, Result};
-use crate::io::{refuse_link, sweep_temporaries};
-use std::path::Path;
+use crate::io::{refuse_link, sweep_temporaries, write_atomic, OutputLock};
+use crate::metrics::CsvStream;
+use crate::scenario::Scenario;
+use std::path::{Path, PathBuf};
 
 /// The results one run leaves in its directory, whatever its scenario's name.
 pub(crate) const RESULTS: [&str; 4] = [
@@ -56,7 +59,7 @@ pub(crate) fn prepare(out: &Path, name: &str) -> Result<()> {
     clear_old_frames(out, name)?;
     sweep_temporaries(out, true)?;
     sweep_temporaries(&frames, true)?;
-    let cache = out.join(super::super::surface::CACHE_DIR);
+    let cache = out.join(crate::scenario::surface::CACHE_DIR);
     if let Ok(entries) = std::fs::read_dir(&cache) {
         for e in entries.flatten() {
             if e.file_type().is_ok_and(|t| t.is_dir()) {
@@ -99,6 +102,86 @@ fn clear_old_frames(out: &Path, name: &str) -> Result<()> {
     Ok(())
 }
 
+/// Where a run's results go: its output directory, locked for the run, or nowhere
+/// ([`RunOptions::in_memory`]).
+pub(crate) struct OutDir {
+    dir: Option<PathBuf>,
+    _lock: Option<OutputLock>,
+}
+
+impl OutDir {
+    /// Take the run's directory (`opts.out_dir`, else the scenario's) and its lock; nothing
+    /// for a run in memory.
+    pub(crate) fn lock(sc: &Scenario, opts: &RunOptions) -> Result<OutDir> {
+        if opts.in_memory {
+            return Ok(OutDir {
+                dir: None,
+                _lock: None,
+            });
+        }
+        let dir = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
+        let lock = OutputLock::acquire(&dir)?;
+        Ok(OutDir {
+            dir: Some(dir),
+            _lock: Some(lock),
+        })
+    }
+
+    /// Clear what an earlier run left (module docs).
+    pub(crate) fn prepare(&self, name: &str) -> Result<()> {
+        match &self.dir {
+            Some(d) => prepare(d, name),
+            None => crate::io::check_name(name).map_err(|e| Error::param("name", e)),
+        }
+    }
+
+    /// The directory; `None` for a run in memory.
+    pub(crate) fn dir(&self) -> Option<&Path> {
+        self.dir.as_deref()
+    }
+
+    /// `file` in the directory (for a run in memory, its bare name: what messages call it).
+    pub(crate) fn path(&self, file: &str) -> PathBuf {
+        match &self.dir {
+            Some(d) => d.join(file),
+            None => PathBuf::from(file),
+        }
+    }
+
+    /// `measures.csv`, streamed, or counted and dropped; with the friction columns where
+    /// `friction`.
+    pub(crate) fn measures(&self, friction: bool) -> Result<CsvStream> {
+        let p = self.path("measures.csv");
+        match self.dir {
+            Some(_) => CsvStream::create(&p, friction),
+            None => CsvStream::discard(&p, friction),
+        }
+    }
+
+    /// Write `file` atomically from `body`; nothing for a run in memory.
+    pub(crate) fn write(
+        &self,
+        file: &str,
+        body: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
+    ) -> Result<()> {
+        match &self.dir {
+            Some(d) => write_atomic(&d.join(file), |w| body(w)),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The summary's last line: the output directory, or that the run kept its results in
+/// memory.
+pub(crate) fn write_output(
+    f: &mut std::fmt::Formatter<'_>,
+    dir: Option<&Path>,
+) -> std::fmt::Result {
+    match dir {
+        Some(d) => write!(f, "output          {}", d.display()),
+        None => write!(f, "output          none (kept in memory)"),
+    }
+}
 #[cfg(test)]
 mod tests {
     use super::*;

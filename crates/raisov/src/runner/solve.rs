@@ -2,8 +2,8 @@
 //! does, and what a parameter study calls once per case ([`solve`]).
 //!
 //! The scenario says what runs, as for `raisov run`: `method = "newton"` a static solve
-//! ([`crate::scenario::run_static`]), an `[interactive]` section its frames
-//! ([`crate::sim::replay::run_interactive`]),
+//! ([`super::run_static`]), an `[interactive]` section its frames
+//! ([`super::run_interactive`], through a [`crate::sim::Simulation`]),
 //! anything else a run in time ([`run_with`]). With [`RunOptions::in_memory`] nothing is
 //! written (no directory is created, locked or cleared); otherwise the run writes what it
 //! always writes.
@@ -31,14 +31,14 @@
 //! The same scenario gives the same bits whatever the number of threads, except where a
 //! wall-clock budget (`[interactive] ms`) decides how much work a frame does.
 
+use super::{
+    run_frames, run_static_keeping, run_with, FrameStepper, InteractiveSummary, Replay, RunOptions,
+    RunSummary, StaticSummary,
+};
 use crate::error::Result;
 use crate::integrate::Stepper;
 use crate::metrics::{Meter, Sample};
-use crate::scenario::interactive::{self, run_frames, FrameStepper, InteractiveSummary};
-use crate::scenario::{
-    run_static_keeping, run_with, RunOptions, RunSummary, Scenario, StaticSummary,
-};
-use crate::sim::replay::Replay;
+use crate::scenario::Scenario;
 
 /// How a run ended: the summary of its kind.
 #[derive(Clone, Debug)]
@@ -163,15 +163,6 @@ pub fn solve_with(
         let summary = run_with(sc, stepper.as_mut(), opts)?;
         return Ok(finish(
             Finished::Dynamic(summary),
-            stepper.as_mut(),
-            sc,
-            Vec::new(),
-        ));
-    }
-    if sc.grasps.is_empty() && sc.pins.is_empty() && sc.cuts.is_empty() {
-        let summary = interactive::run_interactive(sc, stepper.as_mut(), opts)?;
-        return Ok(finish(
-            Finished::Interactive(summary),
             stepper.as_mut(),
             sc,
             Vec::new(),

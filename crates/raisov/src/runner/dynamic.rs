@@ -18,7 +18,7 @@
 //!   ([`crate::io::vtu`]);
 //! - with `[mesh] surface`, `NAME_surface.pvd` + `frames/NAME_surface_NNNNNN.vtp`: the input
 //!   surface embedded in the finest level, its reference points with the interpolated
-//!   `displacement`, one file per volume frame ([`super::surface`]);
+//!   `displacement`, one file per volume frame ([`crate::scenario::surface`]);
 //! - `nodal_stress.csv`: the final nodal stress per node, in file order, `node` the file's id
 //!   (usable as a later run's `output.reference`);
 //! - `summary.txt`: what the closing summary says, how the run stopped included.
@@ -42,7 +42,7 @@
 //! run ends at the next step boundary, writes its last row, frame, `nodal_stress.csv` and a
 //! summary that says it was interrupted.
 //!
-//! A run first clears what the previous run left (`run/outputs.rs`): once it holds the lock it
+//! A run first clears what the previous run left (`runner/outputs.rs`): once it holds the lock it
 //! removes `measures.csv`, `frames.csv`, `nodal_stress.csv` and `summary.txt`, this
 //! scenario's `.pvd` collections and numbered frames, and the temporary files of killed
 //! writers, so that a run killed or diverging early never leaves an older summary beside its
@@ -53,21 +53,15 @@
 //! A diverging run writes what it measured up to the last finite state, then returns
 //! [`Error::Diverged`] naming time, step, element and cause. Nothing non-finite is written.
 
-use super::surface::SurfaceFrames;
-use super::{Reference, Scenario, StopRule};
+use super::outputs::{write_output, OutDir};
 use crate::error::{Error, Result};
-use crate::integrate::{State, Stepper};
-use crate::io::{write_atomic, write_vtu_as, Field, FieldData, OutputLock, PvdWriter, VtuFormat};
-use crate::metrics::{CsvStream, Meter, Sample};
-use crate::statics::relax::dynamic::relax;
+use crate::integrate::Stepper;
+use crate::io::{write_atomic, write_vtu_as, Field, FieldData, PvdWriter, VtuFormat};
+use crate::metrics::{Meter, Sample};
+use crate::scenario::surface::SurfaceFrames;
+use crate::scenario::{mesh_index_of_file, read_nodal_stress, Reference, Scenario, StopRule};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-mod outputs;
-mod statics;
-pub(crate) use outputs::prepare as prepare_output;
-pub(crate) use statics::prescribed_force_scale;
-pub use statics::{describe_static, run_static, run_static_keeping, StaticSummary};
 
 /// Why a run ended normally.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -122,78 +116,9 @@ pub struct RunOptions<'a> {
     /// reports [`StopReason::Interrupted`].
     pub stop: Option<&'a std::sync::atomic::AtomicBool>,
     /// Keep the results in memory only: no file is written, no directory is created,
-    /// locked or cleared, and `out_dir` is not used. The summary (and, through [`crate::sim::solve()`],
+    /// locked or cleared, and `out_dir` is not used. The summary (and, through [`super::solve()`],
     /// the final state) is all the run leaves.
     pub in_memory: bool,
-}
-
-/// Where a run's results go: its output directory, locked for the run, or nowhere
-/// ([`RunOptions::in_memory`]).
-pub(crate) struct OutDir {
-    dir: Option<PathBuf>,
-    _lock: Option<OutputLock>,
-}
-
-impl OutDir {
-    /// Take the run's directory (`opts.out_dir`, else the scenario's) and its lock; nothing
-    /// for a run in memory.
-    pub(crate) fn lock(sc: &Scenario, opts: &RunOptions) -> Result<OutDir> {
-        if opts.in_memory {
-            return Ok(OutDir {
-                dir: None,
-                _lock: None,
-            });
-        }
-        let dir = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
-        let lock = OutputLock::acquire(&dir)?;
-        Ok(OutDir {
-            dir: Some(dir),
-            _lock: Some(lock),
-        })
-    }
-
-    /// Clear what an earlier run left (`run/outputs.rs`).
-    pub(crate) fn prepare(&self, name: &str) -> Result<()> {
-        match &self.dir {
-            Some(d) => prepare_output(d, name),
-            None => crate::io::check_name(name).map_err(|e| Error::param("name", e)),
-        }
-    }
-
-    /// The directory; `None` for a run in memory.
-    pub(crate) fn dir(&self) -> Option<&Path> {
-        self.dir.as_deref()
-    }
-
-    /// `file` in the directory (for a run in memory, its bare name: what messages call it).
-    pub(crate) fn path(&self, file: &str) -> PathBuf {
-        match &self.dir {
-            Some(d) => d.join(file),
-            None => PathBuf::from(file),
-        }
-    }
-
-    /// `measures.csv`, streamed, or counted and dropped; with the friction columns where
-    /// `friction`.
-    pub(crate) fn measures(&self, friction: bool) -> Result<CsvStream> {
-        let p = self.path("measures.csv");
-        match self.dir {
-            Some(_) => CsvStream::create(&p, friction),
-            None => CsvStream::discard(&p, friction),
-        }
-    }
-
-    /// Write `file` atomically from `body`; nothing for a run in memory.
-    pub(crate) fn write(
-        &self,
-        file: &str,
-        body: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
-    ) -> Result<()> {
-        match &self.dir {
-            Some(d) => write_atomic(&d.join(file), |w| body(w)),
-            None => Ok(()),
-        }
-    }
 }
 
 /// What a finished run reports.
@@ -281,21 +206,9 @@ impl std::fmt::Display for RunSummary {
     }
 }
 
-/// The summary's last line: the output directory, or that the run kept its results in
-/// memory.
-pub(crate) fn write_output(
-    f: &mut std::fmt::Formatter<'_>,
-    dir: Option<&Path>,
-) -> std::fmt::Result {
-    match dir {
-        Some(d) => write!(f, "output          {}", d.display()),
-        None => write!(f, "output          none (kept in memory)"),
-    }
-}
-
 /// The summary lines of the reactions, the applied loads and the tools' contact force: what
 /// balances at equilibrium.
-fn write_balance(
+pub(super) fn write_balance(
     f: &mut std::fmt::Formatter<'_>,
     last: &Sample,
     applied: [f64; 3],
@@ -323,151 +236,11 @@ fn write_balance(
     Ok(())
 }
 
-impl Scenario {
-    /// Name the node of `d` (of the stepper's finest level, this scenario's mesh) as
-    /// messages to the user name nodes: by its id in the mesh file
-    /// ([`Scenario::file_node`]), with its position.
-    pub fn locate(&self, d: &mut crate::error::Divergence) {
-        let n = self.mesh.num_nodes();
-        d.locate(
-            |a| match a < n {
-                true => self.file_node(a as u32),
-                false => a as u64,
-            },
-            |a| self.mesh.nodes.get(a).copied(),
-        );
-    }
-
-    /// The time after which every prescribed motion, load and tool is constant.
-    pub fn motion_end(&self) -> f64 {
-        self.prescribed
-            .iter()
-            .map(|(_, m)| m.end())
-            .fold(self.loads_end(), f64::max)
-    }
-
-    /// Steady-state nodal stress T∞ with the constraints at their final values, by dynamic
-    /// relaxation to a residual of 1e-10 of the load scale.
-    pub fn steady_reference(&self) -> Result<(Vec<f64>, String)> {
-        let mut sys = self.build_system()?;
-        let n = sys.num_nodes();
-        let mut s = State::at_rest(n);
-        s.t = self.motion_end();
-        let dt = 0.5 * self.dt_critical_estimate.min(self.dt);
-        let r = relax(&mut sys, s, dt, 1e-10, 2_000_000).map_err(|f| {
-            Error::Diverged(crate::error::Divergence {
-                time: 0.0,
-                step: 0,
-                element: Some(f.element),
-                cause: crate::error::DivergenceCause::Inverted { det_f: f.det_f },
-            })
-        })?;
-        let mut t = vec![0.0; 9 * n];
-        sys.force.nodal_stress(&r.state.u, &mut t);
-        let note = format!(
-            "T_inf by dynamic relaxation: residual {:.3e} N ({:.1e} of start) after {} steps{}",
-            r.residual,
-            r.residual / r.initial_residual.max(f64::MIN_POSITIVE),
-            r.steps,
-            if r.converged {
-                ""
-            } else {
-                " (NOT converged to 1e-10)"
-            }
-        );
-        Ok((t, note))
-    }
-}
-
-/// The mesh index of each node in file order (the inverse of [`Scenario::file_ids`]; the
-/// identity where the mesh keeps the file's order).
-fn mesh_index_of_file(file_ids: Option<&[u32]>, n: usize) -> Vec<usize> {
-    match file_ids {
-        Some(f) => crate::mesh::inverse_order(f)
-            .into_iter()
-            .map(|k| k as usize)
-            .collect(),
-        None => (0..n).collect(),
-    }
-}
-
-/// Read a `nodal_stress.csv` written by an earlier run on the mesh of `sc`; its `node` column
-/// holds the file's ids ([`Scenario::file_node`]). Every number must be finite.
-pub fn read_nodal_stress(path: &Path, sc: &Scenario) -> Result<Vec<f64>> {
-    let n = sc.mesh.num_nodes();
-    let at = mesh_index_of_file(sc.file_ids.as_deref(), n);
-    let position: std::collections::HashMap<u64, usize> = (0..n)
-        .map(|k| {
-            let id = sc.node_labels.as_ref().map_or(k as u64, |l| l[k]);
-            (id, at[k])
-        })
-        .collect();
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let bad = |line: usize, msg: String| Error::Scenario {
-        path: path.to_path_buf(),
-        line: Some(line),
-        msg,
-    };
-    let mut t = vec![f64::NAN; 9 * n];
-    let mut rows = 0;
-    for (i, line) in text.lines().enumerate().skip(1) {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let f: Vec<&str> = line.split(',').collect();
-        if f.len() != 16 {
-            return Err(bad(
-                i + 1,
-                format!(
-                    "expected 16 columns (node, x, y, z, ux, uy, uz, T00..T22), found {}",
-                    f.len()
-                ),
-            ));
-        }
-        let id: u64 = f[0]
-            .trim()
-            .parse()
-            .map_err(|_| bad(i + 1, format!("bad node id `{}`", f[0])))?;
-        let a = *position.get(&id).ok_or_else(|| {
-            bad(
-                i + 1,
-                format!("node {id} is not a node of this mesh ({n} nodes, ids as in its file)"),
-            )
-        })?;
-        for (col, field) in f.iter().enumerate().skip(1) {
-            let x: f64 = field
-                .trim()
-                .parse()
-                .map_err(|_| bad(i + 1, format!("bad number `{field}` in column {}", col + 1)))?;
-            if !x.is_finite() {
-                return Err(bad(
-                    i + 1,
-                    format!(
-                        "column {} is `{field}`: numbers must be finite (not nan or inf)",
-                        col + 1
-                    ),
-                ));
-            }
-            if col >= 7 {
-                t[9 * a + col - 7] = x;
-            }
-        }
-        rows += 1;
-    }
-    if rows != n {
-        return Err(bad(
-            text.lines().count(),
-            format!("has {rows} nodes, this mesh has {n}"),
-        ));
-    }
-    Ok(t)
-}
-
 /// One row per node in file order, the `node` column its file id ([`Scenario::file_node`]).
 /// A cut body (`copies`: each node of the scenario's mesh's copies, whose `u` and `t` these
 /// are) has a row per copy, in the order of the copies, each with its node's id: the stress
 /// of each lip averaged over its own side.
-fn write_nodal_stress(
+pub(super) fn write_nodal_stress(
     path: &Path,
     sc: &Scenario,
     u: &[f64],
@@ -509,7 +282,7 @@ fn write_nodal_stress(
 }
 
 /// Writes VTU frames (and the visual surface's VTP frames) and the PVD collections.
-struct Frames<'a> {
+pub(super) struct Frames<'a> {
     /// `out/frames`; `None` for a run in memory, which writes no frame.
     dir: Option<PathBuf>,
     name: String,
@@ -528,12 +301,12 @@ struct Frames<'a> {
     /// Each point's node id in the mesh file, where the scenario renumbered the nodes.
     file_ids: Option<Vec<i64>>,
     surface: Option<SurfaceFrames<'a>>,
-    /// The cut body's mesh and cell data, from the first cut on ([`super::cuts`]).
-    cut: Option<super::cuts::CutFrame>,
+    /// The cut body's mesh and cell data, from the first cut on ([`crate::scenario::cuts`]).
+    cut: Option<crate::scenario::cuts::CutFrame>,
 }
 
 impl<'a> Frames<'a> {
-    fn new(sc: &'a Scenario, out: &OutDir) -> Result<Self> {
+    pub(super) fn new(sc: &'a Scenario, out: &OutDir) -> Result<Self> {
         let (name, format) = (sc.name.as_str(), sc.vtu);
         let dir = match out.dir() {
             Some(out) => {
@@ -573,7 +346,7 @@ impl<'a> Frames<'a> {
     /// The body was cut: later frames carry the cut mesh (a series whose points and cells
     /// change, each frame file complete in itself, as ParaView reads a PVD collection); the
     /// visual surface, which would bridge the wound, is no longer written.
-    fn cut(&mut self, cut: super::cuts::CutFrame) {
+    pub(super) fn cut(&mut self, cut: crate::scenario::cuts::CutFrame) {
         let n = if self.dir.is_some() {
             cut.mesh.num_nodes()
         } else {
@@ -590,7 +363,7 @@ impl<'a> Frames<'a> {
         self.surface = None;
         self.cut = Some(cut);
     }
-    fn write(&mut self, sc: &Scenario, stepper: &mut dyn Stepper) -> Result<()> {
+    pub(super) fn write(&mut self, sc: &Scenario, stepper: &mut dyn Stepper) -> Result<()> {
         let Some(dir) = &self.dir else {
             return Ok(());
         };
@@ -697,7 +470,7 @@ pub fn run_with(
     };
     let mut meter = Meter::new(n, t_inf);
     let mut frames = Frames::new(sc, &out)?;
-    let mut cuts = super::cuts::RunCuts::new(sc);
+    let mut cuts = crate::scenario::cuts::RunCuts::new(sc);
     let mut rows = out.measures(sc.has_friction())?;
     let start = Instant::now();
     let dt = stepper.dt();
@@ -746,7 +519,8 @@ pub fn run_with(
         }
         match cuts.make_due(sc, stepper.state().t, 1e-9 * dt, stepper) {
             Ok(true) => {
-                let cut = super::cuts::CutFrame::of(sc, cuts.level0().expect("a cut was made"));
+                let cut =
+                    crate::scenario::cuts::CutFrame::of(sc, cuts.level0().expect("a cut was made"));
                 // |T − T∞| compares with the uncut body's nodes: not measured after a cut.
                 meter = Meter::new(cut.mesh.num_nodes(), None);
                 frames.cut(cut);

@@ -35,7 +35,9 @@
 //! level then in one increment. The stopping rule's starting out-of-balance force
 //! is that of the rest state, as without it.
 
-use super::{write_balance, write_nodal_stress, Frames, OutDir, RunOptions};
+use super::dynamic::{write_balance, write_nodal_stress, Frames};
+use super::outputs::{write_output, OutDir};
+use super::RunOptions;
 use crate::error::{Error, Result};
 use crate::integrate::{Stepper, System};
 use crate::metrics::{Meter, Sample};
@@ -179,7 +181,7 @@ impl std::fmt::Display for StaticSummary {
         writeln!(f, "wall time       {:.3} s", self.wall)?;
         writeln!(f, "max |u|         {:.4e} m", self.last.max_u)?;
         write_balance(f, &self.last, self.applied)?;
-        super::write_output(f, self.out_dir.as_deref())
+        write_output(f, self.out_dir.as_deref())
     }
 }
 

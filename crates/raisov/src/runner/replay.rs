@@ -1,35 +1,44 @@
-//! The interactive run of a scenario with grasps and pins taken during the run (what
-//! `raisov serve` records): a [`Simulation`] steps the frames, taking, moving and letting go
-//! of the grasps and taking the pins before the frames the scenario says, by the rules of
-//! [`crate::scenario::grasps`]; [`crate::scenario::interactive::run_frames`] writes the
-//! frames and the summary as for any interactive run.
+//! The frames of an interactive run stepped through a [`Simulation`], as a host program or
+//! the viewer steps its own ([`crate::sim::frame`]): each frame holds the scenario's
+//! prescribed displacements at the frame's values (their moves counted in the frame
+//! predictor's, [`crate::sim::frame`]), makes
+//! the cuts, lets go of the grasps, takes the pins and the grasps before the frames the
+//! scenario says (what `raisov serve` records; the rules of [`crate::scenario::grasps`]),
+//! moves the grasps along their paths, and runs the frame's budget
+//! ([`Simulation::step_frame`]); [`super::run_frames`] writes the frames and the summary.
+//!
+//! A scenario that takes nothing during the run is run as its own stepper would run it alone:
+//! the stepper keeps the scenario's kinetic-energy ceiling and a diverging step ends the run
+//! ([`crate::Error::Diverged`]) instead of being rejected and retried.
 
-use super::{Budget, Coupling, GrabId, GrabOptions, Simulation};
+use super::frames::{no_interactive, run_frames, FrameStepper, InteractiveSummary};
+use super::RunOptions;
 use crate::error::{Error, Result};
 use crate::integrate::Stepper;
 use crate::numbers::compact;
 use crate::scenario::grasps::{frame_of, Grasp, Pin};
-use crate::scenario::interactive::{self, run_frames, FrameStepper, InteractiveSummary};
-use crate::scenario::{RunOptions, Scenario};
+use crate::scenario::interactive;
+use crate::scenario::Scenario;
+use crate::sim::{Budget, Coupling, GrabId, GrabOptions, Simulation};
 use std::path::PathBuf;
 
-/// Run an interactive scenario with `stepper` (the scenario's, [`Scenario::stepper`]), what
-/// `raisov run` does: with grasps or pins taken during the run, through a [`Replay`]; else
-/// as [`interactive::run_interactive`]. Errors: as [`run_frames`], and a grasp or pin whose
-/// patch is all constrained already (naming its entry and frame).
+/// Run the scenario interactively with `stepper` (the scenario's, [`Scenario::stepper`]), what
+/// `raisov run` does: its frames stepped through a [`Simulation`]
+/// ([`Replay`], [`run_frames`]), which takes, moves and lets go of the grasps and takes the pins and cuts the
+/// scenario says, if any. Errors: the scenario has no `[interactive]` section, a diverging
+/// stepper in a scenario that takes nothing during the run (with step and element), a grasp
+/// or pin whose patch is all constrained already (naming its entry and frame), a reference
+/// solve that inverts an element, or an output file that cannot be written.
 pub fn run_interactive(
     sc: &Scenario,
-    mut stepper: Box<dyn Stepper>,
+    stepper: Box<dyn Stepper>,
     opts: RunOptions,
 ) -> Result<InteractiveSummary> {
-    if sc.grasps.is_empty() && sc.pins.is_empty() && sc.cuts.is_empty() {
-        return interactive::run_interactive(sc, stepper.as_mut(), opts);
-    }
     let mut replay = Replay::new(sc, stepper)?;
     run_frames(sc, &mut replay, opts)
 }
 
-/// The frames of an interactive run with grasps and pins ([`crate::scenario::grasps`]).
+/// The frames of an interactive run through a [`Simulation`] (module docs).
 pub struct Replay {
     sim: Simulation,
     path: PathBuf,
@@ -38,6 +47,8 @@ pub struct Replay {
     cuts: Vec<crate::scenario::cuts::Cut>,
     fps: f64,
     budget: Budget,
+    /// Nothing is taken during the run: a diverging step is the run's error (module docs).
+    strict: bool,
     /// Per grasp, while held: its id and grasp point `g`.
     held: Vec<Option<(GrabId, [f64; 3])>>,
     /// A frame that moved a grasp was rejected: later ones are tried once.
@@ -46,21 +57,18 @@ pub struct Replay {
 }
 
 impl Replay {
-    /// The replay of `sc`'s grasps and pins on `stepper` (the scenario's); an error for a
-    /// scenario without `[interactive]`.
+    /// The replay of `sc`'s frames on `stepper` (the scenario's); an error for a scenario
+    /// without `[interactive]`.
     pub fn new(sc: &Scenario, stepper: Box<dyn Stepper>) -> Result<Replay> {
         let Some(settings) = sc.interactive else {
-            return Err(Error::Scenario {
-                path: sc.path.clone(),
-                line: None,
-                msg: "no [interactive] section".into(),
-            });
+            return Err(no_interactive(sc));
         };
         let budget = match settings.budget {
             interactive::Budget::Cycles(c) => Budget::Cycles(c.min(u32::MAX as usize) as u32),
             interactive::Budget::Wall(w) => Budget::Millis(w * 1e3),
         };
-        let mut sim = Simulation::with_stepper(sc, stepper)?;
+        let strict = sc.grasps.is_empty() && sc.pins.is_empty() && sc.cuts.is_empty();
+        let mut sim = Simulation::with_stepper(sc, stepper, strict)?;
         sim.set_predictor(settings.predictor);
         let retries = sim.max_retries();
         Ok(Replay {
@@ -71,6 +79,7 @@ impl Replay {
             cuts: sc.cuts.clone(),
             fps: settings.fps,
             budget,
+            strict,
             held: vec![None; sc.grasps.len()],
             stuck: false,
             retries,
@@ -101,7 +110,7 @@ impl Replay {
 
 impl FrameStepper for Replay {
     fn stepper(&mut self) -> &mut dyn Stepper {
-        &mut *self.sim.stepper
+        self.sim.stepper_mut()
     }
 
     fn cut_mesh(&self) -> Option<&crate::mesh::cut::CutMesh> {
@@ -109,7 +118,7 @@ impl FrameStepper for Replay {
     }
 
     fn frame(&mut self, k: usize, t: f64, values: &[[f64; 3]]) -> Result<Option<String>> {
-        self.sim.stepper.hold_prescribed(values);
+        self.sim.hold_prescribed(values);
         let path = &self.path;
         let at = |what: String, e: Error| Error::Scenario {
             path: path.clone(),
@@ -168,7 +177,13 @@ impl FrameStepper for Replay {
                 moving |= self.sim.grab_position(id)? != target;
             }
         }
-        let report = self.sim.step_frame(self.budget);
+        let report = if self.strict {
+            self.sim
+                .step_frame_strict(self.budget)
+                .map_err(Error::Diverged)?
+        } else {
+            self.sim.step_frame(self.budget)
+        };
         if moving && report.accepted {
             self.unstick();
         } else if moving && !self.stuck {
@@ -186,6 +201,7 @@ impl FrameStepper for Replay {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::runner::read_frames_csv;
     use std::path::Path;
 
     /// A 4 cm cube of soft tissue fixed at its base, damped explicit dynamics, `extra` added
@@ -292,15 +308,6 @@ cycles = 40
         )
         .unwrap();
         assert_eq!((s.frames, s.rejected_frames), (30, 0));
-        // The scenario runner alone sends such scenarios here.
-        let e = interactive::run_interactive(
-            &sc,
-            sc.stepper().unwrap().as_mut(),
-            RunOptions::default(),
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(e.contains("raisov::sim::replay::run_interactive"), "{e}");
     }
 
     /// `raisov serve` grasps by springs by default; its recordings held the patch rigidly,
@@ -367,7 +374,7 @@ cycles = 40
                 },
             )
             .unwrap();
-            let rows = interactive::read_frames_csv(&dir.path().join("frames.csv")).unwrap();
+            let rows = read_frames_csv(&dir.path().join("frames.csv")).unwrap();
             assert_eq!(rows.len(), 45);
             assert!(rows[..16].iter().all(|r| r.lag_max.is_finite()), "{s}");
             let (up, target) = (rows[14].static_max_u, 0.004 * 0.5 / 0.52);
@@ -522,7 +529,7 @@ cycles = 40
         assert!(s.settings.predictor);
         assert_eq!((s.frames, s.reference_failures), (60, 0), "{s}");
         assert_eq!(s.lag_frames, 60, "{s}");
-        let rows = interactive::read_frames_csv(&dir.path().join("frames.csv")).unwrap();
+        let rows = read_frames_csv(&dir.path().join("frames.csv")).unwrap();
         let last = rows.last().unwrap();
         assert!(last.static_max_u > 3e-3, "{last:?}");
         assert!(last.lag_rel() <= 1e-7, "{last:?}");

@@ -564,6 +564,11 @@ impl Stepper for NewtonFrames {
         self.valid = false;
     }
     fn set_kinetic_limit(&mut self, _limit: f64) {}
+    /// `R(u) + S(u)` at the current state, where the last step's residual was evaluated there
+    /// and nothing changed since (a frame's observer then needs no force evaluation of its own).
+    fn finest_forces(&self) -> Option<&[f64]> {
+        self.valid.then(|| self.sys.last_forces())
+    }
     /// The next step's conjugate gradients start from `du` (free dofs) where the step moves
     /// constrained dofs or springs' anchors: the solve's start, not a change of the state.
     fn predict(&mut self, du: &[f64]) -> bool {

@@ -5,11 +5,10 @@
 //! duration written as a whole number of frames over `fps` is that number). At each frame
 //! every `[[displace]]` node is set to its path position `d(t_k)` and held there (the
 //! instrument is sampled once per frame, as a haptic or visual loop does), then the stepper
-//! gets its budget: `cycles` steps (single level) or V-cycles (multigrid), or as many as fit in
-//! `budget_ms` of wall time (at least one; another starts only while the frame's time so far
-//! plus the last one's duration stays within the budget, so a frame overruns only when a
-//! cycle is slower than the one before; the count per frame then depends on the machine's
-//! speed, and `frames.csv` records it: `cycles` is the reproducible choice). Every frame is
+//! gets its budget: `cycles` steps (single level) or V-cycles (multigrid), or steps until
+//! `budget_ms` of wall time have passed since the frame began (at least one, fewer where the
+//! frame solver has settled: [`crate::sim::Budget::Millis`]; the count per frame then depends
+//! on the machine's speed, and `frames.csv` records it: `cycles` is the reproducible choice). Every frame is
 //! stepped through a [`Simulation`](crate::sim::Simulation), as a host program or the viewer
 //! steps its own ([`super::Replay`], [`crate::sim::frame`]), with the grasps, pins and cuts the
 //! scenario takes during the run, if any ([`crate::scenario::grasps`]). The *lag* of the

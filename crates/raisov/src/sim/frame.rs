@@ -51,8 +51,8 @@ pub enum Budget {
     /// ([`crate::integrate::Stepper::settled`]: the frame solver's residual within
     /// [`crate::statics::frames::SETTLED`] of its load), whichever comes first. (A rule that
     /// starts a step only where one more like the last fits ends frames earlier, so the viewer
-    /// sends more of them: measured, the browser's grasp-to-frame latency rose from 74 ms to
-    /// 1.8 s on a 2-core machine, `bench/RESULTS.md`.)
+    /// sends more of them: measured, the browser's grasp-to-frame latency rose from 74-978 ms to
+    /// 1.8-2.0 s on a 2-core machine, `bench/RESULTS.md`.)
     Millis(f64),
 }
 

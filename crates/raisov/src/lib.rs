@@ -59,6 +59,7 @@ pub mod material;
 pub mod memory;
 pub mod mesh;
 pub mod metrics;
+pub mod model;
 pub mod multigrid;
 pub mod numbers;
 pub mod runner;
@@ -68,4 +69,4 @@ pub mod statics;
 pub mod time;
 
 pub use error::{Error, Result};
-pub use scenario::{Scheme, SchemeKind};
+pub use model::{Model, Scheme, SchemeKind};

@@ -599,7 +599,7 @@ fn newton_run(
 
 /// Newton-multigrid's levels ([`newton_mg_run`]): the finest, and
 /// [`raisov::statics::newton::coarse_level`]'s (none where no level qualifies; a
-/// generated drape meshes only that level, [`Scenario::pick_level`]).
+/// generated drape meshes only that level, [`raisov::model::Model::pick_level`]).
 fn newton_mg_levels(sc: &Scenario) -> Result<Vec<raisov::mesh::Mesh>> {
     let picked = sc.pick_level(raisov::statics::newton::coarse_level)?;
     Ok(std::iter::once(sc.mesh.clone())

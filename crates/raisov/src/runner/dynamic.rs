@@ -236,7 +236,7 @@ pub(super) fn write_balance(
     Ok(())
 }
 
-/// One row per node in file order, the `node` column its file id ([`Scenario::file_node`]).
+/// One row per node in file order, the `node` column its file id ([`crate::model::Model::file_node`]).
 /// A cut body (`copies`: each node of the scenario's mesh's copies, whose `u` and `t` these
 /// are) has a row per copy, in the order of the copies, each with its node's id: the stress
 /// of each lip averaged over its own side.

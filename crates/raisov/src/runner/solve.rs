@@ -9,7 +9,7 @@
 //! always writes.
 //!
 //! The [`Solution`] holds the finest level's final state, in the scenario's node order
-//! ([`Scenario::file_node`] gives each node's id in the mesh file):
+//! ([`crate::model::Model::file_node`] gives each node's id in the mesh file):
 //!
 //! ```text
 //! u_a                        displacement (m)

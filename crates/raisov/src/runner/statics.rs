@@ -41,7 +41,6 @@ use super::RunOptions;
 use crate::error::{Error, Result};
 use crate::integrate::{Stepper, System};
 use crate::metrics::{Meter, Sample};
-use crate::scenario::spec::Named;
 use crate::scenario::{Scenario, StaticSolve, StaticSolver};
 use crate::statics::krylov::Static;
 use crate::statics::nested::{nested_start, start_levels, BetweenSolve, CoarseStart, NestedLevels};

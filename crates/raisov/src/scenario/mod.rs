@@ -1,12 +1,17 @@
-//! Scenarios: a TOML file (format and defaults in [`spec`]) resolved into a mesh, a
-//! [`System`] and run settings, then run with measures and ParaView output ([`fn@run`]).
+//! Scenarios: a TOML file (format and defaults in [`spec`]) resolved into a [`Model`] (the
+//! body and what acts on it, the type [`crate::sim::SimulationBuilder`] builds from code as
+//! well) and the settings of its run, then run with measures and ParaView output
+//! ([`crate::runner`]).
 //!
 //! [`spec::parse`] reads the text into a [`ScenarioSpec`] whose keys with named values are
 //! typed already (an unknown value is an error naming the key, its line and the valid
 //! values); [`Scenario::resolve`] checks every value, applies the defaults of
 //! [`spec::defaults`], builds the mesh and selects the nodes. The resolved [`Scenario`] holds
-//! typed values only: the multigrid levels are rebuilt from [`Scenario::mesh_source`],
-//! [`Scenario::fix`], [`Scenario::load`] and [`Scenario::multigrid`].
+//! typed values only: [`Scenario::model`] (read through the scenario: `sc.mesh` is
+//! `sc.model.mesh`), whose coarser levels are rebuilt from its mesh source, selectors and
+//! [`Levels`]; the scheme and step settings ([`Scenario::scheme`], [`Scenario::stepping`])
+//! that [`Model::stepper`] takes; and the run's, the output's and the interactive mode's
+//! settings.
 //!
 //! Units are SI throughout. Paths inside a scenario are relative to the scenario file.
 //!
@@ -18,14 +23,13 @@
 //! force pass is measured in `bench/RESULTS.md`, runs F and H). What the user sees keeps the
 //! file's ids: `nodes = [..]` selectors, `nodal_stress.csv` (rows in file order), the
 //! `file_node_id` point field of the frames, the node named by `raisov inspect`
-//! ([`Scenario::file_ids`]). Nor do results follow the numbering beyond round-off: the FAS
+//! ([`crate::model::Model::file_ids`]). Nor do results follow the numbering beyond round-off: the FAS
 //! multigrid's power-iteration start vector, the one place where an index chose a value, is
 //! keyed by the file's ids ([`crate::multigrid::Level::node_keys`]), not by the memory order.
 
 pub mod cuts;
 pub mod fibres;
 pub mod grasps;
-mod implicit;
 pub mod interactive;
 mod levels;
 pub mod loading;
@@ -38,25 +42,27 @@ pub mod spec;
 pub mod surface;
 
 use crate::error::{Error, Result};
-use crate::fem::{FemModel, FemParams, Precision};
+use crate::fem::Precision;
 use crate::geometry::{norm, sub};
 use crate::integrate::stability::{critical_step_estimate, step_too_large};
-use crate::integrate::{Constraints, Method, System};
+use crate::integrate::{Method, System};
 use crate::io::VtuFormat;
 use crate::linalg::smoother::Smoother;
 use crate::material::Material;
 use crate::mesh::{ElementKind, Mesh};
+use crate::model::select::select_fixed;
+pub use crate::model::{
+    select, BoxCells, Fixing, ImplicitSolve, LevelConstraints, LevelMeshes, Levels, MeshSource,
+    Model, PickedLevel, Region, Scheme, SchemeKind, Selector, Shape, Stepping,
+};
 use crate::numbers::{compact, rounded};
 use crate::statics::implicit::ImplicitScheme;
 use crate::time::Motion;
 use crate::time::TimeFunction;
-pub use levels::{LevelConstraints, LevelMeshes, Multigrid, PickedLevel};
+pub use levels::Multigrid;
 use mesh_source::resolve_mesh_source;
-pub use mesh_source::{BoxCells, MeshSource, Shape};
 pub(crate) use nodal_stress::mesh_index_of_file;
 pub use nodal_stress::read_nodal_stress;
-pub use resolve::select;
-pub(crate) use resolve::select_fixed;
 use resolve::{resolve_fixing, resolve_material, resolve_motion, resolve_selector, NodeIds};
 /// Moved to [`crate::runner`]: the run in time ([`crate::runner::dynamic`]) and the static
 /// solve ([`crate::runner::statics`]).
@@ -80,8 +86,7 @@ pub use run::{
     describe_static, run, run_static, run_static_keeping, run_with, RunOptions, RunSummary,
     StaticSummary, StopReason,
 };
-pub use scheme::{Scheme, SchemeKind};
-use spec::{defaults, Named, Stop};
+use spec::{defaults, Stop};
 pub use spec::{NewtonSmoother, ScenarioSpec, StaticSolver};
 use std::path::{Path, PathBuf};
 
@@ -123,104 +128,21 @@ pub enum Reference {
     File(PathBuf),
 }
 
-/// A node selection of `[[fix]]` or `[[load]] at`.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Selector {
-    /// Every boundary node.
-    Boundary,
-    /// The nodes inside an axis-aligned box (m).
-    Box {
-        /// The lower corner (m).
-        min: [f64; 3],
-        /// The upper corner (m).
-        max: [f64; 3],
-    },
-    /// The nodes with `(x − point)·normal ≤ 0`; `normal` is non-zero.
-    Plane {
-        /// A point of the plane (m).
-        point: [f64; 3],
-        /// The plane's normal, pointing away from the selected side.
-        normal: [f64; 3],
-    },
-    /// A physical group of the mesh file.
-    Group(String),
-    /// Nodes of [`Scenario::mesh`] by index (the file's ids mapped to the mesh's order).
-    Nodes(Vec<u32>),
-    /// The node nearest this point.
-    Point([f64; 3]),
-}
-
-/// Which displacement components a `[[fix]]` holds at zero.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Fixing {
-    /// All three: the node is fixed.
-    All,
-    /// `u·n = 0` along each unit direction (`components = ["x", "z"]` gives e_x, e_z; `normal`
-    /// one direction): rollers, symmetry planes, sliding on a plane.
-    Directions(Vec<[f64; 3]>),
-}
-
 /// A resolved scenario, ready to run.
 #[derive(Clone, Debug)]
 pub struct Scenario {
+    /// The body and what acts on it ([`Model`]); its fields read through the scenario
+    /// (`sc.mesh` is `sc.model.mesh`).
+    pub model: Model,
     /// `name`, or the file's stem made valid ([`crate::io::NAME_RULE`]): it names the files
     /// under the output directory.
     pub name: String,
-    /// The scenario file, as given; relative paths in it are relative to its directory.
-    pub path: PathBuf,
-    /// Level 0's mesh, in metres (`[mesh] scale` applied), nodes in the order of
-    /// [`Scenario::file_ids`].
-    pub mesh: Mesh,
-    /// How [`Scenario::mesh`] was made (for the coarser multigrid levels).
-    pub mesh_source: MeshSource,
     /// Notes from loading (reoriented elements, dropped nodes), for the user.
     pub notes: Vec<String>,
     /// What looks wrong but is allowed: a step far above the estimated critical one, a run
     /// too long to finish, a point selector far from the mesh, a mesh whose size suggests
     /// the wrong unit.
     pub warnings: Vec<String>,
-    /// `[material]`: the law and its constants.
-    pub material: Material,
-    /// `[material] fibre` as a field, one direction per element ([`fibres`]); `None` for
-    /// one direction (the law's own) or a law without fibres.
-    pub fibres: Option<fibres::FibreField>,
-    /// `[material] density` (kg/m³), default 1000.
-    pub density: f64,
-    /// `[material] thickness` of membranes (m), default 1e-3.
-    pub thickness: f64,
-    /// `[damping]`: the mass-proportional damping `D = α M`, α in 1/s (`alpha`, or
-    /// `2 ζ ω` from `ratio` and `omega`); default 0.
-    pub alpha: f64,
-    /// `gravity` (m/s²), default zero.
-    pub gravity: [f64; 3],
-    /// `[[fix]]` selectors and what each holds, selected again on every multigrid level.
-    pub fix: Vec<(Selector, Fixing)>,
-    /// `[[load]]` selectors and the force on each selected node (N), constant in time.
-    pub load: Vec<(Selector, [f64; 3])>,
-    /// `[[load]]` entries with a time function: selector, force per node (N), `s(t)`; carried
-    /// by the force model ([`loading`]).
-    pub timed_load: Vec<(Selector, [f64; 3], TimeFunction)>,
-    /// `[[pressure]]` and `[[traction]]` ([`loading`]).
-    pub surface_loads: Vec<loading::SurfaceLoadDef>,
-    /// `[[tool]]`: rigid tools in penalty contact ([`crate::contact`]).
-    pub tools: Vec<loading::ToolDef>,
-    /// The nodes `fix` selects on [`Scenario::mesh`] with all components held.
-    pub fixed: Vec<u32>,
-    /// The nodes `fix` selects with some directions held: `(node, unit direction)`.
-    pub sliding: Vec<(u32, [f64; 3])>,
-    /// The nodes `load` selects on [`Scenario::mesh`], each with its force.
-    pub loads: Vec<(u32, [f64; 3])>,
-    /// `[[displace]]`: each prescribed node of [`Scenario::mesh`] and its motion (m); the
-    /// nodes of a patch (`radius`) share one motion.
-    pub prescribed: Vec<(u32, Motion)>,
-    /// `[mesh] renumber`: node `k` of [`Scenario::mesh`] is node `file_ids[k]` of the file
-    /// (its position in file order after unused nodes are dropped; the id the file gives it
-    /// is [`Scenario::node_labels`]); `None` where the mesh keeps the file's order.
-    pub file_ids: Option<Vec<u32>>,
-    /// The id the mesh file gives each node, in file order (index as in
-    /// [`Scenario::file_ids`]); `None` for generated meshes, whose ids are the 0-based
-    /// positions. `nodes = [..]` selectors and the outputs use these ids.
-    pub node_labels: Option<Vec<u64>>,
     /// `[integrator] method`: the explicit integrator of level 0 (and of every level without
     /// `[multigrid] level_methods`), default symplectic Euler; with `method = "newton"` that
     /// default, and no step is taken ([`Scenario::statics`]).
@@ -232,8 +154,6 @@ pub struct Scenario {
     /// `[integrator] safety`: the fraction of the estimated critical step taken where no step
     /// is given (level 0 without `dt`, coarser FAS levels without `level_dt`).
     pub safety: f64,
-    /// `[integrator] precision`: storage precision of the packed tetrahedron data.
-    pub precision: Precision,
     /// `[run] stop` with its duration and tolerances.
     pub stop: StopRule,
     /// `[run] blowup_factor`: the factor of the kinetic-energy ceiling that stops a diverging
@@ -257,7 +177,7 @@ pub struct Scenario {
     /// `[interactive]`: a budget per frame along the displacement paths; `None` for a plain run.
     pub interactive: Option<interactive::Interactive>,
     /// The grasps the interactive run takes and lets go ([`grasps`]): `[[displace]]` entries
-    /// with `start`, `release` or `stiffness`, in file order (not in [`Scenario::prescribed`]).
+    /// with `start`, `release` or `stiffness`, in file order (not in [`crate::model::Model::prescribed`]).
     pub grasps: Vec<grasps::Grasp>,
     /// `[[pin]]`: the pins the interactive run takes ([`grasps`]), in file order.
     pub pins: Vec<grasps::Pin>,
@@ -273,26 +193,6 @@ pub struct Scenario {
     /// ([`crate::statics::implicit`]) instead of [`Scenario::method`]; `None` for the explicit
     /// integrators and the static solve.
     pub implicit: Option<ImplicitSolve>,
-}
-
-/// The settings of backward Euler and BDF2 (`method = "implicit-euler"`, `"bdf2"`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImplicitSolve {
-    /// `[integrator] method`: backward Euler or BDF2.
-    pub scheme: ImplicitScheme,
-    /// `[damping] beta` (s): stiffness-proportional damping, default 0.
-    pub beta: f64,
-    /// `[integrator] newton_tol`: each step's relative tolerance, default 1e-6
-    /// ([`crate::statics::implicit::DEFAULT_REL_TOL`]; the rule in that module's docs).
-    pub rel_tol: f64,
-    /// `[integrator] max_newton`: Newton iterations at most per step, default 30.
-    pub max_newton: usize,
-    /// `[integrator] solver`: [`StaticSolver::Auto`] (default), [`StaticSolver::Multigrid`]
-    /// or [`StaticSolver::Direct`], resolved when the stepper is built
-    /// ([`Scenario::stepper`]).
-    pub solver: StaticSolver,
-    /// `[integrator] smoother`: the V-cycle's smoother, defaults as for `method = "newton"`.
-    pub smoother: Smoother,
 }
 
 /// `[integrator]` of `method = "implicit-euler"` or `"bdf2"` (`scheme`) checked
@@ -370,6 +270,22 @@ fn resolve_implicit(
     })
 }
 
+/// A scenario reads as its model: `sc.mesh`, `sc.material`, `sc.fix`, ... are the fields
+/// of [`Scenario::model`], and [`Model`]'s methods (`sc.build_system()`, `sc.level_meshes()`,
+/// `sc.wrap_loads(..)`) apply to it.
+impl std::ops::Deref for Scenario {
+    type Target = Model;
+    fn deref(&self) -> &Model {
+        &self.model
+    }
+}
+
+impl std::ops::DerefMut for Scenario {
+    fn deref_mut(&mut self) -> &mut Model {
+        &mut self.model
+    }
+}
+
 /// The settings of a static solve (`method = "newton"`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StaticSolve {
@@ -402,10 +318,7 @@ pub struct StaticSolve {
 impl StaticSolve {
     /// [`StaticSolve::smoother`]'s default for elements of `kind`.
     pub fn default_smoother(kind: ElementKind) -> Smoother {
-        match kind {
-            ElementKind::Tri3 => Smoother::ColouredBlock,
-            _ => Smoother::BlockJacobi,
-        }
+        crate::model::default_smoother(kind)
     }
 
     /// The load increments for a resolved `solver`.
@@ -470,7 +383,7 @@ impl Scenario {
         Self::load_with_out(path, None)
     }
 
-    /// [`Scenario::load`] with the output directory `out` instead of `[output] dir` (as
+    /// [`crate::model::Model::load`] with the output directory `out` instead of `[output] dir` (as
     /// `raisov run --out`); the levels of `[mesh] surface` are cached under it.
     pub fn load_with_out(path: &Path, out: Option<&Path>) -> Result<Scenario> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
@@ -1032,7 +945,7 @@ impl Scenario {
                 ),
             ));
         }
-        let multigrid = spec
+        let (multigrid, levels) = match spec
             .multigrid
             .as_ref()
             .map(|mg| {
@@ -1048,7 +961,11 @@ impl Scenario {
                     spec.interactive.is_some(),
                 )
             })
-            .transpose()?;
+            .transpose()?
+        {
+            Some((mg, meshes)) => (Some(mg), Levels::Built(meshes)),
+            None => (None, Levels::Single),
+        };
         let interactive = spec
             .interactive
             .as_ref()
@@ -1091,17 +1008,16 @@ impl Scenario {
             }
             r => r,
         };
-        let sc = Scenario {
-            name,
+        let model = Model {
             path: path.to_path_buf(),
             mesh,
-            mesh_source,
-            notes,
-            warnings,
+            mesh_source: Some(mesh_source),
+            levels,
             material,
             fibres,
             density,
             thickness,
+            precision,
             alpha,
             gravity,
             fix,
@@ -1115,11 +1031,16 @@ impl Scenario {
             prescribed,
             file_ids,
             node_labels,
+        };
+        let sc = Scenario {
+            model,
+            name,
+            notes,
+            warnings,
             method,
             dt,
             dt_critical_estimate: dt_crit,
             safety,
-            precision,
             stop,
             blowup_factor,
             out_dir,
@@ -1144,82 +1065,14 @@ impl Scenario {
         }
         Ok(sc)
     }
-
-    /// The file's id of node `a` of [`Scenario::mesh`] (see [`Scenario::file_ids`] and
-    /// [`Scenario::node_labels`]).
-    pub fn file_node(&self, a: u32) -> u64 {
-        let k = self.file_ids.as_ref().map_or(a, |f| f[a as usize]);
-        self.node_labels
-            .as_ref()
-            .map_or(k as u64, |l| l[k as usize])
-    }
-
-    /// The file's id of every node of [`Scenario::mesh`], where it differs from the node's
-    /// position (a renumbered mesh, or a file whose ids are not 0, 1, 2, ...).
-    pub fn output_node_ids(&self) -> Option<Vec<i64>> {
-        let n = self.mesh.num_nodes();
-        let ids: Vec<i64> = (0..n as u32).map(|a| self.file_node(a) as i64).collect();
-        (ids.iter().enumerate().any(|(a, &id)| id != a as i64)).then_some(ids)
-    }
-
-    /// FE parameters of this scenario on [`Scenario::mesh`] (its fibre field included).
-    pub fn fem_params(&self) -> FemParams {
-        let mut p = FemParams::new(self.material.clone());
-        p.density = self.density;
-        p.thickness = self.thickness;
-        p.precision = self.precision;
-        p.fibres = self.fibres.as_ref().map(|f| f.level0.clone());
-        p
-    }
-
-    /// The cell fields every frame of [`Scenario::mesh`] carries: `fibre` (3 per element)
-    /// where the material has a fibre field.
-    pub fn cell_fields(&self) -> Vec<crate::io::Field<'_>> {
-        self.fibres
-            .iter()
-            .map(|f| crate::io::Field {
-                name: "fibre",
-                data: crate::io::FieldData::Vector(f.level0.flat()),
-            })
-            .collect()
-    }
-
-    /// FE parameters of this scenario on `mesh`, level 0 or a coarser level: the fibre field
-    /// on that mesh ([`fibres::FibreField::on`]).
-    pub fn fem_params_on(&self, mesh: &Mesh) -> Result<FemParams> {
-        let mut p = self.fem_params();
-        if let Some(f) = &self.fibres {
-            p.fibres = Some(f.on(&self.mesh, mesh, &self.path)?);
-        }
-        Ok(p)
-    }
-
-    /// Assemble the system M ü + α M u̇ + R(u) = V of the finest mesh.
-    pub fn build_system(&self) -> Result<System> {
-        build_system(
-            self,
-            &self.mesh,
-            &self.fixed,
-            &self.sliding,
-            &self.prescribed,
-            &self.loads,
-        )
-    }
-
-    /// Total mass (kg).
-    pub fn total_mass(&self) -> f64 {
-        self.mesh.total_measure().abs()
-            * self.density
-            * if self.mesh.kind == ElementKind::Tri3 {
-                self.thickness
-            } else {
-                1.0
-            }
-    }
 }
 
-/// Assemble a system on `mesh` with the scenario's physics (material, density, damping,
-/// gravity) and the given constraints and nodal loads.
+/// Assemble a system on `mesh` with the scenario's physics and the given constraints and
+/// nodal loads: [`Model::system_on`].
+#[deprecated(
+    since = "0.2.0",
+    note = "use `Model::system_on` (`sc.model.system_on(..)`)"
+)]
 pub fn build_system(
     sc: &Scenario,
     mesh: &Mesh,
@@ -1228,25 +1081,7 @@ pub fn build_system(
     prescribed: &[(u32, Motion)],
     loads: &[(u32, [f64; 3])],
 ) -> Result<System> {
-    let fem = FemModel::new(mesh, sc.fem_params_on(mesh)?)?;
-    let mass = fem.lumped_mass();
-    let n = mesh.num_nodes();
-    let x0 = fem.reference_positions().to_vec();
-    let force = sc.wrap_loads(mesh, x0, Box::new(fem))?;
-    let mut sys = System::new(
-        force,
-        mass,
-        sc.alpha,
-        vec![0.0; 3 * n],
-        Constraints::new(fixed.to_vec(), prescribed.to_vec()).with_sliding(sliding),
-    );
-    sys.add_gravity(sc.gravity);
-    for &(a, f) in loads {
-        for k in 0..3 {
-            sys.f_ext[3 * a as usize + k] += f[k];
-        }
-    }
-    Ok(sys)
+    sc.model.system_on(mesh, fixed, sliding, prescribed, loads)
 }
 
 /// Node-steps per second of a fast single thread (the standard force pass measures 2-4e7,

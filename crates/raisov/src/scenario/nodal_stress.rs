@@ -13,7 +13,7 @@ use std::path::Path;
 impl Scenario {
     /// Name the node of `d` (of the stepper's finest level, this scenario's mesh) as
     /// messages to the user name nodes: by its id in the mesh file
-    /// ([`Scenario::file_node`]), with its position.
+    /// ([`crate::model::Model::file_node`]), with its position.
     pub fn locate(&self, d: &mut crate::error::Divergence) {
         let n = self.mesh.num_nodes();
         d.locate(
@@ -66,7 +66,7 @@ impl Scenario {
     }
 }
 
-/// The mesh index of each node in file order (the inverse of [`Scenario::file_ids`]; the
+/// The mesh index of each node in file order (the inverse of [`crate::model::Model::file_ids`]; the
 /// identity where the mesh keeps the file's order).
 pub(crate) fn mesh_index_of_file(file_ids: Option<&[u32]>, n: usize) -> Vec<usize> {
     match file_ids {
@@ -79,7 +79,7 @@ pub(crate) fn mesh_index_of_file(file_ids: Option<&[u32]>, n: usize) -> Vec<usiz
 }
 
 /// Read a `nodal_stress.csv` written by an earlier run on the mesh of `sc`; its `node` column
-/// holds the file's ids ([`Scenario::file_node`]). Every number must be finite.
+/// holds the file's ids ([`crate::model::Model::file_node`]). Every number must be finite.
 pub fn read_nodal_stress(path: &Path, sc: &Scenario) -> Result<Vec<f64>> {
     let n = sc.mesh.num_nodes();
     let at = mesh_index_of_file(sc.file_ids.as_deref(), n);

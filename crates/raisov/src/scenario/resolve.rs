@@ -5,13 +5,13 @@
 
 use super::{err, loading, positive, spec, Fixing, Selector, Shape};
 use crate::error::Result;
-use crate::geometry::{dot, norm, sub};
+use crate::geometry::norm;
 use crate::material::ranges::{self, OutOfRange};
 use crate::material::{
     lame, HolzapfelGasserOgden, Material, MooneyRivlin, NeoHookean, NeoHookeanVisco,
     StVenantKirchhoff, StableNeoHookean, TiNeoHookean, VerondaWestmann,
 };
-use crate::mesh::{ElementKind, Mesh};
+use crate::mesh::ElementKind;
 use crate::time::Motion;
 use nalgebra::Vector3;
 use spec::{defaults, Law, MotionMode, Named};
@@ -81,30 +81,6 @@ impl<'a> NodeIds<'a> {
     }
 }
 
-/// The fixed nodes and the sliding directions `fix` selects on `mesh` (`level` names it in
-/// messages: empty for level 0).
-#[allow(clippy::type_complexity)]
-pub(crate) fn select_fixed(
-    mesh: &Mesh,
-    fix: &[(Selector, Fixing)],
-    path: &Path,
-    level: &str,
-) -> Result<(Vec<u32>, Vec<(u32, [f64; 3])>)> {
-    let (mut fixed, mut sliding) = (Vec::new(), Vec::new());
-    for (i, (s, how)) in fix.iter().enumerate() {
-        let nodes = select(mesh, s, path, &format!("{level}fix[{i}]"))?;
-        match how {
-            Fixing::All => fixed.extend(nodes),
-            Fixing::Directions(dirs) => {
-                for a in nodes {
-                    sliding.extend(dirs.iter().map(|&n| (a, n)));
-                }
-            }
-        }
-    }
-    Ok((fixed, sliding))
-}
-
 /// What a `[[fix]]` holds: `components` or `normal`, else everything.
 pub(super) fn resolve_fixing(r: &spec::RegionSpec, path: &Path, key: &str) -> Result<Fixing> {
     match (&r.components, r.normal) {
@@ -155,21 +131,6 @@ pub(super) fn resolve_fixing(r: &spec::RegionSpec, path: &Path, key: &str) -> Re
         }
     }
 }
-
-/// Every id of a `nodes = [..]` selector names a node of a mesh of `n` nodes.
-pub(super) fn check_node_ids(ns: &[u32], n: usize, path: &Path, key: &str) -> Result<()> {
-    match ns.iter().find(|&&a| a as usize >= n) {
-        Some(&bad) => Err(err(
-            path,
-            format!(
-                "{key}.nodes: node {bad} does not exist (valid: 0..{})",
-                n.saturating_sub(1)
-            ),
-        )),
-        None => Ok(()),
-    }
-}
-
 /// The one selector a `[[fix]]` or `at` table sets.
 pub(super) fn resolve_selector(r: &spec::RegionSpec, path: &Path, key: &str) -> Result<Selector> {
     let mut found = Vec::new();
@@ -501,53 +462,6 @@ pub(super) fn resolve_motion(d: &spec::DisplaceSpec, path: &Path, key: &str) -> 
             table_motion(t, path, &format!("{key}.table"))?
         }
     })
-}
-
-/// The nodes `s` selects on `mesh`; errors if none or a missing group.
-pub fn select(mesh: &Mesh, s: &Selector, path: &Path, key: &str) -> Result<Vec<u32>> {
-    let (lo, hi) = mesh.bounding_box();
-    let tol = 1e-9 * norm(sub(hi, lo)).max(f64::MIN_POSITIVE);
-    let all = 0..mesh.num_nodes() as u32;
-    let sel: Vec<u32> = match s {
-        Selector::Boundary => mesh.boundary_nodes(),
-        Selector::Box { min, max } => all
-            .filter(|&a| {
-                let p = mesh.nodes[a as usize];
-                (0..3).all(|k| p[k] >= min[k] - tol && p[k] <= max[k] + tol)
-            })
-            .collect(),
-        Selector::Plane { point, normal } => {
-            let nn = norm(*normal);
-            all.filter(|&a| dot(sub(mesh.nodes[a as usize], *point), *normal) / nn <= tol)
-                .collect()
-        }
-        Selector::Group(g) => mesh.groups.get(g).cloned().ok_or_else(|| {
-            let names: Vec<&str> = mesh.groups.keys().map(|s| s.as_str()).collect();
-            err(
-                path,
-                format!(
-                    "{key}: no group \"{g}\" in the mesh (groups: {})",
-                    if names.is_empty() {
-                        "none".to_string()
-                    } else {
-                        names.join(", ")
-                    }
-                ),
-            )
-        })?,
-        Selector::Nodes(ns) => {
-            check_node_ids(ns, mesh.num_nodes(), path, key)?;
-            ns.clone()
-        }
-        Selector::Point(p) => vec![mesh
-            .nearest_node(*p)
-            .ok_or_else(|| err(path, "the mesh has no nodes"))?
-            as u32],
-    };
-    if sel.is_empty() {
-        return Err(err(path, format!("{key}: the selection contains no node")));
-    }
-    Ok(sel)
 }
 
 /// A piecewise-linear motion from `[t, dx, dy, dz]` rows (s, m) whose times increase

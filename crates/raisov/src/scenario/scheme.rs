@@ -1,138 +1,95 @@
-//! The one name of a stepper: [`Scheme`], what advances a simulation and its settings, and
-//! [`SchemeKind`], the same without settings.
+//! The scheme a scenario resolves to and its stepper: [`Scenario::scheme`] from
+//! `[integrator] method` and `[multigrid] scheme`, [`Scenario::stepping`] from `[integrator]`,
+//! `[multigrid]` and `[run]`, both handed to the model's [`Model::stepper`].
 //!
-//! Both front doors produce a [`Scheme`]: the scenario resolver from `[multigrid] scheme` and
-//! `[integrator] method` ([`crate::scenario::Multigrid::scheme`],
-//! [`crate::scenario::Scenario::scheme`]), and [`crate::sim::SimulationBuilder::scheme`] from
-//! code. The TOML words of `[multigrid] scheme` name [`SchemeKind`]s
-//! ([`crate::scenario::spec`]), and the viewer's protocol maps its wire codes to and from
-//! them (`raisov_serve::protocol`).
+//! `method = "implicit-euler"` and `"bdf2"`: `solver = "auto"` takes the Galerkin V-cycle over
+//! level 0 and the coarser level [`crate::statics::newton::coarse_level`] picks (the same
+//! choice as the static solve's) where `[multigrid]` gives one, else sparse Cholesky;
+//! `"multigrid"` without such a level, a force model without an element tangent, or a node
+//! sliding along a direction other than x, y or z is an error naming the key
+//! ([`Model::implicit_euler`]).
 
-use crate::integrate::Method;
-use crate::multigrid::fas::FasParams;
-use crate::multigrid::raisov::RaisovParams;
-use crate::statics::frames::NewtonFramesParams;
-use crate::statics::implicit::ImplicitScheme;
+use super::{Model, Scenario, Scheme, Stepping};
+use crate::error::{Error, Result};
+use crate::integrate::Stepper;
+use crate::statics::implicit::{ImplicitEuler, ImplicitScheme};
 
-/// What advances a simulation, with its settings.
-///
-/// The multigrid schemes ([`Scheme::Fas`], [`Scheme::RaisovPaper`], [`Scheme::Newton`]) are
-/// those of `[multigrid] scheme`; the single-level ones those of `[integrator] method`
-/// without `[multigrid]` (an explicit integrator) or with its levels as the Newton solver's
-/// preconditioner (`"implicit-euler"`, `"bdf2"`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Scheme {
-    /// The FAS multigrid over the levels ([`crate::multigrid::fas`], `scheme = "fas"`): each
-    /// step is one V-cycle towards the static equilibrium (one level: the coarsest solve
-    /// alone).
-    Fas(FasParams),
-    /// The paper's RaISoV cycle over the levels ([`crate::multigrid::raisov`], `scheme =
-    /// "raisov-paper"`): each step one explicit integrator step per level, every level at
-    /// level 0's step (a scenario's `[multigrid] level_dt` gives each level its own).
-    RaisovPaper(RaisovParams),
-    /// The frame solver on level 0 ([`crate::statics::frames`], `scheme = "newton"`): each
-    /// step one Newton step toward the static equilibrium, its conjugate gradients
-    /// preconditioned by the Galerkin V-cycle (over level 0 and the coarser level
-    /// [`crate::statics::newton::coarse_level`] picks; without one, level 0 factored) of a
-    /// tangent kept across frames.
-    Newton(NewtonFramesParams),
-    /// Explicit dynamics on level 0 alone with this integrator, one step per cycle (coarser
-    /// levels are not used).
-    SingleLevel(Method),
-    /// Backward Euler on level 0 ([`crate::statics::implicit`], `method =
-    /// "implicit-euler"`), one step per cycle at a step that must be given (any step is
-    /// stable; choose it for accuracy). With coarser levels each Newton system is solved by
-    /// conjugate gradients preconditioned by the Galerkin V-cycle over level 0 and the coarser
-    /// level [`crate::statics::newton::coarse_level`] picks; without, by sparse Cholesky.
-    ImplicitEuler,
-    /// BDF2 on level 0 ([`ImplicitScheme::Bdf2`], `method = "bdf2"`), otherwise as
-    /// [`Scheme::ImplicitEuler`]: second order, far less numerical damping.
-    Bdf2,
-}
-
-impl Scheme {
-    /// The kind of scheme, without its settings.
-    pub fn kind(&self) -> SchemeKind {
-        match self {
-            Scheme::Fas(_) => SchemeKind::Fas,
-            Scheme::RaisovPaper(_) => SchemeKind::RaisovPaper,
-            Scheme::Newton(_) => SchemeKind::Newton,
-            Scheme::SingleLevel(_) => SchemeKind::SingleLevel,
-            Scheme::ImplicitEuler => SchemeKind::ImplicitEuler,
-            Scheme::Bdf2 => SchemeKind::Bdf2,
+impl Scenario {
+    /// The `[integrator] method` name as the scenario gives it (`"implicit-euler"`, `"bdf2"`
+    /// and `"newton"` included).
+    pub fn method_name(&self) -> &'static str {
+        if let Some(imp) = &self.implicit {
+            imp.scheme.name()
+        } else if self.statics.is_some() {
+            "newton"
+        } else {
+            self.method.name()
         }
     }
 
-    /// The implicit scheme of [`Scheme::ImplicitEuler`] and [`Scheme::Bdf2`]; `None` for the
-    /// others.
-    pub fn implicit(&self) -> Option<ImplicitScheme> {
-        match self {
-            Scheme::ImplicitEuler => Some(ImplicitScheme::BackwardEuler),
-            Scheme::Bdf2 => Some(ImplicitScheme::Bdf2),
-            _ => None,
+    /// The scheme [`Scenario::stepper`] builds: backward Euler or BDF2 (`[integrator] method =
+    /// "implicit-euler"`, `"bdf2"`; its levels, if any, precondition the Newton solves), else
+    /// `[multigrid] scheme` over the levels, else `[integrator] method`'s explicit integrator
+    /// on one level. A static solve (`method = "newton"`, [`Scenario::statics`]) is run by
+    /// [`crate::runner::run_static`], not by a stepper: its scheme is that of its levels, or
+    /// the default integrator on one level.
+    pub fn scheme(&self) -> Scheme {
+        match (&self.implicit, &self.multigrid) {
+            (Some(i), _) => match i.scheme {
+                ImplicitScheme::BackwardEuler => Scheme::ImplicitEuler,
+                ImplicitScheme::Bdf2 => Scheme::Bdf2,
+            },
+            (None, Some(mg)) => mg.scheme,
+            (None, None) => Scheme::SingleLevel(self.method),
         }
     }
 
-    /// Whether level 0 is advanced by explicit integrator steps of the given step, so that
-    /// the step is bound by the explicit stability limit
-    /// ([`crate::integrate::stability::step_too_large`]): [`Scheme::SingleLevel`] and
-    /// [`Scheme::RaisovPaper`]. FAS relaxes rather than integrates (its level-0 step is a
-    /// smoother's), and the frame solver and the implicit schemes are stable at any step.
-    pub fn explicit_step(&self) -> bool {
-        matches!(self, Scheme::SingleLevel(_) | Scheme::RaisovPaper(_))
-    }
-}
-
-/// The kind of a [`Scheme`], without its settings: what `[multigrid] scheme` names, and
-/// what the viewer switches between.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum SchemeKind {
-    /// [`Scheme::Fas`].
-    Fas,
-    /// [`Scheme::RaisovPaper`].
-    RaisovPaper,
-    /// [`Scheme::Newton`].
-    Newton,
-    /// [`Scheme::SingleLevel`].
-    SingleLevel,
-    /// [`Scheme::ImplicitEuler`].
-    ImplicitEuler,
-    /// [`Scheme::Bdf2`].
-    Bdf2,
-}
-
-impl SchemeKind {
-    /// Every kind, the multigrid ones first.
-    pub const ALL: [SchemeKind; 6] = [
-        SchemeKind::Fas,
-        SchemeKind::RaisovPaper,
-        SchemeKind::Newton,
-        SchemeKind::SingleLevel,
-        SchemeKind::ImplicitEuler,
-        SchemeKind::Bdf2,
-    ];
-
-    /// The kinds over a hierarchy of levels: the values of `[multigrid] scheme`.
-    pub const MULTIGRID: [SchemeKind; 3] =
-        [SchemeKind::Fas, SchemeKind::RaisovPaper, SchemeKind::Newton];
-
-    /// The kind's name: the word of `[multigrid] scheme` (`"fas"`, `"raisov-paper"`,
-    /// `"newton"`) or of `[integrator] method` (`"implicit-euler"`, `"bdf2"`);
-    /// `"single-level"` for an explicit integrator on one level (which `[integrator] method`
-    /// names by the integrator).
-    pub fn name(self) -> &'static str {
-        match self {
-            SchemeKind::Fas => "fas",
-            SchemeKind::RaisovPaper => "raisov-paper",
-            SchemeKind::Newton => "newton",
-            SchemeKind::SingleLevel => "single-level",
-            SchemeKind::ImplicitEuler => "implicit-euler",
-            SchemeKind::Bdf2 => "bdf2",
+    /// The step settings of this scenario's stepper: `[integrator] dt` (or the estimate) and
+    /// `safety`, `[multigrid] level_methods` and `level_dt`, `[run] blowup_factor`, and the
+    /// backward-Euler settings.
+    pub fn stepping(&self) -> Stepping {
+        Stepping {
+            dt: self.dt,
+            safety: self.safety,
+            methods: match &self.multigrid {
+                Some(mg) => mg.methods.clone(),
+                None => vec![self.method; self.num_levels()],
+            },
+            level_dt: self.multigrid.as_ref().and_then(|mg| mg.level_dt.clone()),
+            blowup_factor: Some(self.blowup_factor),
+            implicit: self.implicit,
         }
     }
 
-    /// Whether the kind runs over a hierarchy of levels (one of [`SchemeKind::MULTIGRID`]).
-    pub fn is_multigrid(self) -> bool {
-        SchemeKind::MULTIGRID.contains(&self)
+    /// Every level of the model with this scenario's integrators and steps, and the
+    /// correspondences between consecutive levels ([`Model::build_levels`]; level 0's step on
+    /// every level where the scheme is the paper's).
+    pub fn build_levels(&self) -> Result<(Vec<crate::multigrid::Level>, crate::multigrid::Links)> {
+        let paper = matches!(self.scheme(), Scheme::RaisovPaper(_));
+        self.model.build_levels(&self.stepping(), paper)
+    }
+
+    /// The stepper of [`Scenario::scheme`] over the model ([`Model::stepper`]): single level
+    /// (explicit, or backward Euler with the levels as the Newton solver's preconditioner),
+    /// or a multigrid over its levels.
+    pub fn stepper(&self) -> Result<Box<dyn Stepper>> {
+        self.model.stepper(&self.scheme(), &self.stepping())
+    }
+
+    /// The backward-Euler or BDF2 stepper of `method = "implicit-euler"` or `"bdf2"` (module
+    /// docs), with the kinetic-energy ceiling of [`Scenario::stepper`]; an error naming the
+    /// key where the scenario asks for another method or the solver does not apply.
+    pub fn implicit_euler(&self) -> Result<ImplicitEuler> {
+        let Some(imp) = &self.implicit else {
+            return Err(Error::Scenario {
+                path: self.path.clone(),
+                line: None,
+                msg: format!(
+                    "`integrator.method` = \"{}\": backward Euler needs method = \"implicit-euler\" (or \"bdf2\")",
+                    self.method_name()
+                ),
+            });
+        };
+        Model::implicit_euler(&self.model, self.dt, imp, Some(self.blowup_factor))
     }
 }

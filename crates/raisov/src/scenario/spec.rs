@@ -341,15 +341,16 @@
 //!                                 # change, extrapolated (crate::sim::frame); default true
 //! ```
 
-use super::scheme::SchemeKind;
 use super::Reference;
 use crate::error::{Error, Result};
 use crate::fem::Precision;
 use crate::integrate::Method;
 use crate::io::VtuFormat;
 use crate::mesh::generate::BoxPattern;
+use crate::model::SchemeKind;
 use crate::multigrid::fas::{Scaling, TransferWeights};
 use crate::multigrid::raisov::Reading;
+pub use crate::statics::StaticSolver;
 use serde::de::{Deserializer, Error as _};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -529,23 +530,11 @@ named_enum! {
     }
 }
 
-named_enum! {
-    /// `[integrator] solver` of `method = "newton"`: how each Newton system is solved.
-    pub enum StaticSolver {
-        /// `"multigrid"` where the scenario has a coarser level with at least 1/32 of the
-        /// finest level's nodes, else `"direct"`; `"krylov"` only where the force model has no
-        /// element tangent.
-        Auto = "auto",
-        /// The assembled analytic tangent, conjugate gradients preconditioned by a Galerkin
-        /// V-cycle over the finest level and that coarser one
-        /// ([`crate::statics::newton::MultigridPcg`]).
-        Multigrid = "multigrid",
-        /// The assembled analytic tangent, sparse Cholesky, the factor reused as the
-        /// preconditioner of conjugate gradients ([`crate::statics::newton`]).
-        Direct = "direct",
-        /// Matrix-free Newton-Krylov: finite-difference tangent products, conjugate gradients
-        /// ([`crate::statics::krylov`]); covers every force.
-        Krylov = "krylov",
+/// `[integrator] solver`: the one [`StaticSolver`] of [`crate::statics`].
+impl Named for StaticSolver {
+    const ALL: &'static [Self] = &StaticSolver::ALL;
+    fn name(self) -> &'static str {
+        StaticSolver::name(self)
     }
 }
 
@@ -801,6 +790,7 @@ impl Named for VtuFormat {
 
 deserialize_named!(
     Solve,
+    StaticSolver,
     Method,
     Precision,
     SchemeKind,

@@ -328,7 +328,7 @@ fn pick_level_meshes_the_chosen_generated_level_alone() {
         + "\n[multigrid]\nscheme = \"fas\"\nlevels = 6\n";
     let sc = parse(&text).unwrap();
     let all = sc.level_meshes().unwrap();
-    let super::levels::PickedLevel {
+    let super::PickedLevel {
         counts,
         requested,
         chosen,
@@ -759,7 +759,7 @@ fn multigrid_settings_resolve_to_typed_parameters() {
         "{BASE}\n[multigrid]\nscheme = \"raisov-paper\"\nlevels = 2\nreading = \"paper\""
     ))
     .unwrap();
-    match sc.multigrid.unwrap().scheme {
+    match sc.multigrid.as_ref().unwrap().scheme {
         Scheme::RaisovPaper(p) => {
             assert_eq!(p.reading, crate::multigrid::raisov::Reading::Paper);
             assert_eq!(p.epsilon, 1e-3 * sc.mesh.edge_range().0);
@@ -877,7 +877,7 @@ fn documented_defaults_are_the_applied_ones() {
     assert_eq!(Reference::default(), Reference::None);
     // The force model's own defaults agree with the scenario's.
     let sc = parse(BASE).unwrap();
-    let fem = FemParams::new(sc.material.clone());
+    let fem = crate::fem::FemParams::new(sc.material.clone());
     assert_eq!(fem.density, defaults::DENSITY);
     assert_eq!(fem.thickness, defaults::THICKNESS);
     // And the resolved scenario applies them.
@@ -886,7 +886,7 @@ fn documented_defaults_are_the_applied_ones() {
     assert_eq!(sc.frame_interval, defaults::FRAME_INTERVAL);
     assert_eq!(sc.csv_every, defaults::CSV_EVERY);
     assert_eq!(sc.reference, Reference::None);
-    assert_eq!(sc.mesh_source.scale, defaults::SCALE);
+    assert_eq!(sc.mesh_source.as_ref().unwrap().scale, defaults::SCALE);
 }
 
 /// A slab of tetrahedra under gravity along y, its end x = 0 fixed and every node's z held

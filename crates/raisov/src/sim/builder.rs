@@ -1,22 +1,17 @@
 //! [`SimulationBuilder`]: a [`Simulation`] from meshes and physics in code, no scenario file.
 
 use super::Simulation;
-use crate::fem::{FemModel, FemParams};
-use crate::hierarchy::{Correspondence, Transfer};
 use crate::integrate::stability::{lambda_max_bound, step_too_large};
-use crate::integrate::{Constraints, Method, SingleLevel, Stepper, StepperParams, System};
+use crate::integrate::Method;
 use crate::material::{ranges, Material, StableNeoHookean};
 use crate::mesh::Mesh;
-use crate::multigrid::fas::Fas;
-use crate::multigrid::raisov::Raisov;
-use crate::multigrid::Level;
-use crate::scenario::Scheme;
-use crate::statics::implicit::{ImplicitEuler, ImplicitParams};
-use crate::statics::newton::{coarse_level, MultigridPcg};
+use crate::model::select::select_fixed;
+use crate::model::{Fixing, ImplicitSolve, Levels, Model, Region, Scheme, Selector, Stepping};
 use crate::{Error, Result};
+use std::sync::Arc;
 
 /// A fixed region: a predicate on reference positions (m), selected on every level.
-type Region = Box<dyn Fn([f64; 3]) -> bool>;
+type RegionFn = Box<dyn Fn([f64; 3]) -> bool + Send + Sync>;
 
 /// Builds a [`Simulation`] from a mesh (or a hierarchy of meshes) and physics given in code.
 ///
@@ -77,7 +72,7 @@ pub struct SimulationBuilder {
     gravity: [f64; 3],
     alpha: f64,
     beta: f64,
-    fixed: Vec<Region>,
+    fixed: Vec<RegionFn>,
     scheme: Scheme,
     dt: Option<f64>,
     /// The pair [`SimulationBuilder::young_poisson`] was given, checked at build.
@@ -157,7 +152,7 @@ impl SimulationBuilder {
         self
     }
     /// Fix the nodes whose reference position satisfies `region` (u = 0), on every level.
-    pub fn fix(mut self, region: impl Fn([f64; 3]) -> bool + 'static) -> Self {
+    pub fn fix(mut self, region: impl Fn([f64; 3]) -> bool + Send + Sync + 'static) -> Self {
         self.fixed.push(Box::new(region));
         self
     }
@@ -223,9 +218,6 @@ impl SimulationBuilder {
                 format!("neo-hookean-visco does not run on {name} not advance the law's internal variables (use Scheme::ImplicitEuler, which takes the levels as its preconditioner, or Scheme::SingleLevel)"),
             ));
         }
-        let mut params = FemParams::new(self.material.clone());
-        params.density = self.density;
-        params.thickness = self.thickness;
         let method = match &self.scheme {
             Scheme::SingleLevel(m) => *m,
             Scheme::Fas(_)
@@ -252,120 +244,54 @@ impl SimulationBuilder {
                 format!("β = {} s applies to Scheme::ImplicitEuler and Scheme::Bdf2 only (the explicit integrators and FAS take `damping`, D = α M)", self.beta),
             ));
         }
-        let mut meshes = vec![self.mesh.clone()];
-        if matches!(self.scheme, Scheme::Fas(_) | Scheme::RaisovPaper(_)) {
-            meshes.extend(self.coarse.iter().cloned());
+        // The model: what a scenario's resolver would make of the same mesh and physics.
+        let kind = self.mesh.kind;
+        let mut model = Model::new(self.mesh, self.material.clone(), "SimulationBuilder");
+        model.density = self.density;
+        model.thickness = self.thickness;
+        model.alpha = self.alpha;
+        model.gravity = self.gravity;
+        if !self.coarse.is_empty() {
+            model.levels = Levels::Given(self.coarse);
         }
-        let mut levels: Vec<Level> = Vec::with_capacity(meshes.len());
-        for (l, mesh) in meshes.into_iter().enumerate() {
-            let fixed: Vec<u32> = (0..mesh.num_nodes() as u32)
-                .filter(|&a| self.fixed.iter().any(|r| r(mesh.nodes[a as usize])))
-                .collect();
-            if !self.fixed.is_empty() && fixed.is_empty() {
-                return Err(Error::param(
-                    "fix",
-                    format!("the fixed regions select no node of level {l}"),
-                ));
-            }
-            let fem = FemModel::new(&mesh, params.clone())?;
-            let mass = fem.lumped_mass();
-            let n = mesh.num_nodes();
-            let mut sys = System::new(
-                Box::new(fem),
-                mass,
-                self.alpha,
-                vec![0.0; 3 * n],
-                Constraints::new(fixed, vec![]),
-            );
-            sys.add_gravity(self.gravity);
-            let lambda_max = lambda_max_bound(&mesh, &self.material, self.density);
-            // The estimated critical step (`stability::critical_step_estimate`).
-            let critical = method.stability_bound() / lambda_max.sqrt();
-            let dt = match self.dt {
-                Some(dt) if l == 0 => {
-                    if let Some(w) =
-                        step_too_large(dt, critical, method).filter(|_| self.scheme.explicit_step())
-                    {
-                        return Err(Error::param(
-                            "dt",
-                            format!("{w} (leave `dt` out to take half the estimate)"),
-                        ));
-                    }
-                    dt
-                }
-                // The paper's cycle takes level 0's step on every level.
-                _ if l > 0 && matches!(self.scheme, Scheme::RaisovPaper(_)) => levels[0].dt,
-                _ => 0.5 * critical,
-            };
-            levels.push(Level::new(mesh, sys, method, dt, lambda_max));
+        if !self.fixed.is_empty() {
+            let regions = self.fixed;
+            let any = Region(Arc::new(move |p| regions.iter().any(|r| r(p))));
+            model.fix = vec![(Selector::Region(any), Fixing::All)];
+            model.fixed = select_fixed(&model.mesh, &model.fix, &model.path, "")?.0;
         }
-        let stepper: Box<dyn Stepper> = match self.scheme {
-            Scheme::SingleLevel(m) => {
-                let l = levels.pop().expect("one level");
-                Box::new(SingleLevel::new(
-                    l.sys,
-                    m,
-                    StepperParams {
-                        dt: l.dt,
-                        kinetic_limit: f64::INFINITY,
-                    },
-                ))
-            }
-            Scheme::ImplicitEuler | Scheme::Bdf2 => {
-                let l = levels.pop().expect("one level");
-                let mut params = ImplicitParams::new(l.dt);
-                params.scheme = self.scheme.implicit().unwrap_or_default();
-                params.beta = self.beta;
-                let counts: Vec<usize> = std::iter::once(&self.mesh)
-                    .chain(&self.coarse)
-                    .map(|m| m.num_nodes())
-                    .collect();
-                let mut down = Vec::new();
-                if let Some(c) = coarse_level(&counts) {
-                    down.push(Transfer::build(&self.mesh.nodes, &self.coarse[c - 1])?);
-                    params.multigrid = Some(MultigridPcg {
-                        smoother: crate::scenario::StaticSolve::default_smoother(self.mesh.kind),
-                        ..Default::default()
-                    });
+        // Level 0's step: given (an explicit one checked), else half the estimated critical
+        // step; a coarser explicit level takes half its own.
+        let lambda_max = lambda_max_bound(&model.mesh, &self.material, self.density);
+        let critical = method.stability_bound() / lambda_max.sqrt();
+        let dt = match self.dt {
+            Some(dt) => {
+                if let Some(w) =
+                    step_too_large(dt, critical, method).filter(|_| self.scheme.explicit_step())
+                {
+                    return Err(Error::param(
+                        "dt",
+                        format!("{w} (leave `dt` out to take half the estimate)"),
+                    ));
                 }
-                Box::new(
-                    ImplicitEuler::with_levels(l.sys, params, down)
-                        .map_err(|e| Error::param("scheme", e.to_string()))?,
-                )
+                dt
             }
-            Scheme::Newton(p) => {
-                let l = levels.pop().expect("one level");
-                let counts: Vec<usize> = std::iter::once(&self.mesh)
-                    .chain(&self.coarse)
-                    .map(|m| m.num_nodes())
-                    .collect();
-                let coarse = coarse_level(&counts).map(|c| self.coarse[c - 1].clone());
-                Box::new(crate::statics::frames::NewtonFrames::new(
-                    l.sys,
-                    self.mesh.clone(),
-                    coarse,
-                    p,
-                )?)
-            }
-            Scheme::RaisovPaper(p) => {
-                let links = links_of(&levels)?;
-                Box::new(Raisov::new(levels, links, p))
-            }
-            Scheme::Fas(p) => {
-                let links = links_of(&levels)?;
-                Box::new(Fas::new(levels, links, p))
-            }
+            None => 0.5 * critical,
         };
-        Simulation::assemble(stepper, self.mesh, None, params)
+        let stepping = Stepping {
+            dt,
+            safety: 0.5,
+            methods: vec![method; model.num_levels()],
+            level_dt: None,
+            blowup_factor: None,
+            implicit: self.scheme.implicit().map(|scheme| ImplicitSolve {
+                beta: self.beta,
+                ..ImplicitSolve::new(scheme, kind)
+            }),
+        };
+        let stepper = model.stepper(&self.scheme, &stepping)?;
+        Simulation::of_model(&model, stepper)
     }
-}
-
-/// The correspondences of consecutive levels.
-fn links_of(levels: &[Level]) -> Result<crate::multigrid::Links> {
-    levels
-        .windows(2)
-        .map(|w| Correspondence::build(&w[0].mesh, &w[1].mesh))
-        .collect()
 }
 
 #[cfg(test)]

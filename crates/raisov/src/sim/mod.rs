@@ -123,7 +123,7 @@ pub mod haptic;
 pub mod overrides;
 pub mod tangent;
 
-pub use crate::scenario::Scheme;
+pub use crate::model::Scheme;
 pub use builder::SimulationBuilder;
 pub use cut::CutReport;
 pub use frame::{Budget, FrameReport};
@@ -152,6 +152,7 @@ pub use tangent::{TangentPreconditioner, TangentStats};
 use crate::fem::{FemModel, ForceModel};
 use crate::integrate::{Checkpoint, Stepper};
 use crate::mesh::Mesh;
+use crate::model::{Model, Stepping};
 use crate::scenario::Scenario;
 use crate::{Error, Result};
 use grab::{Grab, Pin};
@@ -305,31 +306,11 @@ impl Simulation {
         if !strict {
             stepper.set_kinetic_limit(f64::INFINITY);
         }
-        let mut sim = Self::assemble(
-            stepper,
-            sc.mesh.clone(),
-            sc.file_ids.clone(),
-            sc.fem_params(),
-        )?;
+        let mut sim = Self::of_model(&sc.model, stepper)?;
         if let Some(i) = &sc.interactive {
             sim.set_predictor(i.predictor);
         }
-        // Where the paths start (the stepper holds the prescribed nodes there from rest).
-        sim.prescribed = sc
-            .prescribed
-            .iter()
-            .map(|(_, m)| m.displacement(0.0))
-            .collect();
-        sim.prescribed_moves = vec![[0.0; 3]; sim.prescribed.len()];
         sim.strict = strict;
-        if sc.has_model_loads() {
-            // The stepper's level 0 carries the scenario's pressure, traction, timed loads and
-            // tools in its force model; the simulation's own evaluations (frame forces when
-            // the stepper has none, stress, tangents) carry the same.
-            let fem = FemModel::new(&sc.mesh, sc.fem_params())?;
-            let x0 = fem.reference_positions().to_vec();
-            sim.model = sc.wrap_loads(&sc.mesh, x0, Box::new(fem))?;
-        }
         if let Some(vs) = &sc.surface {
             let transfer = crate::hierarchy::Transfer::build(&vs.surface.points, &sc.mesh)?;
             let nv = vs.surface.points.len();
@@ -340,6 +321,42 @@ impl Simulation {
                 positions: vs.surface.points.clone(),
             });
             sim.update_visual();
+        }
+        Ok(sim)
+    }
+
+    /// A simulation of `model` stepped by `scheme` with the step settings `stepping`
+    /// ([`Model::stepper`]; the front door both [`SimulationBuilder`] and
+    /// [`Simulation::from_scenario`] go through). As there, a frame is rejected on a
+    /// non-finite value or an inverted element; the stepper's kinetic-energy ceiling is that of
+    /// `stepping` ([`Stepping::blowup_factor`]).
+    pub fn from_model(model: &Model, scheme: &Scheme, stepping: &Stepping) -> Result<Simulation> {
+        Self::of_model(model, model.stepper(scheme, stepping)?)
+    }
+
+    /// A simulation of `model` advanced by `stepper`, built from it: the stepper's level 0 is
+    /// the model's mesh, the simulation's own force model (frame forces where the stepper has
+    /// none, stress, tangents) carries the same physics and loads.
+    pub(crate) fn of_model(model: &Model, stepper: Box<dyn Stepper>) -> Result<Simulation> {
+        let mut sim = Self::assemble(
+            stepper,
+            model.mesh.clone(),
+            model.file_ids.clone(),
+            model.fem_params(),
+        )?;
+        // Where the paths start (the stepper holds the prescribed nodes there from rest).
+        sim.prescribed = model
+            .prescribed
+            .iter()
+            .map(|(_, m)| m.displacement(0.0))
+            .collect();
+        sim.prescribed_moves = vec![[0.0; 3]; sim.prescribed.len()];
+        if model.has_model_loads() {
+            // The stepper's level 0 carries the model's pressure, traction, timed loads and
+            // tools in its force model; the simulation's own evaluations carry the same.
+            let fem = FemModel::new(&model.mesh, model.fem_params())?;
+            let x0 = fem.reference_positions().to_vec();
+            sim.model = model.wrap_loads(&model.mesh, x0, Box::new(fem))?;
         }
         Ok(sim)
     }

@@ -24,3 +24,42 @@ pub mod krylov;
 pub mod nested;
 pub mod newton;
 pub mod relax;
+
+/// How each Newton system of a static solve (and of a backward-Euler or BDF2 step) is solved:
+/// `[integrator] solver` of a scenario.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StaticSolver {
+    /// `"multigrid"` where the model has a coarser level with at least 1/32 of the finest
+    /// level's nodes, else `"direct"`; `"krylov"` only where the force model has no element
+    /// tangent.
+    Auto,
+    /// The assembled analytic tangent, conjugate gradients preconditioned by a Galerkin
+    /// V-cycle over the finest level and that coarser one ([`newton::MultigridPcg`]).
+    Multigrid,
+    /// The assembled analytic tangent, sparse Cholesky, the factor reused as the
+    /// preconditioner of conjugate gradients ([`newton`]).
+    Direct,
+    /// Matrix-free Newton-Krylov: finite-difference tangent products, conjugate gradients
+    /// ([`krylov`]); covers every force.
+    Krylov,
+}
+
+impl StaticSolver {
+    /// Every solver, in the order messages list them.
+    pub const ALL: [StaticSolver; 4] = [
+        StaticSolver::Auto,
+        StaticSolver::Multigrid,
+        StaticSolver::Direct,
+        StaticSolver::Krylov,
+    ];
+
+    /// The scenario's spelling: `"auto"`, `"multigrid"`, `"direct"`, `"krylov"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            StaticSolver::Auto => "auto",
+            StaticSolver::Multigrid => "multigrid",
+            StaticSolver::Direct => "direct",
+            StaticSolver::Krylov => "krylov",
+        }
+    }
+}

@@ -157,6 +157,7 @@ fn reaction(model: &mut FemModel, u: &[f64], xmax: &[usize]) -> f64 {
 fn stress_relaxation_after_a_step_strain_matches_the_prony_closed_form() {
     let Material::NeoHookeanVisco(law) = parse(&block(VISCO, [2, 1, 1], "[run]\nduration = 0.01"))
         .unwrap()
+        .model
         .material
     else {
         unreachable!()

@@ -605,7 +605,7 @@ fn cmd_run(
     let stop = stop_flag()?;
     let mut sc = load_scenario(scenario.as_deref(), out.as_deref())?;
     if ascii_vtu {
-        sc.vtu = raisov::io::VtuFormat::Ascii;
+        sc.output.vtu = raisov::io::VtuFormat::Ascii;
     }
     for n in &sc.notes {
         eprintln!("note: {n}");
@@ -974,7 +974,7 @@ fn cmd_check(path: &Path) -> Result<()> {
             ),
         };
         line("integrator", &integrator);
-        line("stop", &check::stop(&sc.stop));
+        line("stop", &check::stop(&sc.run.stop));
         if let Some(i) = &sc.interactive {
             line("interactive", &check::interactive(i));
         }
@@ -985,7 +985,7 @@ fn cmd_check(path: &Path) -> Result<()> {
         line("stepping", &stepper.describe());
         out += &stepper.report();
     }
-    let _ = writeln!(out, "{:<13} {}", "output", sc.out_dir.display());
+    let _ = writeln!(out, "{:<13} {}", "output", sc.output.dir.display());
     out += "ok\n";
     write_stdout(&out)
 }

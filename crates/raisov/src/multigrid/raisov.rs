@@ -54,6 +54,23 @@ pub struct RaisovParams {
     pub kinetic_limit: f64,
 }
 
+impl RaisovParams {
+    /// The switch threshold ε as a fraction of level 0's shortest edge: the default of
+    /// [`RaisovParams::for_mesh`] (and of a scenario's `[multigrid] epsilon`).
+    pub const EPSILON_PER_EDGE: f64 = 1e-3;
+
+    /// The defaults for level 0's `mesh`: ε = [`RaisovParams::EPSILON_PER_EDGE`] × its
+    /// shortest edge, the [`Reading::Correction`] reading, no kinetic-energy ceiling (a
+    /// scenario's, and [`crate::model::Model::stepper`]'s with a blow-up factor, sets one).
+    pub fn for_mesh(mesh: &crate::mesh::Mesh) -> RaisovParams {
+        RaisovParams {
+            epsilon: Self::EPSILON_PER_EDGE * mesh.edge_range().0,
+            reading: Reading::Correction,
+            kinetic_limit: f64::INFINITY,
+        }
+    }
+}
+
 /// The paper's multigrid time integrator.
 ///
 /// The bookkeeping of eq. 8 rides on the strokes instead of whole-level passes: the transfer

@@ -307,7 +307,7 @@ pub(super) struct Frames<'a> {
 
 impl<'a> Frames<'a> {
     pub(super) fn new(sc: &'a Scenario, out: &OutDir) -> Result<Self> {
-        let (name, format) = (sc.name.as_str(), sc.vtu);
+        let (name, format) = (sc.name.as_str(), sc.output.vtu);
         let dir = match out.dir() {
             Some(out) => {
                 let dir = out.join("frames");
@@ -453,7 +453,7 @@ pub fn run_with(
     let out = OutDir::lock(sc, &opts)?;
     let n = sc.mesh.num_nodes();
     // Read before the directory is cleared: it may be the last run's `nodal_stress.csv`.
-    let (t_inf, reference_note) = match &sc.reference {
+    let (t_inf, reference_note) = match &sc.output.reference {
         Reference::File(p) => (
             Some(read_nodal_stress(p, sc)?),
             Some(format!("T_inf from {}", p.display())),
@@ -461,7 +461,7 @@ pub fn run_with(
         _ => (None, None),
     };
     out.prepare(&sc.name)?;
-    let (t_inf, reference_note) = match &sc.reference {
+    let (t_inf, reference_note) = match &sc.output.reference {
         Reference::Auto => {
             let (t, note) = sc.steady_reference()?;
             (Some(t), Some(note))
@@ -474,7 +474,7 @@ pub fn run_with(
     let mut rows = out.measures(sc.has_friction())?;
     let start = Instant::now();
     let dt = stepper.dt();
-    let (t_end, steady) = match sc.stop {
+    let (t_end, steady) = match sc.run.stop {
         StopRule::Duration(d) => (d, None),
         StopRule::Steady {
             kinetic_tol,
@@ -484,8 +484,8 @@ pub fn run_with(
         } => (max, Some((kinetic_tol, residual_tol, stagnation))),
     };
     let total_steps = (t_end / dt).ceil() as u64;
-    let frame_every = if sc.frame_interval > 0.0 {
-        ((sc.frame_interval / dt).round() as u64).max(1)
+    let frame_every = if sc.output.frame_interval > 0.0 {
+        ((sc.output.frame_interval / dt).round() as u64).max(1)
     } else {
         u64::MAX
     };
@@ -540,7 +540,7 @@ pub fn run_with(
         }
         let k = stepper.steps();
         let end = k == total_steps;
-        if k.is_multiple_of(sc.csv_every) || end {
+        if k.is_multiple_of(sc.output.csv_every) || end {
             let row = sample(stepper, &mut meter);
             ke_peak = ke_peak.max(row.kinetic);
             res_peak = res_peak.max(row.residual);

@@ -328,7 +328,7 @@ pub(super) fn no_interactive(sc: &Scenario) -> Error {
 
 /// The path duration: `[run] duration` (or the `steady` cap).
 fn duration(sc: &Scenario) -> f64 {
-    match sc.stop {
+    match sc.run.stop {
         StopRule::Duration(d) => d,
         StopRule::Steady { max, .. } => max,
     }
@@ -429,7 +429,11 @@ pub fn run_frames(
     };
     let mut surface_frames = match (&sc.surface, out.dir()) {
         (Some(v), Some(d)) => Some(crate::scenario::surface::SurfaceFrames::new(
-            v, &sc.mesh, d, &sc.name, sc.vtu,
+            v,
+            &sc.mesh,
+            d,
+            &sc.name,
+            sc.output.vtu,
         )?),
         _ => None,
     };
@@ -613,7 +617,7 @@ pub fn run_frames(
                 &mesh.nodes,
                 &fields,
                 &cells,
-                sc.vtu,
+                sc.output.vtu,
             )?;
             pvd.add(t, &format!("frames/{file}"))?;
             if let Some(sf) = &mut surface_frames {

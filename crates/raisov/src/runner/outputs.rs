@@ -119,7 +119,10 @@ impl OutDir {
                 _lock: None,
             });
         }
-        let dir = opts.out_dir.clone().unwrap_or_else(|| sc.out_dir.clone());
+        let dir = opts
+            .out_dir
+            .clone()
+            .unwrap_or_else(|| sc.output.dir.clone());
         let lock = OutputLock::acquire(&dir)?;
         Ok(OutDir {
             dir: Some(dir),

@@ -241,7 +241,7 @@ cycles = 40
     fn frames(sc: &Scenario) -> (Replay, Vec<Vec<[f64; 3]>>, Held) {
         let mut r = Replay::new(sc, sc.stepper().unwrap()).unwrap();
         let fps = sc.interactive.unwrap().fps;
-        let n = match sc.stop {
+        let n = match sc.run.stop {
             crate::scenario::StopRule::Duration(d) => (d * fps - 1e-9).ceil() as usize,
             _ => unreachable!(),
         };

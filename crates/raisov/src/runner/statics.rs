@@ -386,19 +386,26 @@ struct Plan {
     why: String,
 }
 
+impl Plan {
+    /// `solver` on level 0 alone: no levels, no start, no reason given.
+    fn of(solver: StaticSolver) -> Plan {
+        Plan {
+            solver,
+            down: None,
+            coarse: None,
+            start: Vec::new(),
+            start_nodes: Vec::new(),
+            start_requested: false,
+            why: String::new(),
+        }
+    }
+}
+
 /// Resolve [`StaticSolve::solver`] against the built system (module docs); an error where an
 /// assembled solver was asked for and does not apply, naming the key and why.
 fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan> {
     let asked = settings.solver;
-    let krylov = Plan {
-        solver: StaticSolver::Krylov,
-        down: None,
-        coarse: None,
-        start: Vec::new(),
-        start_nodes: Vec::new(),
-        start_requested: false,
-        why: String::new(),
-    };
+    let krylov = Plan::of(StaticSolver::Krylov);
     if asked == StaticSolver::Krylov {
         return Ok(krylov);
     }
@@ -430,15 +437,7 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
             ),
         });
     }
-    let direct = Plan {
-        solver: StaticSolver::Direct,
-        down: None,
-        coarse: None,
-        start: Vec::new(),
-        start_nodes: Vec::new(),
-        start_requested: false,
-        why: String::new(),
-    };
+    let direct = Plan::of(StaticSolver::Direct);
     if asked == StaticSolver::Direct {
         return Ok(direct);
     }

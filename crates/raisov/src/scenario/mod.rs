@@ -128,6 +128,34 @@ pub enum Reference {
     File(PathBuf),
 }
 
+/// `[run]`: how a run ends.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunSettings {
+    /// `[run] stop` with its duration and tolerances.
+    pub stop: StopRule,
+    /// `[run] blowup_factor`: the factor of the kinetic-energy ceiling that stops a diverging
+    /// run ([`crate::integrate::energy_limit`]), default 1e3.
+    pub blowup_factor: f64,
+}
+
+/// `[output]` (and `raisov run --out`): where and how a run writes its results.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutputSettings {
+    /// The output directory: `raisov run --out`, else `[output] dir` relative to the
+    /// scenario file, else `raisov-out/NAME` relative to the working directory.
+    pub dir: PathBuf,
+    /// `[output] frame_interval`: simulated time between frames (s), default 0.05; 0 writes
+    /// only the first and last.
+    pub frame_interval: f64,
+    /// `[output] csv_every`: steps between rows of `measures.csv` (at least 1), default 1.
+    pub csv_every: u64,
+    /// `[output] vtu`: how the frames are stored (binary appended zlib, or ASCII).
+    pub vtu: VtuFormat,
+    /// `[output] reference`: where T∞ of |T − T∞| comes from; a file's path is joined to the
+    /// scenario file's directory.
+    pub reference: Reference,
+}
+
 /// A resolved scenario, ready to run.
 #[derive(Clone, Debug)]
 pub struct Scenario {
@@ -154,24 +182,10 @@ pub struct Scenario {
     /// `[integrator] safety`: the fraction of the estimated critical step taken where no step
     /// is given (level 0 without `dt`, coarser FAS levels without `level_dt`).
     pub safety: f64,
-    /// `[run] stop` with its duration and tolerances.
-    pub stop: StopRule,
-    /// `[run] blowup_factor`: the factor of the kinetic-energy ceiling that stops a diverging
-    /// run ([`crate::integrate::energy_limit`]), default 1e3.
-    pub blowup_factor: f64,
-    /// The output directory: `raisov run --out`, else `[output] dir` relative to the
-    /// scenario file, else `raisov-out/NAME` relative to the working directory.
-    pub out_dir: PathBuf,
-    /// `[output] frame_interval`: simulated time between frames (s), default 0.05; 0 writes
-    /// only the first and last.
-    pub frame_interval: f64,
-    /// `[output] csv_every`: steps between rows of `measures.csv` (at least 1), default 1.
-    pub csv_every: u64,
-    /// `[output] vtu`: how the frames are stored (binary appended zlib, or ASCII).
-    pub vtu: VtuFormat,
-    /// `[output] reference`: where T∞ of |T − T∞| comes from; a file's path is joined to the
-    /// scenario file's directory.
-    pub reference: Reference,
+    /// `[run]`: how a run ends.
+    pub run: RunSettings,
+    /// `[output]`: where and how a run writes its results.
+    pub output: OutputSettings,
     /// `[multigrid]`: the levels and the scheme; `None` for a single level.
     pub multigrid: Option<Multigrid>,
     /// `[interactive]`: a budget per frame along the displacement paths; `None` for a plain run.
@@ -1041,13 +1055,17 @@ impl Scenario {
             dt,
             dt_critical_estimate: dt_crit,
             safety,
-            stop,
-            blowup_factor,
-            out_dir,
-            frame_interval,
-            csv_every,
-            vtu,
-            reference,
+            run: RunSettings {
+                stop,
+                blowup_factor,
+            },
+            output: OutputSettings {
+                dir: out_dir,
+                frame_interval,
+                csv_every,
+                vtu,
+                reference,
+            },
             multigrid,
             interactive,
             grasps,
@@ -1060,7 +1078,7 @@ impl Scenario {
         sc.check_model_loads()?;
         cuts::check(&sc)?;
         // A reference file is read (and its numbers checked) now, not when the run needs it.
-        if let Reference::File(p) = &sc.reference {
+        if let Reference::File(p) = &sc.output.reference {
             read_nodal_stress(p, &sc)?;
         }
         Ok(sc)

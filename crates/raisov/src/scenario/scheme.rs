@@ -56,7 +56,7 @@ impl Scenario {
                 None => vec![self.method; self.num_levels()],
             },
             level_dt: self.multigrid.as_ref().and_then(|mg| mg.level_dt.clone()),
-            blowup_factor: Some(self.blowup_factor),
+            blowup_factor: Some(self.run.blowup_factor),
             implicit: self.implicit,
         }
     }
@@ -90,6 +90,6 @@ impl Scenario {
                 ),
             });
         };
-        Model::implicit_euler(&self.model, self.dt, imp, Some(self.blowup_factor))
+        Model::implicit_euler(&self.model, self.dt, imp, Some(self.run.blowup_factor))
     }
 }

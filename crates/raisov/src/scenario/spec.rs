@@ -424,7 +424,7 @@ pub mod defaults {
     /// `[multigrid] reading` of raisov-paper.
     pub const READING: Reading = Reading::Correction;
     /// `[multigrid] epsilon` of raisov-paper, as a fraction of the shortest edge of level 0.
-    pub const EPSILON_PER_EDGE: f64 = 1e-3;
+    pub const EPSILON_PER_EDGE: f64 = crate::multigrid::raisov::RaisovParams::EPSILON_PER_EDGE;
     /// `[multigrid] coarse_time` of the explicit coarsest solve (s per visit).
     pub const COARSE_TIME: f64 = 0.1;
     /// Relative residual of `[multigrid] coarse = "newton"`.

@@ -85,8 +85,8 @@ fn base_scenario_resolves_with_documented_defaults() {
     assert_eq!(sc.method, Method::SymplecticEuler);
     assert!((sc.dt - 0.5 * sc.dt_critical_estimate).abs() < 1e-18);
     assert_eq!(sc.fixed.len(), sc.mesh.boundary_nodes().len());
-    assert_eq!(sc.out_dir, PathBuf::from("raisov-out/test"));
-    assert_eq!(sc.stop, StopRule::Duration(0.01));
+    assert_eq!(sc.output.dir, PathBuf::from("raisov-out/test"));
+    assert_eq!(sc.run.stop, StopRule::Duration(0.01));
 }
 
 /// `[integrator] precision`: default f64; "f32-storage" reaches the force model of a
@@ -685,7 +685,7 @@ fn names_that_would_write_outside_the_output_directory_are_errors() {
         );
     }
     let sc = parse(&format!("name = \"drape-2.v1\"\n{BASE}")).unwrap();
-    assert_eq!(sc.out_dir, PathBuf::from("raisov-out/drape-2.v1"));
+    assert_eq!(sc.output.dir, PathBuf::from("raisov-out/drape-2.v1"));
 }
 
 /// Without `name`, a file stem outside the rule becomes a valid name, with a note.
@@ -763,6 +763,9 @@ fn multigrid_settings_resolve_to_typed_parameters() {
         Scheme::RaisovPaper(p) => {
             assert_eq!(p.reading, crate::multigrid::raisov::Reading::Paper);
             assert_eq!(p.epsilon, 1e-3 * sc.mesh.edge_range().0);
+            // The code door's defaults are the scenario's.
+            let code = crate::multigrid::raisov::RaisovParams::for_mesh(&sc.mesh);
+            assert_eq!(p.epsilon, code.epsilon);
         }
         s => panic!("{s:?}"),
     }
@@ -882,10 +885,10 @@ fn documented_defaults_are_the_applied_ones() {
     assert_eq!(fem.thickness, defaults::THICKNESS);
     // And the resolved scenario applies them.
     assert_eq!(sc.safety, defaults::SAFETY);
-    assert_eq!(sc.blowup_factor, defaults::BLOWUP_FACTOR);
-    assert_eq!(sc.frame_interval, defaults::FRAME_INTERVAL);
-    assert_eq!(sc.csv_every, defaults::CSV_EVERY);
-    assert_eq!(sc.reference, Reference::None);
+    assert_eq!(sc.run.blowup_factor, defaults::BLOWUP_FACTOR);
+    assert_eq!(sc.output.frame_interval, defaults::FRAME_INTERVAL);
+    assert_eq!(sc.output.csv_every, defaults::CSV_EVERY);
+    assert_eq!(sc.output.reference, Reference::None);
     assert_eq!(sc.mesh_source.as_ref().unwrap().scale, defaults::SCALE);
 }
 

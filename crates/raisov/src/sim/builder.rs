@@ -24,7 +24,12 @@ type RegionFn = Box<dyn Fn([f64; 3]) -> bool + Send + Sync>;
 /// the tissue far closer to each frame's equilibrium at a higher frame rate:
 /// `bench/RESULTS.md`), the time step half the estimated critical step of each level (for
 /// the explicit schemes; [`Scheme::RaisovPaper`] takes level 0's step on every level, as the
-/// paper does).
+/// paper does; its settings' defaults for a mesh are
+/// [`crate::multigrid::raisov::RaisovParams::for_mesh`], a scenario's too).
+///
+/// What it builds is a [`Model`] (the meshes, the physics, the fixed regions as
+/// [`Selector::Region`]s selected on every level), stepped by [`Model::stepper`]: the model
+/// and the stepper a scenario of the same body gives, to the bits.
 ///
 /// [`SimulationBuilder::build`] checks what a scenario's resolver checks, by the same rules:
 /// the material's constants ([`crate::material::ranges`]: Poisson's ratio in (−1, 0.5),

@@ -262,3 +262,85 @@ fn builder_refuses_a_thickness_on_tetrahedra() {
         .build()
         .is_ok());
 }
+
+/// Both front doors build one `Model` and its stepper through `Model::stepper`: for each
+/// scheme, the builder given the scenario's meshes, law and scheme settings steps to the
+/// scenario's bits (the fixed nodes, the levels, the steps of each level, the coarse level
+/// the Newton solvers pick and the smoother all agree; the builder's defaults for the steps
+/// and the backward-Euler solver are the scenario's).
+#[test]
+fn every_scheme_built_from_code_steps_to_the_scenarios_bits() {
+    let cases = [
+        ("[multigrid]\nscheme = \"newton\"\nlevels = 3", None),
+        ("[multigrid]\nscheme = \"fas\"\nlevels = 2", None),
+        (
+            "[integrator]\nmethod = \"implicit-euler\"\ndt = 0.02\n[multigrid]\nlevels = 3",
+            Some(0.02),
+        ),
+        (
+            "[integrator]\nmethod = \"bdf2\"\ndt = 0.02\n[multigrid]\nlevels = 3",
+            Some(0.02),
+        ),
+        ("[integrator]\nmethod = \"symplectic-euler\"", None),
+    ];
+    for (scheme_keys, dt) in cases {
+        let text = format!(
+            r#"
+gravity = [0.0, 0.0, -9.81]
+[mesh]
+generate = "box"
+size = [0.04, 0.04, 0.04]
+divisions = [6, 6, 6]
+[material]
+law = "stable-neo-hookean"
+young = 5e3
+poisson = 0.45
+[[fix]]
+plane = {{ point = [0, 0, 0], normal = [0, 0, 1] }}
+[run]
+duration = 1.0
+{scheme_keys}
+"#
+        );
+        let sc = Scenario::from_toml(&text, std::path::Path::new("doors.toml")).unwrap();
+        let mut from_file = Simulation::from_scenario(&sc).unwrap();
+        let meshes = sc.level_meshes().unwrap();
+        let mut b = SimulationBuilder::new(meshes[0].clone())
+            .levels(meshes[1..].to_vec())
+            .material(sc.material.clone())
+            .gravity(G)
+            .fix(|p| p[2] <= 0.0)
+            .scheme(sc.scheme());
+        if let Some(dt) = dt {
+            b = b.dt(dt);
+        }
+        let mut from_code = b.build().unwrap();
+        assert_eq!(
+            from_code.stepper().describe(),
+            from_file.stepper().describe(),
+            "{scheme_keys}"
+        );
+        assert_eq!(
+            from_code.stepper().dt(),
+            from_file.stepper().dt(),
+            "{scheme_keys}"
+        );
+        for _ in 0..3 {
+            let a = from_file.step_frame(Budget::Cycles(2));
+            let b = from_code.step_frame(Budget::Cycles(2));
+            assert!(a.accepted && b.accepted, "{scheme_keys}: {a:?} {b:?}");
+            assert_eq!(
+                from_file.positions(),
+                from_code.positions(),
+                "{scheme_keys}"
+            );
+        }
+        // The top sinks under gravity.
+        let top = from_code
+            .positions()
+            .iter()
+            .map(|p| p[2])
+            .fold(f64::NEG_INFINITY, f64::max);
+        assert!(top < 0.04, "{scheme_keys}: {top}");
+    }
+}

@@ -623,7 +623,7 @@ fn cmd_run(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
             .expect("valid template"),
     );
-    if sc.statics.is_some() {
+    if sc.integrator.statics.is_some() {
         eprintln!(
             "solving {} for static equilibrium ({} nodes, {} elements, newton)",
             sc.name,
@@ -637,7 +637,7 @@ fn cmd_run(
             sc.mesh.num_nodes(),
             sc.mesh.num_elements(),
             sc.method_name(),
-            sc.dt
+            sc.integrator.dt
         );
     }
     let mut progress = |f: f64, s: &raisov::metrics::Sample| {
@@ -647,7 +647,7 @@ fn cmd_run(
             s.time, s.kinetic, s.residual
         ));
     };
-    if sc.statics.is_some() {
+    if sc.integrator.statics.is_some() {
         let opts = RunOptions {
             out_dir: out,
             ..Default::default()
@@ -944,17 +944,17 @@ fn cmd_check(path: &Path) -> Result<()> {
             ),
         );
     }
-    if sc.statics.is_some() {
+    if sc.integrator.statics.is_some() {
         // A static solve: no time stepping, no stop rule, no FAS stepper.
         let how = raisov::runner::describe_static(&sc).map_err(BadInput)?;
         line("integrator", &how);
     } else {
-        let integrator = match &sc.implicit {
+        let integrator = match &sc.integrator.implicit {
             Some(imp) => format!(
                 "{}, dt = {:.4e} s ({} explicit critical steps), Newton to newton_tol = {:e} in at most {} iterations a step, solver \"{}\", precision {}{}",
                 imp.scheme.name(),
-                sc.dt,
-                raisov::numbers::rounded(sc.dt / sc.dt_critical_estimate, 1),
+                sc.integrator.dt,
+                raisov::numbers::rounded(sc.integrator.dt / sc.integrator.dt_critical_estimate, 1),
                 imp.rel_tol,
                 imp.max_newton,
                 raisov::scenario::spec::Named::name(imp.solver),
@@ -967,9 +967,9 @@ fn cmd_check(path: &Path) -> Result<()> {
             ),
             None => format!(
                 "{}, dt = {:.4e} s (estimated critical {:.4e} s), precision {}",
-                sc.method.name(),
-                sc.dt,
-                sc.dt_critical_estimate,
+                sc.integrator.method.name(),
+                sc.integrator.dt,
+                sc.integrator.dt_critical_estimate,
                 sc.precision.name()
             ),
         };

@@ -112,7 +112,7 @@ pub fn implicit(meshes: &Path, quick: bool, emit: &mut dyn FnMut(&str)) -> Resul
         cd.mesh.num_elements(),
         rayon::current_num_threads()
     ));
-    let dt_cd = cd.dt;
+    let dt_cd = cd.integrator.dt;
     let fine = scenario(
         meshes,
         &format!("method = \"central-difference\"\ndt = {:e}", 0.25 * dt_cd),

@@ -495,7 +495,7 @@ fn perturbation(cx: &mut Ctx, res: &mut Results) -> Result<(Case, Vec<Meth>)> {
     let slim_rk4 = Meth::Slim("rk4");
     let sc0 = scenario(&lift, &slim_rk4, Step::Safety(0.5))?;
     res.alpha = sc0.alpha;
-    res.dt_slim = sc0.dt;
+    res.dt_slim = sc0.integrator.dt;
     let eps0 = 1e-3 * sc0.mesh.edge_range().0;
     res.eps_default = eps0;
     let (t_lift, note) = reference(&sc0, 5000)?;
@@ -612,7 +612,9 @@ fn stability(
             ms.push(Meth::Slim("central-difference"));
         }
         for m in &ms {
-            let est = scenario(case, m, Step::Safety(0.5))?.dt_critical_estimate;
+            let est = scenario(case, m, Step::Safety(0.5))?
+                .integrator
+                .dt_critical_estimate;
             let mut drops: Vec<(f64, f64)> = Vec::new();
             let b = bisect_stable(SAFETY_RANGE.0, SAFETY_RANGE.1, cx.sz.iters, |s| {
                 let sc = scenario(case, m, Step::Safety(s))?;
@@ -623,7 +625,7 @@ fn stability(
                     &m.label(),
                     None,
                     SimCfg {
-                        t_end: t_stab as f64 * sc.dt,
+                        t_end: t_stab as f64 * sc.integrator.dt,
                         wall_cap: 60.0,
                         samples: 200,
                         target: None,
@@ -688,6 +690,7 @@ fn inversion(cx: &mut Ctx, res: &mut Results, methods: &[Meth], tiny: bool) -> R
         &Meth::Slim("rk4"),
         Step::Safety(0.5),
     )?
+    .integrator
     .dt;
     let ramp = 3.0 * dt_block;
     res.block_desc = format!(

@@ -125,7 +125,7 @@ fn fas_converges_to_slim_equilibrium() {
         );
         // SLIM's equilibrium: single-level dynamic relaxation to 1e-12 of the load.
         let mut sys = sc.build_system().unwrap();
-        let dt = 0.5 * sc.dt_critical_estimate;
+        let dt = 0.5 * sc.integrator.dt_critical_estimate;
         let r = relax(
             &mut sys,
             State::at_rest(sc.mesh.num_nodes()),

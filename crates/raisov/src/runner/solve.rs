@@ -137,7 +137,7 @@ pub struct Solution {
 
 /// Run `sc` to its end with its own stepper (module docs).
 pub fn solve(sc: &Scenario, opts: RunOptions) -> Result<Solution> {
-    if sc.statics.is_some() {
+    if sc.integrator.statics.is_some() {
         let (summary, mut stepper) = run_static_keeping(sc, opts)?;
         return Ok(finish(
             Finished::Static(summary),
@@ -156,7 +156,7 @@ pub fn solve_with(
     mut stepper: Box<dyn Stepper>,
     opts: RunOptions,
 ) -> Result<Solution> {
-    if sc.statics.is_some() {
+    if sc.integrator.statics.is_some() {
         return solve(sc, opts);
     }
     if sc.interactive.is_none() {

@@ -206,9 +206,9 @@ pub fn run_static_keeping(
     let n = sc.mesh.num_nodes();
     let mut stepper = crate::integrate::SingleLevel::new(
         sc.build_system()?,
-        sc.method,
+        sc.integrator.method,
         crate::integrate::StepperParams {
-            dt: sc.dt,
+            dt: sc.integrator.dt,
             kinetic_limit: f64::INFINITY,
         },
     );
@@ -360,7 +360,7 @@ pub fn describe_static(sc: &Scenario) -> Result<String> {
 
 /// The scenario's static-solve settings; an error where it is not a static solve.
 fn static_settings(sc: &Scenario) -> Result<StaticSolve> {
-    sc.statics.ok_or_else(|| Error::Scenario {
+    sc.integrator.statics.ok_or_else(|| Error::Scenario {
         path: sc.path.clone(),
         line: None,
         msg: "not a static solve: `[integrator] method` is not \"newton\"".into(),

@@ -76,7 +76,7 @@ pub(super) fn check(sc: &Scenario) -> Result<()> {
     if sc.mesh.kind != ElementKind::Tet4 {
         return refuse("only tetrahedral meshes can be cut (this one is a triangle membrane)");
     }
-    if sc.statics.is_some() {
+    if sc.integrator.statics.is_some() {
         return refuse("a static solve (method = \"newton\") has no time to cut at: use a run in time or an [interactive] section");
     }
     if !sc.surface_loads.is_empty() || !sc.timed_load.is_empty() || !sc.tools.is_empty() {

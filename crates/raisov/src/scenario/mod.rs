@@ -128,6 +128,30 @@ pub enum Reference {
     File(PathBuf),
 }
 
+/// `[integrator]`: how level 0 is advanced, with `[multigrid]` ([`Scenario::multigrid`]) the
+/// scheme's settings ([`Scenario::scheme`], [`Scenario::stepping`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct IntegratorSettings {
+    /// `[integrator] method`: the explicit integrator of level 0 (and of every level without
+    /// `[multigrid] level_methods`), default symplectic Euler; with `method = "newton"` that
+    /// default, and no step is taken ([`IntegratorSettings::statics`]).
+    pub method: Method,
+    /// Time step (s), given or estimated.
+    pub dt: f64,
+    /// The estimated critical step (s) the default `dt` derives from.
+    pub dt_critical_estimate: f64,
+    /// `[integrator] safety`: the fraction of the estimated critical step taken where no step
+    /// is given (level 0 without `dt`, coarser FAS levels without `level_dt`).
+    pub safety: f64,
+    /// `[integrator] method = "newton"`: solve for static equilibrium instead of integrating
+    /// ([`crate::runner::run_static`]); `None` for a dynamic run.
+    pub statics: Option<StaticSolve>,
+    /// `[integrator] method = "implicit-euler"` or `"bdf2"`: backward Euler or BDF2
+    /// ([`crate::statics::implicit`]) instead of [`crate::scenario::IntegratorSettings::method`]; `None` for the explicit
+    /// integrators and the static solve.
+    pub implicit: Option<ImplicitSolve>,
+}
+
 /// `[run]`: how a run ends.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunSettings {
@@ -171,17 +195,8 @@ pub struct Scenario {
     /// too long to finish, a point selector far from the mesh, a mesh whose size suggests
     /// the wrong unit.
     pub warnings: Vec<String>,
-    /// `[integrator] method`: the explicit integrator of level 0 (and of every level without
-    /// `[multigrid] level_methods`), default symplectic Euler; with `method = "newton"` that
-    /// default, and no step is taken ([`Scenario::statics`]).
-    pub method: Method,
-    /// Time step (s), given or estimated.
-    pub dt: f64,
-    /// The estimated critical step (s) the default `dt` derives from.
-    pub dt_critical_estimate: f64,
-    /// `[integrator] safety`: the fraction of the estimated critical step taken where no step
-    /// is given (level 0 without `dt`, coarser FAS levels without `level_dt`).
-    pub safety: f64,
+    /// `[integrator]`: the integrator, its step, or the static solve.
+    pub integrator: IntegratorSettings,
     /// `[run]`: how a run ends.
     pub run: RunSettings,
     /// `[output]`: where and how a run writes its results.
@@ -200,13 +215,6 @@ pub struct Scenario {
     /// `[mesh] surface`: the surface the levels were generated from, written with every
     /// frame ([`surface`]); `None` for other meshes.
     pub surface: Option<surface::VisualSurface>,
-    /// `[integrator] method = "newton"`: solve for static equilibrium instead of integrating
-    /// ([`crate::runner::run_static`]); `None` for a dynamic run.
-    pub statics: Option<StaticSolve>,
-    /// `[integrator] method = "implicit-euler"` or `"bdf2"`: backward Euler or BDF2
-    /// ([`crate::statics::implicit`]) instead of [`Scenario::method`]; `None` for the explicit
-    /// integrators and the static solve.
-    pub implicit: Option<ImplicitSolve>,
 }
 
 /// `[integrator]` of `method = "implicit-euler"` or `"bdf2"` (`scheme`) checked
@@ -1051,10 +1059,14 @@ impl Scenario {
             name,
             notes,
             warnings,
-            method,
-            dt,
-            dt_critical_estimate: dt_crit,
-            safety,
+            integrator: IntegratorSettings {
+                method,
+                dt,
+                dt_critical_estimate: dt_crit,
+                safety,
+                statics,
+                implicit,
+            },
             run: RunSettings {
                 stop,
                 blowup_factor,
@@ -1072,8 +1084,6 @@ impl Scenario {
             pins,
             cuts: cuts::resolve(&spec, path)?,
             surface: surface_levels.map(|sl| sl.visual),
-            statics,
-            implicit,
         };
         sc.check_model_loads()?;
         cuts::check(&sc)?;

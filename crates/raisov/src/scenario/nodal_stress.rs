@@ -40,7 +40,7 @@ impl Scenario {
         let n = sys.num_nodes();
         let mut s = State::at_rest(n);
         s.t = self.motion_end();
-        let dt = 0.5 * self.dt_critical_estimate.min(self.dt);
+        let dt = 0.5 * self.integrator.dt_critical_estimate.min(self.integrator.dt);
         let r = relax(&mut sys, s, dt, 1e-10, 2_000_000).map_err(|f| {
             Error::Diverged(crate::error::Divergence {
                 time: 0.0,

@@ -18,29 +18,29 @@ impl Scenario {
     /// The `[integrator] method` name as the scenario gives it (`"implicit-euler"`, `"bdf2"`
     /// and `"newton"` included).
     pub fn method_name(&self) -> &'static str {
-        if let Some(imp) = &self.implicit {
+        if let Some(imp) = &self.integrator.implicit {
             imp.scheme.name()
-        } else if self.statics.is_some() {
+        } else if self.integrator.statics.is_some() {
             "newton"
         } else {
-            self.method.name()
+            self.integrator.method.name()
         }
     }
 
     /// The scheme [`Scenario::stepper`] builds: backward Euler or BDF2 (`[integrator] method =
     /// "implicit-euler"`, `"bdf2"`; its levels, if any, precondition the Newton solves), else
     /// `[multigrid] scheme` over the levels, else `[integrator] method`'s explicit integrator
-    /// on one level. A static solve (`method = "newton"`, [`Scenario::statics`]) is run by
+    /// on one level. A static solve (`method = "newton"`, [`crate::scenario::IntegratorSettings::statics`]) is run by
     /// [`crate::runner::run_static`], not by a stepper: its scheme is that of its levels, or
     /// the default integrator on one level.
     pub fn scheme(&self) -> Scheme {
-        match (&self.implicit, &self.multigrid) {
+        match (&self.integrator.implicit, &self.multigrid) {
             (Some(i), _) => match i.scheme {
                 ImplicitScheme::BackwardEuler => Scheme::ImplicitEuler,
                 ImplicitScheme::Bdf2 => Scheme::Bdf2,
             },
             (None, Some(mg)) => mg.scheme,
-            (None, None) => Scheme::SingleLevel(self.method),
+            (None, None) => Scheme::SingleLevel(self.integrator.method),
         }
     }
 
@@ -49,15 +49,15 @@ impl Scenario {
     /// backward-Euler settings.
     pub fn stepping(&self) -> Stepping {
         Stepping {
-            dt: self.dt,
-            safety: self.safety,
+            dt: self.integrator.dt,
+            safety: self.integrator.safety,
             methods: match &self.multigrid {
                 Some(mg) => mg.methods.clone(),
-                None => vec![self.method; self.num_levels()],
+                None => vec![self.integrator.method; self.num_levels()],
             },
             level_dt: self.multigrid.as_ref().and_then(|mg| mg.level_dt.clone()),
             blowup_factor: Some(self.run.blowup_factor),
-            implicit: self.implicit,
+            implicit: self.integrator.implicit,
         }
     }
 
@@ -80,7 +80,7 @@ impl Scenario {
     /// docs), with the kinetic-energy ceiling of [`Scenario::stepper`]; an error naming the
     /// key where the scenario asks for another method or the solver does not apply.
     pub fn implicit_euler(&self) -> Result<ImplicitEuler> {
-        let Some(imp) = &self.implicit else {
+        let Some(imp) = &self.integrator.implicit else {
             return Err(Error::Scenario {
                 path: self.path.clone(),
                 line: None,
@@ -90,6 +90,11 @@ impl Scenario {
                 ),
             });
         };
-        Model::implicit_euler(&self.model, self.dt, imp, Some(self.run.blowup_factor))
+        Model::implicit_euler(
+            &self.model,
+            self.integrator.dt,
+            imp,
+            Some(self.run.blowup_factor),
+        )
     }
 }

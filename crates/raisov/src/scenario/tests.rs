@@ -82,8 +82,8 @@ fn base_scenario_resolves_with_documented_defaults() {
     assert_eq!(sc.density, 1000.0);
     assert_eq!(sc.thickness, 1e-3);
     assert_eq!(sc.alpha, 0.0);
-    assert_eq!(sc.method, Method::SymplecticEuler);
-    assert!((sc.dt - 0.5 * sc.dt_critical_estimate).abs() < 1e-18);
+    assert_eq!(sc.integrator.method, Method::SymplecticEuler);
+    assert!((sc.integrator.dt - 0.5 * sc.integrator.dt_critical_estimate).abs() < 1e-18);
     assert_eq!(sc.fixed.len(), sc.mesh.boundary_nodes().len());
     assert_eq!(sc.output.dir, PathBuf::from("raisov-out/test"));
     assert_eq!(sc.run.stop, StopRule::Duration(0.01));
@@ -213,7 +213,7 @@ fn the_builtin_and_example_scenarios_resolve() {
     ] {
         let p = Path::new(dir).join(f);
         let sc = Scenario::load(&p).unwrap_or_else(|e| panic!("{f}: {e}"));
-        assert!(sc.dt > 0.0 && sc.mesh.num_nodes() > 100, "{f}");
+        assert!(sc.integrator.dt > 0.0 && sc.mesh.num_nodes() > 100, "{f}");
     }
 }
 
@@ -728,7 +728,7 @@ fn multigrid_settings_resolve_to_typed_parameters() {
     let fas = |extra: &str| {
         let sc = parse(&format!("{BASE}\n[multigrid]\nlevels = 3\n{extra}")).unwrap();
         let mg = sc.multigrid.clone().unwrap();
-        assert_eq!(mg.methods, vec![sc.method; 3]);
+        assert_eq!(mg.methods, vec![sc.integrator.method; 3]);
         assert_eq!(sc.num_levels(), 3);
         match mg.scheme {
             Scheme::Fas(p) => p,
@@ -884,7 +884,7 @@ fn documented_defaults_are_the_applied_ones() {
     assert_eq!(fem.density, defaults::DENSITY);
     assert_eq!(fem.thickness, defaults::THICKNESS);
     // And the resolved scenario applies them.
-    assert_eq!(sc.safety, defaults::SAFETY);
+    assert_eq!(sc.integrator.safety, defaults::SAFETY);
     assert_eq!(sc.run.blowup_factor, defaults::BLOWUP_FACTOR);
     assert_eq!(sc.output.frame_interval, defaults::FRAME_INTERVAL);
     assert_eq!(sc.output.csv_every, defaults::CSV_EVERY);

@@ -18,7 +18,7 @@ fn implicit_euler_scenario_settles_at_the_static_solution() {
     let text = implicit_cube("", "");
     let sc = parse(&text).unwrap();
     assert_eq!(sc.method_name(), "implicit-euler");
-    let imp = sc.implicit.expect("implicit settings");
+    let imp = sc.integrator.implicit.expect("implicit settings");
     assert_eq!(imp.rel_tol, crate::statics::implicit::DEFAULT_REL_TOL);
     assert_eq!(imp.max_newton, crate::statics::implicit::DEFAULT_MAX_NEWTON);
     assert!(
@@ -160,7 +160,7 @@ fn bdf2_cube(beta: f64, extra: &str, tail: &str) -> String {
 fn bdf2_scenario_with_stiffness_damping_settles_at_the_static_solution() {
     let sc = parse(&bdf2_cube(2e-3, "", "")).unwrap();
     assert_eq!(sc.method_name(), "bdf2");
-    let imp = sc.implicit.expect("implicit settings");
+    let imp = sc.integrator.implicit.expect("implicit settings");
     assert_eq!(imp.scheme, crate::statics::implicit::ImplicitScheme::Bdf2);
     assert_eq!(imp.beta, 2e-3);
     let st = sc.stepper().unwrap();

@@ -136,8 +136,8 @@ fn material_range_messages_read_as_before() {
 #[test]
 fn a_step_far_above_the_critical_estimate_warns_as_before() {
     let sc = parse(&cube("[integrator]\ndt = 1e-2\n[run]\nduration = 1.0")).unwrap();
-    let crit = critical_step_estimate(&sc.mesh, &sc.material, sc.density, sc.method);
-    assert_eq!(sc.dt_critical_estimate, crit);
+    let crit = critical_step_estimate(&sc.mesh, &sc.material, sc.density, sc.integrator.method);
+    assert_eq!(sc.integrator.dt_critical_estimate, crit);
     assert_eq!(
         sc.warnings,
         vec![format!(

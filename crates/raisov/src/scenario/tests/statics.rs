@@ -294,7 +294,7 @@ residual_tol = 1e-11
 fn newton_smoother_defaults_by_element_kind() {
     use crate::linalg::smoother::Smoother;
     let cube = |extra: &str| cube(&format!("[integrator]\nmethod = \"newton\"\n{extra}"));
-    let smoother = |text: &str| parse(text).unwrap().statics.unwrap().smoother;
+    let smoother = |text: &str| parse(text).unwrap().integrator.statics.unwrap().smoother;
     assert_eq!(smoother(&cube("")), Smoother::BlockJacobi);
     assert_eq!(
         smoother(&cube("smoother = \"gauss-seidel\"")),

@@ -3,9 +3,13 @@
 use super::spec::{defaults, Named};
 use super::*;
 use crate::error::Error;
+use crate::fem::Precision;
+use crate::integrate::Method;
+use crate::material::Material;
 use crate::material::StableNeoHookean;
 use crate::multigrid::fas::{CoarseSolve, FasParams, Scaling, Smoother, TransferWeights};
 use crate::runner::{run, RunOptions, StopReason};
+use std::path::PathBuf;
 
 const BASE: &str = r#"
 [mesh]

@@ -162,8 +162,9 @@ impl Model {
     /// The backward-Euler or BDF2 stepper (`imp.scheme`) of this model at step `dt` (s), the
     /// kinetic-energy ceiling of `blowup_factor` (module docs); an error naming the key where
     /// the solver does not apply: a force model without an element tangent, a node sliding
-    /// along a direction other than x, y or z, [`StaticSolver::Multigrid`] without a coarser
-    /// level that [`coarse_level`] accepts, [`StaticSolver::Krylov`].
+    /// along a direction other than x, y or z, [`StaticSolver::Krylov`] (matrix-free
+    /// Newton-Krylov solves static problems only), [`StaticSolver::Multigrid`] without a
+    /// coarser level that [`coarse_level`] accepts.
     pub fn implicit_euler(
         &self,
         dt: f64,
@@ -191,6 +192,12 @@ impl Model {
                     )
                 })
         };
+        if imp.solver == StaticSolver::Krylov {
+            return Err(model_err(format!(
+                "`integrator.solver` = \"krylov\" does not apply to method = \"{}\" (each step is solved with the assembled tangent): valid are \"auto\", \"multigrid\", \"direct\"",
+                imp.scheme.name()
+            )));
+        }
         if let Some(b) = blocker {
             return Err(model_err(format!(
                 "`integrator.method` = \"{}\" does not apply: {b} (each step is solved with the assembled tangent)",

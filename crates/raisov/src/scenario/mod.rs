@@ -46,6 +46,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{norm, sub};
 use crate::integrate::System;
 use crate::mesh::{ElementKind, Mesh};
+use crate::model::err;
 use crate::model::select::select_fixed;
 pub use crate::model::{
     select, BoxCells, Fixing, ImplicitSolve, LevelConstraints, LevelMeshes, Levels, MeshSource,
@@ -144,14 +145,6 @@ impl std::ops::Deref for Scenario {
 impl std::ops::DerefMut for Scenario {
     fn deref_mut(&mut self) -> &mut Model {
         &mut self.model
-    }
-}
-
-fn err(path: &Path, msg: impl Into<String>) -> Error {
-    Error::Scenario {
-        path: path.to_path_buf(),
-        line: None,
-        msg: msg.into(),
     }
 }
 

@@ -158,8 +158,7 @@ pub(super) fn resolve_integrator(
     warnings: &mut Vec<String>,
 ) -> Result<IntegratorSettings> {
     let (mesh, material, density) = (&model.mesh, &model.material, model.density);
-    let (tools, surface_loads) = (&model.tools, &model.surface_loads);
-    let (timed_load, prescribed) = (&model.timed_load, &model.prescribed);
+    let tools = &model.tools;
     let (method, newton, scheme) = match spec.integrator.method {
         Some(spec::Solve::Dynamic(m)) => (m, false, None),
         Some(spec::Solve::Newton) => (defaults::METHOD, true, None),
@@ -300,95 +299,9 @@ pub(super) fn resolve_integrator(
             ));
         }
     }
-    let statics = if newton {
-        let settles = surface_loads.iter().all(|s| s.time.end().is_finite())
-            && timed_load.iter().all(|(_, _, f)| f.end().is_finite())
-            && tools.iter().all(|t| t.motion.end().is_finite())
-            && prescribed.iter().all(|(_, m)| m.end().is_finite());
-        if !settles {
-            return Err(err(
-                path,
-                "method = \"newton\" solves for the loads at their end: a `sine` time function never ends",
-            ));
-        }
-        if spec.interactive.is_some() {
-            return Err(err(
-                path,
-                "`[interactive]` does not apply to method = \"newton\" (a static solve)",
-            ));
-        }
-        if let Some(i) = tools.iter().position(|t| t.friction.is_some()) {
-            return Err(err(
-                path,
-                format!(
-                    "`tool[{i}]` has friction, which is path dependent (the tool's path \
-                     decides where nodes stick and slip), and method = \"newton\" solves \
-                     for the end state alone: step it in time with an explicit method or \
-                     method = \"implicit-euler\", or remove `friction` / \
-                     `static_friction` from tool[{i}]"
-                ),
-            ));
-        }
-        levels_only("newton")?;
-        let solver = spec.integrator.solver.unwrap_or(defaults::STATIC_SOLVER);
-        if solver == StaticSolver::Multigrid && spec.multigrid.is_none() {
-            return Err(err(
-                path,
-                "`integrator.solver` = \"multigrid\" needs the coarser levels of a `[multigrid]` section (`levels`, `nodes` or `files`)",
-            ));
-        }
-        let rel_tol = positive(
-            path,
-            "run.residual_tol",
-            spec.run.residual_tol.unwrap_or(defaults::NEWTON_TOL),
-        )?;
-        let max_newton = spec.integrator.max_newton.unwrap_or(defaults::MAX_NEWTON);
-        if max_newton == 0 {
-            return Err(err(path, "`integrator.max_newton` = 0: must be at least 1"));
-        }
-        if spec.integrator.increments == Some(0) {
-            return Err(err(path, "`integrator.increments` = 0: must be at least 1"));
-        }
-        if spec.integrator.smoother.is_some()
-            && matches!(solver, StaticSolver::Direct | StaticSolver::Krylov)
-        {
-            return Err(err(
-                path,
-                format!(
-                    "`integrator.smoother` applies to solver = \"multigrid\" (or \"auto\"), not \"{}\"",
-                    solver.name()
-                ),
-            ));
-        }
-        if spec.integrator.coarse_start == Some(true)
-            && matches!(solver, StaticSolver::Direct | StaticSolver::Krylov)
-        {
-            return Err(err(
-                path,
-                format!(
-                    "`integrator.coarse_start` = true applies to solver = \"multigrid\" (or \"auto\"), not \"{}\"",
-                    solver.name()
-                ),
-            ));
-        }
-        Some(StaticSolve {
-            rel_tol,
-            max_newton,
-            increments: spec.integrator.increments,
-            solver,
-            coarse_start: spec
-                .integrator
-                .coarse_start
-                .unwrap_or(mesh.kind == ElementKind::Tri3),
-            smoother: match spec.integrator.smoother {
-                Some(NewtonSmoother::BlockJacobi) => Smoother::BlockJacobi,
-                Some(NewtonSmoother::BlockGaussSeidel) => Smoother::ColouredBlock,
-                Some(NewtonSmoother::GaussSeidel) => Smoother::GaussSeidel,
-                None => StaticSolve::default_smoother(mesh.kind),
-            },
-        })
-    } else {
-        None
+    let statics = match newton {
+        true => Some(resolve_static(spec, path, model, &levels_only)?),
+        false => None,
     };
     let precision = spec.integrator.precision.unwrap_or_default();
     if precision != Precision::F64
@@ -430,6 +343,105 @@ pub(super) fn resolve_integrator(
         safety,
         statics,
         implicit,
+    })
+}
+
+/// `method = "newton"` resolved against the model: the loads must settle (no sine), nothing
+/// interactive or path dependent (friction), the solver and its keys.
+fn resolve_static(
+    spec: &ScenarioSpec,
+    path: &Path,
+    model: &Model,
+    levels_only: &dyn Fn(&str) -> Result<()>,
+) -> Result<StaticSolve> {
+    let mesh = &model.mesh;
+    let (tools, surface_loads) = (&model.tools, &model.surface_loads);
+    let (timed_load, prescribed) = (&model.timed_load, &model.prescribed);
+    let settles = surface_loads.iter().all(|s| s.time.end().is_finite())
+        && timed_load.iter().all(|(_, _, f)| f.end().is_finite())
+        && tools.iter().all(|t| t.motion.end().is_finite())
+        && prescribed.iter().all(|(_, m)| m.end().is_finite());
+    if !settles {
+        return Err(err(
+            path,
+            "method = \"newton\" solves for the loads at their end: a `sine` time function never ends",
+        ));
+    }
+    if spec.interactive.is_some() {
+        return Err(err(
+            path,
+            "`[interactive]` does not apply to method = \"newton\" (a static solve)",
+        ));
+    }
+    if let Some(i) = tools.iter().position(|t| t.friction.is_some()) {
+        return Err(err(
+            path,
+            format!(
+                "`tool[{i}]` has friction, which is path dependent (the tool's path \
+                 decides where nodes stick and slip), and method = \"newton\" solves \
+                 for the end state alone: step it in time with an explicit method or \
+                 method = \"implicit-euler\", or remove `friction` / \
+                 `static_friction` from tool[{i}]"
+            ),
+        ));
+    }
+    levels_only("newton")?;
+    let solver = spec.integrator.solver.unwrap_or(defaults::STATIC_SOLVER);
+    if solver == StaticSolver::Multigrid && spec.multigrid.is_none() {
+        return Err(err(
+            path,
+            "`integrator.solver` = \"multigrid\" needs the coarser levels of a `[multigrid]` section (`levels`, `nodes` or `files`)",
+        ));
+    }
+    let rel_tol = positive(
+        path,
+        "run.residual_tol",
+        spec.run.residual_tol.unwrap_or(defaults::NEWTON_TOL),
+    )?;
+    let max_newton = spec.integrator.max_newton.unwrap_or(defaults::MAX_NEWTON);
+    if max_newton == 0 {
+        return Err(err(path, "`integrator.max_newton` = 0: must be at least 1"));
+    }
+    if spec.integrator.increments == Some(0) {
+        return Err(err(path, "`integrator.increments` = 0: must be at least 1"));
+    }
+    if spec.integrator.smoother.is_some()
+        && matches!(solver, StaticSolver::Direct | StaticSolver::Krylov)
+    {
+        return Err(err(
+            path,
+            format!(
+                "`integrator.smoother` applies to solver = \"multigrid\" (or \"auto\"), not \"{}\"",
+                solver.name()
+            ),
+        ));
+    }
+    if spec.integrator.coarse_start == Some(true)
+        && matches!(solver, StaticSolver::Direct | StaticSolver::Krylov)
+    {
+        return Err(err(
+            path,
+            format!(
+                "`integrator.coarse_start` = true applies to solver = \"multigrid\" (or \"auto\"), not \"{}\"",
+                solver.name()
+            ),
+        ));
+    }
+    Ok(StaticSolve {
+        rel_tol,
+        max_newton,
+        increments: spec.integrator.increments,
+        solver,
+        coarse_start: spec
+            .integrator
+            .coarse_start
+            .unwrap_or(mesh.kind == ElementKind::Tri3),
+        smoother: match spec.integrator.smoother {
+            Some(NewtonSmoother::BlockJacobi) => Smoother::BlockJacobi,
+            Some(NewtonSmoother::BlockGaussSeidel) => Smoother::ColouredBlock,
+            Some(NewtonSmoother::GaussSeidel) => Smoother::GaussSeidel,
+            None => StaticSolve::default_smoother(mesh.kind),
+        },
     })
 }
 

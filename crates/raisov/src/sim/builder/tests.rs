@@ -406,3 +406,37 @@ fn a_model_assembled_by_hand_steps_as_the_builder_builds_it() {
     assert!(model.fixed.iter().all(|&a| moved(a as usize) == 0.0));
     assert!((0..by_hand.mesh().num_nodes()).any(|a| moved(a) < -1e-9));
 }
+
+/// Backward Euler built from a model refuses matrix-free Newton-Krylov, whose only use is the
+/// static solve, by the message the scenario resolver gives for the same key (it took it as
+/// `"auto"` without a word before).
+#[test]
+fn backward_euler_from_a_model_refuses_the_krylov_solver() {
+    use crate::model::{ImplicitSolve, Model};
+    use crate::statics::implicit::ImplicitScheme;
+    use crate::statics::StaticSolver;
+    let law = Material::StableNeoHookean(StableNeoHookean::from_young(5e3, 0.45));
+    let model = Model::new(cube(2), law, "by hand");
+    let imp = ImplicitSolve {
+        solver: StaticSolver::Krylov,
+        ..ImplicitSolve::new(
+            ImplicitScheme::BackwardEuler,
+            crate::mesh::ElementKind::Tet4,
+        )
+    };
+    let e = model
+        .implicit_euler(0.01, &imp, None)
+        .err()
+        .expect("refused");
+    assert!(
+        e.to_string().contains(
+            "`integrator.solver` = \"krylov\" does not apply to method = \"implicit-euler\""
+        ),
+        "{e}"
+    );
+    let auto = ImplicitSolve::new(
+        ImplicitScheme::BackwardEuler,
+        crate::mesh::ElementKind::Tet4,
+    );
+    assert!(model.implicit_euler(0.01, &auto, None).is_ok());
+}

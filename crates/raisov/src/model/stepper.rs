@@ -29,7 +29,7 @@ use crate::multigrid::fas::{Fas, FasParams};
 use crate::multigrid::raisov::{Raisov, RaisovParams};
 use crate::statics::frames::NewtonFrames;
 use crate::statics::implicit::{ImplicitEuler, ImplicitParams, ImplicitScheme};
-use crate::statics::newton::{axis_of, coarse_level, MultigridPcg, COARSEN_LIMIT};
+use crate::statics::newton::{coarse_level, MultigridPcg, COARSEN_LIMIT};
 use crate::statics::StaticSolver;
 
 /// The settings of backward Euler and BDF2 (`method = "implicit-euler"`, `"bdf2"`).
@@ -178,20 +178,11 @@ impl Model {
             line: None,
             msg,
         };
-        let blocker = if sys.force.tangent_elements().is_none() {
-            Some("the force model has no element tangent".to_string())
-        } else {
-            sys.constraints
-                .sliding()
-                .iter()
-                .find(|&&(_, d)| axis_of(d).is_none())
-                .map(|&(a, _)| {
-                    format!(
-                        "node {} slides along a direction that is not x, y or z",
-                        self.file_node(a)
-                    )
-                })
-        };
+        let blocker = sys
+            .force
+            .tangent_elements()
+            .is_none()
+            .then_some("the force model has no element tangent");
         if imp.solver == StaticSolver::Krylov {
             return Err(model_err(format!(
                 "`integrator.solver` = \"krylov\" does not apply to method = \"{}\" (each step is solved with the assembled tangent): valid are \"auto\", \"multigrid\", \"direct\"",

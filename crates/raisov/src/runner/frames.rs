@@ -70,8 +70,7 @@ use crate::scenario::interactive::{Budget, Interactive};
 use crate::scenario::{Scenario, StopRule};
 use crate::statics::krylov::{NewtonParams, NewtonSolver};
 use crate::statics::newton::{
-    axis_of, coarse_level, fixed_dof, DirectNewton, DirectNewtonError, DirectNewtonParams,
-    MultigridPcg,
+    coarse_level, fixed_dof, DirectNewton, DirectNewtonError, DirectNewtonParams, MultigridPcg,
 };
 use crate::statics::relax::fictitious_mass;
 use std::path::{Path, PathBuf};
@@ -726,13 +725,7 @@ const REFERENCE_MAX_NEWTON: usize = 50;
 
 impl Reference {
     fn new(sc: &Scenario, sys: &System) -> Result<Reference> {
-        let blocked = sys.force.tangent_elements().is_none()
-            || sys
-                .constraints
-                .sliding()
-                .iter()
-                .any(|&(_, d)| axis_of(d).is_none());
-        if blocked {
+        if sys.force.tangent_elements().is_none() {
             let diag = fictitious_mass(&sc.mesh, &sys.mass, 1.0);
             return Ok(Reference::Krylov {
                 newton: NewtonSolver::with_diagonal(sys, &diag),

@@ -21,10 +21,10 @@
 //! The assembled solvers start with the prescribed nodes at rest; each increment's first
 //! iteration moves them with the free nodes' linear response (the lifted iteration of
 //! [`crate::statics::newton`]). `"auto"` takes `"multigrid"` where a coarse level
-//! qualifies, `"direct"` where not, and `"krylov"` where the assembled tangent does not hold
-//! every force: pressure
-//! (a follower load), tool contact or spring grasps, or a node sliding along a direction
-//! that is not x, y or z.
+//! qualifies, `"direct"` where not, and `"krylov"` only where the force model has no element
+//! tangent (every model a scenario builds has one: pressure, traction, tools and spring
+//! grasps add their blocks to it, and a node sliding along a direction that is not x, y or z
+//! is solved by projection, [`crate::statics::newton`]).
 //!
 //! With `[integrator] coarse_start` (default: membranes yes, tetrahedra no) `"multigrid"`
 //! starts from a coarser level's equilibrium, interpolated (nested iteration,
@@ -45,8 +45,7 @@ use crate::scenario::{Scenario, StaticSolve, StaticSolver};
 use crate::statics::krylov::Static;
 use crate::statics::nested::{nested_start, start_levels, BetweenSolve, CoarseStart, NestedLevels};
 use crate::statics::newton::{
-    axis_of, coarse_level, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic,
-    MultigridPcg,
+    coarse_level, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic, MultigridPcg,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -409,18 +408,11 @@ fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan>
     if asked == StaticSolver::Krylov {
         return Ok(krylov);
     }
-    let blocker = if sys.force.tangent_elements().is_none() {
-        Some("the force model has no element tangent")
-    } else if sys
-        .constraints
-        .sliding()
-        .iter()
-        .any(|&(_, d)| axis_of(d).is_none())
-    {
-        Some("a node slides along a direction that is not x, y or z")
-    } else {
-        None
-    };
+    let blocker = sys
+        .force
+        .tangent_elements()
+        .is_none()
+        .then_some("the force model has no element tangent");
     if let Some(b) = blocker {
         if asked == StaticSolver::Auto {
             return Ok(Plan {

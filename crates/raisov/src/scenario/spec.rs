@@ -232,7 +232,7 @@
 //!                                 # "krylov" (StaticSolver): "auto" is "multigrid" where
 //!                                 # [multigrid] gives a level with >= 1/32 of the nodes, else
 //!                                 # "direct" (pressure, tools and springs are in the
-//!                                 # assembled tangent)
+//!                                 # assembled tangent; tilted sliding planes projected)
 //! max_newton = 50                 # newton: Newton steps at most per increment, default 50;
 //!                                 # implicit-euler, bdf2: per step, default 30
 //! newton_tol = 1e-6               # implicit-euler, bdf2: each step's relative tolerance

@@ -95,6 +95,39 @@ fn implicit_euler_scenario_preconditions_with_the_multigrid_levels() {
         .contains("sparse Cholesky"));
 }
 
+/// Backward Euler takes a node sliding along a direction that is not x, y or z (the
+/// assembled tangent projected onto the plane, [`crate::statics::newton`]): the cube's far
+/// corner slides on planes normal to (1, 1, 0), gravity pulls it across them, and after three
+/// steps every sliding node still has `u·n` = 0 to 1e-15 of the largest displacement, single
+/// level and with the levels as the preconditioner.
+#[test]
+fn implicit_euler_takes_an_oblique_sliding_plane() {
+    let slide = "[[fix]]\nplane = { point = [0.04, 0.02, 0.0], normal = [-1.0, -1.0, 0.0] }\nnormal = [1.0, 1.0, 0.0]\n";
+    for levels in ["", "[multigrid]\nlevels = 2\n"] {
+        let sc = parse(&implicit_cube("", &format!("{levels}{slide}"))).unwrap();
+        let sliding = sc.sliding.clone();
+        assert!(sliding.len() >= 4, "{sliding:?}");
+        let mut st = sc.stepper().unwrap();
+        for _ in 0..3 {
+            st.advance().unwrap();
+        }
+        let u = &st.state().u;
+        let scale = u.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        assert!(scale > 1e-5, "{levels}: the cube should move: {scale:e}");
+        let mut across = 0.0f64;
+        for &(a, n) in &sliding {
+            let i = 3 * a as usize;
+            let d = u[i] * n[0] + u[i + 1] * n[1] + u[i + 2] * n[2];
+            assert!(d.abs() <= 1e-15 * scale, "{levels}node {a}: u·n = {d:e}");
+            across = across.max(u[i].abs());
+        }
+        assert!(
+            across > 1e-3 * scale,
+            "{levels}: the corner should slide: {across:e}"
+        );
+    }
+}
+
 #[test]
 fn implicit_euler_combinations_that_do_not_apply_name_the_key() {
     let no_dt = cube("[integrator]\nmethod = \"implicit-euler\"\n[run]\nduration = 0.1\n");

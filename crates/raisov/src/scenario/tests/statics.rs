@@ -211,6 +211,76 @@ fn static_solvers_reach_one_equilibrium() {
     );
 }
 
+/// A node sliding along a direction that is not x, y or z no longer sends `solver = "auto"`
+/// to Newton-Krylov: the cube's far corner slides on planes normal to (1, 1, 0) under
+/// gravity across them; "auto" takes "direct" (and "multigrid" with levels), and both land on
+/// Newton-Krylov's equilibrium: the supports' reaction within 1e-9 of the weight, balancing
+/// it to 1e-9, the nodal displacements and stresses within 1e-9 of the largest.
+#[test]
+fn oblique_sliding_takes_the_assembled_solvers() {
+    let slide = "[[fix]]\nplane = { point = [0.04, 0.02, 0.0], normal = [-1.0, -1.0, 0.0] }\nnormal = [1.0, 1.0, 0.0]\n";
+    let text = |solver: &str, levels: &str| {
+        format!(
+            "gravity = [0.0, -9.81, 0.0]\n{}",
+            cube(&format!(
+                "{slide}[integrator]\nmethod = \"newton\"\n{solver}\n[run]\nresidual_tol = 1e-10\n{levels}"
+            ))
+        )
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let solve = |name: &str, solver: &str, levels: &str| {
+        let sc = parse(&text(solver, levels)).unwrap();
+        let s = crate::runner::run_static(
+            &sc,
+            RunOptions {
+                out_dir: Some(dir.path().join(name)),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert!(s.converged(), "{name}: {s}");
+        (s, nodal_stress(&dir.path().join(name), 12))
+    };
+    let (krylov, t_k) = solve("krylov", "solver = \"krylov\"", "");
+    assert_eq!(krylov.solver, StaticSolver::Krylov);
+    let (direct, t_d) = solve("direct", "", "");
+    assert_eq!(direct.solver, StaticSolver::Direct, "{direct}");
+    let (mg, t_m) = solve("multigrid", "", "[multigrid]\nlevels = 2\n");
+    assert_eq!(mg.solver, StaticSolver::Multigrid, "{mg}");
+    let weight = krylov.applied[1].abs();
+    assert!(weight > 0.0, "{krylov}");
+    let umax = t_k
+        .chunks(12)
+        .flat_map(|c| &c[..3])
+        .fold(0.0f64, |a, x| a.max(x.abs()));
+    let smax = t_k
+        .chunks(12)
+        .flat_map(|c| &c[3..])
+        .fold(0.0f64, |a, x| a.max(x.abs()));
+    for (name, s, t) in [("direct", &direct, &t_d), ("multigrid", &mg, &t_m)] {
+        for k in 0..3 {
+            let (a, b) = (krylov.last.reaction_fixed[k], s.last.reaction_fixed[k]);
+            assert!(
+                (a - b).abs() <= 1e-9 * weight,
+                "{name} reaction {k}: {a:e} vs {b:e}"
+            );
+            let gap = s.last.reaction_fixed[k] + s.applied[k];
+            assert!(gap.abs() <= 1e-9 * weight, "{name} balance {k}: {gap:e}");
+        }
+        for (x, y) in t.chunks(12).zip(t_k.chunks(12)) {
+            for k in 0..12 {
+                let bound = if k < 3 { umax } else { smax };
+                assert!(
+                    (x[k] - y[k]).abs() <= 1e-9 * bound,
+                    "{name} field {k}: {} vs {}",
+                    x[k],
+                    y[k]
+                );
+            }
+        }
+    }
+}
+
 /// A static pull that inverts the elements around its node when imposed alone (the rest of
 /// the beam at rest), with no load: the default one increment takes it (the solver's lifted
 /// first iteration), against a stopping target scaled by the pull's extrapolated

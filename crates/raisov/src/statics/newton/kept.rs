@@ -103,9 +103,13 @@ impl DirectNewton {
     /// the Galerkin products' and the coarse factor's symbolic phases are kept. The kept
     /// tangent is dropped: the next [`DirectNewton::keep_tangent`] builds the whole hierarchy.
     /// `false`, nothing changed, where a dof the pattern left out is free under
-    /// `constraints` (the caller builds a new pattern).
+    /// `constraints`, or the nodes sliding along directions other than x, y or z are not the
+    /// pattern's (the caller builds a new pattern).
     pub fn mask(&mut self, constraints: &Constraints) -> bool {
         if (0..self.free.len()).any(|i| self.free[i] == usize::MAX && !fixed_dof(constraints, i)) {
+            return false;
+        }
+        if oblique::oblique_nodes(constraints, &self.free) != self.oblique {
             return false;
         }
         let mut masked = vec![false; self.nfree];
@@ -185,6 +189,9 @@ impl DirectNewton {
         };
         zero_masked(&mut bf);
         zero_masked(&mut xf);
+        // Obliquely sliding nodes: the solve on their admissible motions (`oblique.rs`).
+        self.project_free(&mut bf);
+        self.project_free(&mut xf);
         let settings = crate::linalg::cg::CgSettings {
             warm,
             ..crate::linalg::cg::CgSettings::new(0.0, max_iter)
@@ -202,6 +209,7 @@ impl DirectNewton {
         let mut held = |p: &[f64], q: &mut [f64]| -> Result<(), E> {
             product(p, q)?;
             zero_masked(q);
+            self.project_free(q);
             Ok(())
         };
         let end = crate::linalg::cg::solve(
@@ -209,6 +217,7 @@ impl DirectNewton {
             |r: &[f64], z: &mut [f64]| {
                 mg.apply(r, z);
                 zero_masked(z);
+                self.project_free(z);
                 Ok(())
             },
             &bf,

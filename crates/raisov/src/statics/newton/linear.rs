@@ -63,6 +63,7 @@ impl DirectNewton {
                 self.prepare_factor()?;
                 for (j, (bj, xj)) in columns.iter_mut().enumerate() {
                     self.gather_free(bj, &mut b);
+                    self.project_free(&mut b);
                     if j == 0 {
                         self.factor_solve(0.0, &mut b).map_err(|e| {
                             DirectNewtonError::Factor(format!(
@@ -93,6 +94,8 @@ impl DirectNewton {
                 for (bj, xj) in columns.iter_mut() {
                     self.gather_free(bj, &mut b);
                     self.gather_free(xj, &mut x);
+                    self.project_free(&mut b);
+                    self.project_free(&mut x);
                     let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt();
                     let end = pcg_from(
                         |p, q| mg.matrix().matvec(p, q),
@@ -128,6 +131,7 @@ impl DirectNewton {
         for (i, &f) in self.free.iter().enumerate() {
             out[i] = if f == usize::MAX { 0.0 } else { x[f] };
         }
+        self.project_all(out);
     }
 
     /// Whether dof `i` is free.

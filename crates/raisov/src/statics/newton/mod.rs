@@ -121,6 +121,7 @@
 mod direction;
 mod kept;
 mod linear;
+mod oblique;
 mod pattern;
 mod search;
 mod shift;
@@ -336,7 +337,8 @@ pub enum DirectNewtonError {
     /// A factor or hierarchy would not fit in the available memory ([`crate::memory`]).
     #[error("{0}")]
     Memory(String),
-    /// A sliding constraint along a direction other than x, y or z.
+    /// A sliding constraint along a direction other than x, y or z. No longer returned: such
+    /// a node is solved by projection (module `oblique` in the source); kept for one release.
     #[error("node {node} slides along ({:.3}, {:.3}, {:.3}): the direct Newton solver takes fixed components along x, y or z only", .dir[0], .dir[1], .dir[2])]
     SlidingNotAxis {
         /// The node.
@@ -360,6 +362,11 @@ pub enum DirectNewtonError {
 pub struct DirectNewton {
     /// Free-dof index of each dof, `usize::MAX` where constrained.
     free: Vec<usize>,
+    /// The nodes sliding along a direction other than x, y or z, by node (`oblique.rs`).
+    oblique: Vec<oblique::Oblique>,
+    /// Per node, its index in `oblique` (`u32::MAX`: none); empty where no node slides
+    /// obliquely.
+    oblique_index: Vec<u32>,
     nfree: usize,
     /// Per element, per entry of its `(3 npe)²` matrix (row-major): the slot in `vals`, or
     /// `u32::MAX` where not assembled (a constrained dof, or above the diagonal).
@@ -406,11 +413,6 @@ impl DirectNewton {
         constraints: &Constraints,
     ) -> Result<Self, DirectNewtonError> {
         let topology = model.tangent_elements().ok_or(DirectNewtonError::NotFem)?;
-        for &(node, dir) in constraints.sliding() {
-            if axis_of(dir).is_none() {
-                return Err(DirectNewtonError::SlidingNotAxis { node, dir });
-            }
-        }
         let n = topology.nodes;
         let mut free = vec![usize::MAX; 3 * n];
         let mut nfree = 0;
@@ -427,6 +429,8 @@ impl DirectNewton {
             slots,
             diag,
         } = pattern::build(&topology, &free, nfree).map_err(DirectNewtonError::Memory)?;
+        let oblique = oblique::oblique_nodes(constraints, &free);
+        let oblique_index = oblique::index_of(&oblique, n);
         let nnz = row_idx.len();
         let symbolic = SymbolicSparseColMat::new_checked(nfree, nfree, col_ptr, None, row_idx);
         let mean = mass.iter().sum::<f64>() / n.max(1) as f64;
@@ -438,6 +442,8 @@ impl DirectNewton {
         }
         Ok(DirectNewton {
             free,
+            oblique,
+            oblique_index,
             nfree,
             slots,
             vals: vec![0.0; nnz],
@@ -518,10 +524,16 @@ impl DirectNewton {
         let mut diag = 0.0;
         for first in (0..ne).step_by(BLOCK) {
             let count = BLOCK.min(ne - first);
-            let ok = k[..count * d * d]
+            let ok: Result<(), ElementFailure> = k[..count * d * d]
                 .par_chunks_mut(d * d)
                 .enumerate()
-                .try_for_each(|(j, out)| model.element_tangent(first + j, u, out));
+                .try_for_each(|(j, out)| {
+                    model.element_tangent(first + j, u, out)?;
+                    if self.has_oblique() {
+                        self.project_block(topology.element(first + j), out);
+                    }
+                    Ok(())
+                });
             if ok.is_err() {
                 // Report the lowest failing element, whatever the scheduling.
                 for (j, out) in k[..count * d * d].chunks_mut(d * d).enumerate() {
@@ -572,8 +584,17 @@ impl DirectNewton {
         }
         // The blocks beyond the elements (a follower pressure's, a tool's) and the springs'
         // `k I`, summed after the elements in the order the model hands them over.
+        let mut projected = Vec::new();
         let mut extra = |nodes: &[u32], block: &[f64]| {
             let d = 3 * nodes.len();
+            let block = if self.has_oblique() {
+                projected.clear();
+                projected.extend_from_slice(block);
+                self.project_block(nodes, &mut projected);
+                &projected[..]
+            } else {
+                block
+            };
             let dof = |q: usize| 3 * nodes[q / 3] as usize + q % 3;
             for r in 0..d {
                 let fr = self.free[dof(r)];
@@ -608,7 +629,9 @@ impl DirectNewton {
         for sp in springs.iter().filter(|sp| sp.k > 0.0) {
             extra(&[sp.node], &sp.tangent(u));
         }
-        Ok(diag / self.nfree.max(1) as f64)
+        let mean = diag / self.nfree.max(1) as f64;
+        self.add_normal_stiffness(mean);
+        Ok(mean)
     }
 
     /// `out = u + α δ`, `δ` over the free dofs (free-index order).
@@ -619,6 +642,7 @@ impl DirectNewton {
                 out[i] += alpha * delta[f];
             }
         }
+        self.project_all(out);
     }
 
     /// `Σ_i x[i] y[f(i)]` over the free dofs i, `x` in all dofs' layout, `y` over the free
@@ -726,6 +750,8 @@ impl DirectNewton {
         params: DirectNewtonParams,
     ) -> Result<DirectStatic, DirectNewtonError> {
         let n = u.len();
+        // An obliquely sliding node starts on its plane or line (module `oblique`).
+        self.project_all(u);
         let mut g = u.to_vec();
         let mut v = vec![0.0; n];
         constraints.impose(t, &mut g, &mut v);

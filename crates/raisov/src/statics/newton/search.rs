@@ -38,6 +38,7 @@ impl Residual<'_> {
                 s * self.f_ext[i] - fint[i]
             };
         }
+        oblique::project_residual(self.constraints, r);
         let two = r.iter().map(|x| x * x).sum::<f64>().sqrt();
         let max = (0..n / 3).map(|a| node_norm(r, a)).fold(0.0f64, f64::max);
         Ok((two, max))

@@ -68,9 +68,9 @@ use crate::integrate::{hold, Stepper};
 use crate::io::{write_vtu_as, Field, FieldData, PvdWriter, RowFile};
 use crate::scenario::interactive::{Budget, Interactive};
 use crate::scenario::{Scenario, StopRule};
-use crate::statics::krylov::{NewtonParams, NewtonSolver};
 use crate::statics::newton::{
-    coarse_level, fixed_dof, DirectNewton, DirectNewtonError, DirectNewtonParams, MultigridPcg,
+    coarse_level, fixed_dof, solve_with, DirectNewton, DirectNewtonError, DirectNewtonParams,
+    MatrixFree, MatrixFreeCg, MultigridPcg,
 };
 use crate::statics::relax::fictitious_mass;
 use std::path::{Path, PathBuf};
@@ -521,8 +521,7 @@ pub fn run_frames(
                 }
             }
             hold(&mut ref_sys.constraints, &values);
-            let solved =
-                reference.solve(&mut ref_sys, t, &mut u_star, settings.reference_tol, grasps);
+            let solved = reference.solve(&mut ref_sys, t, &mut u_star, settings.reference_tol);
             if let Ok(st) = &solved {
                 ref_scale = ref_scale.max(st.initial_residual);
             }
@@ -668,10 +667,8 @@ enum Reference {
         down: Vec<crate::hierarchy::Transfer>,
         smoother: crate::statics::newton::Smoother,
     },
-    Krylov {
-        newton: NewtonSolver,
-        diag: Vec<f64>,
-    },
+    /// A force model without element tangents: matrix-free CG preconditioned by `diag`.
+    MatrixFree { diag: Vec<f64> },
 }
 
 /// What a reference solve reports, in its solver's norm (N).
@@ -727,10 +724,7 @@ impl Reference {
     fn new(sc: &Scenario, sys: &System) -> Result<Reference> {
         if sys.force.tangent_elements().is_none() {
             let diag = fictitious_mass(&sc.mesh, &sys.mass, 1.0);
-            return Ok(Reference::Krylov {
-                newton: NewtonSolver::with_diagonal(sys, &diag),
-                diag,
-            });
+            return Ok(Reference::MatrixFree { diag });
         }
         let mut down = Vec::new();
         if sc.multigrid.is_some() {
@@ -749,50 +743,63 @@ impl Reference {
         match self {
             Reference::Assembled { down, .. } if down.is_empty() => "direct Newton",
             Reference::Assembled { .. } => "Newton-multigrid",
-            Reference::Krylov { .. } => "Newton-Krylov",
+            Reference::MatrixFree { .. } => "Newton-Krylov",
         }
     }
 
-    /// Solve `sys` at time `t` from `u` (the last frame's solution) in place; `changed`: the
-    /// frame's grasps or pins may have changed the constraints. `Err`: why it could not (an
-    /// inverted element, a failed factorisation), in words.
+    /// Solve `sys` at time `t` from `u` (the last frame's solution) in place; the assembled
+    /// solver is built again where the frame's grasps or pins changed the constrained dofs.
+    /// `Err`: why it could not (an inverted element, a failed factorisation), in words.
     fn solve(
         &mut self,
         sys: &mut System,
         t: f64,
         u: &mut [f64],
         tol: f64,
-        changed: bool,
     ) -> std::result::Result<ReferenceSolve, String> {
-        match self {
-            Reference::Krylov { newton, diag } => {
-                if changed {
-                    *newton = NewtonSolver::with_diagonal(sys, diag);
-                }
-                let p = NewtonParams {
-                    rel_tol: tol,
-                    ..Default::default()
-                };
-                let st = newton.solve(sys, t, u, p).map_err(|f| {
-                    format!(
-                        "(Newton-Krylov) inverted element {} (det F = {:.3e})",
-                        f.element, f.det_f
-                    )
-                })?;
-                Ok(ReferenceSolve {
-                    converged: st.converged,
-                    residual: st.residual,
-                    initial_residual: st.initial_residual,
-                    target: tol * st.initial_residual,
-                    newton_steps: st.newton_steps,
-                })
+        // The rule has no absolute floor but where nothing loads the body (a force scale
+        // below UNLOADED N: round-off of a body at rest): a tolerance below round-off fails,
+        // as it should.
+        let scale = problem_scale(sys, t, u);
+        let target = if scale > UNLOADED { tol * scale } else { 1e-14 };
+        let mut params = DirectNewtonParams {
+            rel_tol: 0.0,
+            abs_tol: target,
+            // Near a solution whose energy is small against its round-off (an unloaded body
+            // let go), the line search takes a falling residual.
+            flat_below: 100.0 * target,
+            max_newton: REFERENCE_MAX_NEWTON,
+            ..Default::default()
+        };
+        let n = u.len();
+        let out = match self {
+            Reference::MatrixFree { diag } => {
+                let System {
+                    force,
+                    mass,
+                    constraints,
+                    springs,
+                    f_ext,
+                    ..
+                } = sys;
+                let mut lin =
+                    MatrixFree::with_diagonal(mass, diag, constraints, MatrixFreeCg::default());
+                solve_with(
+                    &mut lin,
+                    &mut **force,
+                    springs,
+                    constraints,
+                    f_ext,
+                    t,
+                    u,
+                    params,
+                )
             }
             Reference::Assembled {
                 newton,
                 down,
                 smoother,
             } => {
-                let n = u.len();
                 let mask: Vec<bool> = (0..n).map(|i| fixed_dof(&sys.constraints, i)).collect();
                 if newton.as_ref().is_none_or(|(_, m)| *m != mask) {
                     let built = if down.is_empty() {
@@ -806,29 +813,14 @@ impl Reference {
                 let Some((solver, _)) = newton.as_mut() else {
                     unreachable!("built above")
                 };
-                // The rule has no absolute floor but where nothing loads the body (a force
-                // scale below UNLOADED N: round-off of a body at rest): a tolerance below
-                // round-off fails, as it should.
-                let scale = problem_scale(sys, t, u);
-                let target = if scale > UNLOADED { tol * scale } else { 1e-14 };
-                let params = DirectNewtonParams {
-                    rel_tol: 0.0,
-                    abs_tol: target,
-                    // Near a solution whose energy is small against its round-off (an
-                    // unloaded body let go), the line search takes a falling residual.
-                    flat_below: 100.0 * target,
-                    max_newton: REFERENCE_MAX_NEWTON,
-                    pcg_max: if down.is_empty() {
-                        REFERENCE_PCG_MAX
-                    } else {
-                        0
-                    },
-                    multigrid: (!down.is_empty()).then(|| MultigridPcg {
+                if down.is_empty() {
+                    params.pcg_max = REFERENCE_PCG_MAX;
+                } else {
+                    params.multigrid = Some(MultigridPcg {
                         smoother: *smoother,
                         ..Default::default()
-                    }),
-                    ..Default::default()
-                };
+                    });
+                }
                 let System {
                     force,
                     constraints,
@@ -836,21 +828,22 @@ impl Reference {
                     f_ext,
                     ..
                 } = sys;
-                match solver.solve(&mut **force, springs, constraints, f_ext, t, u, params) {
-                    Ok(o) => Ok(ReferenceSolve {
-                        converged: o.converged,
-                        residual: o.residual,
-                        initial_residual: o.initial_residual,
-                        target: o.target,
-                        newton_steps: o.newton_steps,
-                    }),
-                    Err(DirectNewtonError::Inverted(f)) => Err(format!(
-                        "inverted element {} (det F = {:.3e})",
-                        f.element, f.det_f
-                    )),
-                    Err(e) => Err(format!("failed: {e}")),
-                }
+                solver.solve(&mut **force, springs, constraints, f_ext, t, u, params)
             }
+        };
+        match out {
+            Ok(o) => Ok(ReferenceSolve {
+                converged: o.converged,
+                residual: o.residual,
+                initial_residual: o.initial_residual,
+                target: o.target,
+                newton_steps: o.newton_steps,
+            }),
+            Err(DirectNewtonError::Inverted(f)) => Err(format!(
+                "inverted element {} (det F = {:.3e})",
+                f.element, f.det_f
+            )),
+            Err(e) => Err(format!("failed: {e}")),
         }
     }
 }

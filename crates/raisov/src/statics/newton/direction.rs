@@ -34,7 +34,11 @@ impl DirectNewton {
         let mut solved = false;
         let mut built_now = false;
         let scatter = self.scatter.get_or_insert_with(|| {
-            SymScatter::new(self.nfree, self.symbolic.col_ptr(), self.symbolic.row_idx())
+            SymScatter::new(
+                self.dofs.nfree,
+                self.symbolic.col_ptr(),
+                self.symbolic.row_idx(),
+            )
         });
         if self.standing == Standing::Rebuild {
             // Counted only where the provisional hierarchy is still kept: one the
@@ -52,7 +56,7 @@ impl DirectNewton {
             let shift = sigma * dbar;
             let full = |out: &mut Csr| {
                 scatter.fill(&self.vals, out);
-                for (&d, w) in self.diag.iter().zip(&self.weight) {
+                for (&d, w) in self.diag.iter().zip(&self.dofs.weight) {
                     out.val[scatter.position(d as usize)] += shift * w;
                 }
             };
@@ -130,7 +134,7 @@ impl DirectNewton {
                     // and solve again, the hierarchy kept (its operators take the
                     // new shift).
                     out.cg_iterations += it;
-                    let needed = shift_needed(&self.weight, sigma, dbar, pq, &negative);
+                    let needed = shift_needed(&self.dofs.weight, sigma, dbar, pq, &negative);
                     sigma = raise_sigma(sigma, params.sigma_min, needed)?;
                 }
                 PcgEnd::Breakdown(None) if reused => {
@@ -157,7 +161,7 @@ impl DirectNewton {
                     // direction's σ* at once.
                     let needed = match end {
                         PcgEnd::Breakdown(Some(pq)) => {
-                            shift_needed(&self.weight, sigma, dbar, pq, rhs)
+                            shift_needed(&self.dofs.weight, sigma, dbar, pq, rhs)
                         }
                         _ => 0.0,
                     };

@@ -49,12 +49,12 @@ impl DirectNewton {
             .assemble(model, springs, u, None)
             .map_err(DirectNewtonError::Inverted)?;
         if shift > 0.0 {
-            for (&d, w) in self.diag.iter().zip(&self.weight) {
+            for (&d, w) in self.diag.iter().zip(&self.dofs.weight) {
                 self.vals[d as usize] += shift * mean * w;
             }
         }
         self.decouple_masked(mean);
-        let nf = self.nfree;
+        let nf = self.dofs.nfree;
         let scatter = self.scatter.get_or_insert_with(|| {
             SymScatter::new(nf, self.symbolic.col_ptr(), self.symbolic.row_idx())
         });
@@ -106,14 +106,16 @@ impl DirectNewton {
     /// `constraints`, or the nodes sliding along directions other than x, y or z are not the
     /// pattern's (the caller builds a new pattern).
     pub fn mask(&mut self, constraints: &Constraints) -> bool {
-        if (0..self.free.len()).any(|i| self.free[i] == usize::MAX && !fixed_dof(constraints, i)) {
+        if (0..self.dofs.free.len())
+            .any(|i| self.dofs.free[i] == usize::MAX && !fixed_dof(constraints, i))
+        {
             return false;
         }
-        if oblique::oblique_nodes(constraints, &self.free) != self.oblique {
+        if !self.dofs.same_oblique(constraints) {
             return false;
         }
-        let mut masked = vec![false; self.nfree];
-        for (i, &f) in self.free.iter().enumerate() {
+        let mut masked = vec![false; self.dofs.nfree];
+        for (i, &f) in self.dofs.free.iter().enumerate() {
             if f != usize::MAX && fixed_dof(constraints, i) {
                 masked[f] = true;
             }
@@ -134,7 +136,7 @@ impl DirectNewton {
     fn decouple_masked(&mut self, diagonal: f64) {
         let Some(masked) = &self.masked else { return };
         let (cp, ri) = (self.symbolic.col_ptr(), self.symbolic.row_idx());
-        for j in 0..self.nfree {
+        for j in 0..self.dofs.nfree {
             for k in cp[j]..cp[j + 1] {
                 let i = ri[k];
                 if masked[i] || masked[j] {
@@ -170,12 +172,12 @@ impl DirectNewton {
                 truncated: false,
             });
         };
-        let nf = self.nfree;
+        let nf = self.dofs.nfree;
         let mut bf = vec![0.0; nf];
         let mut xf = vec![0.0; nf];
-        self.gather_free(b, &mut bf);
+        self.dofs.gather(b, &mut bf);
         if warm {
-            self.gather_free(x, &mut xf);
+            self.dofs.gather(x, &mut xf);
         }
         let masked = self.masked.as_deref();
         let zero_masked = |v: &mut [f64]| {
@@ -190,8 +192,8 @@ impl DirectNewton {
         zero_masked(&mut bf);
         zero_masked(&mut xf);
         // Obliquely sliding nodes: the solve on their admissible motions (`oblique.rs`).
-        self.project_free(&mut bf);
-        self.project_free(&mut xf);
+        self.dofs.project_free(&mut bf);
+        self.dofs.project_free(&mut xf);
         let settings = crate::linalg::cg::CgSettings {
             warm,
             ..crate::linalg::cg::CgSettings::new(0.0, max_iter)
@@ -209,7 +211,7 @@ impl DirectNewton {
         let mut held = |p: &[f64], q: &mut [f64]| -> Result<(), E> {
             product(p, q)?;
             zero_masked(q);
-            self.project_free(q);
+            self.dofs.project_free(q);
             Ok(())
         };
         let end = crate::linalg::cg::solve(
@@ -217,7 +219,7 @@ impl DirectNewton {
             |r: &[f64], z: &mut [f64]| {
                 mg.apply(r, z);
                 zero_masked(z);
-                self.project_free(z);
+                self.dofs.project_free(z);
                 Ok(())
             },
             &bf,
@@ -228,7 +230,7 @@ impl DirectNewton {
         let end = match end {
             Ok(e) => e,
             Err(e) => {
-                self.scatter_free(&xf, x);
+                self.dofs.scatter(&xf, x);
                 return Err(e);
             }
         };
@@ -241,7 +243,7 @@ impl DirectNewton {
                 (1, true)
             }
         };
-        self.scatter_free(&xf, x);
+        self.dofs.scatter(&xf, x);
         Ok(KeptSolve {
             iterations,
             truncated,
@@ -258,16 +260,16 @@ impl DirectNewton {
 
     /// The number of free dofs.
     pub fn free_count(&self) -> usize {
-        self.nfree
+        self.dofs.nfree
     }
 
     /// `out[f] = x[i]` for every free dof i with free index f (`x` in all dofs' layout).
     pub fn free_values(&self, x: &[f64], out: &mut [f64]) {
-        self.gather_free(x, out);
+        self.dofs.gather(x, out);
     }
 
     /// `out[i] = x[f(i)]` for every free dof i, zero on constrained dofs.
     pub fn all_values(&self, x: &[f64], out: &mut [f64]) {
-        self.scatter_free(x, out);
+        self.dofs.scatter(x, out);
     }
 }

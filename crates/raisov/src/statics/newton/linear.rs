@@ -54,7 +54,7 @@ impl DirectNewton {
     ) -> Result<TangentSolves, DirectNewtonError> {
         self.assemble(model, springs, u, None)
             .map_err(DirectNewtonError::Inverted)?;
-        let nf = self.nfree;
+        let nf = self.dofs.nfree;
         let mut out = TangentSolves::default();
         let mut b = vec![0.0; nf];
         let mut x = vec![0.0; nf];
@@ -62,8 +62,8 @@ impl DirectNewton {
             TangentSolver::Direct => {
                 self.prepare_factor()?;
                 for (j, (bj, xj)) in columns.iter_mut().enumerate() {
-                    self.gather_free(bj, &mut b);
-                    self.project_free(&mut b);
+                    self.dofs.gather(bj, &mut b);
+                    self.dofs.project_free(&mut b);
                     if j == 0 {
                         self.factor_solve(0.0, &mut b).map_err(|e| {
                             DirectNewtonError::Factor(format!(
@@ -74,7 +74,7 @@ impl DirectNewton {
                     } else {
                         self.apply_factor(&mut b);
                     }
-                    self.scatter_free(&b, xj);
+                    self.dofs.scatter(&b, xj);
                 }
                 // The factor of this state is not a Newton iteration's: drop it.
                 self.llt = None;
@@ -92,10 +92,10 @@ impl DirectNewton {
                 let mg = self.hierarchy(a, MultigridPcg::default().sweeps, smoother)?;
                 out.setups += 1;
                 for (bj, xj) in columns.iter_mut() {
-                    self.gather_free(bj, &mut b);
-                    self.gather_free(xj, &mut x);
-                    self.project_free(&mut b);
-                    self.project_free(&mut x);
+                    self.dofs.gather(bj, &mut b);
+                    self.dofs.gather(xj, &mut x);
+                    self.dofs.project_free(&mut b);
+                    self.dofs.project_free(&mut x);
                     let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt();
                     let end = pcg_from(
                         |p, q| mg.matrix().matvec(p, q),
@@ -119,23 +119,15 @@ impl DirectNewton {
                             ))
                         }
                     }
-                    self.scatter_free(&x, xj);
+                    self.dofs.scatter(&x, xj);
                 }
             }
         }
         Ok(out)
     }
 
-    /// `out[i] = x[f(i)]` for every free dof i with free index f, zero on constrained dofs.
-    pub(super) fn scatter_free(&self, x: &[f64], out: &mut [f64]) {
-        for (i, &f) in self.free.iter().enumerate() {
-            out[i] = if f == usize::MAX { 0.0 } else { x[f] };
-        }
-        self.project_all(out);
-    }
-
     /// Whether dof `i` is free.
     pub fn is_free(&self, i: usize) -> bool {
-        self.free[i] != usize::MAX
+        self.dofs.is_free(i)
     }
 }

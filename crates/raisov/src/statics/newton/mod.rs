@@ -119,17 +119,21 @@
 //! membrane's first tangent needs from one frame to the next.
 
 mod direction;
+mod dofs;
+mod driver;
 mod kept;
 mod linear;
-mod oblique;
+mod matrix_free;
 mod pattern;
 mod search;
 mod shift;
+pub use dofs::FreeDofs;
+pub use driver::{solve_with, Direction, Forcing, NewtonLinear};
 pub use kept::{KeptSolve, TangentProduct};
 pub use linear::{TangentSolver, TangentSolves};
+pub use matrix_free::{solve_system_matrix_free, MatrixFree, MatrixFreeCg};
 
 use crate::linalg::cg::{pcg, pcg_from, PcgEnd};
-use search::Residual;
 use shift::{raise_sigma, shift_needed, sigma_after_full_step};
 
 use crate::fem::{ElementFailure, ForceModel};
@@ -223,6 +227,30 @@ pub struct DirectNewtonParams {
     /// and whose tangent the inertia conditions well, asks for less
     /// ([`crate::statics::implicit`]).
     pub first_forcing: f64,
+}
+
+impl DirectNewtonParams {
+    /// The default settings with the stopping rule relative to the start (for a problem
+    /// whose loads the model carries, where `max_a |V_a|` says nothing): the constraints of
+    /// `sys` imposed on `u` at time `t`, then the largest nodal residual at most `rel_tol`
+    /// times the larger of the residual's and the external forces' 2-norms there
+    /// (`rel_tol = 0`, `abs_tol` that bound). Errors: an element `u` inverts.
+    pub fn relative_to_start(
+        sys: &mut System,
+        t: f64,
+        u: &mut [f64],
+        rel_tol: f64,
+    ) -> Result<DirectNewtonParams, ElementFailure> {
+        let mut v = vec![0.0; u.len()];
+        sys.impose(t, u, &mut v);
+        let r0 = sys.residual(u, &mut v)?;
+        let load = sys.f_ext.iter().map(|x| x * x).sum::<f64>().sqrt();
+        Ok(DirectNewtonParams {
+            rel_tol: 0.0,
+            abs_tol: rel_tol * r0.max(load),
+            ..Default::default()
+        })
+    }
 }
 
 /// Settings of the multigrid-preconditioned linear solves ([`DirectNewtonParams::multigrid`]).
@@ -360,14 +388,8 @@ pub enum DirectNewtonError {
 
 /// The assembled tangent's structure over the free dofs, fixed for a mesh and constraint set.
 pub struct DirectNewton {
-    /// Free-dof index of each dof, `usize::MAX` where constrained.
-    free: Vec<usize>,
-    /// The nodes sliding along a direction other than x, y or z, by node (`oblique.rs`).
-    oblique: Vec<oblique::Oblique>,
-    /// Per node, its index in `oblique` (`u32::MAX`: none); empty where no node slides
-    /// obliquely.
-    oblique_index: Vec<u32>,
-    nfree: usize,
+    /// The free dofs and the regularisation's weights ([`FreeDofs`]).
+    dofs: FreeDofs,
     /// Per element, per entry of its `(3 npe)²` matrix (row-major): the slot in `vals`, or
     /// `u32::MAX` where not assembled (a constrained dof, or above the diagonal).
     slots: Vec<u32>,
@@ -379,8 +401,6 @@ pub struct DirectNewton {
     symbolic: SymbolicSparseColMat<usize>,
     /// The symbolic factorisation of the pattern, made at the first factorisation.
     llt_symbolic: Option<SymbolicLlt<usize>>,
-    /// Regularisation weight per free dof (`m_a / mean m`).
-    weight: Vec<f64>,
     /// The last numeric factorisation, kept as the conjugate-gradient preconditioner.
     llt: Option<Llt<usize, f64>>,
     /// The interpolations of [`DirectNewton::with_levels`] (empty without), level 0's rows of
@@ -413,44 +433,24 @@ impl DirectNewton {
         constraints: &Constraints,
     ) -> Result<Self, DirectNewtonError> {
         let topology = model.tangent_elements().ok_or(DirectNewtonError::NotFem)?;
-        let n = topology.nodes;
-        let mut free = vec![usize::MAX; 3 * n];
-        let mut nfree = 0;
-        for (i, f) in free.iter_mut().enumerate() {
-            if !fixed_dof(constraints, i) {
-                *f = nfree;
-                nfree += 1;
-            }
-        }
+        let dofs = FreeDofs::new(topology.nodes, mass, constraints);
+        let nfree = dofs.nfree;
         // The pattern and the element entries' places in it (`pattern.rs`).
         let pattern::Pattern {
             col_ptr,
             row_idx,
             slots,
             diag,
-        } = pattern::build(&topology, &free, nfree).map_err(DirectNewtonError::Memory)?;
-        let oblique = oblique::oblique_nodes(constraints, &free);
-        let oblique_index = oblique::index_of(&oblique, n);
+        } = pattern::build(&topology, &dofs.free, nfree).map_err(DirectNewtonError::Memory)?;
         let nnz = row_idx.len();
         let symbolic = SymbolicSparseColMat::new_checked(nfree, nfree, col_ptr, None, row_idx);
-        let mean = mass.iter().sum::<f64>() / n.max(1) as f64;
-        let mut weight = vec![1.0; nfree];
-        for (i, &f) in free.iter().enumerate() {
-            if f != usize::MAX && mean > 0.0 {
-                weight[f] = mass[i / 3] / mean;
-            }
-        }
         Ok(DirectNewton {
-            free,
-            oblique,
-            oblique_index,
-            nfree,
+            dofs,
             slots,
             vals: vec![0.0; nnz],
             diag,
             symbolic,
             llt_symbolic: None,
-            weight,
             llt: None,
             prolongations: Arc::new(Prolongations::default()),
             base_prolongations: Arc::new(Prolongations::default()),
@@ -484,8 +484,8 @@ impl DirectNewton {
             }
             expected = t.target_nodes;
         }
-        let free_dofs: Vec<usize> = (0..s.free.len())
-            .filter(|&i| s.free[i] != usize::MAX)
+        let free_dofs: Vec<usize> = (0..s.dofs.free.len())
+            .filter(|&i| s.dofs.free[i] != usize::MAX)
             .collect();
         s.prolongations = Arc::new(Prolongations::new(down, &free_dofs));
         s.base_prolongations = s.prolongations.clone();
@@ -529,8 +529,8 @@ impl DirectNewton {
                 .enumerate()
                 .try_for_each(|(j, out)| {
                     model.element_tangent(first + j, u, out)?;
-                    if self.has_oblique() {
-                        self.project_block(topology.element(first + j), out);
+                    if self.dofs.has_oblique() {
+                        self.dofs.project_block(topology.element(first + j), out);
                     }
                     Ok(())
                 });
@@ -573,7 +573,7 @@ impl DirectNewton {
                     let dof = |q: usize| 3 * el[q / 3] as usize + q % 3;
                     for c in (0..d).filter(|&c| delta[dof(c)] != 0.0) {
                         for r in 0..d {
-                            let f = self.free[dof(r)];
+                            let f = self.dofs.free[dof(r)];
                             if f != usize::MAX {
                                 out[f] -= ke[r * d + c] * delta[dof(c)];
                             }
@@ -587,23 +587,23 @@ impl DirectNewton {
         let mut projected = Vec::new();
         let mut extra = |nodes: &[u32], block: &[f64]| {
             let d = 3 * nodes.len();
-            let block = if self.has_oblique() {
+            let block = if self.dofs.has_oblique() {
                 projected.clear();
                 projected.extend_from_slice(block);
-                self.project_block(nodes, &mut projected);
+                self.dofs.project_block(nodes, &mut projected);
                 &projected[..]
             } else {
                 block
             };
             let dof = |q: usize| 3 * nodes[q / 3] as usize + q % 3;
             for r in 0..d {
-                let fr = self.free[dof(r)];
+                let fr = self.dofs.free[dof(r)];
                 for c in 0..d {
                     let v = block[r * d + c];
                     if v == 0.0 {
                         continue;
                     }
-                    let fc = self.free[dof(c)];
+                    let fc = self.dofs.free[dof(c)];
                     if fr == usize::MAX {
                         continue;
                     }
@@ -629,46 +629,15 @@ impl DirectNewton {
         for sp in springs.iter().filter(|sp| sp.k > 0.0) {
             extra(&[sp.node], &sp.tangent(u));
         }
-        let mean = diag / self.nfree.max(1) as f64;
+        let mean = diag / self.dofs.nfree.max(1) as f64;
         self.add_normal_stiffness(mean);
         Ok(mean)
-    }
-
-    /// `out = u + α δ`, `δ` over the free dofs (free-index order).
-    fn step_to(&self, u: &[f64], alpha: f64, delta: &[f64], out: &mut [f64]) {
-        out.copy_from_slice(u);
-        for (i, &f) in self.free.iter().enumerate() {
-            if f != usize::MAX {
-                out[i] += alpha * delta[f];
-            }
-        }
-        self.project_all(out);
-    }
-
-    /// `Σ_i x[i] y[f(i)]` over the free dofs i, `x` in all dofs' layout, `y` over the free
-    /// ones (free-index order).
-    fn dot_free(&self, x: &[f64], y: &[f64]) -> f64 {
-        self.free
-            .iter()
-            .enumerate()
-            .filter(|(_, &f)| f != usize::MAX)
-            .map(|(i, &f)| x[i] * y[f])
-            .sum()
-    }
-
-    /// `out[f] = x[i]` for every free dof i with free index f.
-    fn gather_free(&self, x: &[f64], out: &mut [f64]) {
-        for (i, &f) in self.free.iter().enumerate() {
-            if f != usize::MAX {
-                out[f] = x[i];
-            }
-        }
     }
 
     /// `K + σ d̄ D` (values as assembled), lower triangle in compressed columns.
     fn matrix(&self, shift: f64) -> Result<SparseColMat<usize, f64>, String> {
         let mut vals = self.vals.clone();
-        for (&d, w) in self.diag.iter().zip(&self.weight) {
+        for (&d, w) in self.diag.iter().zip(&self.dofs.weight) {
             vals[d as usize] += shift * w;
         }
         Ok(SparseColMat::new(self.symbolic.clone(), vals))
@@ -693,7 +662,7 @@ impl DirectNewton {
         crate::memory::check(
             &format!(
                 "the sparse Cholesky factor of {} dofs ({} nonzeros)",
-                self.nfree,
+                self.dofs.nfree,
                 counted.len_val()
             ),
             bytes,
@@ -728,7 +697,7 @@ impl DirectNewton {
     /// `rhs ← (L Lᵀ)⁻¹ rhs` with the kept factor.
     fn apply_factor(&self, rhs: &mut [f64]) {
         let llt = self.llt.as_ref().expect("a kept factorisation");
-        let mut b = faer::Mat::<f64>::from_fn(self.nfree, 1, |i, _| rhs[i]);
+        let mut b = faer::Mat::<f64>::from_fn(self.dofs.nfree, 1, |i, _| rhs[i]);
         llt.solve_in_place(b.as_mut());
         for (i, r) in rhs.iter_mut().enumerate() {
             *r = b[(i, 0)];
@@ -737,7 +706,8 @@ impl DirectNewton {
 
     /// Solve `R(u) = V` for `u` in place: `u`'s constrained dofs are driven to the values
     /// `constraints` impose at time `t` (over the load steps), the free ones start from `u`;
-    /// the regularisation σ starts where the last solve left it (module docs).
+    /// the regularisation σ starts where the last solve left it (module docs). The one
+    /// Newton driver ([`solve_with`]) over this assembled tangent.
     #[allow(clippy::too_many_arguments)]
     pub fn solve(
         &mut self,
@@ -749,182 +719,8 @@ impl DirectNewton {
         u: &mut [f64],
         params: DirectNewtonParams,
     ) -> Result<DirectStatic, DirectNewtonError> {
-        let n = u.len();
-        // An obliquely sliding node starts on its plane or line (module `oblique`).
-        self.project_all(u);
-        let mut g = u.to_vec();
-        let mut v = vec![0.0; n];
-        constraints.impose(t, &mut g, &mut v);
-        // The loads and tools the model carries are evaluated at `t` too.
-        model.set_time(t);
-        let u0 = u.to_vec();
-        let vmax = (0..n / 3)
-            .map(|a| node_norm(f_ext, a))
-            .fold(0.0f64, f64::max);
-        let target = params.rel_tol * vmax + params.abs_tol;
-        let steps = params.load_steps.max(1);
-        let mut out = DirectStatic {
-            target,
-            ..Default::default()
-        };
-        let mut r = vec![0.0; n];
-        let mut fint = vec![0.0; n];
-        let mut trial = vec![0.0; n];
-        let mut rhs = vec![0.0; self.nfree];
-        let mut sigma = self.sigma;
-        let mut prev_norm: Option<f64> = None;
-        let eta0 = params.first_forcing.clamp(f64::MIN_POSITIVE, 0.5);
-        let mut eta_prev = eta0;
-        // Residual on the free dofs at load factor s: (2-norm, largest nodal norm).
-        let res = Residual {
-            springs,
-            constraints,
-            f_ext,
-        };
-        {
-            let mut full = u.to_vec();
-            for i in 0..n {
-                if fixed_dof(constraints, i) {
-                    full[i] = g[i];
-                }
-            }
-            // For the record only: with a prescribed displacement this state has the
-            // constrained nodes at their end and the rest at rest, which may invert elements.
-            out.initial_residual = res
-                .eval(model, &full, 1.0, &mut r, &mut fint)
-                .map_or(f64::INFINITY, |(_, max)| max);
-            out.force_evaluations += 1;
-        }
-        let mut lift = vec![0.0; self.nfree];
-        for step in 1..=steps {
-            let s = step as f64 / steps as f64;
-            // The constrained dofs' increment of this step, applied by the step's first
-            // iteration together with the free dofs' linear response (module docs).
-            let mut pending = vec![0.0; n];
-            let mut lifting = false;
-            for i in 0..n {
-                if fixed_dof(constraints, i) {
-                    pending[i] = u0[i] + s * (g[i] - u0[i]) - u[i];
-                    lifting |= pending[i] != 0.0;
-                }
-            }
-            let last = step == steps;
-            let tol = if last {
-                target
-            } else {
-                params.rel_tol.max(1e-6) * s * vmax + params.abs_tol
-            };
-            let (mut norm, mut max) = res
-                .eval(model, u, s, &mut r, &mut fint)
-                .map_err(DirectNewtonError::Inverted)?;
-            out.force_evaluations += 1;
-            out.history.clear();
-            let mut pi_at: Option<f64> = None;
-            while (lifting || max > tol) && out.newton_steps < params.max_newton {
-                out.newton_steps += 1;
-                let clock = std::time::Instant::now();
-                let dbar = self
-                    .assemble(
-                        model,
-                        springs,
-                        u,
-                        lifting.then_some((&pending[..], &mut lift[..])),
-                    )
-                    .map_err(DirectNewtonError::Inverted)?;
-                out.assembly_s += clock.elapsed().as_secs_f64();
-                let clock = std::time::Instant::now();
-                // The right-hand side: the free dofs' residual, plus the lift's load.
-                let mut b = vec![0.0; self.nfree];
-                self.gather_free(&r, &mut b);
-                let bnorm = if lifting {
-                    b.iter_mut().zip(&lift).for_each(|(b, l)| *b += l);
-                    b.iter().map(|x| x * x).sum::<f64>().sqrt()
-                } else {
-                    norm
-                };
-                // Inexact Newton: conjugate gradients preconditioned by the kept factor, to
-                // η ‖b‖₂ (Eisenstat-Walker choice 2, not below what the stopping rule needs).
-                let mut solved = false;
-                let mut built_now = false;
-                if let Some(mgp) = params.multigrid {
-                    let eta = forcing_term(prev_norm, norm, eta_prev, tol, max, eta0);
-                    eta_prev = eta;
-                    (solved, built_now) = self.multigrid_direction(
-                        mgp, &b, bnorm, eta, dbar, &mut sigma, params, &mut rhs, &mut out,
-                    )?;
-                } else if params.pcg_max > 0 && self.llt.is_some() {
-                    let eta = forcing_term(prev_norm, norm, eta_prev, tol, max, eta0);
-                    eta_prev = eta;
-                    solved = self.factor_pcg_direction(
-                        &b, bnorm, eta, dbar, sigma, params, &mut rhs, &mut out,
-                    )?;
-                }
-                prev_norm = Some(norm);
-                // Factor, raising σ until K + σ d̄ D is positive definite.
-                if !solved {
-                    self.factor_direction(&b, dbar, &mut sigma, params, &mut rhs, &mut out)?;
-                }
-                out.factor_s += clock.elapsed().as_secs_f64();
-                if lifting {
-                    lifting = false;
-                    out.lifted_steps += 1;
-                    (norm, max) = self.lifted_step(
-                        &res, model, u, &pending, s, &rhs, &mut trial, &mut r, &mut fint,
-                        built_now, &mut out,
-                    )?;
-                    out.history.push(max);
-                    continue;
-                }
-                (norm, max) = self.line_search(
-                    &res,
-                    model,
-                    u,
-                    s,
-                    &rhs,
-                    &mut trial,
-                    &mut r,
-                    &mut fint,
-                    (norm, max),
-                    &mut pi_at,
-                    &mut sigma,
-                    params,
-                    built_now,
-                    &mut out,
-                )?;
-                out.history.push(max);
-            }
-            out.residual = max;
-            if last {
-                out.converged = max <= tol;
-            } else if max > tol {
-                break;
-            }
-        }
-        model.set_load_factor(1.0);
-        self.sigma = sigma;
-        Ok(out)
+        solve_with(self, model, springs, constraints, f_ext, t, u, params)
     }
-}
-
-/// Eisenstat and Walker's choice 2 with its safeguard, not below what the stopping rule
-/// needs (`tol` against the largest nodal residual `max`), at most `eta0` (the first
-/// iteration's, [`DirectNewtonParams::first_forcing`]).
-fn forcing_term(
-    prev_norm: Option<f64>,
-    norm: f64,
-    eta_prev: f64,
-    tol: f64,
-    max: f64,
-    eta0: f64,
-) -> f64 {
-    let mut eta = match prev_norm {
-        Some(p) if p > 0.0 => 0.9 * (norm / p).powi(2),
-        _ => eta0,
-    };
-    if 0.9 * eta_prev * eta_prev > 0.1 {
-        eta = eta.max(0.9 * eta_prev * eta_prev);
-    }
-    eta.max(0.1 * tol / max.max(f64::MIN_POSITIVE)).min(eta0)
 }
 
 /// Where the kept hierarchy stands with respect to the provisional rule (module docs).

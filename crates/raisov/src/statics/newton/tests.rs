@@ -358,6 +358,23 @@ duration = 1.0
     let (_, err) = max_diff(&expected, &um);
     assert!(err <= 1e-9 * scale, "multigrid: {err:e} of {scale:e}");
 
+    // Newton with matrix-free conjugate gradients on the rotated problem.
+    let mut sys = turned.build_system().unwrap();
+    let mut uf = vec![0.0; ut.len()];
+    let out = solve_system_matrix_free(
+        &mut sys,
+        None,
+        0.0,
+        &mut uf,
+        params,
+        MatrixFreeCg::default(),
+    )
+    .unwrap();
+    assert!(out.converged, "matrix-free: {out:?}");
+    let (_, err) = max_diff(&expected, &uf);
+    eprintln!("matrix-free {out:?}: {err:e} of {scale:e}");
+    assert!(err <= 1e-8 * scale, "matrix-free: {err:e} of {scale:e}");
+
     // Newton-Krylov on the rotated problem.
     let mut sys = turned.build_system().unwrap();
     let mut uk = vec![0.0; ut.len()];
@@ -868,9 +885,11 @@ normal = [1.0, 0.0, 0.0]
         let constraints = sys.constraints.clone();
         let model = &mut *sys.force;
         let s = DirectNewton::new(&*model, &sys.mass, &constraints).unwrap();
-        let partial = (0..s.free.len() / 3)
+        let partial = (0..s.dofs.free.len() / 3)
             .filter(|&a| {
-                let held = (0..3).filter(|&k| s.free[3 * a + k] == usize::MAX).count();
+                let held = (0..3)
+                    .filter(|&k| s.dofs.free[3 * a + k] == usize::MAX)
+                    .count();
                 held == 1 || held == 2
             })
             .count();
@@ -880,8 +899,8 @@ normal = [1.0, 0.0, 0.0]
             "{partial} nodes with some components held"
         );
         let elements = model.tangent_elements().unwrap();
-        let fast = pattern::build(&elements, &s.free, s.nfree).unwrap();
-        let simple = pattern::reference(&elements, &s.free, s.nfree);
+        let fast = pattern::build(&elements, &s.dofs.free, s.dofs.nfree).unwrap();
+        let simple = pattern::reference(&elements, &s.dofs.free, s.dofs.nfree);
         assert_eq!(fast.col_ptr, simple.col_ptr);
         assert_eq!(fast.row_idx, simple.row_idx);
         assert_eq!(fast.diag, simple.diag);

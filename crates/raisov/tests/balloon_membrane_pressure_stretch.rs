@@ -153,7 +153,6 @@ method = "newton"
         let steps = 4;
         for s in 1..=steps {
             let g = f_last + (f - f_last) * s as f64 / steps as f64;
-            sys.force.set_load_factor(g);
             let st = newton
                 .solve(
                     &mut sys,
@@ -162,6 +161,7 @@ method = "newton"
                     NewtonParams {
                         rel_tol: 1e-9,
                         length: 1e-3 * R,
+                        load_factor: g,
                         ..Default::default()
                     },
                 )

@@ -12,9 +12,7 @@
 //! 3. r_l = F_l − R_l(u_l);  F_c = R_c(u_c0) + Pᵀ r_l            (τ-correction: the coarse level
 //!                                                              works on the fine level's error)
 //! 4. level l+1: recurse; the coarsest level takes Chebyshev sweeps, explicit damped steps at
-//!    its own larger stable step from rest, or a Newton solve (the paper's section 4: the one
-//!    Newton driver of [`crate::statics::newton`] over the level's assembled tangent, sparse
-//!    Cholesky; matrix-free CG where its model has no element tangent)
+//!    its own larger stable step from rest, or a Newton-Krylov solve (the paper's section 4)
 //! 5. u_l += s P (u_c − u_c0)                                     (variation carried up)
 //! 6. ν2 smoothing sweeps on level l                              (post-smoothing)
 //! ```
@@ -92,9 +90,7 @@ use crate::integrate::{
     check_state, Checkpoint, Constraints, Motion, OwnConstraints, RuntimeConstraints, State,
     Stepper,
 };
-use crate::statics::newton::{
-    fixed_dof, solve_with, DirectNewton, DirectNewtonParams, MatrixFree, MatrixFreeCg,
-};
+use crate::statics::krylov::{NewtonParams, NewtonSolver};
 
 /// The smoother G on each level.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -146,10 +142,7 @@ pub enum CoarseSolve {
         /// `λ_max` over the interval's lower end.
         ratio: f64,
     },
-    /// Newton to this relative residual: the largest nodal residual at most `rel_tol` times
-    /// the larger of the visit's starting residual and the level's load (2-norms), at most 10
-    /// iterations a visit; the assembled tangent factored (matrix-free CG where the model has
-    /// no element tangent).
+    /// Matrix-free Newton-Krylov to this relative residual.
     Newton {
         /// Relative residual at which Newton stops.
         rel_tol: f64,
@@ -171,7 +164,7 @@ impl std::fmt::Display for CoarseSolve {
             ),
             CoarseSolve::Newton { rel_tol } => write!(
                 f,
-                "Newton (assembled tangent, sparse Cholesky) to a relative residual of {}",
+                "Newton-Krylov to a relative residual of {}",
                 compact(rel_tol)
             ),
         }
@@ -290,7 +283,7 @@ pub struct Fas {
     pub own_base: u64,
     /// The coarse level and element of the last restriction that inverted.
     last_inverting_restriction: Option<(usize, ElementFailure)>,
-    newton: Option<CoarseNewton>,
+    newton: Option<NewtonSolver>,
     steps: u64,
     /// Nonlinear-CG acceleration state: u_k, r_k, previous direction, z·r of the last cycle.
     kry_u: Vec<f64>,
@@ -420,7 +413,7 @@ impl Fas {
         let m = levels.len();
         let n0 = 3 * levels[0].num_nodes();
         let newton = match params.coarse {
-            CoarseSolve::Newton { .. } => Some(CoarseNewton::default()),
+            CoarseSolve::Newton { .. } => Some(NewtonSolver::new(&levels[m - 1].sys)),
             _ => None,
         };
         let (restrict, prolong) = links
@@ -675,16 +668,21 @@ impl Fas {
                 self.fresh[l] = false;
                 let lv = &mut self.levels[l];
                 let solver = self.newton.as_mut().expect("built for Newton");
+                let p = NewtonParams {
+                    rel_tol,
+                    max_newton: 10,
+                    ..Default::default()
+                };
                 let mut u = std::mem::take(&mut lv.state.u);
-                let res = solver.solve(&mut lv.sys, t, &mut u, rel_tol);
+                let res = solver.solve(&mut lv.sys, t, &mut u, p);
                 lv.state.u = u;
                 match res {
-                    Some(evaluations) => {
-                        lv.evaluations += evaluations;
+                    Ok(s) => {
+                        lv.evaluations += s.force_evaluations;
                         Ok(())
                     }
                     // An inverting Newton step is no divergence of the run: keep u_c0.
-                    None => {
+                    Err(_) => {
                         let u0 = &self.u0[l];
                         lv.state.u.copy_from_slice(u0);
                         Ok(())
@@ -1188,63 +1186,5 @@ impl Stepper for Fas {
             self.levels[0].integrator.method().name(),
             self.levels[0].dt
         )
-    }
-}
-
-/// The coarsest level's Newton solve ([`CoarseSolve::Newton`]): the one Newton driver over
-/// the level's assembled tangent, its pattern built again where the constrained dofs change
-/// (grasps), or over matrix-free CG where the level's model has no element tangent.
-#[derive(Default)]
-struct CoarseNewton {
-    /// The assembled solver and the constrained dofs it was built for.
-    direct: Option<(Box<DirectNewton>, Vec<bool>)>,
-}
-
-impl CoarseNewton {
-    /// Solve `sys` at time `t` from `u` in place to `rel_tol` (module docs of
-    /// [`CoarseSolve::Newton`]): the force evaluations spent, `None` where a state the solve
-    /// had to evaluate inverts an element or the solve could not start.
-    fn solve(
-        &mut self,
-        sys: &mut crate::integrate::System,
-        t: f64,
-        u: &mut [f64],
-        rel_tol: f64,
-    ) -> Option<u64> {
-        let n = u.len();
-        let params = DirectNewtonParams {
-            max_newton: 10,
-            ..DirectNewtonParams::relative_to_start(sys, t, u, rel_tol).ok()?
-        };
-        let crate::integrate::System {
-            force,
-            mass,
-            f_ext,
-            constraints,
-            springs,
-            ..
-        } = sys;
-        let out = if force.tangent_elements().is_some() {
-            let mask: Vec<bool> = (0..n).map(|i| fixed_dof(constraints, i)).collect();
-            if self.direct.as_ref().is_none_or(|(_, m)| *m != mask) {
-                let built = DirectNewton::new(&**force, mass, constraints).ok()?;
-                self.direct = Some((Box::new(built), mask));
-            }
-            let (solver, _) = self.direct.as_mut()?;
-            solver.solve(&mut **force, springs, constraints, f_ext, t, u, params)
-        } else {
-            let mut lin = MatrixFree::new(mass, constraints, MatrixFreeCg::default());
-            solve_with(
-                &mut lin,
-                &mut **force,
-                springs,
-                constraints,
-                f_ext,
-                t,
-                u,
-                params,
-            )
-        };
-        out.ok().map(|o| o.force_evaluations + 1)
     }
 }

@@ -656,9 +656,8 @@ pub fn run_frames(
 /// solution, to `max_a |r_a| ≤ reference_tol · F` with `F` the frame's force scale
 /// ([`problem_scale`]: the largest nodal load, out-of-balance force from rest or at the
 /// start, spring pull; 10⁻¹⁴ N where there is none), at most 50 Newton steps;
-/// Newton-Krylov where the force model has no element tangent or a node slides along a
-/// direction that is not an axis (its rule: the residual 2-norm relative to the frame's
-/// start).
+/// matrix-free CG under the same driver and rule where the force model has no element
+/// tangent.
 enum Reference {
     Assembled {
         /// Built for the constrained dofs `mask`; rebuilt when a grasp or pin changes them.

@@ -1,24 +1,24 @@
 //! The static solve of a scenario (`[integrator] method = "newton"`): `R(u) = V` with the
-//! prescribed motions at their end, by Newton's method with one of three linear solvers
-//! ([`StaticSolver`]):
+//! prescribed motions at their end, by the one Newton driver
+//! ([`crate::statics::newton::solve_with`]) over one of three linear solves ([`StaticSolver`]):
 //!
 //! - `"multigrid"`: the assembled analytic tangent `K`, each Newton system `K δu = V − R(u)`
 //!   solved by conjugate gradients preconditioned by a Galerkin V-cycle over the finest level
 //!   and one coarser `[multigrid]` level ([`crate::statics::newton::coarse_level`]);
 //! - `"direct"`: the same tangent factored by sparse Cholesky, the factor reused as the
 //!   preconditioner of conjugate gradients while they converge in 20 iterations;
-//! - `"krylov"`: matrix-free Newton-Krylov, tangent products by finite differences of the
-//!   force ([`crate::statics::krylov`]).
+//! - `"krylov"`: matrix-free conjugate gradients, tangent products by central differences
+//!   of the forces, preconditioned by the per-node fictitious masses
+//!   ([`crate::statics::newton::MatrixFree`]).
 //!
-//! The two assembled solvers share [`crate::statics::newton`]: a line search on the
-//! energy, a diagonal regularisation `σ d̄ D` where `K` is not positive definite (a flat
-//! membrane's first tangent), Eisenstat-Walker tolerances for the inner solves. They stop when
+//! All three share the driver: a line search on the energy, Eisenstat-Walker tolerances for
+//! the inner solves, and for the assembled ones a diagonal regularisation `σ d̄ D` where `K`
+//! is not positive definite (a flat membrane's first tangent). They stop when
 //! the largest nodal residual over free nodes is at most `residual_tol` times (the largest
 //! nodal load + the largest nodal out-of-balance force at the start, the prescribed motions
 //! imposed and the free nodes where they are; where that state inverts an element, the force
 //! of the largest fraction ½, ¼, … of the motions that does not, over that fraction) plus
-//! 1e-14 N; `"krylov"` when `‖V − R(u)‖₂` is at most `residual_tol` times its starting value.
-//! The assembled solvers start with the prescribed nodes at rest; each increment's first
+//! 1e-14 N. They start with the prescribed nodes at rest; each increment's first
 //! iteration moves them with the free nodes' linear response (the lifted iteration of
 //! [`crate::statics::newton`]). `"auto"` takes `"multigrid"` where a coarse level
 //! qualifies, `"direct"` where not, and `"krylov"` only where the force model has no element

@@ -221,10 +221,9 @@
 //!                                 # keys as "implicit-euler". "newton": no dynamics, the static
 //!                                 # equilibrium R(u) = V with the motions at their end, by
 //!                                 # Newton's method (`solver`) to `[run] residual_tol`
-//!                                 # (default 1e-7): "krylov" relative to its starting
-//!                                 # residual (2-norm), "direct" and "multigrid" the largest
-//!                                 # nodal residual relative to the largest nodal load plus
-//!                                 # the starting out-of-balance force (plus 1e-14 N); `dt`
+//!                                 # (default 1e-7): the largest nodal residual relative to
+//!                                 # the largest nodal load plus the starting out-of-balance
+//!                                 # force (plus 1e-14 N), whatever the solver; `dt`
 //!                                 # and the other [run] keys are not used;
 //!                                 # of [multigrid] only the levels (its other keys are
 //!                                 # errors); not with [interactive]. Exit status 3 if it does not converge
@@ -304,8 +303,9 @@
 //! post_smooth = 4                 # fas: ν2, default 4
 //! smoother = "chebyshev"          # fas: "chebyshev" (default) | "dynamics" (damped explicit steps)
 //! coarse = "chebyshev"            # fas: coarsest solve, "chebyshev" (default; 60 iterations) |
-//!                                 #      "explicit" (damped steps) | "newton" (Newton-Krylov to
-//!                                 #      a relative residual of 1e-6)
+//!                                 #      "explicit" (damped steps) | "newton" (Newton, the
+//!                                 #      level's tangent factored, to a relative residual
+//!                                 #      of 1e-6)
 //! scaling = "fictitious"          # fas chebyshev: preconditioner, "fictitious" (default; per-node
 //!                                 #      fictitious masses) | "mass" (lumped mass)
 //! transfer = "convex"             # fas: weights of R, P: "convex" (default; eq. 7 extrapolating
@@ -333,8 +333,7 @@
 //! reference = "newton"            # static solution per frame: "newton" (default) | "none"
 //! reference_tol = 1e-8            # its largest nodal residual over the frame's force scale
 //!                                 # (the largest load, spring pull or out-of-balance force),
-//!                                 # default 1e-8 (Newton-Krylov, where no tangent is assembled:
-//!                                 # its residual 2-norm over the frame's start)
+//!                                 # default 1e-8
 //! lag_tol = 0.05                  # "keeps up with real time" needs every frame's lag within
 //!                                 # this fraction of max |u*| (and the frame rate), default 0.05
 //! predictor = true                # start a frame whose grasps move from the last frame's
@@ -669,7 +668,8 @@ named_enum! {
         Chebyshev = "chebyshev",
         /// `"explicit"`: damped explicit steps over `coarse_time` per visit.
         Explicit = "explicit",
-        /// `"newton"`: Newton-Krylov to a relative residual of 1e-6.
+        /// `"newton"`: Newton (the coarsest level's tangent factored) to a relative residual
+        /// of 1e-6.
         Newton = "newton",
     }
 }
@@ -688,7 +688,7 @@ named_enum! {
     /// `[interactive] reference`.
     #[derive(Default)]
     pub enum StaticReference {
-        /// Solve for the static solution of each frame (Newton-Krylov).
+        /// Solve for the static solution of each frame (the static solve's Newton solver).
         #[default]
         Newton = "newton",
         /// No reference: no lag.

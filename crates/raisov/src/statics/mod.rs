@@ -1,15 +1,17 @@
 //! Static equilibrium `R(u) = V`: the Newton solvers and the relaxation baselines.
 //!
-//! - [`newton`]: Newton's method with the consistent analytic tangent assembled on a fixed
-//!   pattern, its systems solved by a sparse Cholesky factorisation, by conjugate gradients
-//!   preconditioned with a kept factorisation, or by conjugate gradients preconditioned with a
-//!   Galerkin V-cycle over the levels (Newton-multigrid); load increments, the lifted first
-//!   iteration of a prescribed motion, the line search, the regularisation and the stopping
-//!   rule (`max_a |r_a| ≤ rel_tol max_a |V_a| + abs_tol`);
+//! - [`newton`]: the one Newton driver ([`newton::solve_with`]: load increments, the lifted
+//!   first iteration of a prescribed motion, the line search, the regularisation and the
+//!   stopping rule `max_a |r_a| ≤ rel_tol max_a |V_a| + abs_tol`) over a linear-solve trait
+//!   ([`newton::NewtonLinear`]) and its implementations: the consistent analytic tangent
+//!   assembled on a fixed pattern ([`newton::DirectNewton`]: sparse Cholesky, conjugate
+//!   gradients preconditioned with a kept factorisation, or with a Galerkin V-cycle over the
+//!   levels: Newton-multigrid) and matrix-free conjugate gradients ([`newton::MatrixFree`]:
+//!   tangent products by differences of the forces, any force model);
 //! - [`nested`]: the coarse start, a coarser level's equilibrium interpolated as the fine
 //!   start, through levels about four times apart;
-//! - [`krylov`]: matrix-free Newton-Krylov, tangent products by differences of the force
-//!   model, for force models whose tangent is not assembled;
+//! - [`krylov`]: Newton-Krylov on a system, the driver over matrix-free CG with a stopping
+//!   rule relative to the start (reference solves, tests);
 //! - [`implicit`]: backward Euler time stepping, each step the [`newton`] solve of an
 //!   incremental potential (the static problem plus one inertia spring per node);
 //! - [`relax`]: single-level relaxations (dynamic, adaptive dynamic, Chebyshev), the
@@ -40,7 +42,7 @@ pub enum StaticSolver {
     /// preconditioner of conjugate gradients ([`newton`]).
     Direct,
     /// Matrix-free Newton-Krylov: finite-difference tangent products, conjugate gradients
-    /// ([`krylov`]); covers every force.
+    /// ([`newton::MatrixFree`]); covers every force.
     Krylov,
 }
 

@@ -118,7 +118,7 @@ pub fn solve_with<L: NewtonLinear + ?Sized>(
     params: DirectNewtonParams,
 ) -> Result<DirectStatic, DirectNewtonError> {
     let n = u.len();
-    // An obliquely sliding node starts on its plane or line (module `oblique`).
+    // An obliquely sliding node starts on its plane or line (`dofs.rs`).
     lin.dofs().project_all(u);
     let mut g = u.to_vec();
     let mut v = vec![0.0; n];
@@ -126,9 +126,17 @@ pub fn solve_with<L: NewtonLinear + ?Sized>(
     // The loads and tools the model carries are evaluated at `t` too.
     model.set_time(t);
     let u0 = u.to_vec();
-    let vmax = (0..n / 3)
-        .map(|a| node_norm(f_ext, a))
-        .fold(0.0f64, f64::max);
+    // The stopping rule's measure of a residual (its 2-norm, largest nodal norm), and of
+    // the loads.
+    let two = params.stop_norm == StopNorm::Two;
+    let measure = |(norm, max): (f64, f64)| if two { norm } else { max };
+    let vmax = if two {
+        f_ext.iter().map(|x| x * x).sum::<f64>().sqrt()
+    } else {
+        (0..n / 3)
+            .map(|a| node_norm(f_ext, a))
+            .fold(0.0f64, f64::max)
+    };
     let target = params.rel_tol * vmax + params.abs_tol;
     let steps = params.load_steps.max(1);
     let mut out = DirectStatic {
@@ -159,13 +167,13 @@ pub fn solve_with<L: NewtonLinear + ?Sized>(
         // For the record only: with a prescribed displacement this state has the
         // constrained nodes at their end and the rest at rest, which may invert elements.
         out.initial_residual = res
-            .eval(model, &full, 1.0, &mut r, &mut fint)
-            .map_or(f64::INFINITY, |(_, max)| max);
+            .eval(model, &full, params.load_factor, &mut r, &mut fint)
+            .map_or(f64::INFINITY, measure);
         out.force_evaluations += 1;
     }
     let mut lift = vec![0.0; lin.dofs().len()];
     for step in 1..=steps {
-        let s = step as f64 / steps as f64;
+        let s = params.load_factor * step as f64 / steps as f64;
         // The constrained dofs' increment of this step, applied by the step's first
         // iteration together with the free dofs' linear response (module docs).
         let mut pending = vec![0.0; n];
@@ -188,8 +196,15 @@ pub fn solve_with<L: NewtonLinear + ?Sized>(
         out.force_evaluations += 1;
         out.history.clear();
         let mut pi_at: Option<f64> = None;
-        while (lifting || max > tol) && out.newton_steps < params.max_newton {
+        // Consecutive iterations that lowered the residual by less than a tenth.
+        let mut stalled = 0;
+        let patient = |stalled: usize| params.stall_after == 0 || stalled < params.stall_after;
+        while (lifting || measure((norm, max)) > tol)
+            && out.newton_steps < params.max_newton
+            && patient(stalled)
+        {
             out.newton_steps += 1;
+            let before = measure((norm, max));
             let clock = std::time::Instant::now();
             let dbar = lin
                 .tangent(
@@ -218,7 +233,7 @@ pub fn solve_with<L: NewtonLinear + ?Sized>(
                 norm,
                 eta_prev,
                 tol,
-                max,
+                max: measure((norm, max)),
                 eta0,
             };
             let built_now = lin.direction(
@@ -246,7 +261,7 @@ pub fn solve_with<L: NewtonLinear + ?Sized>(
                     lin, &res, model, u, &pending, s, &rhs, &mut trial, &mut r, &mut fint,
                     built_now, &mut out,
                 )?;
-                out.history.push(max);
+                out.history.push(measure((norm, max)));
                 continue;
             }
             (norm, max) = line_search(
@@ -266,16 +281,21 @@ pub fn solve_with<L: NewtonLinear + ?Sized>(
                 built_now,
                 &mut out,
             )?;
-            out.history.push(max);
+            out.history.push(measure((norm, max)));
+            stalled = if measure((norm, max)) > 0.9 * before {
+                stalled + 1
+            } else {
+                0
+            };
         }
-        out.residual = max;
+        out.residual = measure((norm, max));
         if last {
-            out.converged = max <= tol;
-        } else if max > tol {
+            out.converged = out.residual <= tol;
+        } else if out.residual > tol {
             break;
         }
     }
-    model.set_load_factor(1.0);
+    model.set_load_factor(params.load_factor);
     lin.set_sigma(sigma);
     Ok(out)
 }

@@ -11,7 +11,8 @@
 //! carries, with or without an element tangent. Conjugate gradients preconditioned by a
 //! per-node diagonal `M⁻¹` (the lumped mass, or any positive per-node weights such as
 //! [`crate::statics::relax::fictitious_mass`]) solve `K δ = b` to the driver's inexact-Newton
-//! tolerance `η ‖b‖₂`, at most [`MatrixFreeCg::max_iter`] iterations (the last iterate taken
+//! tolerance `η ‖b‖₂` (or a fixed one, [`MatrixFreeCg::tolerance`]), at most
+//! [`MatrixFreeCg::max_iter`] iterations (the last iterate taken
 //! past them: truncated Newton). Nothing is factored, so nothing is regularised (`d̄ = 0`):
 //! a direction of non-positive curvature after the first iteration truncates the solve
 //! (Steihaug: the iterate so far descends), and at the first one that direction itself, the
@@ -30,6 +31,9 @@ pub struct MatrixFreeCg {
     pub max_iter: usize,
     /// The length scale `ℓ` of the finite-difference step (m, module docs). Default 1e-3.
     pub length: f64,
+    /// A fixed relative tolerance of each linear solve, `‖b − K δ‖₂ ≤ tolerance ‖b‖₂`,
+    /// instead of the driver's inexact-Newton term η; `None` (the default): η.
+    pub tolerance: Option<f64>,
 }
 
 impl Default for MatrixFreeCg {
@@ -37,6 +41,7 @@ impl Default for MatrixFreeCg {
         MatrixFreeCg {
             max_iter: 20_000,
             length: 1e-3,
+            tolerance: None,
         }
     }
 }
@@ -178,7 +183,10 @@ impl NewtonLinear for MatrixFree {
         _sigma: &mut f64,
         out: &mut DirectStatic,
     ) -> Result<bool, DirectNewtonError> {
-        let eta = d.forcing.eta();
+        let eta = match self.settings.tolerance {
+            Some(tol) => tol,
+            None => d.forcing.eta(),
+        };
         let max_iter = self.settings.max_iter;
         let length = self.settings.length;
         let MatrixFree {

@@ -1,7 +1,13 @@
-//! Static equilibrium `R(u) = V` by Newton's method with the consistent analytic tangent and a
-//! sparse direct solver (faer's supernodal/simplicial Cholesky `LLᵀ`).
+//! Static equilibrium `R(u) = V` by Newton's method: the one Newton driver ([`solve_with`],
+//! `driver.rs`) over a linear solve of each Newton system ([`NewtonLinear`]): the consistent
+//! analytic tangent assembled on a fixed pattern ([`DirectNewton`]: faer's
+//! supernodal/simplicial Cholesky `LLᵀ`, conjugate gradients preconditioned by a kept factor
+//! or by a Galerkin V-cycle), or matrix-free conjugate gradients ([`MatrixFree`]: tangent
+//! products by central differences of the forces, `matrix_free.rs`). The iteration below is
+//! the driver's; what is said of `K`'s factorisation and hierarchy is the assembled solve's.
 //!
-//! Per Newton iteration, on the free dofs (constrained dofs hold their imposed values):
+//! Per Newton iteration, on the free dofs (constrained dofs hold their imposed values; nodes
+//! sliding along directions other than x, y or z by projection, `dofs.rs`):
 //!
 //! ```text
 //! (K(u) + σ d̄ D) δ = V_s − R(u),     u ← u + α δ
@@ -12,7 +18,8 @@
 //!   compressed columns); its symbolic factorisation is done once, the numeric one per
 //!   iteration.
 //! - Load stepping: `V_s = s V` and the prescribed displacements `u_c = u_c⁰ + s (g − u_c⁰)`
-//!   for `s = 1/N, 2/N, …, 1` ([`DirectNewtonParams::load_steps`]).
+//!   for `s = 1/N, 2/N, …, 1` ([`DirectNewtonParams::load_steps`]; times λ,
+//!   [`DirectNewtonParams::load_factor`]).
 //! - Lifted first iteration: a load step whose constrained dofs move by `Δ_c` starts from the
 //!   last state, the constrained dofs where they were, and solves
 //!   `(K_ff + σ d̄ D) δ_f = r_f − K_fc Δ_c` (the free dofs' linear response to the move; `K_fc`
@@ -112,8 +119,9 @@
 //! equilibrium of a coarser discretisation, interpolated, itself reached from coarser ones
 //! (module `nested` in the source).
 //!
-//! Entry points: [`solve_system`] on a [`System`] whose force model is a
-//! [`crate::fem::FemModel`], or [`DirectNewton`] for repeated solves: each solve starts from
+//! Entry points: [`solve_system`] on a [`System`] whose force model has an element tangent,
+//! [`solve_system_matrix_free`] on any, [`solve_with`] with a linear solve of one's own, or
+//! [`DirectNewton`] for repeated solves: each solve starts from
 //! the last one's kept factorisation or hierarchy and its last σ, so a frame loop that runs a
 //! few Newton iterations per frame (`max_newton`) carries the regularisation a flat
 //! membrane's first tangent needs from one frame to the next.
@@ -221,6 +229,17 @@ pub struct DirectNewtonParams {
     /// body barely loaded, [`crate::statics::implicit`]) the changes of Π a Newton step makes
     /// are below it. Default 0 (Π decides wherever it can).
     pub flat_below: f64,
+    /// The load factor λ of the solve: the external forces, the loads the model carries and
+    /// the prescribed motions' increment are λ of their full values at its end, the load
+    /// steps at `λ k / N`; the model is left at λ. Default 1.
+    pub load_factor: f64,
+    /// Stop after this many consecutive Newton iterations that each lower the residual by
+    /// less than a tenth (stagnation: the floor a finite-difference tangent leaves,
+    /// [`MatrixFree`]); 0 never. Default 0.
+    pub stall_after: usize,
+    /// The norm of the stopping rule (and of [`DirectStatic::residual`]): the largest nodal
+    /// norm (default) or the 2-norm over the free dofs.
+    pub stop_norm: StopNorm,
     /// The inexact-Newton forcing term of a solve's first iteration, and the largest any
     /// iteration takes (Eisenstat and Walker's choice 2 after it): the first linear solve
     /// reduces its residual by this factor. Default 0.5; a time step, whose start is close
@@ -231,10 +250,11 @@ pub struct DirectNewtonParams {
 
 impl DirectNewtonParams {
     /// The default settings with the stopping rule relative to the start (for a problem
-    /// whose loads the model carries, where `max_a |V_a|` says nothing): the constraints of
-    /// `sys` imposed on `u` at time `t`, then the largest nodal residual at most `rel_tol`
-    /// times the larger of the residual's and the external forces' 2-norms there
-    /// (`rel_tol = 0`, `abs_tol` that bound). Errors: an element `u` inverts.
+    /// whose loads the model carries, where the external forces say nothing): the
+    /// constraints of `sys` imposed on `u` at time `t`, then the residual's 2-norm at most
+    /// `rel_tol` times the larger of the residual's and the external forces' 2-norms there
+    /// (`stop_norm` [`StopNorm::Two`], `rel_tol = 0`, `abs_tol` that bound). Errors: an
+    /// element `u` inverts.
     pub fn relative_to_start(
         sys: &mut System,
         t: f64,
@@ -248,9 +268,22 @@ impl DirectNewtonParams {
         Ok(DirectNewtonParams {
             rel_tol: 0.0,
             abs_tol: rel_tol * r0.max(load),
+            stop_norm: StopNorm::Two,
             ..Default::default()
         })
     }
+}
+
+/// The norm the stopping rule measures residuals and loads in
+/// ([`DirectNewtonParams::stop_norm`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StopNorm {
+    /// `max_a |r_a| ≤ rel_tol max_a |V_a| + abs_tol`, `|·|` a node's Euclidean norm (module
+    /// docs).
+    #[default]
+    LargestNodal,
+    /// `‖r‖₂ ≤ rel_tol ‖V‖₂ + abs_tol` over the free dofs.
+    Two,
 }
 
 /// Settings of the multigrid-preconditioned linear solves ([`DirectNewtonParams::multigrid`]).
@@ -295,6 +328,9 @@ impl Default for DirectNewtonParams {
             multigrid: None,
             flat_below: 0.0,
             first_forcing: 0.5,
+            stop_norm: StopNorm::LargestNodal,
+            stall_after: 0,
+            load_factor: 1.0,
         }
     }
 }
@@ -302,13 +338,15 @@ impl Default for DirectNewtonParams {
 /// Outcome of a direct Newton solve.
 #[derive(Clone, Debug, Default)]
 pub struct DirectStatic {
-    /// Largest nodal residual over free nodes at the end (N).
+    /// Largest nodal residual over free nodes at the end (N; its 2-norm with
+    /// [`StopNorm::Two`]).
     pub residual: f64,
     /// The same at the start, at the full load, with the constrained nodes at their
     /// prescribed values (N); infinite where that state inverts an element (a large prescribed
     /// displacement, which the load steps apply gradually).
     pub initial_residual: f64,
-    /// The stopping threshold `rel_tol max|V_a| + abs_tol` (N).
+    /// The stopping threshold `rel_tol max|V_a| + abs_tol` (N; `rel_tol ‖V‖₂ + abs_tol` with
+    /// [`StopNorm::Two`]).
     pub target: f64,
     /// Newton iterations (tangent assemblies and factorisations, retries not counted).
     pub newton_steps: usize,
@@ -344,7 +382,8 @@ pub struct DirectStatic {
     /// factorisations, or Galerkin hierarchies (their products, smoothers and coarse
     /// factors) and their refreshes with a new tangent (s).
     pub setup_s: f64,
-    /// Largest nodal residual after each iteration of the last load step (N).
+    /// Largest nodal residual (2-norm with [`StopNorm::Two`]) after each iteration of the
+    /// last load step (N).
     pub history: Vec<f64>,
     /// Whether the stopping rule held at the full load.
     pub converged: bool,

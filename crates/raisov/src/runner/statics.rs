@@ -20,8 +20,8 @@
 //! of the largest fraction ½, ¼, … of the motions that does not, over that fraction) plus
 //! 1e-14 N. They start with the prescribed nodes at rest; each increment's first
 //! iteration moves them with the free nodes' linear response (the lifted iteration of
-//! [`crate::statics::newton`]). `"auto"` takes `"multigrid"` where a coarse level
-//! qualifies, `"direct"` where not, and `"krylov"` only where the force model has no element
+//! [`crate::statics::newton`]). `"auto"` ([`StaticSolver::resolve`], the policy beside the
+//! solvers) takes `"multigrid"` where a coarse level qualifies, `"direct"` where not, and `"krylov"` only where the force model has no element
 //! tangent (every model a scenario builds has one: pressure, traction, tools and spring
 //! grasps add their blocks to it, and a node sliding along a direction that is not x, y or z
 //! is solved by projection, [`crate::statics::newton`]).
@@ -48,6 +48,7 @@ use crate::statics::newton::{
     coarse_level, solve_with, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic,
     MatrixFree, MatrixFreeCg, MultigridPcg,
 };
+use crate::statics::CoarseOffer;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -404,62 +405,44 @@ impl Plan {
 /// assembled solver was asked for and does not apply, naming the key and why.
 fn plan(sc: &Scenario, settings: &StaticSolve, sys: &mut System) -> Result<Plan> {
     let asked = settings.solver;
-    let krylov = Plan::of(StaticSolver::Krylov);
-    if asked == StaticSolver::Krylov {
-        return Ok(krylov);
-    }
-    let blocker = sys
-        .force
-        .tangent_elements()
-        .is_none()
-        .then_some("the force model has no element tangent");
-    if let Some(b) = blocker {
-        if asked == StaticSolver::Auto {
-            return Ok(Plan {
-                why: format!("solver \"auto\" took \"krylov\": {b}"),
-                ..krylov
-            });
-        }
-        return Err(Error::Scenario {
-            path: sc.path.clone(),
-            line: None,
-            msg: format!(
-                "`integrator.solver` = \"{}\" does not apply: {b}; valid here: \"krylov\" or \"auto\"",
-                asked.name()
-            ),
-        });
-    }
-    let direct = Plan::of(StaticSolver::Direct);
-    if asked == StaticSolver::Direct {
-        return Ok(direct);
-    }
-    if sc.multigrid.is_none() {
-        return Ok(Plan {
-            why: "solver \"auto\" took \"direct\": no [multigrid] levels".into(),
-            ..direct
-        });
-    }
-    let picked = sc.pick_level(coarse_level)?;
-    let nodes = picked.counts;
-    let Some((c, coarse)) = picked.chosen else {
-        let msg = format!(
+    let has_tangent = sys.force.tangent_elements().is_some();
+    // The levels are meshed only where Newton-multigrid may run.
+    let wants_levels = matches!(asked, StaticSolver::Auto | StaticSolver::Multigrid);
+    let picked = match (wants_levels && has_tangent, &sc.multigrid) {
+        (true, Some(_)) => Some(sc.pick_level(coarse_level)?),
+        _ => None,
+    };
+    let offer = match &picked {
+        None => CoarseOffer::NoLevels,
+        Some(p) if p.chosen.is_some() => CoarseOffer::Qualifies,
+        Some(p) => CoarseOffer::NoneQualifies(format!(
             "no [multigrid] level has at least 1/{} of the finest level's {} nodes (levels: {:?})",
             crate::statics::newton::COARSEN_LIMIT,
-            nodes[0],
-            &nodes[1..]
-        );
-        if asked == StaticSolver::Auto {
-            return Ok(Plan {
-                why: format!("solver \"auto\" took \"direct\": {msg}"),
-                ..direct
-            });
-        }
-        return Err(Error::Scenario {
+            p.counts[0],
+            &p.counts[1..]
+        )),
+    };
+    let (solver, why) = asked
+        .resolve(has_tangent, &offer)
+        .map_err(|msg| Error::Scenario {
             path: sc.path.clone(),
             line: None,
-            msg: format!("`integrator.solver` = \"multigrid\": {msg}"),
+            msg,
+        })?;
+    let Some((picked, (c, coarse))) = picked.and_then(|p| p.chosen.clone().map(|ch| (p, ch)))
+    else {
+        return Ok(Plan {
+            why,
+            ..Plan::of(solver)
         });
     };
+    if solver != StaticSolver::Multigrid {
+        return Ok(Plan {
+            why,
+            ..Plan::of(solver)
+        });
+    }
+    let nodes = picked.counts;
     let down = crate::hierarchy::Transfer::build(&sc.mesh.nodes, &coarse)?;
     // The coarse levels carry no pressure, traction, timed load or tool: a start from their
     // equilibrium would be one of another problem.

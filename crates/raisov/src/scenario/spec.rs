@@ -303,9 +303,8 @@
 //! post_smooth = 4                 # fas: ν2, default 4
 //! smoother = "chebyshev"          # fas: "chebyshev" (default) | "dynamics" (damped explicit steps)
 //! coarse = "chebyshev"            # fas: coarsest solve, "chebyshev" (default; 60 iterations) |
-//!                                 #      "explicit" (damped steps) | "newton" (Newton, the
-//!                                 #      level's tangent factored, to a relative residual
-//!                                 #      of 1e-6)
+//!                                 #      "explicit" (damped steps) | "newton" (Newton-Krylov to
+//!                                 #      a relative residual of 1e-6)
 //! scaling = "fictitious"          # fas chebyshev: preconditioner, "fictitious" (default; per-node
 //!                                 #      fictitious masses) | "mass" (lumped mass)
 //! transfer = "convex"             # fas: weights of R, P: "convex" (default; eq. 7 extrapolating
@@ -668,8 +667,7 @@ named_enum! {
         Chebyshev = "chebyshev",
         /// `"explicit"`: damped explicit steps over `coarse_time` per visit.
         Explicit = "explicit",
-        /// `"newton"`: Newton (the coarsest level's tangent factored) to a relative residual
-        /// of 1e-6.
+        /// `"newton"`: Newton-Krylov to a relative residual of 1e-6.
         Newton = "newton",
     }
 }

@@ -69,8 +69,8 @@ use crate::io::{write_vtu_as, Field, FieldData, PvdWriter, RowFile};
 use crate::scenario::interactive::{Budget, Interactive};
 use crate::scenario::{Scenario, StopRule};
 use crate::statics::newton::{
-    coarse_level, fixed_dof, solve_with, DirectNewton, DirectNewtonError, DirectNewtonParams,
-    MatrixFree, MatrixFreeCg, MultigridPcg,
+    coarse_level, fixed_dof, solve_system_matrix_free, DirectNewton, DirectNewtonError,
+    DirectNewtonParams, MatrixFreeCg, MultigridPcg,
 };
 use crate::statics::relax::fictitious_mass;
 use std::path::{Path, PathBuf};
@@ -773,26 +773,7 @@ impl Reference {
         let n = u.len();
         let out = match self {
             Reference::MatrixFree { diag } => {
-                let System {
-                    force,
-                    mass,
-                    constraints,
-                    springs,
-                    f_ext,
-                    ..
-                } = sys;
-                let mut lin =
-                    MatrixFree::with_diagonal(mass, diag, constraints, MatrixFreeCg::default());
-                solve_with(
-                    &mut lin,
-                    &mut **force,
-                    springs,
-                    constraints,
-                    f_ext,
-                    t,
-                    u,
-                    params,
-                )
+                solve_system_matrix_free(sys, Some(diag), t, u, params, MatrixFreeCg::default())
             }
             Reference::Assembled {
                 newton,

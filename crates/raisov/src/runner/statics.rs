@@ -45,8 +45,8 @@ use crate::scenario::{Scenario, StaticSolve, StaticSolver};
 use crate::statics::krylov::Static;
 use crate::statics::nested::{nested_start, start_levels, BetweenSolve, CoarseStart, NestedLevels};
 use crate::statics::newton::{
-    coarse_level, solve_with, DirectNewton, DirectNewtonError, DirectNewtonParams, DirectStatic,
-    MatrixFree, MatrixFreeCg, MultigridPcg,
+    coarse_level, solve_system_matrix_free, DirectNewton, DirectNewtonError, DirectNewtonParams,
+    DirectStatic, MatrixFreeCg, MultigridPcg,
 };
 use crate::statics::CoarseOffer;
 use std::path::{Path, PathBuf};
@@ -579,14 +579,6 @@ fn newton(
         }),
         ..Default::default()
     };
-    let System {
-        force,
-        mass,
-        f_ext,
-        constraints,
-        springs,
-        ..
-    } = sys;
     let matrix_free = matches!(linear, Linear::MatrixFree { .. });
     let out: std::result::Result<DirectStatic, DirectNewtonError> = match linear {
         Linear::MatrixFree { diag, length } => {
@@ -594,22 +586,23 @@ fn newton(
                 length,
                 ..Default::default()
             };
-            let mut lin = MatrixFree::with_diagonal(mass, &diag, constraints, cg);
-            solve_with(
-                &mut lin,
-                &mut **force,
-                springs,
-                constraints,
-                f_ext,
-                t,
-                u,
-                params,
-            )
+            solve_system_matrix_free(sys, Some(&diag), t, u, params, cg)
         }
-        Linear::Assembled(Some(d)) => DirectNewton::with_levels(&**force, mass, constraints, d)
-            .and_then(|mut s| s.solve(&mut **force, springs, constraints, f_ext, t, u, params)),
-        Linear::Assembled(None) => DirectNewton::new(&**force, mass, constraints)
-            .and_then(|mut s| s.solve(&mut **force, springs, constraints, f_ext, t, u, params)),
+        Linear::Assembled(down) => {
+            let System {
+                force,
+                mass,
+                f_ext,
+                constraints,
+                springs,
+                ..
+            } = sys;
+            match down {
+                Some(d) => DirectNewton::with_levels(&**force, mass, constraints, d),
+                None => DirectNewton::new(&**force, mass, constraints),
+            }
+            .and_then(|mut s| s.solve(&mut **force, springs, constraints, f_ext, t, u, params))
+        }
     };
     let failed = |failure: Option<String>, inverted: Option<(usize, f64)>| Solved {
         report: Static {
